@@ -1,0 +1,18 @@
+/*
+ * What each board provides to the shared startup code and to its main().
+ * BOARD_IRQ_COUNT comes from the board's CMake definition.
+ */
+#ifndef BOARDS_CORTEX_M_BOARD_H
+#define BOARDS_CORTEX_M_BOARD_H
+
+#ifndef BOARD_IRQ_COUNT
+#error "BOARD_IRQ_COUNT must be defined by the board's build"
+#endif
+
+/* Called with main()'s return value: exit (QEMU) or reset (MCU). Never returns. */
+__attribute__((noreturn)) void board_exit(int status);
+
+/* Called on a fault or unexpected exception: report `what` if possible, then stop. */
+__attribute__((noreturn)) void board_fault(const char *what);
+
+#endif /* BOARDS_CORTEX_M_BOARD_H */

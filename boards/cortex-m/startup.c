@@ -1,0 +1,77 @@
+/*
+ * Startup shared by every Cortex-M board: the vector table, the reset handler
+ * (copy .data, zero .bss, enable the FPU where there is one, call main) and
+ * default fault handlers. newlib's crt0 is not used (-nostartfiles): it has no
+ * Cortex-M vector table. Section symbols come from boards/cortex-m/sections.ld.
+ * Vector layout: ARMv7-M Architecture Reference Manual, B1.5.2 (ARMv6-M: B1.5.2 too).
+ */
+#include <stdint.h>
+
+#include "board.h"
+
+extern uint32_t __data_load_start[], __data_start[], __data_end[];
+extern uint32_t __bss_start[], __bss_end[];
+extern uint32_t __stack_top[];
+
+int main(void);
+void Reset_Handler(void);
+void Default_Handler(void);
+void HardFault_Handler(void);
+
+/* Weak so a board can take any of these over by defining the same name. */
+void NMI_Handler(void) __attribute__((weak, alias("Default_Handler")));
+void MemManage_Handler(void) __attribute__((weak, alias("Default_Handler")));
+void BusFault_Handler(void) __attribute__((weak, alias("Default_Handler")));
+void UsageFault_Handler(void) __attribute__((weak, alias("Default_Handler")));
+void SVC_Handler(void) __attribute__((weak, alias("Default_Handler")));
+void PendSV_Handler(void) __attribute__((weak, alias("Default_Handler")));
+void SysTick_Handler(void) __attribute__((weak, alias("Default_Handler")));
+
+typedef void (*vector_fn)(void);
+
+/* 16 system entries, then BOARD_IRQ_COUNT external interrupts (all default). */
+__attribute__((section(".vectors"), used)) static const vector_fn vector_table[16 + BOARD_IRQ_COUNT] = {
+    (vector_fn)(uintptr_t)__stack_top,
+    Reset_Handler,
+    NMI_Handler,
+    HardFault_Handler,
+    MemManage_Handler,
+    BusFault_Handler,
+    UsageFault_Handler,
+    0,
+    0,
+    0,
+    0,
+    SVC_Handler,
+    0,
+    0,
+    PendSV_Handler,
+    SysTick_Handler,
+};
+
+void Reset_Handler(void) {
+    /* Bounded copies: the linker script gives both ends of each section. */
+    const uint32_t *src = __data_load_start;
+    for (uint32_t *dst = __data_start; dst < __data_end; ++dst, ++src) {
+        *dst = *src;
+    }
+    for (uint32_t *dst = __bss_start; dst < __bss_end; ++dst) {
+        *dst = 0u;
+    }
+#if defined(__ARM_FP)
+    /* CPACR (0xE000ED88): full access to CP10 and CP11 before any FPU instruction
+     * (ARMv7-M ARM, B3.2.20). Only the camera pose module uses it. */
+    volatile uint32_t *const cpacr = (volatile uint32_t *)0xE000ED88u;
+    *cpacr |= (0xFu << 20);
+    __asm__ volatile("dsb\n isb" ::: "memory");
+#endif
+    board_exit(main());
+}
+
+void HardFault_Handler(void) {
+    board_fault("HardFault");
+}
+
+void Default_Handler(void) {
+    board_fault("unexpected exception");
+}

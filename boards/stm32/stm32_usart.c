@@ -1,0 +1,41 @@
+#include "stm32_usart.h"
+
+/* USARTv2 register offsets and bits (RM0351 §40.8 / RM0444 §33.8). */
+#define USART_CR1     0x00u
+#define USART_BRR     0x0Cu
+#define USART_ISR     0x1Cu
+#define USART_TDR     0x28u
+#define USART_CR1_UE  (1u << 0)
+#define USART_CR1_TE  (1u << 3)
+#define USART_ISR_TXE (1u << 7) /* TXE (L4) / TXFNF (G0, FIFO disabled: same meaning) */
+
+void stm32_usart_init(struct stm32_usart *usart) {
+    stm32_reg_write(usart->base + USART_CR1, 0u);
+    stm32_reg_write(usart->base + USART_BRR, usart->brr);
+    stm32_reg_write(usart->base + USART_CR1, USART_CR1_TE | USART_CR1_UE);
+}
+
+void stm32_usart_log_write(void *ctx, const char *text, size_t len) {
+    struct stm32_usart *usart = ctx;
+    for (size_t i = 0; i < len; ++i) {
+        uint32_t spins = 0;
+        while ((stm32_reg_read(usart->base + USART_ISR) & USART_ISR_TXE) == 0u &&
+               spins < usart->spin_max) {
+            ++spins;
+        }
+        if (spins >= usart->spin_max) {
+            ++usart->dropped;
+            continue;
+        }
+        stm32_reg_write(usart->base + USART_TDR, (uint8_t)text[i]);
+    }
+}
+
+void cortex_m_system_reset(void) {
+    __asm__ volatile("dsb" ::: "memory");
+    stm32_reg_write(0xE000ED0Cu, (0x05FAu << 16) | (1u << 2)); /* AIRCR: VECTKEY | SYSRESETREQ */
+    __asm__ volatile("dsb" ::: "memory");
+    for (;;) {
+        /* the reset takes effect within a few cycles */
+    }
+}

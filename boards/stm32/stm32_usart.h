@@ -1,0 +1,37 @@
+/*
+ * Polled transmit on an STM32 "USARTv2" peripheral (the register layout shared
+ * by STM32L4 and STM32G0: RM0351 §40.8, RM0444 §33.8). Used for the log/UART.
+ */
+#ifndef BOARDS_STM32_USART_H
+#define BOARDS_STM32_USART_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+struct stm32_usart {
+    uintptr_t base;     /* peripheral base address */
+    uint32_t brr;       /* BRR value: kernel clock / baud rate (oversampling 16) */
+    uint32_t spin_max;  /* TXE polls per byte before the byte is dropped and counted */
+    uint32_t dropped;   /* bytes dropped because TXE never came (mutable) */
+};
+
+/* Enable the transmitter (the caller has clocked the peripheral and set the pin). */
+void stm32_usart_init(struct stm32_usart *usart);
+
+/* hal_log write: polled, each byte bounded by spin_max polls. */
+void stm32_usart_log_write(void *ctx, const char *text, size_t len);
+
+/* Write a 32-bit peripheral register. */
+static inline void stm32_reg_write(uintptr_t addr, uint32_t value) {
+    *(volatile uint32_t *)addr = value;
+}
+
+/* Read a 32-bit peripheral register. */
+static inline uint32_t stm32_reg_read(uintptr_t addr) {
+    return *(volatile uint32_t *)addr;
+}
+
+/* Request a system reset (ARMv6-M/ARMv7-M AIRCR.SYSRESETREQ with VECTKEY 0x05FA). */
+__attribute__((noreturn)) void cortex_m_system_reset(void);
+
+#endif /* BOARDS_STM32_USART_H */

@@ -1,0 +1,91 @@
+# Build helpers shared by every folder: warnings, sanitizers, per-core
+# component libraries and firmware images with their checks.
+
+# --- warnings: errors on every target --------------------------------------
+add_library(tof_warnings INTERFACE)
+target_compile_options(tof_warnings INTERFACE
+  -Wall -Wextra -Werror -Wconversion -Wsign-conversion -Wshadow -Wundef
+  -Wcast-align -Wpointer-arith -Wformat=2 -Wnull-dereference -Wdouble-promotion
+  $<$<COMPILE_LANGUAGE:C>:-Wstrict-prototypes -Wmissing-prototypes -Wold-style-definition>)
+
+# --- cores (cross builds): one interface target of flags per core ----------
+if(CMAKE_CROSSCOMPILING)
+  list(REMOVE_DUPLICATES TOF_CORES)
+  foreach(core IN LISTS TOF_CORES)
+    add_library(tof_core_${core} INTERFACE)
+    target_compile_options(tof_core_${core} INTERFACE ${TOF_CORE_FLAGS_${core}}
+      -ffunction-sections -fdata-sections -fstack-usage -fno-common -Os -g3)
+    target_link_options(tof_core_${core} INTERFACE ${TOF_CORE_FLAGS_${core}})
+  endforeach()
+  set(TOF_TARGET_CORES ${TOF_CORES})
+else()
+  set(TOF_TARGET_CORES host)
+  add_library(tof_core_host INTERFACE)
+  if(TOF_SANITIZE)
+    target_compile_options(tof_core_host INTERFACE
+      -fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer)
+    target_link_options(tof_core_host INTERFACE -fsanitize=address,undefined)
+  endif()
+endif()
+
+# tof_component(NAME SOURCES ... [INCLUDES ...] [DEPS ...] [HOST_ONLY] [CORES ...])
+# Declares a library once; it is built as NAME on the host and as NAME_<core>
+# for each core of a cross build (DEPS resolve the same way). HOST_ONLY skips
+# cross builds; CORES restricts the cores it is built for (pose: FPU cores only).
+function(tof_component name)
+  cmake_parse_arguments(ARG "HOST_ONLY" "" "SOURCES;INCLUDES;DEPS;CORES" ${ARGN})
+  if(CMAKE_CROSSCOMPILING AND ARG_HOST_ONLY)
+    return()
+  endif()
+  foreach(core IN LISTS TOF_TARGET_CORES)
+    if(ARG_CORES AND CMAKE_CROSSCOMPILING AND NOT core IN_LIST ARG_CORES)
+      continue()
+    endif()
+    tof_name(lib ${name} ${core})
+    add_library(${lib} STATIC ${ARG_SOURCES})
+    target_include_directories(${lib} PUBLIC ${ARG_INCLUDES})
+    target_link_libraries(${lib} PUBLIC tof_core_${core} PRIVATE tof_warnings)
+    foreach(dep IN LISTS ARG_DEPS)
+      tof_name(dep_lib ${dep} ${core})
+      target_link_libraries(${lib} PUBLIC ${dep_lib})
+    endforeach()
+  endforeach()
+endfunction()
+
+# tof_name(OUT NAME CORE): the library name of component NAME for CORE.
+function(tof_name out name core)
+  if(core STREQUAL "host")
+    set(${out} ${name} PARENT_SCOPE)
+  else()
+    set(${out} ${name}_${core} PARENT_SCOPE)
+  endif()
+endfunction()
+
+# tof_image(NAME CORE LINKER_SCRIPT DEPS ... SOURCES ... [NO_FLOAT])
+# A firmware ELF with a map file, a .bin, a size report and the image checks:
+# no heap function may be linked; with NO_FLOAT, no floating-point helper.
+function(tof_image name)
+  cmake_parse_arguments(ARG "NO_FLOAT" "CORE;LINKER_SCRIPT" "SOURCES;DEPS" ${ARGN})
+  add_executable(${name} ${ARG_SOURCES})
+  set_target_properties(${name} PROPERTIES SUFFIX ".elf")
+  target_link_libraries(${name} PRIVATE tof_core_${ARG_CORE} tof_warnings)
+  foreach(dep IN LISTS ARG_DEPS)
+    tof_name(dep_lib ${dep} ${ARG_CORE})
+    target_link_libraries(${name} PRIVATE ${dep_lib})
+  endforeach()
+  target_link_options(${name} PRIVATE
+    -T${ARG_LINKER_SCRIPT} -nostartfiles --specs=nano.specs
+    -Wl,--gc-sections -Wl,-Map=$<TARGET_FILE_DIR:${name}>/${name}.map
+    -Wl,--print-memory-usage -Wl,--no-warn-rwx-segments)
+  set_target_properties(${name} PROPERTIES LINK_DEPENDS ${ARG_LINKER_SCRIPT})
+  set(float_flag "")
+  if(ARG_NO_FLOAT)
+    set(float_flag -DNO_FLOAT=1)
+  endif()
+  add_custom_command(TARGET ${name} POST_BUILD
+    COMMAND ${CMAKE_COMMAND} -DNM=${CMAKE_NM} -DELF=$<TARGET_FILE:${name}> ${float_flag}
+            -P ${PROJECT_SOURCE_DIR}/cmake/check_image.cmake
+    COMMAND ${CMAKE_OBJCOPY} -O binary $<TARGET_FILE:${name}> $<TARGET_FILE_DIR:${name}>/${name}.bin
+    VERBATIM)
+  set_property(GLOBAL APPEND PROPERTY TOF_IMAGES ${name})
+endfunction()

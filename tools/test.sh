@@ -1,0 +1,28 @@
+#!/usr/bin/env bash
+# Run every test: install what is missing, configure and build all five
+# presets (the image checks run at link time), run the host tests (ASan+UBSan),
+# the release-build tests, the on-target QEMU tests, and static analysis.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+tools/setup.sh
+
+for preset in host host-release m4 m0plus qemu; do
+  echo "== configure + build: $preset"
+  cmake --preset "$preset" >/dev/null
+  cmake --build --preset "$preset"
+done
+
+echo "== image sizes"
+for preset in m4 m0plus qemu; do
+  cmake --build --preset "$preset" --target size
+done
+
+echo "== tests: host (sanitizers on)"
+ctest --preset host -j "$(nproc)"
+echo "== tests: host-release"
+ctest --preset host-release -j "$(nproc)"
+echo "== tests: on target (QEMU)"
+ctest --preset qemu -j "$(nproc)"
+echo "== static analysis"
+cmake --build --preset host --target analyze
+echo "== all tests passed"
