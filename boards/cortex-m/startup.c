@@ -30,7 +30,8 @@ void SysTick_Handler(void) __attribute__((weak, alias("Default_Handler")));
 typedef void (*vector_fn)(void);
 
 /* 16 system entries, then BOARD_IRQ_COUNT external interrupts (all default). */
-__attribute__((section(".vectors"), used)) static const vector_fn vector_table[16 + BOARD_IRQ_COUNT] = {
+__attribute__((section(".vectors"),
+               used)) static const vector_fn vector_table[16 + BOARD_IRQ_COUNT] = {
     (vector_fn)(uintptr_t)__stack_top,
     Reset_Handler,
     NMI_Handler,

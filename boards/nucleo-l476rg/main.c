@@ -8,16 +8,16 @@
 #include "firmware/app.h"
 #include "stm32_usart.h"
 
-#define RCC_BASE        0x40021000u
-#define RCC_AHB2ENR     (RCC_BASE + 0x4Cu) /* bit 0: GPIOAEN */
-#define RCC_APB1ENR1    (RCC_BASE + 0x58u) /* bit 17: USART2EN */
-#define GPIOA_BASE      0x48000000u
-#define GPIO_MODER      0x00u
-#define GPIO_AFRL       0x20u
-#define USART2_BASE     0x40004400u
-#define MSI_CLOCK_HZ    4000000u
-#define LOG_BAUD        115200u
-#define PA2_AF7_USART2  7u /* STM32L476 datasheet, Table 17: PA2 AF7 = USART2_TX */
+#define RCC_BASE       0x40021000u
+#define RCC_AHB2ENR    (RCC_BASE + 0x4Cu) /* bit 0: GPIOAEN */
+#define RCC_APB1ENR1   (RCC_BASE + 0x58u) /* bit 17: USART2EN */
+#define GPIOA_BASE     0x48000000u
+#define GPIO_MODER     0x00u
+#define GPIO_AFRL      0x20u
+#define USART2_BASE    0x40004400u
+#define MSI_CLOCK_HZ   4000000u
+#define LOG_BAUD       115200u
+#define PA2_AF7_USART2 7u /* STM32L476 datasheet, Table 17: PA2 AF7 = USART2_TX */
 
 static struct stm32_usart log_usart = {
     .base = USART2_BASE,

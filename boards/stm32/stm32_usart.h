@@ -9,10 +9,10 @@
 #include <stdint.h>
 
 struct stm32_usart {
-    uintptr_t base;     /* peripheral base address */
-    uint32_t brr;       /* BRR value: kernel clock / baud rate (oversampling 16) */
-    uint32_t spin_max;  /* TXE polls per byte before the byte is dropped and counted */
-    uint32_t dropped;   /* bytes dropped because TXE never came (mutable) */
+    uintptr_t base;    /* peripheral base address */
+    uint32_t brr;      /* BRR value: kernel clock / baud rate (oversampling 16) */
+    uint32_t spin_max; /* TXE polls per byte before the byte is dropped and counted */
+    uint32_t dropped;  /* bytes dropped because TXE never came (mutable) */
 };
 
 /* Enable the transmitter (the caller has clocked the peripheral and set the pin). */

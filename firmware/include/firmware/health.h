@@ -1,0 +1,81 @@
+/*
+ * Per-sensor health state machine of the fault manager.
+ *
+ *   HEALTHY --error--> SUSPECT --errors/silence--> LOST --reinit started--> RECOVERING
+ *      ^                  |                                                    |
+ *      +---- good --------+  <---------------- first good reading -------------+
+ *                                    (a failed re-init goes back to LOST and waits a back-off)
+ *
+ * Pure logic over events and millisecond timestamps: no I/O. The firmware feeds
+ * it what the driver reported and carries out the action it asks for.
+ */
+#ifndef FIRMWARE_HEALTH_H
+#define FIRMWARE_HEALTH_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+enum tof_health_state {
+    TOF_HEALTH_HEALTHY = 0,
+    TOF_HEALTH_SUSPECT = 1,
+    TOF_HEALTH_LOST = 2,
+    TOF_HEALTH_RECOVERING = 3,
+};
+
+/* Thresholds, part of the firmware's const configuration. */
+struct tof_health_config {
+    uint8_t errors_to_lost;       /* consecutive failed reads that make a sensor LOST (>= 1) */
+    uint8_t good_to_healthy;      /* consecutive good reads that clear SUSPECT (>= 1) */
+    uint32_t silence_to_lost_ms;  /* no reading for this long: LOST (> one measurement period) */
+    uint32_t reinit_backoff_ms;   /* wait after a failed re-init before the next attempt */
+    uint32_t recovery_timeout_ms; /* RECOVERING without a good reading this long: LOST again */
+};
+
+struct tof_health {
+    enum tof_health_state state;
+    uint8_t consecutive_errors;
+    uint8_t consecutive_good;
+    uint32_t last_good_ms;   /* time of the last good reading (or of entering RECOVERING) */
+    uint32_t state_since_ms; /* time the current state was entered */
+    uint32_t next_reinit_ms; /* LOST: earliest time of the next re-init attempt */
+    uint32_t transitions;    /* number of state changes, for telemetry */
+    uint32_t losses;         /* number of times the sensor became LOST */
+};
+
+/* What the firmware should do for this sensor now. */
+enum tof_health_action {
+    TOF_HEALTH_ACT_NONE = 0,
+    TOF_HEALTH_ACT_REINIT = 1, /* cycle XSHUT and bring the sensor up again */
+};
+
+/* Start HEALTHY at `now_ms`. */
+void tof_health_init(struct tof_health *h, uint32_t now_ms);
+
+/* A reading arrived and passed the driver's checks. */
+void tof_health_on_good(struct tof_health *h, const struct tof_health_config *cfg, uint32_t now_ms);
+
+/* A read or poll failed (bus error, timeout, corrupt data, sensor found reset). */
+void tof_health_on_error(struct tof_health *h, const struct tof_health_config *cfg,
+                         uint32_t now_ms);
+
+/* Re-initialization finished: `ok` true enters RECOVERING, false stays LOST with back-off. */
+void tof_health_on_reinit_done(struct tof_health *h, const struct tof_health_config *cfg,
+                               uint32_t now_ms, bool ok);
+
+/*
+ * Periodic check (every main-loop iteration): applies the silence and recovery
+ * timeouts and returns the action due now. Wrapping timestamps are handled.
+ */
+enum tof_health_action tof_health_poll(struct tof_health *h, const struct tof_health_config *cfg,
+                                       uint32_t now_ms);
+
+/* True unless LOST: the sensor is polled and its good readings feed the estimator. */
+bool tof_health_usable(const struct tof_health *h);
+
+/* Short name of a state ("healthy", "suspect", "lost", "recovering"). */
+const char *tof_health_name(enum tof_health_state state);
+
+/* True when `cfg` is consistent (thresholds >= 1, timeouts > 0). */
+bool tof_health_config_valid(const struct tof_health_config *cfg);
+
+#endif /* FIRMWARE_HEALTH_H */

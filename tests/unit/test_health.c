@@ -1,0 +1,125 @@
+/* Fault manager: per-sensor health state machine transitions and timeouts. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include "firmware/health.h"
+
+static const struct tof_health_config cfg = {
+    .errors_to_lost = 3,
+    .good_to_healthy = 2,
+    .silence_to_lost_ms = 100,
+    .reinit_backoff_ms = 50,
+    .recovery_timeout_ms = 200,
+};
+
+static void test_single_error_makes_suspect_then_good_reads_heal(void **state) {
+    (void)state;
+    struct tof_health h;
+    tof_health_init(&h, 0);
+    tof_health_on_error(&h, &cfg, 10);
+    assert_int_equal(h.state, TOF_HEALTH_SUSPECT);
+    assert_true(tof_health_usable(&h));
+    tof_health_on_good(&h, &cfg, 30);
+    assert_int_equal(h.state, TOF_HEALTH_SUSPECT); /* needs two in a row */
+    tof_health_on_good(&h, &cfg, 50);
+    assert_int_equal(h.state, TOF_HEALTH_HEALTHY);
+    assert_int_equal(h.transitions, 2);
+}
+
+static void test_consecutive_errors_lose_and_ask_for_reinit(void **state) {
+    (void)state;
+    struct tof_health h;
+    tof_health_init(&h, 0);
+    for (uint32_t t = 1; t <= 3; ++t) {
+        tof_health_on_error(&h, &cfg, t);
+    }
+    assert_int_equal(h.state, TOF_HEALTH_LOST);
+    assert_false(tof_health_usable(&h));
+    assert_int_equal(h.losses, 1);
+    assert_int_equal(tof_health_poll(&h, &cfg, 3), TOF_HEALTH_ACT_REINIT);
+}
+
+static void test_interleaved_good_read_resets_error_count(void **state) {
+    (void)state;
+    struct tof_health h;
+    tof_health_init(&h, 0);
+    tof_health_on_error(&h, &cfg, 1);
+    tof_health_on_error(&h, &cfg, 2);
+    tof_health_on_good(&h, &cfg, 3);
+    tof_health_on_error(&h, &cfg, 4);
+    tof_health_on_error(&h, &cfg, 5);
+    assert_int_equal(h.state, TOF_HEALTH_SUSPECT);
+}
+
+static void test_silence_loses_sensor(void **state) {
+    (void)state;
+    struct tof_health h;
+    tof_health_init(&h, 1000);
+    assert_int_equal(tof_health_poll(&h, &cfg, 1100), TOF_HEALTH_ACT_NONE);
+    assert_int_equal(tof_health_poll(&h, &cfg, 1101), TOF_HEALTH_ACT_REINIT);
+    assert_int_equal(h.state, TOF_HEALTH_LOST);
+}
+
+static void test_failed_reinit_backs_off_then_retries(void **state) {
+    (void)state;
+    struct tof_health h;
+    tof_health_init(&h, 0);
+    assert_int_equal(tof_health_poll(&h, &cfg, 101), TOF_HEALTH_ACT_REINIT);
+    tof_health_on_reinit_done(&h, &cfg, 102, false);
+    assert_int_equal(h.state, TOF_HEALTH_LOST);
+    assert_int_equal(tof_health_poll(&h, &cfg, 151), TOF_HEALTH_ACT_NONE);
+    assert_int_equal(tof_health_poll(&h, &cfg, 152), TOF_HEALTH_ACT_REINIT);
+    tof_health_on_reinit_done(&h, &cfg, 153, true);
+    assert_int_equal(h.state, TOF_HEALTH_RECOVERING);
+    tof_health_on_good(&h, &cfg, 180);
+    assert_int_equal(h.state, TOF_HEALTH_HEALTHY);
+}
+
+static void test_recovery_without_data_times_out(void **state) {
+    (void)state;
+    struct tof_health h;
+    tof_health_init(&h, 0);
+    (void)tof_health_poll(&h, &cfg, 101);
+    tof_health_on_reinit_done(&h, &cfg, 110, true);
+    assert_int_equal(tof_health_poll(&h, &cfg, 310), TOF_HEALTH_ACT_NONE);
+    assert_int_equal(tof_health_poll(&h, &cfg, 311), TOF_HEALTH_ACT_REINIT);
+    assert_int_equal(h.state, TOF_HEALTH_LOST);
+    assert_int_equal(h.losses, 2);
+}
+
+static void test_timestamps_wrap(void **state) {
+    (void)state;
+    struct tof_health h;
+    tof_health_init(&h, UINT32_MAX - 10u);
+    assert_int_equal(tof_health_poll(&h, &cfg, 50), TOF_HEALTH_ACT_NONE);   /* 61 ms later */
+    assert_int_equal(tof_health_poll(&h, &cfg, 90), TOF_HEALTH_ACT_REINIT); /* 101 ms later */
+}
+
+static void test_config_validation(void **state) {
+    (void)state;
+    assert_true(tof_health_config_valid(&cfg));
+    struct tof_health_config bad = cfg;
+    bad.errors_to_lost = 0;
+    assert_false(tof_health_config_valid(&bad));
+    bad = cfg;
+    bad.silence_to_lost_ms = 0;
+    assert_false(tof_health_config_valid(&bad));
+    assert_string_equal(tof_health_name(TOF_HEALTH_RECOVERING), "recovering");
+}
+
+int main(void) {
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_single_error_makes_suspect_then_good_reads_heal),
+        cmocka_unit_test(test_consecutive_errors_lose_and_ask_for_reinit),
+        cmocka_unit_test(test_interleaved_good_read_resets_error_count),
+        cmocka_unit_test(test_silence_loses_sensor),
+        cmocka_unit_test(test_failed_reinit_backs_off_then_retries),
+        cmocka_unit_test(test_recovery_without_data_times_out),
+        cmocka_unit_test(test_timestamps_wrap),
+        cmocka_unit_test(test_config_validation),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
