@@ -14,9 +14,10 @@ foreach(dir IN LISTS TOF_ANALYZE_DIRS)
 endforeach()
 # The camera pose module is float C by design; it is analysed like the rest.
 set(inc_args "")
-file(GLOB_RECURSE inc_dirs LIST_DIRECTORIES true ${PROJECT_SOURCE_DIR}/*/include)
+file(GLOB inc_dirs LIST_DIRECTORIES true
+  ${PROJECT_SOURCE_DIR}/*/include ${PROJECT_SOURCE_DIR}/*/*/include ${PROJECT_SOURCE_DIR}/*/*/*/include)
 foreach(d IN LISTS inc_dirs)
-  if(IS_DIRECTORY ${d} AND NOT d MATCHES "/build/")
+  if(IS_DIRECTORY ${d} AND NOT d MATCHES "^${PROJECT_SOURCE_DIR}/build/")
     list(APPEND inc_args -I${d})
   endif()
 endforeach()
