@@ -1,0 +1,234 @@
+/*
+ * Telemetry messages (firmware -> host) and commands (host -> firmware): the
+ * C structs, their encoders (struct -> frame) and their parsers (frame ->
+ * struct). Every field is validated both ways, so a parsed message re-encodes
+ * to exactly the bytes it came from. Payload layouts: docs/telemetry.md.
+ *
+ * Fixed point on the wire: angles in int32 micro-degrees, distances in int32
+ * micrometres, times in uint32 milliseconds (wraps after 49.7 days).
+ */
+#ifndef TELEMETRY_TLM_MESSAGES_H
+#define TELEMETRY_TLM_MESSAGES_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "telemetry/tlm_frame.h"
+
+/* Version of this protocol, reported in the status message. */
+#define TLM_PROTOCOL_VERSION 1u
+
+/* Frame types. Commands have the top bit set, so direction shows in a dump. */
+enum tlm_type {
+    TLM_TYPE_ESTIMATE = 0x01,
+    TLM_TYPE_RAW_SAMPLE = 0x02,
+    TLM_TYPE_HEALTH = 0x03,
+    TLM_TYPE_ACK = 0x04, /* ack (result 0) or nack (result != 0) of a command */
+    TLM_TYPE_STATUS = 0x05,
+    TLM_TYPE_SET_WINDOW = 0x81,
+    TLM_TYPE_SELECT_ESTIMATOR = 0x82,
+    TLM_TYPE_START = 0x83,
+    TLM_TYPE_STOP = 0x84,
+    TLM_TYPE_STATUS_REQUEST = 0x85,
+    TLM_TYPE_RAW_STREAM = 0x86,
+};
+
+/* Fixed payload length of each type, in bytes. */
+#define TLM_LEN_ESTIMATE         28u
+#define TLM_LEN_RAW_SAMPLE       17u
+#define TLM_LEN_HEALTH           144u
+#define TLM_LEN_ACK              3u
+#define TLM_LEN_STATUS           16u
+#define TLM_LEN_SET_WINDOW       3u
+#define TLM_LEN_SELECT_ESTIMATOR 1u
+#define TLM_LEN_START            0u
+#define TLM_LEN_STOP             0u
+#define TLM_LEN_STATUS_REQUEST   0u
+#define TLM_LEN_RAW_STREAM       1u
+
+#define TLM_SENSOR_COUNT    4u /* A, B, C, D; bit i of a sensor mask is sensor i */
+#define TLM_SENSOR_MASK_ALL 0x0Fu
+
+/* "No value" marker of an int32 estimate field (angles of an invalid estimate). */
+#define TLM_NO_VALUE INT32_MIN
+
+/* Window length limits of the set-window command and the status message. */
+#define TLM_WINDOW_MIN 2u
+#define TLM_WINDOW_MAX 255u
+
+enum tlm_estimator {
+    TLM_ESTIMATOR_CONSENSUS = 0,       /* the product's default */
+    TLM_ESTIMATOR_CONSENSUS_PAPER = 1, /* the published weighting rule, as written */
+    TLM_ESTIMATOR_KALMAN = 2,
+    TLM_ESTIMATOR_MEAN = 3, /* plain average of the five angles */
+};
+#define TLM_ESTIMATOR_LAST TLM_ESTIMATOR_MEAN
+
+enum tlm_estimate_status {
+    TLM_STATUS_OK = 0,       /* all four sensors, unflagged data; reason must be 0 */
+    TLM_STATUS_DEGRADED = 1, /* estimated from fewer sensors or flagged data */
+    TLM_STATUS_INVALID = 2,  /* no estimate possible; angles and distance TLM_NO_VALUE */
+};
+#define TLM_STATUS_LAST TLM_STATUS_INVALID
+
+/* Reason bits of a degraded or invalid estimate (any combination). */
+#define TLM_REASON_SENSOR_MISSING  0x01u /* a sensor's reading missing in the window */
+#define TLM_REASON_SENSOR_FLAGGED  0x02u /* a reading with non-zero range status excluded */
+#define TLM_REASON_TOO_FEW_SENSORS 0x04u /* fewer sensors than the estimator needs */
+#define TLM_REASON_NOT_FLAT        0x08u /* flatness residual above its threshold */
+#define TLM_REASON_NOT_CONVERGED   0x10u /* consensus iteration bound hit before tolerance */
+#define TLM_REASON_NO_SAMPLES      0x20u /* no usable sample in the window */
+#define TLM_REASON_SATURATED       0x40u /* a fixed-point intermediate saturated */
+#define TLM_REASON_ALL             0x7Fu /* bit 7 is reserved and must be 0 */
+
+enum tlm_sensor_health {
+    TLM_HEALTH_HEALTHY = 0,
+    TLM_HEALTH_SUSPECT = 1,
+    TLM_HEALTH_LOST = 2,
+    TLM_HEALTH_RECOVERING = 3,
+};
+#define TLM_HEALTH_LAST TLM_HEALTH_RECOVERING
+
+enum tlm_window_mode {
+    TLM_WINDOW_TUMBLING = 0,
+    TLM_WINDOW_SLIDING = 1,
+};
+#define TLM_WINDOW_MODE_LAST TLM_WINDOW_SLIDING
+
+/* One estimate of one estimator (TLM_TYPE_ESTIMATE). */
+struct tlm_estimate {
+    uint32_t t_ms;         /* t_ms of the window's last sample */
+    uint32_t window_index; /* k of window k (sliding mode: the sample index) */
+    uint8_t estimator;     /* enum tlm_estimator */
+    uint8_t status;        /* enum tlm_estimate_status */
+    uint8_t reason;        /* TLM_REASON_* bits; 0 iff status is ok */
+    uint8_t sensors_used;  /* sensor mask; TLM_SENSOR_MASK_ALL when status is ok */
+    int32_t alpha_udeg;    /* rotation about z */
+    int32_t beta_udeg;     /* rotation about y */
+    int32_t distance_um;   /* mean distance */
+    int32_t flatness_um;   /* x_A + x_C - x_B - x_D; TLM_NO_VALUE if not all four */
+};
+
+/* One four-sensor sample (TLM_TYPE_RAW_SAMPLE). Absent sensors carry zeros. */
+struct tlm_raw_sample {
+    uint32_t t_ms;
+    uint16_t range_mm[TLM_SENSOR_COUNT];
+    uint8_t range_status[TLM_SENSOR_COUNT]; /* VL53L1X range status, 0 = valid */
+    uint8_t present_mask;                   /* sensor mask of readings present */
+};
+
+struct tlm_sensor_counters {
+    uint32_t comm_errors; /* failed bus transfers addressed to this sensor */
+    uint32_t timeouts;    /* data-ready not seen within its budget */
+    uint32_t flagged;     /* readings with a non-zero range status */
+    uint32_t reinits;     /* re-initialisations through XSHUT */
+};
+
+/* I2C bus errors by kind (hal_err.h codes) and recoveries. */
+struct tlm_bus_counters {
+    uint32_t addr_nack;  /* HAL_ERR_ADDR_NACK */
+    uint32_t data_nack;  /* HAL_ERR_DATA_NACK */
+    uint32_t busy;       /* HAL_ERR_BUS_BUSY */
+    uint32_t timeout;    /* HAL_ERR_TIMEOUT */
+    uint32_t stuck;      /* HAL_ERR_BUS_STUCK */
+    uint32_t other;      /* any other error code */
+    uint32_t recoveries; /* bus recovery sequences run */
+};
+
+/* Health and error counters (TLM_TYPE_HEALTH). Counters are cumulative. */
+struct tlm_health {
+    uint32_t uptime_ms;
+    uint8_t sensor_state[TLM_SENSOR_COUNT]; /* enum tlm_sensor_health */
+    struct tlm_sensor_counters sensor[TLM_SENSOR_COUNT];
+    struct tlm_bus_counters bus;
+    uint32_t watchdog_resets;    /* resets caused by the watchdog since power-on */
+    uint32_t loop_overruns;      /* main-loop iterations over their time budget */
+    uint32_t loop_max_us;        /* longest main-loop iteration seen */
+    uint32_t tx_dropped;         /* telemetry frames not sent (UART buffer full) */
+    struct tlm_rx_counters link; /* the firmware's command decoder */
+};
+
+/* Answer to a command (TLM_TYPE_ACK): result 0 is an ack, anything else a nack. */
+struct tlm_ack {
+    uint8_t echo_seq; /* sequence of the command answered */
+    uint8_t command;  /* type of the command answered (any byte, for unknown types) */
+    uint8_t result;   /* enum tlm_result */
+};
+
+/* Firmware version and configuration (TLM_TYPE_STATUS). */
+struct tlm_status {
+    uint8_t fw_major, fw_minor, fw_patch;
+    uint32_t uptime_ms;
+    uint16_t window_n; /* TLM_WINDOW_MIN..TLM_WINDOW_MAX */
+    uint8_t mode;      /* enum tlm_window_mode */
+    uint8_t estimator; /* enum tlm_estimator */
+    bool running;
+    bool raw_stream;
+    uint16_t period_ms; /* sample period */
+};
+
+/* A decoded telemetry message, tagged by `type`. */
+struct tlm_telemetry {
+    uint8_t type; /* TLM_TYPE_ESTIMATE .. TLM_TYPE_STATUS */
+    union {
+        struct tlm_estimate estimate;
+        struct tlm_raw_sample raw;
+        struct tlm_health health;
+        struct tlm_ack ack;
+        struct tlm_status status;
+    } u;
+};
+
+/* A decoded command, tagged by `type`; the firmware applies it. */
+struct tlm_command {
+    uint8_t type; /* TLM_TYPE_SET_WINDOW .. TLM_TYPE_RAW_STREAM */
+    union {
+        struct {
+            uint16_t window_n; /* TLM_WINDOW_MIN..TLM_WINDOW_MAX */
+            uint8_t mode;      /* enum tlm_window_mode */
+        } set_window;
+        uint8_t estimator; /* TLM_TYPE_SELECT_ESTIMATOR: enum tlm_estimator */
+        bool raw_enable;   /* TLM_TYPE_RAW_STREAM */
+    } u;
+};
+
+/*
+ * Fixed payload length of `type` if it is one of the types in the `accept`
+ * mask (TLM_ACCEPT_*), else -1. The decoder's type table.
+ */
+int tlm_type_payload_length(uint8_t type, uint8_t accept);
+
+/* True if `type` is a command (host -> firmware) type. */
+bool tlm_type_is_command(uint8_t type);
+
+/*
+ * Encode `msg` as a frame with sequence `seq` into `out` (capacity `cap`).
+ * Returns the frame size, or HAL_ERR_INVALID if a field is out of range or
+ * inconsistent (see the struct comments) or `cap` is too small.
+ */
+int tlm_encode_estimate(uint8_t seq, const struct tlm_estimate *msg, uint8_t *out, size_t cap);
+/* As tlm_encode_estimate(), for a raw sample. */
+int tlm_encode_raw_sample(uint8_t seq, const struct tlm_raw_sample *msg, uint8_t *out, size_t cap);
+/* As tlm_encode_estimate(), for a health message. */
+int tlm_encode_health(uint8_t seq, const struct tlm_health *msg, uint8_t *out, size_t cap);
+/* As tlm_encode_estimate(), for an ack or nack. */
+int tlm_encode_ack(uint8_t seq, const struct tlm_ack *msg, uint8_t *out, size_t cap);
+/* As tlm_encode_estimate(), for a status message. */
+int tlm_encode_status(uint8_t seq, const struct tlm_status *msg, uint8_t *out, size_t cap);
+/* As tlm_encode_estimate(), for a command (host side, tests). */
+int tlm_encode_command(uint8_t seq, const struct tlm_command *cmd, uint8_t *out, size_t cap);
+
+/*
+ * Validate every field of command `frame` and fill `out`. Returns
+ * TLM_RESULT_OK, or the nack reason (UNKNOWN_TYPE for a non-command type,
+ * BAD_LENGTH, OUT_OF_RANGE), counted in `counters` unless it is NULL.
+ */
+enum tlm_result tlm_parse_command(const struct tlm_frame *frame, struct tlm_command *out,
+                                  struct tlm_rx_counters *counters);
+
+/* As tlm_parse_command(), for a firmware -> host message (host side, tests). */
+enum tlm_result tlm_parse_telemetry(const struct tlm_frame *frame, struct tlm_telemetry *out,
+                                    struct tlm_rx_counters *counters);
+
+#endif /* TELEMETRY_TLM_MESSAGES_H */
