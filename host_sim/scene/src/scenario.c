@@ -263,6 +263,10 @@ int scene_gen_init(struct scene_gen *gen, const struct scene_config *cfg, uint64
     return rc;
 }
 
+const char *scene_gen_error(const struct scene_gen *gen) {
+    return gen->err;
+}
+
 void scene_gen_free(struct scene_gen *gen) {
     scene_real_noise_free(&gen->real_owned);
     gen->real = NULL;
@@ -346,10 +350,11 @@ int scene_gen_next(struct scene_gen *gen, struct scene_row *row, struct scene_ro
         }
         uint16_t mm = 0;
         if (scene_quantise_mm(d.value_mm, &mm) != 0) {
+            snprintf(gen->err, sizeof gen->err,
+                     "scenario %s: row %llu sensor %c: reading %.1f mm outside 0..65535", c->name,
+                     (unsigned long long)i, (char)('A' + k), d.value_mm);
             if (err != NULL && errlen > 0u) {
-                snprintf(err, errlen,
-                         "scenario %s: row %llu sensor %c: reading %.1f mm outside 0..65535",
-                         c->name, (unsigned long long)i, (char)('A' + k), d.value_mm);
+                snprintf(err, errlen, "%s", gen->err);
             }
             return -1;
         }

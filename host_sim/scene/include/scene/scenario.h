@@ -68,6 +68,7 @@ struct scene_gen {
     struct scene_real_noise real_owned;  /* recording loaded by scene_gen_init */
     const struct scene_real_noise *real; /* recording in use (real_noise only) */
     struct scene_real_stretch stretch[SCENE_SENSORS];
+    char err[256]; /* last failure of scene_gen_next */
 };
 
 /* Names of the built-in scenarios, NULL-terminated: table1, table2, hetero,
@@ -99,6 +100,9 @@ int scene_gen_init_with(struct scene_gen *gen, const struct scene_config *cfg, u
  */
 int scene_gen_next(struct scene_gen *gen, struct scene_row *row, struct scene_row_info *info,
                    char *err, size_t errlen);
+
+/* Message of the last scene_gen_next failure ("" if none). */
+const char *scene_gen_error(const struct scene_gen *gen);
 
 /* Releases the recording if gen loaded it. */
 void scene_gen_free(struct scene_gen *gen);

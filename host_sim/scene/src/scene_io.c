@@ -1,0 +1,93 @@
+/* Scenarios written as trace v1 files (scene_io.h). */
+#include "scene/scene_io.h"
+
+#include <errno.h>
+#include <string.h>
+
+#include "scene/trace.h"
+
+int scene_write_config(const struct scene_config *cfg, uint64_t seed, FILE *f, const char *path,
+                       char *err, size_t errlen) {
+    struct scene_gen gen;
+    if (scene_gen_init(&gen, cfg, seed, err, errlen) != 0) {
+        return -1;
+    }
+    char scenario[64];
+    char seed_kv[48];
+    char mean_kv[48];
+    char window_kv[48];
+    char noise_kv[120];
+    snprintf(scenario, sizeof scenario, "scenario=%s", cfg->name);
+    snprintf(seed_kv, sizeof seed_kv, "seed=%llu", (unsigned long long)seed);
+    snprintf(mean_kv, sizeof mean_kv, "mean_mm=%g", cfg->mean_mm);
+    snprintf(window_kv, sizeof window_kv, "window=%lu", (unsigned long)cfg->samples_per_position);
+    if (cfg->real_noise) {
+        snprintf(noise_kv, sizeof noise_kv,
+                 "noise=real VL53L0X recording, tomisuarez2/TimeOfFlightCalibration (MIT)");
+    } else {
+        snprintf(noise_kv, sizeof noise_kv, "noise=gaussian sigma_mm=%g,%g,%g,%g",
+                 cfg->noise[0].sigma_mm, cfg->noise[1].sigma_mm, cfg->noise[2].sigma_mm,
+                 cfg->noise[3].sigma_mm);
+    }
+    const char *const meta[] = {scenario, seed_kv, mean_kv, window_kv, noise_kv, NULL};
+    int rc = 0;
+    if (trace_write_header(f, cfg->arm_mm, cfg->period_ms, meta) != 0) {
+        snprintf(err, errlen, "%s: cannot write the header: %s", path, strerror(errno));
+        rc = -1;
+    }
+    while (rc == 0) {
+        struct scene_row row;
+        const int got = scene_gen_next(&gen, &row, NULL, err, errlen);
+        if (got == 1) {
+            break;
+        }
+        if (got < 0) {
+            rc = -1;
+            break;
+        }
+        if (trace_write_row(f, &row) != 0) {
+            snprintf(err, errlen, "%s: cannot write row %llu: %s", path,
+                     (unsigned long long)(gen.row - 1u), strerror(errno));
+            rc = -1;
+        }
+    }
+    scene_gen_free(&gen);
+    return rc;
+}
+
+int scene_write_scenario(const char *name, uint64_t seed, const char *path, char *err,
+                         size_t errlen) {
+    struct scene_config cfg;
+    if (scene_config_named(name, &cfg) != 0) {
+        char names[256] = "";
+        for (size_t i = 0; scene_scenario_names[i] != NULL; ++i) {
+            const size_t used = strlen(names);
+            snprintf(names + used, sizeof names - used, "%s%s", i ? ", " : "",
+                     scene_scenario_names[i]);
+        }
+        snprintf(err, errlen, "unknown scenario '%s' (known: %s)", name, names);
+        return -1;
+    }
+    const bool to_stdout = strcmp(path, "-") == 0;
+    FILE *f = to_stdout ? stdout : fopen(path, "wb");
+    if (f == NULL) {
+        snprintf(err, errlen, "%s: cannot open for writing: %s", path, strerror(errno));
+        return -1;
+    }
+    int rc = scene_write_config(&cfg, seed, f, path, err, errlen);
+    if (to_stdout) {
+        if (fflush(f) != 0 && rc == 0) {
+            snprintf(err, errlen, "%s: write error: %s", path, strerror(errno));
+            rc = -1;
+        }
+        return rc;
+    }
+    if (fclose(f) != 0 && rc == 0) {
+        snprintf(err, errlen, "%s: write error: %s", path, strerror(errno));
+        rc = -1;
+    }
+    if (rc != 0) {
+        remove(path);
+    }
+    return rc;
+}
