@@ -1,0 +1,692 @@
+/*
+ * Telemetry messages and commands: byte layouts, encode -> decoder -> parse
+ * round trips of every type, every validation rule on both sides, and every
+ * command in range, out of range and with the wrong length.
+ */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <string.h>
+#include <cmocka.h>
+
+#include "hal/hal_err.h"
+#include "telemetry/tlm_frame.h"
+#include "telemetry/tlm_messages.h"
+#include "tlm_test_sink.h"
+
+/* --- fixtures ------------------------------------------------------------- */
+
+static struct tlm_estimate sample_estimate(void) {
+    return (struct tlm_estimate){.t_ms = 20000,
+                                 .window_index = 199,
+                                 .estimator = TLM_ESTIMATOR_CONSENSUS,
+                                 .status = TLM_STATUS_OK,
+                                 .reason = 0,
+                                 .sensors_used = TLM_SENSOR_MASK_ALL,
+                                 .alpha_udeg = 1500000,
+                                 .beta_udeg = -250000,
+                                 .distance_um = 123456000,
+                                 .flatness_um = -12};
+}
+
+static struct tlm_raw_sample sample_raw(void) {
+    return (struct tlm_raw_sample){.t_ms = 0x01020304u,
+                                   .range_mm = {98, 101, 0, 4000},
+                                   .range_status = {0, 4, 0, 7},
+                                   .present_mask = 0x0B}; /* A, B, D */
+}
+
+static struct tlm_health sample_health(void) {
+    struct tlm_health h;
+    memset(&h, 0, sizeof h);
+    h.uptime_ms = 3600000u;
+    h.sensor_state[0] = TLM_HEALTH_HEALTHY;
+    h.sensor_state[1] = TLM_HEALTH_SUSPECT;
+    h.sensor_state[2] = TLM_HEALTH_LOST;
+    h.sensor_state[3] = TLM_HEALTH_RECOVERING;
+    /* Distinct values everywhere, so a swapped field cannot go unnoticed. */
+    for (unsigned i = 0; i < TLM_SENSOR_COUNT; ++i) {
+        h.sensor[i].comm_errors = 100u * i + 1u;
+        h.sensor[i].timeouts = 100u * i + 2u;
+        h.sensor[i].flagged = 100u * i + 3u;
+        h.sensor[i].reinits = 100u * i + 4u;
+    }
+    h.bus = (struct tlm_bus_counters){.addr_nack = 1001,
+                                      .data_nack = 1002,
+                                      .busy = 1003,
+                                      .timeout = 1004,
+                                      .stuck = 1005,
+                                      .other = 1006,
+                                      .recoveries = 1007};
+    h.watchdog_resets = 2001;
+    h.loop_overruns = 2002;
+    h.loop_max_us = 2003;
+    h.tx_dropped = 0xFFFFFFFFu;
+    h.link = (struct tlm_rx_counters){.frames_ok = 3001,
+                                      .bad_crc = 3002,
+                                      .bad_length = 3003,
+                                      .unknown_type = 3004,
+                                      .truncated = 3005,
+                                      .out_of_range = 3006,
+                                      .discarded_bytes = 3007};
+    return h;
+}
+
+static struct tlm_status sample_status(void) {
+    return (struct tlm_status){.fw_major = 0,
+                               .fw_minor = 1,
+                               .fw_patch = 2,
+                               .uptime_ms = 123456,
+                               .window_n = 100,
+                               .mode = TLM_WINDOW_SLIDING,
+                               .estimator = TLM_ESTIMATOR_KALMAN,
+                               .running = true,
+                               .raw_stream = false,
+                               .period_ms = 20};
+}
+
+/* Decode exactly one accepted frame from `bytes` through a real decoder. */
+static struct tlm_frame decode_one(struct recorder *rec, const uint8_t *bytes, size_t len,
+                                   uint8_t accept) {
+    struct tlm_decoder dec;
+    const struct tlm_frame_sink sink = recorder_sink(rec);
+    tlm_decoder_init(&dec, accept);
+    tlm_decoder_feed(&dec, bytes, len, &sink);
+    assert_int_equal(rec->frame_count, 1);
+    assert_int_equal(dec.counters.frames_ok, 1);
+    assert_int_equal(dec.counters.discarded_bytes, 0);
+    assert_int_equal(tlm_decoder_pending(&dec), 0);
+    return recorder_frame(rec, 0);
+}
+
+/* Re-frame a payload (e.g. after patching a byte) with a valid CRC. */
+static struct tlm_frame raw_frame(uint8_t type, const uint8_t *payload, uint8_t length) {
+    return (struct tlm_frame){.type = type, .seq = 0, .length = length, .payload = payload};
+}
+
+/* --- layouts -------------------------------------------------------------- */
+
+static void test_estimate_layout_matches_reference_bytes(void **state) {
+    (void)state;
+    /* Computed independently in Python with struct.pack('<IIBBBBiiii', ...). */
+    static const uint8_t expected[] = {0xA5, 0x5A, 0x1C, 0x01, 0x2A, 0x20, 0x4E, 0x00, 0x00,
+                                       0xC7, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x0F, 0x60,
+                                       0xE3, 0x16, 0x00, 0x70, 0x2F, 0xFC, 0xFF, 0x00, 0xCA,
+                                       0x5B, 0x07, 0xF4, 0xFF, 0xFF, 0xFF, 0x25, 0x02};
+    const struct tlm_estimate est = sample_estimate();
+    uint8_t out[TLM_FRAME_MAX];
+    assert_int_equal(tlm_encode_estimate(42, &est, out, sizeof out), sizeof expected);
+    assert_memory_equal(out, expected, sizeof expected);
+}
+
+static void test_every_type_has_its_documented_length(void **state) {
+    (void)state;
+    uint8_t out[TLM_FRAME_MAX];
+    const struct tlm_estimate est = sample_estimate();
+    const struct tlm_raw_sample raw = sample_raw();
+    const struct tlm_health health = sample_health();
+    const struct tlm_ack ack = {.echo_seq = 1, .command = TLM_TYPE_START, .result = 0};
+    const struct tlm_status status = sample_status();
+    assert_int_equal(tlm_encode_estimate(0, &est, out, sizeof out), 28 + 7);
+    assert_int_equal(tlm_encode_raw_sample(0, &raw, out, sizeof out), 17 + 7);
+    assert_int_equal(tlm_encode_health(0, &health, out, sizeof out), 144 + 7);
+    assert_int_equal(tlm_encode_ack(0, &ack, out, sizeof out), 3 + 7);
+    assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 16 + 7);
+    assert_int_equal(tlm_type_payload_length(TLM_TYPE_HEALTH, TLM_ACCEPT_TELEMETRY), 144);
+    assert_int_equal(tlm_type_payload_length(TLM_TYPE_HEALTH, TLM_ACCEPT_COMMANDS), -1);
+    assert_int_equal(tlm_type_payload_length(TLM_TYPE_SET_WINDOW, TLM_ACCEPT_ALL), 3);
+    assert_int_equal(tlm_type_payload_length(0x00, TLM_ACCEPT_ALL), -1);
+    assert_int_equal(tlm_type_payload_length(0x87, TLM_ACCEPT_ALL), -1);
+    assert_true(tlm_type_is_command(TLM_TYPE_RAW_STREAM));
+    assert_false(tlm_type_is_command(TLM_TYPE_ACK));
+}
+
+static void test_status_layout(void **state) {
+    (void)state;
+    const struct tlm_status status = sample_status();
+    uint8_t out[TLM_FRAME_MAX];
+    assert_int_equal(tlm_encode_status(3, &status, out, sizeof out), 23);
+    const uint8_t *p = &out[TLM_HEADER_SIZE];
+    const uint8_t expected[] = {
+        0, 1, 2, TLM_PROTOCOL_VERSION, 0x40, 0xE2, 0x01, 0x00, 100, 0, 1, 2, 1, 0, 20, 0};
+    assert_memory_equal(p, expected, sizeof expected);
+}
+
+/* --- round trips ---------------------------------------------------------- */
+
+static void test_estimate_round_trips(void **state) {
+    (void)state;
+    struct tlm_estimate cases[4];
+    cases[0] = sample_estimate();
+    cases[1] = sample_estimate();
+    cases[1].estimator = TLM_ESTIMATOR_KALMAN;
+    cases[1].status = TLM_STATUS_DEGRADED;
+    cases[1].reason = TLM_REASON_SENSOR_MISSING | TLM_REASON_NOT_FLAT;
+    cases[1].sensors_used = 0x07;
+    cases[1].alpha_udeg = INT32_MAX;
+    cases[1].beta_udeg = INT32_MIN + 1;
+    cases[1].distance_um = -1;
+    cases[1].flatness_um = TLM_NO_VALUE;
+    cases[2] = sample_estimate();
+    cases[2].estimator = TLM_ESTIMATOR_MEAN;
+    cases[2].status = TLM_STATUS_INVALID;
+    cases[2].reason = TLM_REASON_TOO_FEW_SENSORS | TLM_REASON_SATURATED;
+    cases[2].sensors_used = 0x01;
+    cases[2].alpha_udeg = TLM_NO_VALUE;
+    cases[2].beta_udeg = TLM_NO_VALUE;
+    cases[2].distance_um = TLM_NO_VALUE;
+    cases[2].flatness_um = TLM_NO_VALUE;
+    cases[3] = sample_estimate();
+    cases[3].estimator = TLM_ESTIMATOR_CONSENSUS_PAPER;
+    cases[3].t_ms = UINT32_MAX;
+    cases[3].window_index = UINT32_MAX;
+    cases[3].flatness_um = INT32_MAX;
+    for (size_t i = 0; i < 4; ++i) {
+        uint8_t out[TLM_FRAME_MAX];
+        const int n = tlm_encode_estimate((uint8_t)(200 + i), &cases[i], out, sizeof out);
+        assert_int_equal(n, 35);
+        struct recorder rec;
+        const struct tlm_frame frame = decode_one(&rec, out, (size_t)n, TLM_ACCEPT_TELEMETRY);
+        assert_int_equal(frame.seq, 200 + i);
+        struct tlm_telemetry msg;
+        assert_int_equal(tlm_parse_telemetry(&frame, &msg, NULL), TLM_RESULT_OK);
+        assert_int_equal(msg.type, TLM_TYPE_ESTIMATE);
+        const struct tlm_estimate *e = &msg.u.estimate;
+        assert_int_equal(e->t_ms, cases[i].t_ms);
+        assert_int_equal(e->window_index, cases[i].window_index);
+        assert_int_equal(e->estimator, cases[i].estimator);
+        assert_int_equal(e->status, cases[i].status);
+        assert_int_equal(e->reason, cases[i].reason);
+        assert_int_equal(e->sensors_used, cases[i].sensors_used);
+        assert_int_equal(e->alpha_udeg, cases[i].alpha_udeg);
+        assert_int_equal(e->beta_udeg, cases[i].beta_udeg);
+        assert_int_equal(e->distance_um, cases[i].distance_um);
+        assert_int_equal(e->flatness_um, cases[i].flatness_um);
+        /* Canonical: re-encoding gives the same bytes. */
+        uint8_t again[TLM_FRAME_MAX];
+        assert_int_equal(tlm_encode_estimate(frame.seq, e, again, sizeof again), n);
+        assert_memory_equal(again, out, (size_t)n);
+    }
+}
+
+static void test_raw_sample_round_trips(void **state) {
+    (void)state;
+    const struct tlm_raw_sample raw = sample_raw();
+    uint8_t out[TLM_FRAME_MAX];
+    const int n = tlm_encode_raw_sample(7, &raw, out, sizeof out);
+    assert_int_equal(n, 24);
+    struct recorder rec;
+    const struct tlm_frame frame = decode_one(&rec, out, (size_t)n, TLM_ACCEPT_TELEMETRY);
+    struct tlm_telemetry msg;
+    assert_int_equal(tlm_parse_telemetry(&frame, &msg, NULL), TLM_RESULT_OK);
+    assert_int_equal(msg.type, TLM_TYPE_RAW_SAMPLE);
+    assert_int_equal(msg.u.raw.t_ms, raw.t_ms);
+    for (unsigned i = 0; i < TLM_SENSOR_COUNT; ++i) {
+        assert_int_equal(msg.u.raw.range_mm[i], raw.range_mm[i]);
+        assert_int_equal(msg.u.raw.range_status[i], raw.range_status[i]);
+    }
+    assert_int_equal(msg.u.raw.present_mask, raw.present_mask);
+    /* Little-endian on the wire: t_ms first, low byte first. */
+    assert_int_equal(out[5], 0x04);
+    assert_int_equal(out[8], 0x01);
+    assert_int_equal(out[5 + 4 + 6], 0xA0); /* 4000 = 0x0FA0, sensor D */
+    assert_int_equal(out[5 + 4 + 7], 0x0F);
+}
+
+static void test_health_round_trips(void **state) {
+    (void)state;
+    const struct tlm_health health = sample_health();
+    uint8_t out[TLM_FRAME_MAX];
+    const int n = tlm_encode_health(8, &health, out, sizeof out);
+    assert_int_equal(n, 151);
+    struct recorder rec;
+    const struct tlm_frame frame = decode_one(&rec, out, (size_t)n, TLM_ACCEPT_TELEMETRY);
+    struct tlm_telemetry msg;
+    assert_int_equal(tlm_parse_telemetry(&frame, &msg, NULL), TLM_RESULT_OK);
+    assert_int_equal(msg.type, TLM_TYPE_HEALTH);
+    /* Field by field (the structs have no padding holes, but be explicit). */
+    const struct tlm_health *h = &msg.u.health;
+    assert_int_equal(h->uptime_ms, health.uptime_ms);
+    assert_memory_equal(h->sensor_state, health.sensor_state, 4);
+    for (unsigned i = 0; i < TLM_SENSOR_COUNT; ++i) {
+        assert_int_equal(h->sensor[i].comm_errors, health.sensor[i].comm_errors);
+        assert_int_equal(h->sensor[i].timeouts, health.sensor[i].timeouts);
+        assert_int_equal(h->sensor[i].flagged, health.sensor[i].flagged);
+        assert_int_equal(h->sensor[i].reinits, health.sensor[i].reinits);
+    }
+    assert_int_equal(h->bus.addr_nack, 1001);
+    assert_int_equal(h->bus.data_nack, 1002);
+    assert_int_equal(h->bus.busy, 1003);
+    assert_int_equal(h->bus.timeout, 1004);
+    assert_int_equal(h->bus.stuck, 1005);
+    assert_int_equal(h->bus.other, 1006);
+    assert_int_equal(h->bus.recoveries, 1007);
+    assert_int_equal(h->watchdog_resets, 2001);
+    assert_int_equal(h->loop_overruns, 2002);
+    assert_int_equal(h->loop_max_us, 2003);
+    assert_int_equal(h->tx_dropped, 0xFFFFFFFFu);
+    assert_int_equal(h->link.frames_ok, 3001);
+    assert_int_equal(h->link.bad_crc, 3002);
+    assert_int_equal(h->link.bad_length, 3003);
+    assert_int_equal(h->link.unknown_type, 3004);
+    assert_int_equal(h->link.truncated, 3005);
+    assert_int_equal(h->link.out_of_range, 3006);
+    assert_int_equal(h->link.discarded_bytes, 3007);
+    /* The link counters close the payload: the last 28 bytes, discarded last. */
+    assert_int_equal(out[5 + 140], 3007 & 0xFF);
+    assert_int_equal(out[5 + 141], 3007 >> 8);
+}
+
+static void test_ack_and_status_round_trip(void **state) {
+    (void)state;
+    uint8_t out[TLM_FRAME_MAX];
+    struct recorder rec;
+    struct tlm_telemetry msg;
+    for (uint8_t result = 0; result <= TLM_RESULT_LAST; ++result) {
+        const struct tlm_ack ack = {.echo_seq = 250, .command = 0x99, .result = result};
+        const int n = tlm_encode_ack(1, &ack, out, sizeof out);
+        const struct tlm_frame frame = decode_one(&rec, out, (size_t)n, TLM_ACCEPT_TELEMETRY);
+        assert_int_equal(tlm_parse_telemetry(&frame, &msg, NULL), TLM_RESULT_OK);
+        assert_int_equal(msg.type, TLM_TYPE_ACK);
+        assert_int_equal(msg.u.ack.echo_seq, 250);
+        assert_int_equal(msg.u.ack.command, 0x99);
+        assert_int_equal(msg.u.ack.result, result);
+    }
+    const struct tlm_status status = sample_status();
+    const int n = tlm_encode_status(2, &status, out, sizeof out);
+    const struct tlm_frame frame = decode_one(&rec, out, (size_t)n, TLM_ACCEPT_TELEMETRY);
+    assert_int_equal(tlm_parse_telemetry(&frame, &msg, NULL), TLM_RESULT_OK);
+    assert_int_equal(msg.type, TLM_TYPE_STATUS);
+    const struct tlm_status *s = &msg.u.status;
+    assert_int_equal(s->fw_major, 0);
+    assert_int_equal(s->fw_minor, 1);
+    assert_int_equal(s->fw_patch, 2);
+    assert_int_equal(s->uptime_ms, 123456);
+    assert_int_equal(s->window_n, 100);
+    assert_int_equal(s->mode, TLM_WINDOW_SLIDING);
+    assert_int_equal(s->estimator, TLM_ESTIMATOR_KALMAN);
+    assert_true(s->running);
+    assert_false(s->raw_stream);
+    assert_int_equal(s->period_ms, 20);
+}
+
+/* --- telemetry validation ------------------------------------------------- */
+
+static void assert_estimate_rejected(const struct tlm_estimate *bad) {
+    uint8_t out[TLM_FRAME_MAX];
+    assert_int_equal(tlm_encode_estimate(0, bad, out, sizeof out), HAL_ERR_INVALID);
+    /* The same bytes forced onto the wire are refused by the parser. */
+    const struct tlm_estimate good = sample_estimate();
+    assert_int_equal(tlm_encode_estimate(0, &good, out, sizeof out), 35);
+    uint8_t *p = &out[TLM_HEADER_SIZE];
+    p[8] = bad->estimator;
+    p[9] = bad->status;
+    p[10] = bad->reason;
+    p[11] = bad->sensors_used;
+    const int32_t values[4] = {bad->alpha_udeg, bad->beta_udeg, bad->distance_um, bad->flatness_um};
+    for (size_t v = 0; v < 4; ++v) {
+        const uint32_t u = (uint32_t)values[v];
+        for (size_t b = 0; b < 4; ++b) {
+            p[12 + 4 * v + b] = (uint8_t)(u >> (8 * b));
+        }
+    }
+    const struct tlm_frame frame = raw_frame(TLM_TYPE_ESTIMATE, p, TLM_LEN_ESTIMATE);
+    struct tlm_telemetry msg;
+    struct tlm_rx_counters counters;
+    memset(&counters, 0, sizeof counters);
+    assert_int_equal(tlm_parse_telemetry(&frame, &msg, &counters), TLM_RESULT_OUT_OF_RANGE);
+    assert_int_equal(counters.out_of_range, 1);
+}
+
+static void test_estimate_validation(void **state) {
+    (void)state;
+    struct tlm_estimate e;
+    e = sample_estimate();
+    e.estimator = TLM_ESTIMATOR_LAST + 1;
+    assert_estimate_rejected(&e);
+    e = sample_estimate();
+    e.status = TLM_STATUS_LAST + 1;
+    assert_estimate_rejected(&e);
+    e = sample_estimate();
+    e.reason = TLM_REASON_SENSOR_MISSING; /* ok with a reason */
+    assert_estimate_rejected(&e);
+    e = sample_estimate();
+    e.status = TLM_STATUS_DEGRADED; /* degraded without one */
+    assert_estimate_rejected(&e);
+    e = sample_estimate();
+    e.status = TLM_STATUS_DEGRADED;
+    e.reason = 0x80; /* reserved bit */
+    assert_estimate_rejected(&e);
+    e = sample_estimate();
+    e.sensors_used = 0x07; /* ok needs all four sensors */
+    assert_estimate_rejected(&e);
+    e = sample_estimate();
+    e.status = TLM_STATUS_DEGRADED;
+    e.reason = TLM_REASON_SENSOR_MISSING;
+    e.sensors_used = 0x1F; /* no fifth sensor */
+    assert_estimate_rejected(&e);
+    e = sample_estimate();
+    e.flatness_um = TLM_NO_VALUE; /* ok has all four, so a flatness */
+    assert_estimate_rejected(&e);
+    e = sample_estimate();
+    e.beta_udeg = TLM_NO_VALUE; /* a valid estimate has every value */
+    assert_estimate_rejected(&e);
+    e = sample_estimate();
+    e.status = TLM_STATUS_INVALID;
+    e.reason = TLM_REASON_NO_SAMPLES;
+    e.alpha_udeg = TLM_NO_VALUE;
+    e.beta_udeg = TLM_NO_VALUE; /* distance still set: an invalid estimate has none */
+    assert_estimate_rejected(&e);
+}
+
+static void test_raw_health_ack_status_validation(void **state) {
+    (void)state;
+    uint8_t out[TLM_FRAME_MAX];
+    struct tlm_raw_sample raw = sample_raw();
+    raw.range_mm[2] = 5; /* sensor C absent but carries a range */
+    assert_int_equal(tlm_encode_raw_sample(0, &raw, out, sizeof out), HAL_ERR_INVALID);
+    raw = sample_raw();
+    raw.range_status[2] = 1;
+    assert_int_equal(tlm_encode_raw_sample(0, &raw, out, sizeof out), HAL_ERR_INVALID);
+    raw = sample_raw();
+    raw.present_mask = 0x1B;
+    assert_int_equal(tlm_encode_raw_sample(0, &raw, out, sizeof out), HAL_ERR_INVALID);
+
+    struct tlm_health health = sample_health();
+    health.sensor_state[2] = TLM_HEALTH_LAST + 1;
+    assert_int_equal(tlm_encode_health(0, &health, out, sizeof out), HAL_ERR_INVALID);
+
+    const struct tlm_ack ack = {
+        .echo_seq = 0, .command = TLM_TYPE_STOP, .result = TLM_RESULT_LAST + 1};
+    assert_int_equal(tlm_encode_ack(0, &ack, out, sizeof out), HAL_ERR_INVALID);
+
+    struct tlm_status status = sample_status();
+    status.window_n = TLM_WINDOW_MAX + 1;
+    assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), HAL_ERR_INVALID);
+    status = sample_status();
+    status.mode = 2;
+    assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), HAL_ERR_INVALID);
+    status = sample_status();
+    status.estimator = 4;
+    assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), HAL_ERR_INVALID);
+
+    /* Parser side: patch single bytes of good payloads. */
+    struct tlm_telemetry msg;
+    raw = sample_raw();
+    assert_int_equal(tlm_encode_raw_sample(0, &raw, out, sizeof out), 24);
+    out[5 + 4 + 4] = 1; /* range of absent sensor C */
+    struct tlm_frame frame = raw_frame(TLM_TYPE_RAW_SAMPLE, &out[5], TLM_LEN_RAW_SAMPLE);
+    assert_int_equal(tlm_parse_telemetry(&frame, &msg, NULL), TLM_RESULT_OUT_OF_RANGE);
+
+    health = sample_health();
+    assert_int_equal(tlm_encode_health(0, &health, out, sizeof out), 151);
+    out[5 + 4 + 3] = 4; /* sensor D state */
+    frame = raw_frame(TLM_TYPE_HEALTH, &out[5], TLM_LEN_HEALTH);
+    assert_int_equal(tlm_parse_telemetry(&frame, &msg, NULL), TLM_RESULT_OUT_OF_RANGE);
+
+    const struct tlm_ack good_ack = {.echo_seq = 0, .command = TLM_TYPE_STOP, .result = 0};
+    assert_int_equal(tlm_encode_ack(0, &good_ack, out, sizeof out), 10);
+    out[5 + 2] = 5; /* result */
+    frame = raw_frame(TLM_TYPE_ACK, &out[5], TLM_LEN_ACK);
+    assert_int_equal(tlm_parse_telemetry(&frame, &msg, NULL), TLM_RESULT_OUT_OF_RANGE);
+
+    const size_t status_bytes[] = {3, 10, 11, 12, 13};
+    const uint8_t status_bad[] = {2, 2, 4, 2, 2}; /* protocol, mode, estimator, bools */
+    for (size_t i = 0; i < 5; ++i) {
+        status = sample_status();
+        assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 23);
+        out[5 + status_bytes[i]] = status_bad[i];
+        frame = raw_frame(TLM_TYPE_STATUS, &out[5], TLM_LEN_STATUS);
+        assert_int_equal(tlm_parse_telemetry(&frame, &msg, NULL), TLM_RESULT_OUT_OF_RANGE);
+    }
+    status = sample_status();
+    assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 23);
+    out[5 + 8] = 1; /* window_n = 1 */
+    frame = raw_frame(TLM_TYPE_STATUS, &out[5], TLM_LEN_STATUS);
+    assert_int_equal(tlm_parse_telemetry(&frame, &msg, NULL), TLM_RESULT_OUT_OF_RANGE);
+}
+
+static void test_encoders_check_capacity(void **state) {
+    (void)state;
+    uint8_t out[TLM_FRAME_MAX];
+    const struct tlm_estimate est = sample_estimate();
+    const struct tlm_health health = sample_health();
+    const struct tlm_command start = {.type = TLM_TYPE_START};
+    assert_int_equal(tlm_encode_estimate(0, &est, out, 34), HAL_ERR_INVALID);
+    assert_int_equal(tlm_encode_estimate(0, &est, out, 35), 35);
+    assert_int_equal(tlm_encode_health(0, &health, out, 150), HAL_ERR_INVALID);
+    assert_int_equal(tlm_encode_health(0, &health, NULL, sizeof out), HAL_ERR_INVALID);
+    assert_int_equal(tlm_encode_estimate(0, NULL, out, sizeof out), HAL_ERR_INVALID);
+    assert_int_equal(tlm_encode_command(0, &start, out, 6), HAL_ERR_INVALID);
+    assert_int_equal(tlm_encode_command(0, &start, out, 7), 7);
+}
+
+static void test_telemetry_parser_type_and_length(void **state) {
+    (void)state;
+    const uint8_t payload[TLM_MAX_PAYLOAD] = {0};
+    struct tlm_telemetry msg;
+    struct tlm_rx_counters counters;
+    memset(&counters, 0, sizeof counters);
+    struct tlm_frame frame = raw_frame(TLM_TYPE_START, payload, 0);
+    assert_int_equal(tlm_parse_telemetry(&frame, &msg, &counters), TLM_RESULT_UNKNOWN_TYPE);
+    frame = raw_frame(TLM_TYPE_ESTIMATE, payload, TLM_LEN_ESTIMATE - 1);
+    assert_int_equal(tlm_parse_telemetry(&frame, &msg, &counters), TLM_RESULT_BAD_LENGTH);
+    frame = raw_frame(TLM_TYPE_ACK, NULL, TLM_LEN_ACK);
+    assert_int_equal(tlm_parse_telemetry(&frame, &msg, &counters), TLM_RESULT_BAD_LENGTH);
+    assert_int_equal(counters.unknown_type, 1);
+    assert_int_equal(counters.bad_length, 2);
+}
+
+/* --- commands ------------------------------------------------------------- */
+
+static enum tlm_result parse_bytes(uint8_t type, const uint8_t *payload, uint8_t length,
+                                   struct tlm_command *cmd, struct tlm_rx_counters *counters) {
+    const struct tlm_frame frame = raw_frame(type, payload, length);
+    return tlm_parse_command(&frame, cmd, counters);
+}
+
+static void test_set_window_command(void **state) {
+    (void)state;
+    struct tlm_command cmd;
+    struct tlm_rx_counters c;
+    memset(&c, 0, sizeof c);
+    const uint8_t min_tumbling[] = {2, 0, 0};
+    assert_int_equal(parse_bytes(TLM_TYPE_SET_WINDOW, min_tumbling, 3, &cmd, &c), TLM_RESULT_OK);
+    assert_int_equal(cmd.type, TLM_TYPE_SET_WINDOW);
+    assert_int_equal(cmd.u.set_window.window_n, 2);
+    assert_int_equal(cmd.u.set_window.mode, TLM_WINDOW_TUMBLING);
+    const uint8_t max_sliding[] = {255, 0, 1};
+    assert_int_equal(parse_bytes(TLM_TYPE_SET_WINDOW, max_sliding, 3, &cmd, &c), TLM_RESULT_OK);
+    assert_int_equal(cmd.u.set_window.window_n, 255);
+    assert_int_equal(cmd.u.set_window.mode, TLM_WINDOW_SLIDING);
+
+    const uint8_t out_of_range[][3] = {{1, 0, 0},       {0, 0, 0},   {0, 1, 0},
+                                       {0xFF, 0xFF, 0}, {100, 0, 2}, {100, 0, 0xFF}};
+    for (size_t i = 0; i < sizeof out_of_range / sizeof out_of_range[0]; ++i) {
+        assert_int_equal(parse_bytes(TLM_TYPE_SET_WINDOW, out_of_range[i], 3, &cmd, &c),
+                         TLM_RESULT_OUT_OF_RANGE);
+    }
+    assert_int_equal(parse_bytes(TLM_TYPE_SET_WINDOW, min_tumbling, 2, &cmd, &c),
+                     TLM_RESULT_BAD_LENGTH);
+    const uint8_t four[] = {100, 0, 0, 0};
+    assert_int_equal(parse_bytes(TLM_TYPE_SET_WINDOW, four, 4, &cmd, &c), TLM_RESULT_BAD_LENGTH);
+    assert_int_equal(parse_bytes(TLM_TYPE_SET_WINDOW, NULL, 3, &cmd, &c), TLM_RESULT_BAD_LENGTH);
+    assert_int_equal(c.out_of_range, 6);
+    assert_int_equal(c.bad_length, 3);
+    assert_int_equal(c.unknown_type, 0);
+}
+
+static void test_select_estimator_command(void **state) {
+    (void)state;
+    struct tlm_command cmd;
+    struct tlm_rx_counters c;
+    memset(&c, 0, sizeof c);
+    for (uint8_t id = 0; id <= TLM_ESTIMATOR_LAST; ++id) {
+        assert_int_equal(parse_bytes(TLM_TYPE_SELECT_ESTIMATOR, &id, 1, &cmd, &c), TLM_RESULT_OK);
+        assert_int_equal(cmd.type, TLM_TYPE_SELECT_ESTIMATOR);
+        assert_int_equal(cmd.u.estimator, id);
+    }
+    const uint8_t bad[] = {4, 0x80, 0xFF};
+    for (size_t i = 0; i < 3; ++i) {
+        assert_int_equal(parse_bytes(TLM_TYPE_SELECT_ESTIMATOR, &bad[i], 1, &cmd, &c),
+                         TLM_RESULT_OUT_OF_RANGE);
+    }
+    const uint8_t two[] = {0, 0};
+    assert_int_equal(parse_bytes(TLM_TYPE_SELECT_ESTIMATOR, two, 0, &cmd, &c),
+                     TLM_RESULT_BAD_LENGTH);
+    assert_int_equal(parse_bytes(TLM_TYPE_SELECT_ESTIMATOR, two, 2, &cmd, &c),
+                     TLM_RESULT_BAD_LENGTH);
+    assert_int_equal(c.out_of_range, 3);
+    assert_int_equal(c.bad_length, 2);
+}
+
+static void test_empty_commands(void **state) {
+    (void)state;
+    struct tlm_command cmd;
+    struct tlm_rx_counters c;
+    memset(&c, 0, sizeof c);
+    const uint8_t types[] = {TLM_TYPE_START, TLM_TYPE_STOP, TLM_TYPE_STATUS_REQUEST};
+    const uint8_t extra = 0;
+    for (size_t i = 0; i < 3; ++i) {
+        assert_int_equal(parse_bytes(types[i], NULL, 0, &cmd, &c), TLM_RESULT_OK);
+        assert_int_equal(cmd.type, types[i]);
+        assert_int_equal(parse_bytes(types[i], &extra, 1, &cmd, &c), TLM_RESULT_BAD_LENGTH);
+    }
+    assert_int_equal(c.bad_length, 3);
+    assert_int_equal(c.out_of_range, 0);
+}
+
+static void test_raw_stream_command(void **state) {
+    (void)state;
+    struct tlm_command cmd;
+    struct tlm_rx_counters c;
+    memset(&c, 0, sizeof c);
+    const uint8_t on = 1, off = 0, two = 2;
+    assert_int_equal(parse_bytes(TLM_TYPE_RAW_STREAM, &on, 1, &cmd, &c), TLM_RESULT_OK);
+    assert_true(cmd.u.raw_enable);
+    assert_int_equal(parse_bytes(TLM_TYPE_RAW_STREAM, &off, 1, &cmd, &c), TLM_RESULT_OK);
+    assert_false(cmd.u.raw_enable);
+    assert_int_equal(parse_bytes(TLM_TYPE_RAW_STREAM, &two, 1, &cmd, &c), TLM_RESULT_OUT_OF_RANGE);
+    assert_int_equal(parse_bytes(TLM_TYPE_RAW_STREAM, NULL, 0, &cmd, &c), TLM_RESULT_BAD_LENGTH);
+    assert_int_equal(c.out_of_range, 1);
+    assert_int_equal(c.bad_length, 1);
+}
+
+static void test_unknown_commands(void **state) {
+    (void)state;
+    struct tlm_command cmd;
+    struct tlm_rx_counters c;
+    memset(&c, 0, sizeof c);
+    /* Every byte that is not one of the six command types is an unknown command,
+     * telemetry types included. */
+    unsigned unknown = 0;
+    for (unsigned type = 0; type <= 0xFF; ++type) {
+        const enum tlm_result r = parse_bytes((uint8_t)type, NULL, 0, &cmd, NULL);
+        if (type >= TLM_TYPE_SET_WINDOW && type <= TLM_TYPE_RAW_STREAM) {
+            assert_int_not_equal(r, TLM_RESULT_UNKNOWN_TYPE);
+        } else {
+            assert_int_equal(r, TLM_RESULT_UNKNOWN_TYPE);
+            unknown++;
+        }
+    }
+    assert_int_equal(unknown, 250);
+    assert_int_equal(parse_bytes(TLM_TYPE_ESTIMATE, NULL, 0, &cmd, &c), TLM_RESULT_UNKNOWN_TYPE);
+    assert_int_equal(c.unknown_type, 1);
+}
+
+static void test_commands_round_trip_through_the_firmware_decoder(void **state) {
+    (void)state;
+    struct tlm_command cmds[8];
+    memset(cmds, 0, sizeof cmds);
+    cmds[0].type = TLM_TYPE_SET_WINDOW;
+    cmds[0].u.set_window.window_n = 100;
+    cmds[0].u.set_window.mode = TLM_WINDOW_TUMBLING;
+    cmds[1].type = TLM_TYPE_SET_WINDOW;
+    cmds[1].u.set_window.window_n = 255;
+    cmds[1].u.set_window.mode = TLM_WINDOW_SLIDING;
+    cmds[2].type = TLM_TYPE_SELECT_ESTIMATOR;
+    cmds[2].u.estimator = TLM_ESTIMATOR_CONSENSUS_PAPER;
+    cmds[3].type = TLM_TYPE_START;
+    cmds[4].type = TLM_TYPE_STOP;
+    cmds[5].type = TLM_TYPE_STATUS_REQUEST;
+    cmds[6].type = TLM_TYPE_RAW_STREAM;
+    cmds[6].u.raw_enable = true;
+    cmds[7].type = TLM_TYPE_RAW_STREAM;
+    cmds[7].u.raw_enable = false;
+    uint8_t stream[8 * 10];
+    size_t n = 0;
+    for (size_t i = 0; i < 8; ++i) {
+        const int k = tlm_encode_command((uint8_t)i, &cmds[i], &stream[n], sizeof stream - n);
+        assert_true(k > 0);
+        n += (size_t)k;
+    }
+    struct tlm_decoder dec;
+    struct recorder rec;
+    const struct tlm_frame_sink sink = recorder_sink(&rec);
+    tlm_decoder_init(&dec, TLM_ACCEPT_COMMANDS);
+    tlm_decoder_feed(&dec, stream, n, &sink);
+    assert_int_equal(rec.frame_count, 8);
+    for (size_t i = 0; i < 8; ++i) {
+        const struct tlm_frame frame = recorder_frame(&rec, i);
+        struct tlm_command got;
+        assert_int_equal(tlm_parse_command(&frame, &got, &dec.counters), TLM_RESULT_OK);
+        assert_int_equal(frame.seq, i);
+        assert_int_equal(got.type, cmds[i].type);
+        if (got.type == TLM_TYPE_SET_WINDOW) {
+            assert_int_equal(got.u.set_window.window_n, cmds[i].u.set_window.window_n);
+            assert_int_equal(got.u.set_window.mode, cmds[i].u.set_window.mode);
+        } else if (got.type == TLM_TYPE_SELECT_ESTIMATOR) {
+            assert_int_equal(got.u.estimator, cmds[i].u.estimator);
+        } else if (got.type == TLM_TYPE_RAW_STREAM) {
+            assert_int_equal(got.u.raw_enable, cmds[i].u.raw_enable);
+        }
+    }
+    assert_int_equal(dec.counters.frames_ok, 8);
+    assert_int_equal(dec.counters.out_of_range, 0);
+}
+
+static void test_encode_command_validates(void **state) {
+    (void)state;
+    uint8_t out[TLM_FRAME_MAX];
+    struct tlm_command cmd;
+    memset(&cmd, 0, sizeof cmd);
+    cmd.type = TLM_TYPE_SET_WINDOW;
+    cmd.u.set_window.window_n = 1;
+    assert_int_equal(tlm_encode_command(0, &cmd, out, sizeof out), HAL_ERR_INVALID);
+    cmd.u.set_window.window_n = 256;
+    assert_int_equal(tlm_encode_command(0, &cmd, out, sizeof out), HAL_ERR_INVALID);
+    cmd.u.set_window.window_n = 50;
+    cmd.u.set_window.mode = 2;
+    assert_int_equal(tlm_encode_command(0, &cmd, out, sizeof out), HAL_ERR_INVALID);
+    cmd.type = TLM_TYPE_SELECT_ESTIMATOR;
+    cmd.u.estimator = 4;
+    assert_int_equal(tlm_encode_command(0, &cmd, out, sizeof out), HAL_ERR_INVALID);
+    cmd.type = TLM_TYPE_ESTIMATE; /* not a command */
+    assert_int_equal(tlm_encode_command(0, &cmd, out, sizeof out), HAL_ERR_INVALID);
+    assert_int_equal(tlm_encode_command(0, NULL, out, sizeof out), HAL_ERR_INVALID);
+}
+
+int main(void) {
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_estimate_layout_matches_reference_bytes),
+        cmocka_unit_test(test_every_type_has_its_documented_length),
+        cmocka_unit_test(test_status_layout),
+        cmocka_unit_test(test_estimate_round_trips),
+        cmocka_unit_test(test_raw_sample_round_trips),
+        cmocka_unit_test(test_health_round_trips),
+        cmocka_unit_test(test_ack_and_status_round_trip),
+        cmocka_unit_test(test_estimate_validation),
+        cmocka_unit_test(test_raw_health_ack_status_validation),
+        cmocka_unit_test(test_encoders_check_capacity),
+        cmocka_unit_test(test_telemetry_parser_type_and_length),
+        cmocka_unit_test(test_set_window_command),
+        cmocka_unit_test(test_select_estimator_command),
+        cmocka_unit_test(test_empty_commands),
+        cmocka_unit_test(test_raw_stream_command),
+        cmocka_unit_test(test_unknown_commands),
+        cmocka_unit_test(test_commands_round_trip_through_the_firmware_decoder),
+        cmocka_unit_test(test_encode_command_validates),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
