@@ -238,10 +238,13 @@ static int read_meta_line(struct trace_reader *r) {
     while (i < r->line_len && is_key_char(line[i])) {
         ++i;
     }
-    if (i == key_start || i >= r->line_len || line[i] != '=') {
+    const size_t key_len = i - key_start;
+    while (i < r->line_len && is_blank(line[i])) {
+        ++i;
+    }
+    if (key_len == 0u || i >= r->line_len || line[i] != '=') {
         return 0; /* a plain comment */
     }
-    const size_t key_len = i - key_start;
     const struct field val = make_field(line, i + 1u, r->line_len);
     char q[64];
     if (key_len >= TRACE_KEY_MAX) {
