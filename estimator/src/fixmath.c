@@ -1,0 +1,395 @@
+/* Fixed-point helpers of the estimator: see estimator/fixmath.h for the contracts. */
+#include "estimator/fixmath.h"
+
+#define U64_SIGN_BIT ((uint64_t)1 << 63)
+
+/* --- saturation and rounding ---------------------------------------------------- */
+
+int32_t fix_sat_s32(int64_t v) {
+    if (v > INT32_MAX) {
+        return INT32_MAX;
+    }
+    if (v < INT32_MIN) {
+        return INT32_MIN;
+    }
+    return (int32_t)v;
+}
+
+int32_t fix_sat_add_s32(int32_t a, int32_t b) {
+    return fix_sat_s32((int64_t)a + (int64_t)b);
+}
+
+int64_t fix_sat_add_s64(int64_t a, int64_t b) {
+    if (b > 0 && a > INT64_MAX - b) {
+        return INT64_MAX;
+    }
+    if (b < 0 && a < INT64_MIN - b) {
+        return INT64_MIN;
+    }
+    return a + b;
+}
+
+int64_t fix_sat_sub_s64(int64_t a, int64_t b) {
+    if (b < 0 && a > INT64_MAX + b) {
+        return INT64_MAX;
+    }
+    if (b > 0 && a < INT64_MIN + b) {
+        return INT64_MIN;
+    }
+    return a - b;
+}
+
+uint64_t fix_abs_u64(int64_t v) {
+    if (v >= 0) {
+        return (uint64_t)v;
+    }
+    /* -(v + 1) cannot overflow, then add the 1 back in unsigned arithmetic. */
+    return (uint64_t)(-(v + 1)) + 1u;
+}
+
+/* Signed value of magnitude m with sign neg; saturates (and flags) what int64 cannot hold. */
+static int64_t from_sign_magnitude(bool neg, uint64_t m, bool *overflow) {
+    if (!neg) {
+        if (m > (uint64_t)INT64_MAX) {
+            if (overflow != NULL) {
+                *overflow = true;
+            }
+            return INT64_MAX;
+        }
+        return (int64_t)m;
+    }
+    if (m > U64_SIGN_BIT) {
+        if (overflow != NULL) {
+            *overflow = true;
+        }
+        return INT64_MIN;
+    }
+    if (m == U64_SIGN_BIT) {
+        return INT64_MIN;
+    }
+    return -(int64_t)m;
+}
+
+int64_t fix_sat_mul_s64(int64_t a, int64_t b) {
+    return fix_s128_to_s64(fix_s128_mul(a, b), NULL);
+}
+
+int64_t fix_asr_s64(int64_t v, unsigned shift) {
+    if (shift == 0u) {
+        return v;
+    }
+    if (v >= 0) {
+        return (int64_t)((uint64_t)v >> shift);
+    }
+    /* floor(v / 2^s) = -(((-v - 1) >> s)) - 1 for v < 0. */
+    return -(int64_t)((uint64_t)(-(v + 1)) >> shift) - 1;
+}
+
+int64_t fix_shr_round_s64(int64_t v, unsigned shift) {
+    if (shift == 0u) {
+        return v;
+    }
+    const uint64_t m = fix_abs_u64(v);
+    const uint64_t r = (m + ((uint64_t)1 << (shift - 1u))) >> shift;
+    return from_sign_magnitude(v < 0, r, NULL);
+}
+
+int64_t fix_div_round_s64(int64_t num, int64_t den) {
+    if (den == 0) {
+        return 0; /* contract violation; defined result instead of a trap */
+    }
+    const uint64_t mn = fix_abs_u64(num);
+    const uint64_t md = fix_abs_u64(den);
+    /* mn <= 2^63 and md / 2 <= 2^62: the sum cannot wrap. */
+    const uint64_t q = (mn + md / 2u) / md;
+    return from_sign_magnitude((num < 0) != (den < 0), q, NULL);
+}
+
+fix_q30_t fix_recip_q30(fix_q30_t den) {
+    return fix_div_round_s64((int64_t)1 << 60, den);
+}
+
+uint32_t fix_isqrt_u64(uint64_t v) {
+    uint64_t rem = v;
+    uint64_t root = 0;
+    uint64_t bit = (uint64_t)1 << 62;
+    for (unsigned i = 0; i < 32u && bit > rem; ++i) {
+        bit >>= 2;
+    }
+    for (unsigned i = 0; i < 32u && bit != 0u; ++i) {
+        if (rem >= root + bit) {
+            rem -= root + bit;
+            root = (root >> 1) + bit;
+        } else {
+            root >>= 1;
+        }
+        bit >>= 2;
+    }
+    return (uint32_t)root;
+}
+
+/* --- 128-bit ------------------------------------------------------------------ */
+
+fix_s128 fix_s128_from_s64(int64_t v) {
+    fix_s128 r;
+    r.lo = (uint64_t)v; /* two's complement bits (C11 6.3.1.3: modulo 2^64) */
+    r.hi = v < 0 ? UINT64_MAX : 0u;
+    return r;
+}
+
+fix_s128 fix_s128_add(fix_s128 a, fix_s128 b) {
+    fix_s128 r;
+    r.lo = a.lo + b.lo;
+    r.hi = a.hi + b.hi + (r.lo < a.lo ? 1u : 0u);
+    return r;
+}
+
+fix_s128 fix_s128_neg(fix_s128 a) {
+    fix_s128 inverted; /* two's complement: ~a + 1 */
+    inverted.hi = ~a.hi;
+    inverted.lo = ~a.lo;
+    return fix_s128_add(inverted, fix_s128_from_s64(1));
+}
+
+fix_s128 fix_s128_sub(fix_s128 a, fix_s128 b) {
+    return fix_s128_add(a, fix_s128_neg(b));
+}
+
+bool fix_s128_is_neg(fix_s128 a) {
+    return (a.hi & U64_SIGN_BIT) != 0u;
+}
+
+int fix_s128_cmp(fix_s128 a, fix_s128 b) {
+    const uint64_t ah = a.hi ^ U64_SIGN_BIT; /* order signed values as unsigned ones */
+    const uint64_t bh = b.hi ^ U64_SIGN_BIT;
+    if (ah != bh) {
+        return ah < bh ? -1 : 1;
+    }
+    if (a.lo != b.lo) {
+        return a.lo < b.lo ? -1 : 1;
+    }
+    return 0;
+}
+
+/* Unsigned 64 x 64 -> 128 from four 32 x 32 -> 64 partial products. */
+static fix_s128 mul_u64(uint64_t a, uint64_t b) {
+    const uint64_t a_lo = a & 0xFFFFFFFFu;
+    const uint64_t a_hi = a >> 32;
+    const uint64_t b_lo = b & 0xFFFFFFFFu;
+    const uint64_t b_hi = b >> 32;
+    const uint64_t p0 = a_lo * b_lo;
+    const uint64_t p1 = a_lo * b_hi;
+    const uint64_t p2 = a_hi * b_lo;
+    const uint64_t p3 = a_hi * b_hi;
+    const uint64_t mid = (p0 >> 32) + (p1 & 0xFFFFFFFFu) + (p2 & 0xFFFFFFFFu);
+    fix_s128 r;
+    r.lo = (mid << 32) | (p0 & 0xFFFFFFFFu);
+    r.hi = p3 + (p1 >> 32) + (p2 >> 32) + (mid >> 32);
+    return r;
+}
+
+fix_s128 fix_s128_mul(int64_t a, int64_t b) {
+    const fix_s128 m = mul_u64(fix_abs_u64(a), fix_abs_u64(b));
+    return ((a < 0) != (b < 0)) ? fix_s128_neg(m) : m;
+}
+
+fix_s128 fix_s128_shl(fix_s128 a, unsigned shift) {
+    fix_s128 r = a;
+    if (shift == 0u) {
+        return r;
+    }
+    if (shift < 64u) {
+        r.hi = (a.hi << shift) | (a.lo >> (64u - shift));
+        r.lo = a.lo << shift;
+    } else {
+        r.hi = shift < 128u ? a.lo << (shift - 64u) : 0u;
+        r.lo = 0u;
+    }
+    return r;
+}
+
+/* Logical right shift of a 128-bit magnitude. */
+static fix_s128 shr_u128(fix_s128 a, unsigned shift) {
+    fix_s128 r = a;
+    if (shift == 0u) {
+        return r;
+    }
+    if (shift < 64u) {
+        r.lo = (a.lo >> shift) | (a.hi << (64u - shift));
+        r.hi = a.hi >> shift;
+    } else {
+        r.lo = shift < 128u ? a.hi >> (shift - 64u) : 0u;
+        r.hi = 0u;
+    }
+    return r;
+}
+
+fix_s128 fix_s128_shr_round(fix_s128 a, unsigned shift) {
+    if (shift == 0u) {
+        return a;
+    }
+    const bool neg = fix_s128_is_neg(a);
+    fix_s128 m = neg ? fix_s128_neg(a) : a;
+    const fix_s128 half = fix_s128_shl(fix_s128_from_s64(1), shift - 1u);
+    m = shr_u128(fix_s128_add(m, half), shift);
+    return neg ? fix_s128_neg(m) : m;
+}
+
+int64_t fix_s128_to_s64(fix_s128 a, bool *overflow) {
+    if (a.hi == 0u && a.lo <= (uint64_t)INT64_MAX) {
+        return (int64_t)a.lo;
+    }
+    if (a.hi == UINT64_MAX && a.lo >= U64_SIGN_BIT) {
+        return from_sign_magnitude(true, ~a.lo + 1u, overflow);
+    }
+    if (overflow != NULL) {
+        *overflow = true;
+    }
+    return fix_s128_is_neg(a) ? INT64_MIN : INT64_MAX;
+}
+
+int64_t fix_s128_div_s64(fix_s128 a, int64_t den, bool *overflow) {
+    if (den == 0) {
+        if (overflow != NULL) {
+            *overflow = true;
+        }
+        return 0;
+    }
+    const bool neg = fix_s128_is_neg(a) != (den < 0);
+    const fix_s128 m = fix_s128_is_neg(a) ? fix_s128_neg(a) : a;
+    const uint64_t d = fix_abs_u64(den);
+    uint64_t q;
+    uint64_t r;
+    if (m.hi == 0u) {
+        q = m.lo / d;
+        r = m.lo % d;
+    } else if (m.hi >= d) {
+        if (overflow != NULL) {
+            *overflow = true; /* quotient >= 2^64 */
+        }
+        return neg ? INT64_MIN : INT64_MAX;
+    } else {
+        /* Restoring long division, one quotient bit per step: r < d throughout. */
+        r = m.hi;
+        q = 0u;
+        for (unsigned i = 64u; i-- > 0u;) {
+            const uint64_t top = r >> 63;
+            r = (r << 1) | ((m.lo >> i) & 1u);
+            q <<= 1;
+            if (top != 0u || r >= d) {
+                r -= d;
+                q |= 1u;
+            }
+        }
+    }
+    if (r >= d - r) { /* 2r >= d: round half away from zero */
+        if (q == UINT64_MAX) {
+            if (overflow != NULL) {
+                *overflow = true;
+            }
+            return neg ? INT64_MIN : INT64_MAX;
+        }
+        ++q;
+    }
+    return from_sign_magnitude(neg, q, overflow);
+}
+
+int64_t fix_muldiv_s64(int64_t a, int64_t b, int64_t den, bool *overflow) {
+    return fix_s128_div_s64(fix_s128_mul(a, b), den, overflow);
+}
+
+int64_t fix_mul_shr_s64(int64_t a, int64_t b, unsigned shift, bool *overflow) {
+    return fix_s128_to_s64(fix_s128_shr_round(fix_s128_mul(a, b), shift), overflow);
+}
+
+/* --- atan2: vectoring CORDIC -------------------------------------------------- */
+
+/* atan(2^-i) for i = 1..30 in micro-degrees x 32 (Q5), rounded. */
+static const int32_t cordic_atan_udeg_q5[30] = {
+    850081638, 449159791, 228000523, 114442700, 57277139, 28645559, 14323653, 7161936,
+    3580982,   1790493,   895246,    447623,    223812,   111906,   55953,    27976,
+    13988,     6994,      3497,      1749,      874,      437,      219,      109,
+    55,        27,        14,        7,         3,        2};
+
+/* Index of the most significant set bit of v != 0 (binary search, 6 steps). */
+static unsigned msb_u64(uint64_t v) {
+    unsigned n = 0;
+    static const unsigned widths[6] = {32u, 16u, 8u, 4u, 2u, 1u};
+    for (unsigned i = 0; i < 6u; ++i) {
+        if ((v >> widths[i]) != 0u) {
+            v >>= widths[i];
+            n += widths[i];
+        }
+    }
+    return n;
+}
+
+/* v / 2^shift rounded, halves away from zero, on int32 (|v| < 2^31). */
+static int32_t shr_round_s32(int32_t v, unsigned shift) {
+    const uint32_t half = (uint32_t)1 << (shift - 1u);
+    if (v >= 0) {
+        return (int32_t)(((uint32_t)v + half) >> shift);
+    }
+    return -(int32_t)(((uint32_t)(-v) + half) >> shift);
+}
+
+/* u / 2^shift rounded (shift 1..63). */
+static uint64_t shr_round_u64(uint64_t u, unsigned shift) {
+    return (u >> shift) + ((u >> (shift - 1u)) & 1u);
+}
+
+fix_udeg_t fix_atan2_udeg(int64_t y, int64_t x) {
+    if (y == 0 && x == 0) {
+        return 0;
+    }
+    const uint64_t ay = fix_abs_u64(y);
+    const uint64_t ax = fix_abs_u64(x);
+    const bool swapped = ay > ax; /* reduce to the first octant: angle in [0, 45] deg */
+    uint64_t big = swapped ? ay : ax;
+    uint64_t small = swapped ? ax : ay;
+
+    /* Normalise big into [2^29, 2^30]: CORDIC gain 1.1644 (from i = 1) times
+     * sqrt(2) keeps |x| below 2^31, and 29 bits give 1.9e-9 rad resolution. */
+    const unsigned msb = msb_u64(big);
+    if (msb < 29u) {
+        big <<= 29u - msb;
+        small <<= 29u - msb;
+    } else if (msb > 29u) {
+        big = shr_round_u64(big, msb - 29u);
+        small = shr_round_u64(small, msb - 29u);
+    }
+
+    int32_t xs = (int32_t)big;
+    int32_t ys = (int32_t)small;
+    int32_t z = 0; /* micro-degrees x 32 */
+    /* Starting at i = 1 covers |angle| <= 54.9 deg, enough for the octant. */
+    for (unsigned i = 1; i <= 30u; ++i) {
+        const int32_t dx = shr_round_s32(ys, i);
+        const int32_t dy = shr_round_s32(xs, i);
+        if (ys >= 0) {
+            xs += dx;
+            ys -= dy;
+            z += cordic_atan_udeg_q5[i - 1u];
+        } else {
+            xs -= dx;
+            ys += dy;
+            z -= cordic_atan_udeg_q5[i - 1u];
+        }
+    }
+    int32_t theta = shr_round_s32(z, 5u);
+    if (swapped) {
+        theta = FIX_UDEG_90 - theta;
+    }
+    if (x < 0) {
+        theta = FIX_UDEG_180 - theta;
+    }
+    return y < 0 ? -theta : theta;
+}
+
+fix_udeg_t fix_atan_q32_udeg(fix_q32_t t) {
+    return fix_atan2_udeg(t, FIX_Q32_ONE);
+}
+
+fix_udeg_t fix_udeg_from_rad_q32(fix_q32_t rad) {
+    return fix_sat_s32(fix_mul_shr_s64(rad, FIX_UDEG_PER_RAD, FIX_Q32_SHIFT, NULL));
+}
