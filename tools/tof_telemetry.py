@@ -1,0 +1,680 @@
+#!/usr/bin/python3
+"""Decode the ToF firmware's binary telemetry (docs/telemetry.md).
+
+Reads a serial port or a capture file, decodes every frame with the same
+CRC-16/CCITT-FALSE and the same resynchronisation rule as the firmware's
+decoder (firmware/telemetry/src/tlm_frame.c), prints one line per message (or
+CSV), counts malformed frames, and optionally plots the estimates.
+
+    tof_telemetry.py --file capture.bin [--csv [--type estimate|raw]] [--plot out.png]
+    tof_telemetry.py --port /dev/ttyACM0 [--baud 115200] [--duration S] [--send CMD]...
+    tof_telemetry.py --write-commands cmds.bin --send CMD [--send CMD]...
+
+Commands for --send: "set-window N [tumbling|sliding]", "estimator NAME"
+(consensus, consensus-paper, kalman, mean), "start", "stop", "status",
+"raw on|off".
+
+Run it with /usr/bin/python3 (Debian's, with python3-serial and
+python3-matplotlib); the pyenv python3 on PATH has neither.
+"""
+
+import argparse
+import os
+import struct
+import sys
+import time
+
+# --- protocol constants (docs/telemetry.md; tlm_frame.h, tlm_messages.h) ----
+
+SYNC0 = 0xA5
+SYNC1 = 0x5A
+HEADER_SIZE = 5
+CRC_SIZE = 2
+FRAME_OVERHEAD = HEADER_SIZE + CRC_SIZE
+MAX_PAYLOAD = 192
+PROTOCOL_VERSION = 1
+
+ACCEPT_COMMANDS = 1
+ACCEPT_TELEMETRY = 2
+ACCEPT_ALL = 3
+
+T_ESTIMATE = 0x01
+T_RAW_SAMPLE = 0x02
+T_HEALTH = 0x03
+T_ACK = 0x04
+T_STATUS = 0x05
+T_SET_WINDOW = 0x81
+T_SELECT_ESTIMATOR = 0x82
+T_START = 0x83
+T_STOP = 0x84
+T_STATUS_REQUEST = 0x85
+T_RAW_STREAM = 0x86
+
+# type -> (name, direction, payload length)
+TYPES = {
+    T_ESTIMATE: ("estimate", ACCEPT_TELEMETRY, 28),
+    T_RAW_SAMPLE: ("raw", ACCEPT_TELEMETRY, 17),
+    T_HEALTH: ("health", ACCEPT_TELEMETRY, 144),
+    T_ACK: ("ack", ACCEPT_TELEMETRY, 3),
+    T_STATUS: ("status", ACCEPT_TELEMETRY, 16),
+    T_SET_WINDOW: ("set-window", ACCEPT_COMMANDS, 3),
+    T_SELECT_ESTIMATOR: ("select-estimator", ACCEPT_COMMANDS, 1),
+    T_START: ("start", ACCEPT_COMMANDS, 0),
+    T_STOP: ("stop", ACCEPT_COMMANDS, 0),
+    T_STATUS_REQUEST: ("status-request", ACCEPT_COMMANDS, 0),
+    T_RAW_STREAM: ("raw-stream", ACCEPT_COMMANDS, 1),
+}
+
+RESULTS = ["ok", "unknown-type", "bad-length", "out-of-range", "state"]
+R_OK, R_UNKNOWN_TYPE, R_BAD_LENGTH, R_OUT_OF_RANGE = 0, 1, 2, 3
+ESTIMATORS = ["consensus", "consensus-paper", "kalman", "mean"]
+STATUSES = ["ok", "degraded", "invalid"]
+REASONS = ["sensor-missing", "sensor-flagged", "too-few-sensors", "not-flat",
+           "not-converged", "no-samples", "saturated"]
+REASON_ALL = 0x7F
+HEALTH_STATES = ["healthy", "suspect", "lost", "recovering"]
+MODES = ["tumbling", "sliding"]
+SENSORS = "ABCD"
+WINDOW_MIN, WINDOW_MAX = 2, 255
+NO_VALUE = -(2 ** 31)  # INT32_MIN: "no value" in an int32 estimate field
+
+COUNTER_NAMES = ["frames_ok", "bad_crc", "bad_length", "unknown_type", "truncated",
+                 "out_of_range", "discarded_bytes"]
+
+
+class ProtocolError(ValueError):
+    """A message that cannot be encoded (a field out of range)."""
+
+
+# --- CRC-16/CCITT-FALSE: poly 0x1021, init 0xFFFF, no reflection, no xorout --
+
+def _make_crc_table():
+    table = []
+    for byte in range(256):
+        reg = byte << 8
+        for _ in range(8):
+            reg = ((reg << 1) ^ 0x1021) if reg & 0x8000 else (reg << 1)
+        table.append(reg & 0xFFFF)
+    return table
+
+
+_CRC_TABLE = _make_crc_table()
+
+
+def crc16(data, crc=0xFFFF):
+    """CRC-16/CCITT-FALSE of `data`; crc16(b"123456789") == 0x29B1."""
+    for byte in data:
+        crc = ((crc << 8) & 0xFFFF) ^ _CRC_TABLE[((crc >> 8) ^ byte) & 0xFF]
+    return crc
+
+
+def encode_frame(ftype, seq, payload):
+    """One frame: sync, length, type, seq, payload, CRC (little-endian)."""
+    if len(payload) > MAX_PAYLOAD:
+        raise ProtocolError("payload of %d bytes exceeds the maximum %d" % (len(payload), MAX_PAYLOAD))
+    body = bytes([len(payload), ftype & 0xFF, seq & 0xFF]) + bytes(payload)
+    return bytes([SYNC0, SYNC1]) + body + struct.pack("<H", crc16(body))
+
+
+# --- streaming decoder: the same algorithm as tlm_frame.c -------------------
+
+class Decoder:
+    """Byte-stream to frames, resynchronising after garbage.
+
+    feed() and flush() return a list of events: ("frame", type, seq, payload)
+    for an accepted frame and ("reject", type, seq, length, result) for a
+    CRC-valid frame refused for its type or length. Malformed input is
+    counted in `counters` exactly as the firmware counts it.
+    """
+
+    def __init__(self, accept=ACCEPT_ALL):
+        self.accept = accept
+        self.window = bytearray()
+        self.suspect_left = 0  # bytes of a CRC-failed frame's span still ahead
+        self.counters = dict.fromkeys(COUNTER_NAMES, 0)
+
+    def pending(self):
+        return len(self.window)
+
+    def _advance(self, count, discarded):
+        del self.window[:count]
+        if discarded:
+            self.counters["discarded_bytes"] += count
+        if self.suspect_left > 0:
+            if count >= self.suspect_left:
+                self.suspect_left = 0
+                self.counters["bad_crc"] += 1
+            else:
+                self.suspect_left -= count
+
+    def _examine(self, events):
+        """Examine the candidate at the window start; False if it needs more bytes."""
+        w = self.window
+        if w[0] != SYNC0:
+            self._advance(1, True)
+            return True
+        if len(w) < 2:
+            return False
+        if w[1] != SYNC1:
+            self._advance(1, True)
+            return True
+        if len(w) < 3:
+            return False
+        length = w[2]
+        if length > MAX_PAYLOAD:
+            self.counters["bad_length"] += 1
+            self._advance(1, True)
+            return True
+        size = length + FRAME_OVERHEAD
+        if len(w) < size:
+            return False
+        crc_received = w[HEADER_SIZE + length] | (w[HEADER_SIZE + length + 1] << 8)
+        if crc16(w[2:HEADER_SIZE + length]) != crc_received:
+            # Corrupted, or cut short by the next frame: rescan its span to tell.
+            self._advance(1, True)
+            if self.suspect_left > 0:
+                self.counters["bad_crc"] += 1
+            self.suspect_left = size - 1
+            return True
+        if self.suspect_left > 0:
+            # A genuine frame starts inside a CRC-failed one: that one was truncated.
+            self.suspect_left = 0
+            self.counters["truncated"] += 1
+        ftype, seq = w[3], w[4]
+        info = TYPES.get(ftype)
+        if info is None or not (info[1] & self.accept):
+            self.counters["unknown_type"] += 1
+            events.append(("reject", ftype, seq, length, R_UNKNOWN_TYPE))
+            self._advance(size, True)
+            return True
+        if info[2] != length:
+            self.counters["bad_length"] += 1
+            events.append(("reject", ftype, seq, length, R_BAD_LENGTH))
+            self._advance(size, True)
+            return True
+        self.counters["frames_ok"] += 1
+        events.append(("frame", ftype, seq, bytes(w[HEADER_SIZE:HEADER_SIZE + length])))
+        self._advance(size, False)
+        return True
+
+    def _scan(self, events):
+        while self.window and self._examine(events):
+            pass
+
+    def feed(self, data):
+        events = []
+        self.window.extend(data)
+        self._scan(events)
+        return events
+
+    def flush(self):
+        """End of stream or idle line: the pending partial frame was truncated."""
+        events = []
+        while self.window:
+            if len(self.window) >= 2:
+                self.counters["truncated"] += 1
+            self._advance(1, True)
+            self._scan(events)
+        if self.suspect_left > 0:
+            self.suspect_left = 0
+            self.counters["bad_crc"] += 1
+        return events
+
+
+# --- message payloads: parse with the firmware's validation rules -----------
+
+def _estimate(p):
+    (t_ms, window, estimator, status, reason, sensors,
+     alpha, beta, distance, flatness) = struct.unpack("<IIBBBBiiii", p)
+    ok = status == 0
+    invalid = status == 2
+    valid = (estimator < len(ESTIMATORS) and status < len(STATUSES)
+             and not reason & ~REASON_ALL and not sensors & ~0x0F
+             and ok == (reason == 0)
+             and not (ok and (sensors != 0x0F or flatness == NO_VALUE))
+             and all((v == NO_VALUE) == invalid for v in (alpha, beta, distance)))
+    return valid, {"t_ms": t_ms, "window": window, "estimator": estimator, "status": status,
+                   "reason": reason, "sensors": sensors, "alpha_udeg": alpha, "beta_udeg": beta,
+                   "distance_um": distance, "flatness_um": flatness}
+
+
+def _raw(p):
+    fields = struct.unpack("<I4H4BB", p)
+    t_ms, ranges, statuses, mask = fields[0], fields[1:5], fields[5:9], fields[9]
+    valid = not mask & ~0x0F and all(
+        mask & (1 << i) or (ranges[i] == 0 and statuses[i] == 0) for i in range(4))
+    return valid, {"t_ms": t_ms, "range_mm": list(ranges), "range_status": list(statuses),
+                   "present": mask}
+
+
+HEALTH_FORMAT = "<I4B16I7I4I7I"
+
+
+def _health(p):
+    f = struct.unpack(HEALTH_FORMAT, p)
+    msg = {"uptime_ms": f[0], "state": list(f[1:5])}
+    per_sensor = f[5:21]
+    for k, name in enumerate(["comm_errors", "timeouts", "flagged", "reinits"]):
+        msg[name] = [per_sensor[4 * s + k] for s in range(4)]
+    for name, value in zip(["bus_addr_nack", "bus_data_nack", "bus_busy", "bus_timeout",
+                            "bus_stuck", "bus_other", "bus_recoveries", "watchdog_resets",
+                            "loop_overruns", "loop_max_us", "tx_dropped"], f[21:32]):
+        msg[name] = value
+    for name, value in zip(COUNTER_NAMES, f[32:39]):
+        msg["rx_" + name] = value
+    valid = all(s < len(HEALTH_STATES) for s in msg["state"])
+    return valid, msg
+
+
+def _ack(p):
+    echo_seq, command, result = struct.unpack("<BBB", p)
+    return result < len(RESULTS), {"echo_seq": echo_seq, "command": command, "result": result}
+
+
+def _status(p):
+    (major, minor, patch, protocol, uptime, window_n, mode, estimator, running, raw,
+     period) = struct.unpack("<BBBBIHBBBBH", p)
+    valid = (protocol == PROTOCOL_VERSION and WINDOW_MIN <= window_n <= WINDOW_MAX
+             and mode < len(MODES) and estimator < len(ESTIMATORS) and running <= 1 and raw <= 1)
+    return valid, {"fw": (major, minor, patch), "protocol": protocol, "uptime_ms": uptime,
+                   "window_n": window_n, "mode": mode, "estimator": estimator,
+                   "running": running, "raw_stream": raw, "period_ms": period}
+
+
+def _set_window(p):
+    window_n, mode = struct.unpack("<HB", p)
+    return (WINDOW_MIN <= window_n <= WINDOW_MAX and mode < len(MODES),
+            {"window_n": window_n, "mode": mode})
+
+
+def _select_estimator(p):
+    return p[0] < len(ESTIMATORS), {"estimator": p[0]}
+
+
+def _raw_stream(p):
+    return p[0] <= 1, {"enable": p[0]}
+
+
+def _empty(_p):
+    return True, {}
+
+
+PARSERS = {T_ESTIMATE: _estimate, T_RAW_SAMPLE: _raw, T_HEALTH: _health, T_ACK: _ack,
+           T_STATUS: _status, T_SET_WINDOW: _set_window,
+           T_SELECT_ESTIMATOR: _select_estimator, T_START: _empty, T_STOP: _empty,
+           T_STATUS_REQUEST: _empty, T_RAW_STREAM: _raw_stream}
+
+
+def parse(ftype, payload):
+    """(fields dict or None, result): fields is None unless result is R_OK."""
+    info = TYPES.get(ftype)
+    if info is None:
+        return None, R_UNKNOWN_TYPE
+    if len(payload) != info[2]:
+        return None, R_BAD_LENGTH
+    valid, fields = PARSERS[ftype](payload)
+    return (fields, R_OK) if valid else (None, R_OUT_OF_RANGE)
+
+
+# --- text: the canonical line format (the C test helper prints the same) ----
+
+def fixed(value, scale_digits):
+    """Exact decimal text of value / 10**scale_digits ("-1.500000")."""
+    sign = "-" if value < 0 else ""
+    value = abs(value)
+    unit = 10 ** scale_digits
+    return "%s%d.%0*d" % (sign, value // unit, scale_digits, value % unit)
+
+
+def opt(value, fmt):
+    return "none" if value == NO_VALUE else fmt(value)
+
+
+def reason_text(reason):
+    names = [REASONS[b] for b in range(len(REASONS)) if reason & (1 << b)]
+    return "+".join(names) if names else "none"
+
+
+def sensors_text(mask):
+    return "".join(SENSORS[i] for i in range(4) if mask & (1 << i)) or "none"
+
+
+def command_name(ftype):
+    info = TYPES.get(ftype)
+    return info[0] if info and info[1] == ACCEPT_COMMANDS else "0x%02x" % ftype
+
+
+def format_message(ftype, seq, m):
+    name = TYPES[ftype][0]
+    head = "seq=%d " % seq
+    if ftype == T_ESTIMATE:
+        return head + (
+            "estimate t_ms=%d window=%d estimator=%s status=%s reason=%s sensors=%s "
+            "alpha_deg=%s beta_deg=%s distance_mm=%s flatness_um=%s" % (
+                m["t_ms"], m["window"], ESTIMATORS[m["estimator"]], STATUSES[m["status"]],
+                reason_text(m["reason"]), sensors_text(m["sensors"]),
+                opt(m["alpha_udeg"], lambda v: fixed(v, 6)),
+                opt(m["beta_udeg"], lambda v: fixed(v, 6)),
+                opt(m["distance_um"], lambda v: fixed(v, 3)),
+                opt(m["flatness_um"], str)))
+    if ftype == T_RAW_SAMPLE:
+        present = [m["present"] & (1 << i) for i in range(4)]
+        ranges = " ".join("%s_mm=%s" % (SENSORS[i].lower(),
+                                         m["range_mm"][i] if present[i] else "none")
+                          for i in range(4))
+        statuses = " ".join("%s_st=%s" % (SENSORS[i].lower(),
+                                           m["range_status"][i] if present[i] else "none")
+                            for i in range(4))
+        return head + "raw t_ms=%d %s %s" % (m["t_ms"], ranges, statuses)
+    if ftype == T_HEALTH:
+        parts = ["health uptime_ms=%d" % m["uptime_ms"],
+                 "state=" + ",".join(HEALTH_STATES[s] for s in m["state"])]
+        for key in ["comm_errors", "timeouts", "flagged", "reinits"]:
+            parts.append("%s=%s" % (key, ",".join(str(v) for v in m[key])))
+        for key in ["bus_addr_nack", "bus_data_nack", "bus_busy", "bus_timeout", "bus_stuck",
+                    "bus_other", "bus_recoveries", "watchdog_resets", "loop_overruns",
+                    "loop_max_us", "tx_dropped"] + ["rx_" + c for c in COUNTER_NAMES]:
+            parts.append("%s=%d" % (key, m[key]))
+        return head + " ".join(parts)
+    if ftype == T_ACK:
+        return head + "%s echo_seq=%d command=%s result=%s" % (
+            "ack" if m["result"] == 0 else "nack", m["echo_seq"], command_name(m["command"]),
+            RESULTS[m["result"]])
+    if ftype == T_STATUS:
+        return head + (
+            "status fw=%d.%d.%d protocol=%d uptime_ms=%d window_n=%d mode=%s estimator=%s "
+            "running=%s raw_stream=%s period_ms=%d" % (
+                m["fw"][0], m["fw"][1], m["fw"][2], m["protocol"], m["uptime_ms"],
+                m["window_n"], MODES[m["mode"]], ESTIMATORS[m["estimator"]],
+                "yes" if m["running"] else "no", "yes" if m["raw_stream"] else "no",
+                m["period_ms"]))
+    if ftype == T_SET_WINDOW:
+        return head + "set-window window_n=%d mode=%s" % (m["window_n"], MODES[m["mode"]])
+    if ftype == T_SELECT_ESTIMATOR:
+        return head + "select-estimator estimator=%s" % ESTIMATORS[m["estimator"]]
+    if ftype == T_RAW_STREAM:
+        return head + "raw-stream enable=%s" % ("on" if m["enable"] else "off")
+    return head + name
+
+
+def format_reject(ftype, seq, length, result):
+    return "seq=%d rejected type=0x%02x length=%d reason=%s" % (seq, ftype, length,
+                                                              RESULTS[result])
+
+
+def format_counters(counters):
+    return "# " + " ".join("%s=%d" % (k, counters[k]) for k in COUNTER_NAMES)
+
+
+# --- commands from text (--send) ---------------------------------------------
+
+def command_payload(text):
+    """(type, payload) of a command line such as "set-window 50 sliding"."""
+    words = text.split()
+    if not words:
+        raise ProtocolError("empty command")
+    verb, args = words[0].lower(), words[1:]
+
+    def expect(count_min, count_max, usage):
+        if not count_min <= len(args) <= count_max:
+            raise ProtocolError("'%s': usage: %s" % (text, usage))
+
+    if verb == "set-window":
+        expect(1, 2, "set-window N [tumbling|sliding]")
+        try:
+            window_n = int(args[0], 10)
+        except ValueError:
+            raise ProtocolError("'%s': window N '%s' is not an integer" % (text, args[0])) from None
+        if not WINDOW_MIN <= window_n <= WINDOW_MAX:
+            raise ProtocolError("'%s': window N must be %d..%d, got %d"
+                                % (text, WINDOW_MIN, WINDOW_MAX, window_n))
+        mode = args[1].lower() if len(args) > 1 else "tumbling"
+        if mode not in MODES:
+            raise ProtocolError("'%s': mode must be tumbling or sliding, got '%s'" % (text, mode))
+        return T_SET_WINDOW, struct.pack("<HB", window_n, MODES.index(mode))
+    if verb in ("estimator", "select-estimator"):
+        expect(1, 1, "estimator consensus|consensus-paper|kalman|mean")
+        name = args[0].lower()
+        if name not in ESTIMATORS:
+            raise ProtocolError("'%s': estimator must be one of %s, got '%s'"
+                                % (text, ", ".join(ESTIMATORS), name))
+        return T_SELECT_ESTIMATOR, bytes([ESTIMATORS.index(name)])
+    if verb in ("start", "stop", "status", "status-request"):
+        expect(0, 0, verb)
+        return {"start": T_START, "stop": T_STOP}.get(verb, T_STATUS_REQUEST), b""
+    if verb in ("raw", "raw-stream"):
+        expect(1, 1, "raw on|off")
+        if args[0].lower() not in ("on", "off"):
+            raise ProtocolError("'%s': raw takes on or off, got '%s'" % (text, args[0]))
+        return T_RAW_STREAM, bytes([1 if args[0].lower() == "on" else 0])
+    raise ProtocolError("unknown command '%s' (set-window, estimator, start, stop, status, raw)"
+                        % verb)
+
+
+def encode_commands(texts, first_seq=0):
+    out = bytearray()
+    for i, text in enumerate(texts):
+        ftype, payload = command_payload(text)
+        out += encode_frame(ftype, (first_seq + i) & 0xFF, payload)
+    return bytes(out)
+
+
+# --- output sinks -------------------------------------------------------------
+
+ESTIMATE_CSV = ["t_ms", "alpha_deg", "beta_deg", "distance_mm", "status", "estimator", "window",
+                "reason", "sensors", "flatness_um", "seq"]
+RAW_CSV = ["t_ms", "a_mm", "b_mm", "c_mm", "d_mm", "a_st", "b_st", "c_st", "d_st", "seq"]
+
+
+class Printer:
+    """Turns decoder events into output lines and collects estimates to plot."""
+
+    def __init__(self, out, csv_type=None):
+        self.out = out
+        self.csv_type = csv_type
+        self.estimates = []
+        self.last_seq = None
+        self.lost_frames = 0
+        if csv_type == "estimate":
+            out.write(",".join(ESTIMATE_CSV) + "\n")
+        elif csv_type == "raw":
+            out.write(",".join(RAW_CSV) + "\n")
+
+    def _track_sequence(self, seq):
+        if self.last_seq is not None:
+            self.lost_frames += (seq - self.last_seq - 1) % 256
+        self.last_seq = seq
+
+    def handle(self, event, counters):
+        if event[0] == "reject":
+            _, ftype, seq, length, result = event
+            if self.csv_type is None:
+                self.out.write(format_reject(ftype, seq, length, result) + "\n")
+            return
+        _, ftype, seq, payload = event
+        self._track_sequence(seq)
+        fields, result = parse(ftype, payload)
+        if result != R_OK:
+            counters["out_of_range"] += result == R_OUT_OF_RANGE
+            if self.csv_type is None:
+                self.out.write(format_reject(ftype, seq, len(payload), result) + "\n")
+            return
+        if ftype == T_ESTIMATE:
+            self.estimates.append(fields)
+        if self.csv_type is None:
+            self.out.write(format_message(ftype, seq, fields) + "\n")
+        elif self.csv_type == "estimate" and ftype == T_ESTIMATE:
+            m = fields
+            invalid = m["status"] == 2
+            row = [str(m["t_ms"]),
+                   "" if invalid else fixed(m["alpha_udeg"], 6),
+                   "" if invalid else fixed(m["beta_udeg"], 6),
+                   "" if invalid else fixed(m["distance_um"], 3),
+                   STATUSES[m["status"]], ESTIMATORS[m["estimator"]], str(m["window"]),
+                   reason_text(m["reason"]), sensors_text(m["sensors"]),
+                   "" if m["flatness_um"] == NO_VALUE else str(m["flatness_um"]), str(seq)]
+            self.out.write(",".join(row) + "\n")
+        elif self.csv_type == "raw" and ftype == T_RAW_SAMPLE:
+            m = fields
+            present = [m["present"] & (1 << i) for i in range(4)]
+            row = ([str(m["t_ms"])]
+                   + [str(m["range_mm"][i]) if present[i] else "" for i in range(4)]
+                   + [str(m["range_status"][i]) if present[i] else "" for i in range(4)]
+                   + [str(seq)])
+            self.out.write(",".join(row) + "\n")
+
+
+def plot_estimates(estimates, path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (ax_angle, ax_dist) = plt.subplots(2, 1, sharex=True, figsize=(10, 6))
+    for est_id, name in enumerate(ESTIMATORS):
+        rows = [e for e in estimates if e["estimator"] == est_id and e["status"] != 2]
+        if not rows:
+            continue
+        t = [e["t_ms"] / 1000.0 for e in rows]
+        ax_angle.plot(t, [e["alpha_udeg"] / 1e6 for e in rows], label="alpha " + name)
+        ax_angle.plot(t, [e["beta_udeg"] / 1e6 for e in rows], "--", label="beta " + name)
+        ax_dist.plot(t, [e["distance_um"] / 1000.0 for e in rows], label=name)
+        degraded = [e for e in rows if e["status"] == 1]
+        if degraded:
+            ax_angle.plot([e["t_ms"] / 1000.0 for e in degraded],
+                          [e["alpha_udeg"] / 1e6 for e in degraded], "x", color="red",
+                          label="degraded (%s)" % name)
+    invalid = [e["t_ms"] / 1000.0 for e in estimates if e["status"] == 2]
+    for t in invalid:
+        ax_angle.axvline(t, color="grey", alpha=0.3, linewidth=0.8)
+    ax_angle.set_ylabel("angle [deg]")
+    ax_angle.set_title("Estimates (%d; %d invalid, grey lines)" % (len(estimates), len(invalid)))
+    ax_angle.legend(fontsize="small")
+    ax_angle.grid(True, alpha=0.3)
+    ax_dist.set_ylabel("distance [mm]")
+    ax_dist.set_xlabel("t [s]")
+    ax_dist.legend(fontsize="small")
+    ax_dist.grid(True, alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+
+
+# --- sources --------------------------------------------------------------------
+
+def run_stream(chunks, decoder, printer, idle_flush=None):
+    """Decode chunks (bytes; b"" means the line was idle) until exhausted."""
+    for chunk in chunks:
+        if chunk:
+            events = decoder.feed(chunk)
+        elif idle_flush and decoder.pending():
+            events = decoder.flush()
+        else:
+            continue
+        for event in events:
+            printer.handle(event, decoder.counters)
+    for event in decoder.flush():
+        printer.handle(event, decoder.counters)
+
+
+def file_chunks(path, size=65536):
+    with open(path, "rb") as f:
+        while True:
+            chunk = f.read(size)
+            if not chunk:
+                return
+            yield chunk
+
+
+def serial_chunks(port, duration, idle_s=0.2):
+    """Read until `duration` seconds pass (None: until Ctrl-C); b"" after an idle gap."""
+    deadline = None if duration is None else time.monotonic() + duration
+    last_data = time.monotonic()
+    while deadline is None or time.monotonic() < deadline:
+        data = port.read(4096)
+        now = time.monotonic()
+        if data:
+            last_data = now
+            yield data
+        elif now - last_data >= idle_s:
+            last_data = now
+            yield b""
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(
+        description="Decode the ToF firmware's binary telemetry (docs/telemetry.md).")
+    src = ap.add_mutually_exclusive_group(required=True)
+    src.add_argument("--port", help="serial device, e.g. /dev/ttyACM0")
+    src.add_argument("--file", help="capture file of raw telemetry bytes")
+    src.add_argument("--write-commands", metavar="FILE",
+                     help="write the --send commands as frames to FILE and exit")
+    ap.add_argument("--baud", type=int, default=115200, help="serial baud rate (115200)")
+    ap.add_argument("--duration", type=float, help="seconds to read from --port (default: until Ctrl-C)")
+    ap.add_argument("--send", action="append", default=[], metavar="CMD",
+                    help='command to send first, e.g. "set-window 50 sliding" (repeatable)')
+    ap.add_argument("--csv", action="store_true", help="CSV instead of one line per message")
+    ap.add_argument("--type", choices=["estimate", "raw"], default="estimate",
+                    help="message type written as CSV (estimate)")
+    ap.add_argument("--plot", metavar="PNG", help="plot the estimates over time into PNG")
+    ap.add_argument("--strict", action="store_true",
+                    help="exit with status 1 if any malformed frame was seen")
+    args = ap.parse_args(argv)
+
+    try:
+        commands = encode_commands(args.send)
+    except ProtocolError as e:
+        ap.exit(1, "tof_telemetry: --send %s\n" % e)
+    if args.write_commands:
+        if not args.send:
+            ap.exit(1, "tof_telemetry: --write-commands needs at least one --send\n")
+        with open(args.write_commands, "wb") as f:
+            f.write(commands)
+        return 0
+    if args.send and not args.port:
+        ap.exit(1, "tof_telemetry: --send needs --port (or --write-commands)\n")
+
+    decoder = Decoder(ACCEPT_ALL)
+    printer = Printer(sys.stdout, "estimate" if args.csv and args.type == "estimate"
+                      else "raw" if args.csv else None)
+    try:
+        if args.file:
+            if not os.path.isfile(args.file):
+                ap.exit(1, "tof_telemetry: %s: no such file\n" % args.file)
+            run_stream(file_chunks(args.file), decoder, printer)
+        else:
+            try:
+                import serial
+            except ImportError:
+                ap.exit(1, "tof_telemetry: --port needs python3-serial (tools/setup.sh); "
+                           "run with /usr/bin/python3\n")
+            try:
+                port = serial.Serial(args.port, args.baud, timeout=0.05)
+            except serial.SerialException as e:
+                ap.exit(1, "tof_telemetry: %s: %s\n" % (args.port, e))
+            with port:
+                if commands:
+                    port.write(commands)
+                try:
+                    run_stream(serial_chunks(port, args.duration), decoder, printer,
+                               idle_flush=True)
+                except KeyboardInterrupt:
+                    for event in decoder.flush():
+                        printer.handle(event, decoder.counters)
+    except BrokenPipeError:
+        return 0
+    summary = format_counters(decoder.counters)
+    (sys.stderr if args.csv else sys.stdout).write(summary + "\n")
+    sys.stdout.flush()
+    if printer.lost_frames:
+        sys.stderr.write("# lost_frames=%d (sequence gaps)\n" % printer.lost_frames)
+    if args.plot:
+        try:
+            plot_estimates(printer.estimates, args.plot)
+        except ImportError:
+            ap.exit(1, "tof_telemetry: --plot needs python3-matplotlib; run with /usr/bin/python3\n")
+    malformed = sum(decoder.counters[k] for k in COUNTER_NAMES
+                    if k not in ("frames_ok", "discarded_bytes"))
+    return 1 if args.strict and malformed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
