@@ -289,6 +289,8 @@ static void test_realnoise(void **state) {
         assert_close(mean, 0.0, 0.03); /* centred on its own mean, dither unbiased */
         assert_true(sd > 1.9 && sd < 2.5);
         assert_true(r.info[0].sigma_mm[k] > 1.9 && r.info[0].sigma_mm[k] < 2.5);
+        /* The recording wanders slowly: a per-window offset of a few tenths of a mm. */
+        assert_true(r.info[0].offset_sd_mm[k] > 0.05 && r.info[0].offset_sd_mm[k] < 1.0);
         /* The reported σ matches the measured one within 3 %. */
         double sig = 0.0;
         for (size_t i = 0; i < r.n; ++i) {
@@ -449,6 +451,27 @@ static void test_real_noise_file(void **state) {
     scene_real_noise_free(&rn);
 }
 
+/* Offset σ of a synthetic stretch: blocks of 100 readings alternately +1 and −1
+ * mm have sd 1 and block means ±1, so the slow part is sqrt(1 − 1/100). A
+ * constant-free alternating sequence (+1, −1, ...) has none. */
+static void test_stretch_offset_sd(void **state) {
+    (void)state;
+    static double readings[4u * 2000u];
+    for (size_t i = 0; i < 2000u; ++i) {
+        readings[i] = 50.0 + (((i / 100u) % 2u) ? 1.0 : -1.0); /* sensor A */
+        readings[2000u + i] = 50.0 + ((i % 2u) ? 1.0 : -1.0);  /* sensor B */
+        readings[4000u + i] = readings[6000u + i] = 50.0;
+    }
+    struct scene_real_noise rn = {readings, 8000u, 2000u};
+    struct scene_real_stretch st;
+    assert_int_equal(scene_real_stretch_init(&rn, 0, 0, 2000u, &st), 0);
+    assert_close(st.mean_mm, 50.0, 1e-12);
+    assert_close(st.sd_mm, 1.0, 1e-12);
+    assert_close(scene_real_stretch_offset_sd(&st, 2000u, 100u), sqrt(0.99), 1e-12);
+    assert_int_equal(scene_real_stretch_init(&rn, 1, 0, 2000u, &st), 0);
+    assert_close(scene_real_stretch_offset_sd(&st, 2000u, 100u), 0.0, 0.0);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_table1),
@@ -464,6 +487,7 @@ int main(void) {
         cmocka_unit_test(test_unknown_and_bad_configs),
         cmocka_unit_test(test_real_noise_loader_errors),
         cmocka_unit_test(test_real_noise_file),
+        cmocka_unit_test(test_stretch_offset_sd),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

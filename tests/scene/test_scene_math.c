@@ -321,6 +321,28 @@ static void test_crb_missing_sensors(void **state) {
     assert_int_equal(scene_crb(0.0, sigma, all, 0.0, 0.0, &crb), -1);
 }
 
+/* White σ plus a per-window offset σ_o: each sensor's window mean has variance
+ * σ²/n + σ_o², so with σ = 2, n = 100, σ_o = 0.3: sd(tan α) = sqrt(0.13/(2·30²))
+ * = 0.0084984; σ_o = 0 is the plain bound. */
+static void test_crb_with_offset(void **state) {
+    (void)state;
+    const double sigma[4] = {2.0, 2.0, 2.0, 2.0};
+    const double zero[4] = {0.0, 0.0, 0.0, 0.0};
+    const double offset[4] = {0.3, 0.3, 0.3, 0.3};
+    const uint32_t n[4] = {100, 100, 100, 100};
+    struct scene_crb plain;
+    struct scene_crb same;
+    struct scene_crb drift;
+    assert_int_equal(scene_crb(30.0, sigma, n, 1.0, 2.0, &plain), 0);
+    assert_int_equal(scene_crb_with_offset(30.0, sigma, zero, n, 1.0, 2.0, &same), 0);
+    assert_close(same.sd_alpha_deg, plain.sd_alpha_deg, 1e-15);
+    assert_close(same.sd_beta_deg, plain.sd_beta_deg, 1e-15);
+    assert_int_equal(scene_crb_with_offset(30.0, sigma, offset, n, 0.0, 0.0, &drift), 0);
+    assert_close(drift.sd_tan_alpha, 0.0084983659, 1e-9);
+    const double negative[4] = {0.3, -0.1, 0.3, 0.3};
+    assert_int_equal(scene_crb_with_offset(30.0, sigma, negative, n, 0.0, 0.0, &drift), -1);
+}
+
 /* The per-row form agrees with the counted form and skips invalid readings. */
 static void test_crb_rows(void **state) {
     (void)state;
@@ -372,6 +394,7 @@ int main(void) {
         cmocka_unit_test(test_crb_equal_noise),
         cmocka_unit_test(test_crb_hetero),
         cmocka_unit_test(test_crb_missing_sensors),
+        cmocka_unit_test(test_crb_with_offset),
         cmocka_unit_test(test_crb_rows),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -79,6 +79,30 @@ int scene_crb(double arm_mm, const double sigma_mm[SCENE_SENSORS],
     return finish(j, alpha_deg, beta_deg, out);
 }
 
+int scene_crb_with_offset(double arm_mm, const double sigma_mm[SCENE_SENSORS],
+                          const double offset_sd_mm[SCENE_SENSORS],
+                          const uint32_t n_valid[SCENE_SENSORS], double alpha_deg, double beta_deg,
+                          struct scene_crb *out) {
+    if (!(arm_mm > 0.0) || !isfinite(arm_mm) || !isfinite(alpha_deg) || !isfinite(beta_deg)) {
+        return -1;
+    }
+    double j[3][3];
+    memset(j, 0, sizeof j);
+    for (unsigned k = 0; k < SCENE_SENSORS; ++k) {
+        if (n_valid[k] == 0u) {
+            continue;
+        }
+        if (!(sigma_mm[k] > 0.0) || !isfinite(sigma_mm[k]) || !(offset_sd_mm[k] >= 0.0) ||
+            !isfinite(offset_sd_mm[k])) {
+            return -1;
+        }
+        const double var_mean =
+            sigma_mm[k] * sigma_mm[k] / (double)n_valid[k] + offset_sd_mm[k] * offset_sd_mm[k];
+        add_information(j, arm_mm, k, 1.0 / var_mean);
+    }
+    return finish(j, alpha_deg, beta_deg, out);
+}
+
 int scene_crb_rows(double arm_mm, const struct scene_row *rows,
                    const double (*sigma_mm)[SCENE_SENSORS], size_t n, struct scene_crb *out) {
     if (!(arm_mm > 0.0) || !isfinite(arm_mm) || n == 0u) {

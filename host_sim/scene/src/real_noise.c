@@ -195,3 +195,26 @@ int scene_real_stretch_init(const struct scene_real_noise *rn, unsigned sensor, 
 double scene_real_stretch_noise(const struct scene_real_stretch *st, size_t i) {
     return st->quarter[(st->offset + i) % st->quarter_len] - st->mean_mm;
 }
+
+double scene_real_stretch_offset_sd(const struct scene_real_stretch *st, size_t len,
+                                    size_t window) {
+    if (window == 0u || len / window < 2u) {
+        return 0.0;
+    }
+    const size_t blocks = len / window;
+    double sum = 0.0;
+    double sum2 = 0.0;
+    for (size_t b = 0; b < blocks; ++b) {
+        double m = 0.0;
+        for (size_t i = 0; i < window; ++i) {
+            m += scene_real_stretch_noise(st, b * window + i);
+        }
+        m /= (double)window;
+        sum += m;
+        sum2 += m * m;
+    }
+    const double mean = sum / (double)blocks;
+    const double var_means = sum2 / (double)blocks - mean * mean;
+    const double excess = var_means - st->sd_mm * st->sd_mm / (double)window;
+    return excess > 0.0 ? sqrt(excess) : 0.0;
+}

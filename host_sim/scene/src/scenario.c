@@ -222,6 +222,8 @@ static int start(struct scene_gen *gen, const struct scene_config *cfg, uint64_t
         if (scene_real_stretch_init(gen->real, k, offset, len, &gen->stretch[k]) != 0) {
             return bad(err, errlen, cfg->name, "cannot take a stretch of the recording");
         }
+        gen->offset_sd_mm[k] =
+            scene_real_stretch_offset_sd(&gen->stretch[k], len, cfg->samples_per_position);
     }
     return 0;
 }
@@ -341,6 +343,7 @@ int scene_gen_next(struct scene_gen *gen, struct scene_row *row, struct scene_ro
         if (info != NULL) {
             info->ideal_mm[k] = ideal[k];
             info->sigma_mm[k] = sigma;
+            info->offset_sd_mm[k] = gen->offset_sd_mm[k];
         }
         if ((int)k == gen->missing_sensor) {
             row->present[k] = false;

@@ -29,7 +29,17 @@ int scene_write_config(const struct scene_config *cfg, uint64_t seed, FILE *f, c
                  cfg->noise[0].sigma_mm, cfg->noise[1].sigma_mm, cfg->noise[2].sigma_mm,
                  cfg->noise[3].sigma_mm);
     }
-    const char *const meta[] = {scenario, seed_kv, mean_kv, window_kv, noise_kv, NULL};
+    /* For real noise, where in the recording each sensor's stretch starts (reading
+     * index inside that sensor's quarter), so the trace can be traced back. */
+    char stretch_kv[120] = "";
+    if (cfg->real_noise) {
+        snprintf(stretch_kv, sizeof stretch_kv,
+                 "noise_stretch=quarter %zu readings; offsets A=%zu B=%zu C=%zu D=%zu",
+                 gen.stretch[0].quarter_len, gen.stretch[0].offset, gen.stretch[1].offset,
+                 gen.stretch[2].offset, gen.stretch[3].offset);
+    }
+    const char *const meta[] = {
+        scenario, seed_kv, mean_kv, window_kv, noise_kv, cfg->real_noise ? stretch_kv : NULL, NULL};
     int rc = 0;
     if (trace_write_header(f, cfg->arm_mm, cfg->period_ms, meta) != 0) {
         snprintf(err, errlen, "%s: cannot write the header: %s", path, strerror(errno));

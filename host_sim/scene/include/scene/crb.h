@@ -36,6 +36,18 @@ int scene_crb(double arm_mm, const double sigma_mm[SCENE_SENSORS],
               struct scene_crb *out);
 
 /*
+ * Bound when each sensor's noise over the window is white (sigma_mm[k]) plus a
+ * constant offset of standard deviation offset_sd_mm[k] (slow drift that a
+ * window cannot tell from the attitude): the window mean of sensor k is then
+ * sufficient, with variance sigma²/n + offset_sd², so J = Σ h hᵀ/(σ²/n + σ_o²).
+ * offset_sd_mm all 0 gives scene_crb(). Returns 0 or -1 like scene_crb().
+ */
+int scene_crb_with_offset(double arm_mm, const double sigma_mm[SCENE_SENSORS],
+                          const double offset_sd_mm[SCENE_SENSORS],
+                          const uint32_t n_valid[SCENE_SENSORS], double alpha_deg, double beta_deg,
+                          struct scene_crb *out);
+
+/*
  * Bound for the window rows[0..n): only valid readings (present, status 0)
  * count, each weighted by its own sigma_mm[i][k]; the angles converted at the
  * mean ground truth of the rows (which must all have it). Returns 0 or -1.

@@ -52,7 +52,10 @@ struct scene_row_info {
     uint32_t position;              /* index of the attitude / window */
     double ideal_mm[SCENE_SENSORS]; /* noise-free distances */
     double sigma_mm[SCENE_SENSORS]; /* true std of this reading's noise incl. quantisation */
-    bool outlier[SCENE_SENSORS];    /* a gross outlier was added (status 0) */
+    /* std of the slow part of the noise, which acts as an offset constant over a
+     * window (real noise only, else 0; see scene_crb_with_offset) */
+    double offset_sd_mm[SCENE_SENSORS];
+    bool outlier[SCENE_SENSORS]; /* a gross outlier was added (status 0) */
 };
 
 struct scene_gen {
@@ -68,7 +71,8 @@ struct scene_gen {
     struct scene_real_noise real_owned;  /* recording loaded by scene_gen_init */
     const struct scene_real_noise *real; /* recording in use (real_noise only) */
     struct scene_real_stretch stretch[SCENE_SENSORS];
-    char err[256]; /* last failure of scene_gen_next */
+    double offset_sd_mm[SCENE_SENSORS]; /* scene_real_stretch_offset_sd of each stretch */
+    char err[256];                      /* last failure of scene_gen_next */
 };
 
 /* Names of the built-in scenarios, NULL-terminated: table1, table2, hetero,
