@@ -1,0 +1,222 @@
+/*
+ * VL53L1X-class Time-of-Flight sensor driver over hal/ (I²C, GPIO, time).
+ *
+ * One `struct vl53_dev` (mutable state) per sensor, bound to one const
+ * `struct vl53_config` (bus, address, pins, timing); any number of sensors, no
+ * globals. Every call returns HAL_OK or a negative hal_err code passed up
+ * unchanged from the bus, and every call is bounded in time:
+ *   - vl53_wait_boot():  the later of power-up + VL53_BOOT_TIME_MAX_US + VL53_BOOT_SLACK_US
+ *                        and call start + VL53_BOOT_POLL_US, plus one transfer;
+ *   - vl53_configure():  configure_budget_us plus one transfer;
+ *   - every other call:  call_budget_us plus one transfer,
+ * where "one transfer" is the wire time of the call's longest single transfer (the
+ * hal_i2c contract: a transfer never takes longer than its timeout plus its wire time,
+ * and the driver never passes a timeout beyond what is left of the call's budget).
+ * Register facts and their sources: vl53_regs.h. Details and limits: docs/driver.md.
+ */
+#ifndef VL53_H
+#define VL53_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "hal/hal_gpio.h"
+#include "hal/hal_i2c.h"
+#include "hal/hal_time.h"
+#include "vl53/vl53_regs.h"
+
+/* A pin number meaning "not wired". */
+#define VL53_PIN_NONE 0xFFFFu
+
+/* Boot takes at most 1.2 ms after XSHUT rises ([DS] power-up sequence, [I4]). */
+#define VL53_BOOT_TIME_MAX_US 1200u
+/* Our margin on top of it (clock tolerance, the last poll's transfer). */
+#define VL53_BOOT_SLACK_US 300u
+/* Boot-state poll interval while waiting. */
+#define VL53_BOOT_POLL_US 100u
+/* Inter-measurement period must exceed the timing budget by at least this much ([I4], [ULD]). */
+#define VL53_IMP_MARGIN_MS 4u
+/* Largest inter-measurement period accepted (keeps the 32-bit register from overflowing). */
+#define VL53_IMP_MAX_MS 10000u
+
+/* Defaults used when a config field is 0. */
+#define VL53_DEFAULT_I2C_TIMEOUT_US      2000u
+#define VL53_DEFAULT_CALL_BUDGET_US      10000u
+#define VL53_DEFAULT_CONFIGURE_BUDGET_US 50000u
+#define VL53_DEFAULT_POLL_INTERVAL_US    1000u
+/* Extra time past the expected measurement before vl53_poll() reports data overdue. */
+#define VL53_DATA_SLACK_US 2000u
+
+/* ULD range status codes ([ULD] UM2510 "range status"); 255 = raw code ST does not map. */
+enum vl53_range_status {
+    VL53_RANGE_VALID = 0,
+    VL53_RANGE_SIGMA_FAIL = 1,
+    VL53_RANGE_SIGNAL_FAIL = 2,
+    VL53_RANGE_MIN_RANGE = 3, /* target below minimum detection range (clipped) */
+    VL53_RANGE_OUT_OF_BOUNDS = 4,
+    VL53_RANGE_HARDWARE_FAIL = 5,
+    VL53_RANGE_WRAP_AROUND = 7,
+    /* 6 and 9..13 are further ULD codes ST documents only as "not valid"; passed as numbers. */
+    VL53_RANGE_UNKNOWN = 255,
+};
+
+enum vl53_distance_mode {
+    VL53_DISTANCE_SHORT = 1, /* up to ~1.3 m, better in ambient light */
+    VL53_DISTANCE_LONG = 2,  /* up to ~4 m */
+};
+
+enum vl53_polarity {
+    VL53_INT_ACTIVE_HIGH = 0, /* GPIO1 / TIO status bit 0 high when data is ready */
+    VL53_INT_ACTIVE_LOW = 1,
+};
+
+/* Ranging timing: one of the ULD budgets, and a period at least budget + 4 ms. */
+struct vl53_timing {
+    enum vl53_distance_mode mode;
+    uint16_t budget_ms;            /* 15 (short mode only), 20, 33, 50, 100, 200, 500 */
+    uint32_t inter_measurement_ms; /* budget_ms + VL53_IMP_MARGIN_MS .. VL53_IMP_MAX_MS */
+};
+
+/* Per-sensor constant configuration. Fields documented "0: default" take the VL53_DEFAULT_*. */
+struct vl53_config {
+    struct hal_i2c i2c;
+    struct hal_gpio gpio; /* XSHUT output and GPIO1 input; ops may be NULL if neither is wired */
+    struct hal_time time;
+    uint8_t address;    /* 7-bit address this sensor is moved to (0x08..0x77, not 0x29) */
+    uint16_t xshut_pin; /* VL53_PIN_NONE: XSHUT not under our control */
+    uint16_t gpio1_pin; /* VL53_PIN_NONE: data ready read from GPIO__TIO_HV_STATUS */
+    enum vl53_polarity polarity;
+    struct vl53_timing timing;
+    uint32_t i2c_timeout_us;      /* per transfer (clock stretching), 0: default */
+    uint32_t call_budget_us;      /* per call, 0: default */
+    uint32_t configure_budget_us; /* for vl53_configure(), 0: default */
+    uint32_t poll_interval_us;    /* least gap between data-ready register reads, 0: default */
+    /* Re-read the distance after each result and compare: catches bit errors in the
+     * distance field (the part has no CRC) for one 2-byte read per sample. */
+    bool verify_distance;
+    /* The vendor's 91-byte default configuration for 0x2D..0x87, or NULL. A real VL53L1X
+     * needs it (ST does not publish its meaning; see docs/driver.md); the device model
+     * does not. When given, vl53_configure() writes it and runs the first-range VHV step. */
+    const uint8_t *vendor_default_config;
+};
+
+/* One measurement as read from the result block. */
+struct vl53_result {
+    uint16_t distance_mm;
+    uint8_t range_status;  /* enum vl53_range_status (ULD code) */
+    uint8_t raw_status;    /* low 5 bits of RESULT__RANGE_STATUS */
+    uint8_t stream_count;  /* RESULT__STREAM_COUNT */
+    uint8_t missed;        /* measurements completed but never read since the previous result */
+    uint8_t spad_count;    /* effective SPADs (integer part) */
+    uint32_t signal_kcps;  /* peak signal rate, crosstalk corrected */
+    uint32_t ambient_kcps; /* ambient rate */
+    uint32_t time_us;      /* hal_time when the block was read */
+};
+
+/* Mutable per-sensor state. Treat as opaque; read it only through the functions below. */
+struct vl53_dev {
+    const struct vl53_config *cfg;
+    struct vl53_timing timing; /* active timing (config's until changed) */
+    uint8_t address;           /* where the sensor answers now */
+    bool ranging;
+    bool have_stream; /* last_stream holds the stream count of an accepted result */
+    uint8_t last_stream;
+    uint32_t power_up_us; /* when XSHUT rose (or attach time) */
+    uint32_t ranging_start_us;
+    uint32_t last_result_us;   /* read time of the last accepted result (or ranging start) */
+    uint32_t data_deadline_us; /* poll reports HAL_ERR_TIMEOUT once this passes with no data */
+    uint32_t next_register_poll_us;
+};
+
+/*
+ * Bind `dev` to `cfg` (kept by pointer) and validate the configuration; no bus access.
+ * The sensor is assumed to answer at VL53_DEFAULT_ADDRESS, not ranging. HAL_ERR_INVALID
+ * names nothing itself: see vl53_config_check() for which field is wrong.
+ */
+int vl53_attach(struct vl53_dev *dev, const struct vl53_config *cfg);
+
+/* The first invalid field of `cfg` as a static string ("address", "timing", ...), or NULL. */
+const char *vl53_config_check(const struct vl53_config *cfg);
+
+/* HAL_OK if `timing` is a combination the part supports, else HAL_ERR_INVALID. */
+int vl53_timing_check(const struct vl53_timing *timing);
+
+/* Drive XSHUT low: the part powers down and forgets its address and configuration. */
+int vl53_shutdown(struct vl53_dev *dev);
+
+/* Drive XSHUT high and note the time: the part boots at VL53_DEFAULT_ADDRESS. */
+int vl53_power_up(struct vl53_dev *dev);
+
+/*
+ * Wait until FIRMWARE__SYSTEM_STATUS reports booted at the current address, returning by
+ * the later of power-up + 1.5 ms and call start + VL53_BOOT_POLL_US, plus one transfer. HAL_OK;
+ * HAL_ERR_TIMEOUT if the part answered but never booted; otherwise the last bus error
+ * (HAL_ERR_ADDR_NACK: nothing answered, e.g. a missing sensor).
+ */
+int vl53_wait_boot(struct vl53_dev *dev);
+
+/* Read the model ID into *model_id (if not NULL); HAL_ERR_ID_MISMATCH unless 0xEACC. */
+int vl53_identify(struct vl53_dev *dev, uint16_t *model_id);
+
+/*
+ * Move the part to 7-bit `new_address` and confirm its model ID there. On a failed write
+ * the driver keeps the old address; on a failed confirmation it assumes the new one.
+ */
+int vl53_set_address(struct vl53_dev *dev, uint8_t new_address);
+
+/*
+ * Stop ranging and write the default configuration (docs/driver.md): interrupt polarity,
+ * distance mode, timing budget and inter-measurement period from the config, each region
+ * read back and compared (HAL_ERR_CORRUPT on a mismatch). Leaves ranging stopped.
+ */
+int vl53_configure(struct vl53_dev *dev);
+
+/* Change the timing (ranging must be stopped: HAL_ERR_STATE). Invalid combos: HAL_ERR_INVALID
+ * before any bus access. */
+int vl53_set_timing(struct vl53_dev *dev, const struct vl53_timing *timing);
+/* Same, changing one parameter of the active timing. */
+int vl53_set_distance_mode(struct vl53_dev *dev, enum vl53_distance_mode mode);
+int vl53_set_timing_budget(struct vl53_dev *dev, uint16_t budget_ms);
+int vl53_set_inter_measurement(struct vl53_dev *dev, uint32_t period_ms);
+
+/* Clear any pending interrupt and start timed ranging. */
+int vl53_start_ranging(struct vl53_dev *dev);
+/* Stop ranging. */
+int vl53_stop_ranging(struct vl53_dev *dev);
+
+/* Data ready from GPIO__TIO_HV_STATUS (one 1-byte register read), polarity-aware. */
+int vl53_data_ready(struct vl53_dev *dev, bool *ready);
+/* Data ready from the GPIO1 pin (no bus traffic), polarity-aware; HAL_ERR_INVALID if unwired. */
+int vl53_gpio1_ready(struct vl53_dev *dev, bool *ready);
+
+/*
+ * Read and check the 17-byte result block. HAL_OK with *result filled; HAL_ERR_CORRUPT
+ * (result still filled) when the raw status is one ST does not map, the stream count did
+ * not advance (stale block) or advanced inconsistently with the time elapsed, or the
+ * distance re-read (verify_distance) differs. Does not clear the interrupt.
+ */
+int vl53_read_result(struct vl53_dev *dev, struct vl53_result *result);
+
+/* Write SYSTEM__INTERRUPT_CLEAR: arms the next data-ready. */
+int vl53_clear_interrupt(struct vl53_dev *dev);
+
+/*
+ * Non-blocking acquisition step. HAL_ERR_NOT_READY (quickly, no bus traffic when GPIO1 is
+ * wired or the next measurement is not yet due) if there is no new data; HAL_ERR_TIMEOUT if
+ * data is overdue (no result for 2 periods + VL53_DATA_SLACK_US); else reads the result
+ * (vl53_read_result), clears the interrupt and returns the first error of the two (the
+ * result is filled whenever the read succeeded). HAL_ERR_STATE if not ranging.
+ */
+int vl53_poll(struct vl53_dev *dev, struct vl53_result *result);
+
+/* ULD range status for a raw RESULT__RANGE_STATUS value (masked to 5 bits). */
+uint8_t vl53_range_status_from_raw(uint8_t raw);
+
+/* Measurement period in µs of `timing`: max(budget, inter-measurement period). */
+uint32_t vl53_period_us(const struct vl53_timing *timing);
+
+/* The address the sensor answers at now, and whether it is ranging. */
+uint8_t vl53_current_address(const struct vl53_dev *dev);
+bool vl53_is_ranging(const struct vl53_dev *dev);
+
+#endif /* VL53_H */

@@ -1,0 +1,116 @@
+/*
+ * VL53L1X register map: only the registers this driver and the device model use.
+ *
+ * Sources (facts only; no code was taken from them):
+ *   [DS]  ST VL53L1X datasheet, DocID031281 (rev 2/3): 16-bit big-endian
+ *         register index, default 8-bit address 0x52 (7-bit 0x29), boot time.
+ *   [ULD] ST VL53L1X Ultra Lite Driver (STSW-IMG009) VL53L1X_api.c/.h and its
+ *         user manual UM2510: register addresses, the timing-budget and
+ *         distance-mode register values, range-status mapping, result layout.
+ *   [API] ST VL53L1 full API core (vl53l1_core.c, VL53L1_update_ll_driver_rd_state):
+ *         stream count behaviour.
+ *   [I4]  issue 4 of this project, which lists the register facts it relies on.
+ */
+#ifndef VL53_REGS_H
+#define VL53_REGS_H
+
+/* 7-bit I²C address every part answers at after boot ([DS] §4: 8-bit 0x52). */
+#define VL53_DEFAULT_ADDRESS 0x29u
+
+/* --- identification and boot ---------------------------------------------- */
+/* I2C_SLAVE__DEVICE_ADDRESS: write the new 7-bit address ([ULD] SetI2CAddress writes addr>>1). */
+#define VL53_REG_I2C_SLAVE_DEVICE_ADDRESS 0x0001u
+/* VHV_CONFIG__TIMEOUT_MACROP_LOOP_BOUND: [ULD] SensorInit writes 0x09 after the first range. */
+#define VL53_REG_VHV_CONFIG_TIMEOUT_MACROP_LOOP_BOUND 0x0008u
+#define VL53_VHV_LOOP_BOUND_TWO_BOUNDS                0x09u
+/* VHV_CONFIG__INIT: [ULD] SensorInit writes 0 ("start VHV from the previous temperature"). */
+#define VL53_REG_VHV_CONFIG_INIT 0x000Bu
+/* FIRMWARE__SYSTEM_STATUS: bit 0 set once the firmware has booted ([ULD] BootState, [I4]). */
+#define VL53_REG_FIRMWARE_SYSTEM_STATUS 0x00E5u
+#define VL53_FIRMWARE_BOOTED_BIT        0x01u
+/* IDENTIFICATION__MODEL_ID (16-bit read): 0xEACC on a VL53L1X ([ULD] GetSensorId, [I4]). */
+#define VL53_REG_IDENTIFICATION_MODEL_ID 0x010Fu
+#define VL53_MODEL_ID_VL53L1X            0xEACCu
+
+/* --- the vendor default-configuration block -------------------------------- */
+/* [ULD] SensorInit writes its 91-byte default configuration to 0x2D..0x87. */
+#define VL53_REG_DEFAULT_CONFIG_FIRST 0x002Du
+#define VL53_DEFAULT_CONFIG_LEN       91u
+
+/* --- interrupt / GPIO1 ------------------------------------------------------ */
+/* GPIO_HV_MUX__CTRL: bit 4 = 0 active-high, 1 active-low interrupt; bits 3:0 must be 0x1
+ * ([ULD] SetInterruptPolarity and the comment on 0x30 in its default configuration). */
+#define VL53_REG_GPIO_HV_MUX_CTRL         0x0030u
+#define VL53_GPIO_HV_MUX_POLARITY_LOW_BIT 0x10u
+#define VL53_GPIO_HV_MUX_LOW_NIBBLE       0x01u
+/* GPIO__TIO_HV_STATUS: bit 0 is the interrupt line level; data is ready when it equals the
+ * active level ([ULD] CheckForDataReady, [I4]). */
+#define VL53_REG_GPIO_TIO_HV_STATUS  0x0031u
+#define VL53_TIO_HV_STATUS_LEVEL_BIT 0x01u
+
+/* --- distance mode ([ULD] SetDistanceMode: short / long register values) ---- */
+#define VL53_REG_PHASECAL_CONFIG_TIMEOUT_MACROP 0x004Bu
+#define VL53_PHASECAL_SHORT                     0x14u
+#define VL53_PHASECAL_LONG                      0x0Au
+#define VL53_REG_RANGE_CONFIG_VCSEL_PERIOD_A    0x0060u
+#define VL53_REG_RANGE_CONFIG_VCSEL_PERIOD_B    0x0063u
+#define VL53_VCSEL_PERIOD_A_SHORT               0x07u
+#define VL53_VCSEL_PERIOD_B_SHORT               0x05u
+#define VL53_VCSEL_PERIOD_A_LONG                0x0Fu
+#define VL53_VCSEL_PERIOD_B_LONG                0x0Du
+#define VL53_REG_RANGE_CONFIG_VALID_PHASE_HIGH  0x0069u
+#define VL53_VALID_PHASE_HIGH_SHORT             0x38u
+#define VL53_VALID_PHASE_HIGH_LONG              0xB8u
+/* SD_CONFIG__WOI_SD0, WOI_SD1 (0x78, 0x79), INITIAL_PHASE_SD0, SD1 (0x7A, 0x7B). */
+#define VL53_REG_SD_CONFIG_WOI_SD0 0x0078u
+#define VL53_WOI_SD0_SHORT         0x07u
+#define VL53_WOI_SD1_SHORT         0x05u
+#define VL53_INITIAL_PHASE_SHORT   0x06u
+#define VL53_WOI_SD0_LONG          0x0Fu
+#define VL53_WOI_SD1_LONG          0x0Du
+#define VL53_INITIAL_PHASE_LONG    0x0Eu
+
+/* --- timing budget ([ULD] SetTimingBudgetInMs: 16-bit A and B macro-period timeouts) --- */
+#define VL53_REG_RANGE_CONFIG_TIMEOUT_MACROP_A 0x005Eu /* 16-bit, 0x5E..0x5F */
+#define VL53_REG_RANGE_CONFIG_TIMEOUT_MACROP_B 0x0061u /* 16-bit, 0x61..0x62 */
+
+/* --- inter-measurement period ---------------------------------------------- */
+/* SYSTEM__INTERMEASUREMENT_PERIOD (32-bit) = period_ms * clock_pll * 1.075, where clock_pll
+ * is RESULT__OSC_CALIBRATE_VAL & 0x3FF ([ULD] SetInterMeasurementInMs). */
+#define VL53_REG_SYSTEM_INTERMEASUREMENT_PERIOD 0x006Cu
+#define VL53_REG_RESULT_OSC_CALIBRATE_VAL       0x00DEu
+#define VL53_OSC_CALIBRATE_MASK                 0x03FFu
+#define VL53_IMP_FACTOR_PER_MILLE               1075u /* the 1.075 factor, in thousandths */
+
+/* --- ranging control ------------------------------------------------------- */
+/* SYSTEM__INTERRUPT_CLEAR: write 0x01 to clear the data-ready interrupt ([ULD], [I4]). */
+#define VL53_REG_SYSTEM_INTERRUPT_CLEAR 0x0086u
+#define VL53_INTERRUPT_CLEAR            0x01u
+/* SYSTEM__MODE_START: 0x40 starts timed (continuous) ranging, 0x00 stops ([ULD], [I4]). */
+#define VL53_REG_SYSTEM_MODE_START 0x0087u
+#define VL53_MODE_START_TIMED      0x40u
+#define VL53_MODE_STOP             0x00u
+
+/* --- result block ([ULD] GetResult reads 17 bytes from 0x0089) --------------- */
+#define VL53_REG_RESULT_RANGE_STATUS 0x0089u
+#define VL53_RESULT_BLOCK_LEN        17u
+/* Offsets inside the block (register address − 0x0089). */
+#define VL53_RESULT_OFS_RANGE_STATUS 0u /* RESULT__RANGE_STATUS, low 5 bits = raw status */
+#define VL53_RESULT_OFS_REPORT       1u /* RESULT__REPORT_STATUS (unused) */
+#define VL53_RESULT_OFS_STREAM_COUNT 2u /* RESULT__STREAM_COUNT (0x008B) */
+#define VL53_RESULT_OFS_SPADS        3u /* DSS_ACTUAL_EFFECTIVE_SPADS_SD0 (0x008C), 8.8: high byte */
+#define VL53_RESULT_OFS_AMBIENT      7u  /* AMBIENT_COUNT_RATE_MCPS_SD0 (0x0090), 9.7 MCPS */
+#define VL53_RESULT_OFS_DISTANCE     13u /* FINAL_CROSSTALK_CORRECTED_RANGE_MM_SD0 (0x0096) */
+#define VL53_RESULT_OFS_SIGNAL       15u /* PEAK_SIGNAL_COUNT_RATE_CROSSTALK_CORRECTED_MCPS_SD0 */
+#define VL53_REG_RESULT_DISTANCE     0x0096u
+#define VL53_RANGE_STATUS_RAW_MASK   0x1Fu
+/* [ULD] reports the 9.7-format MCPS rates times 8 as kcps (2^7 / 1000 ~ 1/8). */
+#define VL53_RATE_TO_KCPS_FACTOR 8u
+
+/*
+ * RESULT__STREAM_COUNT: 0 on the first range after a start, then +1 per range, wrapping
+ * from 0xFF to 0x80 (never back below 0x80 until ranging restarts) ([API]).
+ */
+#define VL53_STREAM_COUNT_WRAP_TO 0x80u
+
+#endif /* VL53_REGS_H */

@@ -1,0 +1,29 @@
+/*
+ * The simulator's own seeded integer PRNG (xorshift32, Marsaglia 2003,
+ * "Xorshift RNGs", J. Stat. Softw. 8(14), shifts 13/17/5): tiny, no float, the
+ * same sequence on every host and core.
+ */
+#ifndef SIM_PRNG_H
+#define SIM_PRNG_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+struct sim_prng {
+    uint32_t state;
+};
+
+/* Seed the generator; any seed is valid (0 is mapped to a fixed non-zero state). */
+void sim_prng_seed(struct sim_prng *prng, uint32_t seed);
+
+/* Next 32 random bits. */
+uint32_t sim_prng_next(struct sim_prng *prng);
+
+/* Uniform in 0..bound-1 (bound > 0), by multiply-shift (bias < bound / 2^32). */
+uint32_t sim_prng_below(struct sim_prng *prng, uint32_t bound);
+
+/* True with probability ppm / 1 000 000. Always draws one number, so the stream of
+ * draws does not depend on the probabilities. */
+bool sim_prng_chance_ppm(struct sim_prng *prng, uint32_t ppm);
+
+#endif /* SIM_PRNG_H */

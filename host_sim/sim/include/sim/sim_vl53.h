@@ -1,0 +1,132 @@
+/*
+ * Device model of a VL53L1X-class ToF sensor behind the simulated I²C bus: a
+ * register file with the side effects the driver relies on (boot delay after XSHUT
+ * rises, address change, start/stop, data ready one timing budget after start and
+ * then every period in simulated time, interrupt clear, the 17-byte result block
+ * with range status and stream count, GPIO1 output with polarity), fed by a
+ * struct sim_range_source. Integer only, no heap; built for Cortex-M as well.
+ * Register facts come from drivers/vl53/include/vl53/vl53_regs.h; what the model
+ * does not know about a real part is listed in docs/driver.md.
+ */
+#ifndef SIM_VL53_H
+#define SIM_VL53_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "sim/range_source.h"
+#include "sim/sim_clock.h"
+#include "sim/sim_fault.h"
+#include "sim/sim_gpio.h"
+#include "sim/sim_i2c.h"
+
+/* Registers 0x0000..0x01FF are modelled; other indices are protocol errors. */
+#define SIM_VL53_REG_SPACE 0x0200u
+/* At most this many measurements are computed one by one in a single catch-up; older
+ * ones (after a long unobserved stretch of simulated time) are skipped in bulk. */
+#define SIM_VL53_MAX_CATCH_UP 4096u
+
+enum sim_vl53_index_mode {
+    SIM_VL53_INDEX_PER_MEASUREMENT, /* 0, 1, 2, ... one per completed measurement (contract) */
+    SIM_VL53_INDEX_BY_TIME,         /* completion time / index_period_us: stays in step with a
+                                       trace across re-inits and restarts */
+};
+
+struct sim_vl53_config {
+    unsigned sensor;             /* passed to the range source (0..3 = A..D) */
+    bool xshut_wired;            /* false: XSHUT tied high, the part ignores the pin */
+    bool powered_at_start;       /* XSHUT pulled high before the MCU drives it (boots at t=0) */
+    uint32_t boot_us;            /* power-up -> booted (0: 1000; the datasheet max is 1200) */
+    uint32_t boot_silent_us;     /* no ACK during this first part of boot (0: 300) */
+    uint16_t osc_calibrate;      /* RESULT__OSC_CALIBRATE_VAL (0: 500, an arbitrary value) */
+    uint16_t model_id;           /* IDENTIFICATION__MODEL_ID (0: 0xEACC) */
+    bool ignores_address_change; /* defect: writes to 0x0001 are ACKed but change nothing */
+    uint16_t ambient_raw;        /* AMBIENT_COUNT_RATE_MCPS_SD0, 9.7 format (0: 64) */
+    enum sim_vl53_index_mode index_mode;
+    uint32_t index_period_us; /* for SIM_VL53_INDEX_BY_TIME */
+};
+
+/* A result the model wrote to its result block (for checks from outside). */
+struct sim_vl53_published {
+    bool valid;
+    uint16_t distance_mm;
+    uint8_t range_status; /* ULD code from the source */
+    uint8_t stream_count;
+    uint32_t sample_index;
+    uint64_t time_us;
+};
+
+struct sim_vl53_stats {
+    uint32_t measurements;      /* completed ranges, dropouts included */
+    uint32_t published;         /* results written to the result block */
+    uint32_t skipped;           /* measurements skipped in bulk (see SIM_VL53_MAX_CATCH_UP) */
+    uint32_t overruns;          /* published while the previous interrupt was still pending */
+    uint32_t dropouts;          /* the source said present = false: no result, no interrupt */
+    uint32_t protocol_errors;   /* accesses a real part would not make sense of (see .c) */
+    uint32_t readonly_writes;   /* writes to registers the model treats as read-only (ignored) */
+    uint32_t unmappable_status; /* source status with no raw code: published as raw 0 (ULD 255) */
+    uint32_t power_ups;         /* XSHUT rises and injected resets */
+    uint32_t injected_resets;
+    uint32_t address_changes;
+    uint32_t starts;
+    uint32_t stops;
+    uint32_t clears;
+};
+
+enum sim_vl53_drdy_stuck { SIM_VL53_DRDY_FREE, SIM_VL53_DRDY_STUCK_HIGH, SIM_VL53_DRDY_STUCK_LOW };
+
+struct sim_vl53 {
+    struct sim_vl53_config cfg;
+    struct sim_clock *clock;
+    struct sim_range_source source;
+    uint8_t regs[SIM_VL53_REG_SPACE];
+    bool powered;
+    bool booted;
+    uint64_t power_up_us;
+    uint8_t address;
+    uint16_t index; /* register index auto-increment pointer */
+    bool ranging;
+    uint64_t range_start_us;
+    uint64_t budget_us;
+    uint64_t period_us;
+    uint64_t completed; /* measurements completed since the start */
+    uint32_t next_sample_index;
+    bool stream_started;
+    uint8_t stream_count;
+    bool irq_pending;
+    enum sim_vl53_drdy_stuck drdy;
+    bool source_done; /* the source had no more samples: ranging produces nothing */
+    int source_error; /* first negative code from the source (0: none) */
+    struct sim_vl53_published published[2]; /* [0] newest */
+    struct sim_vl53_stats stats;
+};
+
+/* A model on `clock` reading `source` (NULL or ops NULL: a constant 100 mm, valid).
+ * Powered (and booting) at once if cfg->powered_at_start or !cfg->xshut_wired. */
+void sim_vl53_init(struct sim_vl53 *dev, const struct sim_vl53_config *cfg, struct sim_clock *clock,
+                   const struct sim_range_source *source);
+
+/* The model as a bus target. */
+struct sim_i2c_target sim_vl53_target(struct sim_vl53 *dev);
+
+/* Wire XSHUT (output of the MCU) and GPIO1 (input of the MCU) on `gpio`; pins may be
+ * >= SIM_GPIO_PINS to leave one unwired. Also sets the pins' idle level. 0 or -1. */
+int sim_vl53_wire(struct sim_vl53 *dev, struct sim_gpio *gpio, uint16_t xshut_pin,
+                  uint16_t gpio1_pin);
+
+/* XSHUT level change (what the GPIO model calls). */
+void sim_vl53_set_xshut(struct sim_vl53 *dev, bool high);
+
+/* GPIO1 level now (high when unpowered: the line's pull-up). */
+bool sim_vl53_gpio1_level(struct sim_vl53 *dev);
+
+/* Backdoor: apply a device fault (SIM_FAULT_RESET, _DRDY_HIGH, _DRDY_LOW) now. */
+bool sim_vl53_inject(struct sim_vl53 *dev, enum sim_fault_kind kind);
+
+/* Bring the model up to the clock's time (boot, measurements). */
+void sim_vl53_update(struct sim_vl53 *dev);
+
+/* Backdoor: a register as the bus would read it (no side effects, no statistics). */
+uint8_t sim_vl53_peek(struct sim_vl53 *dev, uint16_t reg);
+
+#endif /* SIM_VL53_H */
