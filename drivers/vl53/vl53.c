@@ -186,6 +186,7 @@ const char *vl53_config_check(const struct vl53_config *cfg) {
 static void forget_ranging(struct vl53_dev *dev) {
     dev->ranging = false;
     dev->have_stream = false;
+    dev->have_candidate = false;
 }
 
 int vl53_attach(struct vl53_dev *dev, const struct vl53_config *cfg) {
@@ -197,6 +198,8 @@ int vl53_attach(struct vl53_dev *dev, const struct vl53_config *cfg) {
     dev->address = VL53_DEFAULT_ADDRESS;
     forget_ranging(dev);
     dev->last_stream = 0u;
+    dev->candidate_stream = 0u;
+    dev->candidate_us = now_us(dev);
     dev->power_up_us = now_us(dev);
     dev->ranging_start_us = dev->power_up_us;
     dev->last_result_us = dev->power_up_us;
@@ -602,6 +605,7 @@ int vl53_start_ranging(struct vl53_dev *dev) {
     uint32_t period_us = vl53_period_us(&dev->timing);
     dev->ranging = true;
     dev->have_stream = false;
+    dev->have_candidate = false;
     dev->ranging_start_us = now;
     dev->last_result_us = now;
     /* First data is due one budget after the start; overdue two periods later. */
@@ -685,9 +689,14 @@ static void decode_result(const uint8_t *block, uint32_t time_us, struct vl53_re
     result->missed = 0u;
 }
 
-/* Plausibility of the stream count; updates the tracking state. */
+/*
+ * Plausibility of the stream count. A count that does not follow from the last accepted
+ * one is refused but remembered: when the next count follows from it, the sequence really
+ * jumped (e.g. the part restarted ranging) and is adopted, so one garbled count costs one
+ * refused result and a true discontinuity two.
+ */
 static int check_stream(struct vl53_dev *dev, struct vl53_result *result) {
-    uint32_t period_us = vl53_period_us(&dev->timing);
+    const uint32_t period_us = vl53_period_us(&dev->timing);
     uint32_t since = dev->have_stream ? dev->last_result_us : dev->ranging_start_us;
     uint32_t possible = ranges_possible(hal_time_elapsed_us(result->time_us, since), period_us);
     int advance;
@@ -701,12 +710,19 @@ static int check_stream(struct vl53_dev *dev, struct vl53_result *result) {
         advance = (int)result->stream_count + 1;
     }
     if (advance < 0 || (uint32_t)advance > possible) {
-        /* Inconsistent: resynchronise on this count so one bad read costs one error. */
-        dev->last_stream = result->stream_count;
-        dev->have_stream = true;
-        dev->last_result_us = result->time_us;
-        return HAL_ERR_CORRUPT;
+        int from_candidate =
+            dev->have_candidate ? stream_advance(dev->candidate_stream, result->stream_count) : -1;
+        uint32_t possible_from_candidate =
+            ranges_possible(hal_time_elapsed_us(result->time_us, dev->candidate_us), period_us);
+        if (from_candidate < 1 || (uint32_t)from_candidate > possible_from_candidate) {
+            dev->have_candidate = true;
+            dev->candidate_stream = result->stream_count;
+            dev->candidate_us = result->time_us;
+            return HAL_ERR_CORRUPT;
+        }
+        advance = from_candidate;
     }
+    dev->have_candidate = false;
     result->missed = (uint8_t)(advance - 1 > 255 ? 255 : advance - 1);
     return HAL_OK;
 }
@@ -719,6 +735,12 @@ static int read_result_in(const struct call *c, struct vl53_result *result) {
         return err;
     }
     decode_result(block, now_us(dev), result);
+    if (!dev->have_stream || result->stream_count != dev->last_stream) {
+        /* The part produced something new, even if it fails the checks below: data is not
+         * overdue (a stuck or dead part is what the deadline is for). */
+        dev->data_deadline_us =
+            result->time_us + 2u * vl53_period_us(&dev->timing) + VL53_DATA_SLACK_US;
+    }
     if (result->range_status == VL53_RANGE_UNKNOWN) {
         return HAL_ERR_CORRUPT; /* a raw status the part does not produce: garbled read */
     }
@@ -739,8 +761,6 @@ static int read_result_in(const struct call *c, struct vl53_result *result) {
     dev->last_stream = result->stream_count;
     dev->have_stream = true;
     dev->last_result_us = result->time_us;
-    dev->data_deadline_us =
-        result->time_us + 2u * vl53_period_us(&dev->timing) + VL53_DATA_SLACK_US;
     return HAL_OK;
 }
 

@@ -2,6 +2,7 @@
 
 void sim_clock_init(struct sim_clock *clock, uint64_t start_us) {
     clock->now_us = start_us;
+    clock->listener_count = 0u;
     clock->delay_calls = 0u;
     clock->delayed_us = 0u;
 }
@@ -10,8 +11,26 @@ uint64_t sim_clock_now(const struct sim_clock *clock) {
     return clock->now_us;
 }
 
+int sim_clock_listen(struct sim_clock *clock, void (*on_advance)(void *ctx), void *ctx) {
+    for (uint32_t i = 0; i < clock->listener_count; ++i) {
+        if (clock->listeners[i].on_advance == on_advance && clock->listeners[i].ctx == ctx) {
+            return 0;
+        }
+    }
+    if (clock->listener_count >= SIM_CLOCK_MAX_LISTENERS) {
+        return -1;
+    }
+    clock->listeners[clock->listener_count].on_advance = on_advance;
+    clock->listeners[clock->listener_count].ctx = ctx;
+    clock->listener_count++;
+    return 0;
+}
+
 void sim_clock_advance(struct sim_clock *clock, uint64_t us) {
     clock->now_us += us;
+    for (uint32_t i = 0; i < clock->listener_count; ++i) {
+        clock->listeners[i].on_advance(clock->listeners[i].ctx);
+    }
 }
 
 static uint32_t sim_time_now_us(void *ctx) {

@@ -503,6 +503,10 @@ int sim_vl53_wire(struct sim_vl53 *dev, struct sim_gpio *gpio, uint16_t xshut_pi
     return 0;
 }
 
+static void clock_advanced(void *ctx) {
+    sim_vl53_update(ctx);
+}
+
 void sim_vl53_init(struct sim_vl53 *dev, const struct sim_vl53_config *cfg, struct sim_clock *clock,
                    const struct sim_range_source *source) {
     dev->cfg = *cfg;
@@ -546,4 +550,6 @@ void sim_vl53_init(struct sim_vl53 *dev, const struct sim_vl53_config *cfg, stru
     if (!dev->cfg.xshut_wired || dev->cfg.powered_at_start) {
         power_up(dev);
     }
+    /* Run with the clock, so measurements complete (and GPIO1 rises) during delays too. */
+    (void)sim_clock_listen(clock, clock_advanced, dev);
 }

@@ -121,6 +121,9 @@ struct vl53_dev {
     bool ranging;
     bool have_stream; /* last_stream holds the stream count of an accepted result */
     uint8_t last_stream;
+    bool have_candidate; /* a refused stream count the next one may confirm */
+    uint8_t candidate_stream;
+    uint32_t candidate_us;
     uint32_t power_up_us; /* when XSHUT rose (or attach time) */
     uint32_t ranging_start_us;
     uint32_t last_result_us;   /* read time of the last accepted result (or ranging start) */

@@ -102,7 +102,8 @@ struct sim_vl53 {
 };
 
 /* A model on `clock` reading `source` (NULL or ops NULL: a constant 100 mm, valid).
- * Powered (and booting) at once if cfg->powered_at_start or !cfg->xshut_wired. */
+ * Powered (and booting) at once if cfg->powered_at_start or !cfg->xshut_wired. Registers
+ * itself as a clock listener, so it runs whenever simulated time advances. */
 void sim_vl53_init(struct sim_vl53 *dev, const struct sim_vl53_config *cfg, struct sim_clock *clock,
                    const struct sim_range_source *source);
 
