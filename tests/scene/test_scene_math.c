@@ -255,7 +255,7 @@ static void test_quantise_rejects_out_of_range(void **state) {
     assert_int_equal(scene_quantise_mm(-0.6, &mm), -1);
     assert_int_equal(mm, 7);
     assert_int_equal(scene_quantise_mm(65535.6, &mm), -1);
-    assert_int_equal(scene_quantise_mm(NAN, &mm), -1);
+    assert_int_equal(scene_quantise_mm((double)NAN, &mm), -1);
     assert_int_equal(scene_quantise_mm(-0.4, &mm), 0);
     assert_int_equal(mm, 0);
     assert_int_equal(scene_quantise_mm(65535.4, &mm), 0);

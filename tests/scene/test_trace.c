@@ -51,13 +51,35 @@ static long read_all(const char *text, size_t len) {
 
 /* The text must be rejected with a message starting "t.csv:<where>: " and
  * containing what. */
+static long read_all_mem(const char *text, size_t len) {
+    long rows = 0;
+    int rc = trace_reader_open_mem(&reader, text, len, "t.csv");
+    while (rc == 0) {
+        struct scene_row row;
+        const int got = trace_reader_next(&reader, &row);
+        if (got == 1) {
+            break;
+        }
+        if (got != 0) {
+            rc = -1;
+            break;
+        }
+        ++rows;
+    }
+    return rc == 0 ? rows : -1;
+}
+
+/* Both the FILE and the memory reader must reject text with the same message. */
 static void expect_error_n(const char *text, size_t len, const char *where, const char *what) {
-    assert_int_equal(read_all(text, len), -1);
     char prefix[64];
     snprintf(prefix, sizeof prefix, "t.csv:%s: ", where);
-    const char *err = trace_reader_error(&reader);
-    if (strncmp(err, prefix, strlen(prefix)) != 0 || strstr(err, what) == NULL) {
-        fail_msg("message '%s', want prefix '%s' and '%s'", err, prefix, what);
+    for (int mem = 0; mem < 2; ++mem) {
+        assert_int_equal(mem ? read_all_mem(text, len) : read_all(text, len), -1);
+        const char *err = trace_reader_error(&reader);
+        if (strncmp(err, prefix, strlen(prefix)) != 0 || strstr(err, what) == NULL) {
+            fail_msg("%s reader: message '%s', want prefix '%s' and '%s'", mem ? "memory" : "FILE",
+                     err, prefix, what);
+        }
     }
 }
 
@@ -120,6 +142,7 @@ static void test_happy_path(void **state) {
     assert_int_equal(trace_reader_next(&reader, &row), 1); /* stays ended */
     assert_int_equal(reader.rows, 4);
     fclose(f);
+    assert_int_equal(read_all_mem(text, strlen(text)), 4);
 }
 
 static void test_empty_file(void **state) {
@@ -342,7 +365,7 @@ static void test_writer_rejects_bad_input(void **state) {
     assert_int_equal(trace_write_row(f, &row), -1);
     row.status[2] = 0;
     row.has_alpha = true;
-    row.alpha_deg = NAN;
+    row.alpha_deg = (double)NAN;
     assert_int_equal(trace_write_row(f, &row), -1);
     fclose(f);
 }

@@ -46,7 +46,7 @@ int scene_write_config(const struct scene_config *cfg, uint64_t seed, FILE *f, c
         rc = -1;
     }
     while (rc == 0) {
-        struct scene_row row;
+        struct scene_row row = {0};
         const int got = scene_gen_next(&gen, &row, NULL, err, errlen);
         if (got == 1) {
             break;

@@ -55,11 +55,18 @@ static int next_line(struct trace_reader *r) {
             if (r->eof) {
                 break;
             }
-            r->block_len = fread(r->block, 1u, sizeof r->block, r->file);
+            if (r->file != NULL) {
+                r->block_len = fread(r->block, 1u, sizeof r->block, r->file);
+            } else {
+                const size_t left = r->mem_len - r->mem_pos;
+                r->block_len = left < sizeof r->block ? left : sizeof r->block;
+                memcpy(r->block, r->mem + r->mem_pos, r->block_len);
+                r->mem_pos += r->block_len;
+            }
             r->block_pos = 0;
             if (r->block_len == 0u) {
                 r->eof = true;
-                if (ferror(r->file)) {
+                if (r->file != NULL && ferror(r->file)) {
                     return fail_at(r, r->line_no + 1u, 1u, "read error");
                 }
                 break;
@@ -333,9 +340,22 @@ static int read_header_line(struct trace_reader *r) {
     return 0;
 }
 
+static int open_common(struct trace_reader *r, const char *name);
+
 int trace_reader_open(struct trace_reader *r, FILE *file, const char *name) {
     memset(r, 0, sizeof *r);
     r->file = file;
+    return open_common(r, name);
+}
+
+int trace_reader_open_mem(struct trace_reader *r, const void *data, size_t len, const char *name) {
+    memset(r, 0, sizeof *r);
+    r->mem = data;
+    r->mem_len = data != NULL ? len : 0u;
+    return open_common(r, name);
+}
+
+static int open_common(struct trace_reader *r, const char *name) {
     const size_t name_len = strlen(name);
     if (name_len < sizeof r->name) {
         memcpy(r->name, name, name_len + 1u);
@@ -561,7 +581,7 @@ int trace_load_file(const char *path, size_t max_rows, struct scene_row **rows, 
     size_t n = 0;
     size_t cap = 0;
     while (rc == 0) {
-        struct scene_row row;
+        struct scene_row row = {0};
         const int got = trace_reader_next(r, &row);
         if (got == 1) {
             break;

@@ -79,7 +79,7 @@ static int cmd_check(const char *path) {
     unsigned long long absent = 0;
     unsigned long long flagged = 0;
     while (rc == 0) {
-        struct scene_row row;
+        struct scene_row row = {0};
         const int got = trace_reader_next(&reader, &row);
         if (got == 1) {
             break;

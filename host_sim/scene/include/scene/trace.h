@@ -56,8 +56,10 @@ struct trace_meta {
 };
 
 struct trace_reader {
-    /* input */
+    /* input: a FILE, or a memory buffer when file is NULL */
     FILE *file;
+    const unsigned char *mem;
+    size_t mem_len, mem_pos;
     char name[256]; /* for messages (truncated with "..." if longer) */
     unsigned char block[TRACE_IO_BLOCK];
     size_t block_len, block_pos;
@@ -84,6 +86,10 @@ struct trace_reader {
  * Returns 0, or -1 with "name:line:col: message" in trace_reader_error().
  */
 int trace_reader_open(struct trace_reader *r, FILE *file, const char *name);
+
+/* Like trace_reader_open, reading the len bytes at data (which must outlive
+ * the reader) instead of a file. */
+int trace_reader_open_mem(struct trace_reader *r, const void *data, size_t len, const char *name);
 
 /*
  * Next sample. Returns 0 with *row filled, 1 after the last sample, or -1 with

@@ -1,0 +1,86 @@
+/*
+ * libFuzzer target for the trace v1 reader (host_sim/scene/src/trace.c): any
+ * byte string must end in rows or in one well-formed error, never a crash, a
+ * hang or an over-read (built with ASan/UBSan). Checked invariants:
+ *   - an error reads "t.csv:<line>:<column>: <message>" with line, column ≥ 1;
+ *   - accepted rows have non-decreasing t_ms and |truth| ≤ 90°, and absent
+ *     sensors are exactly those with status 255;
+ *   - the end and a failure are sticky.
+ * Run: see docs/traces.md, "Fuzzing".
+ */
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "scene/trace.h"
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
+
+static struct trace_reader reader;
+
+static void check_error_format(const char *err) {
+    const size_t n = strlen("t.csv:");
+    if (strncmp(err, "t.csv:", n) != 0) {
+        abort();
+    }
+    const char *p = err + n;
+    for (int part = 0; part < 2; ++part) {
+        if (*p < '1' || *p > '9') { /* 1-based, no leading zero */
+            abort();
+        }
+        while (*p >= '0' && *p <= '9') {
+            ++p;
+        }
+        if (*p++ != ':') {
+            abort();
+        }
+    }
+    if (p[0] != ' ' || p[1] == '\0') {
+        abort();
+    }
+}
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
+    if (trace_reader_open_mem(&reader, data, size, "t.csv") != 0) {
+        check_error_format(trace_reader_error(&reader));
+        return 0;
+    }
+    if (!(reader.meta.arm_mm > 0.0)) {
+        abort();
+    }
+    uint32_t last_t = 0;
+    uint64_t rows = 0;
+    /* Bounded: every row consumes at least one input byte. */
+    for (size_t guard = 0; guard <= size + 1u; ++guard) {
+        struct scene_row row = {0};
+        const int got = trace_reader_next(&reader, &row);
+        if (got == 1) {
+            if (rows == 0u || trace_reader_next(&reader, &row) != 1) {
+                abort();
+            }
+            return 0;
+        }
+        if (got != 0) {
+            check_error_format(trace_reader_error(&reader));
+            if (trace_reader_next(&reader, &row) != -1) {
+                abort();
+            }
+            return 0;
+        }
+        if (rows > 0u && row.t_ms < last_t) {
+            abort();
+        }
+        if ((row.has_alpha && !(row.alpha_deg >= -90.0 && row.alpha_deg <= 90.0)) ||
+            (row.has_beta && !(row.beta_deg >= -90.0 && row.beta_deg <= 90.0))) {
+            abort();
+        }
+        for (unsigned k = 0; k < SCENE_SENSORS; ++k) {
+            if (row.present[k] != (row.status[k] != SCENE_STATUS_NO_READING)) {
+                abort();
+            }
+        }
+        last_t = row.t_ms;
+        ++rows;
+    }
+    abort(); /* more rows than bytes: the reader looped */
+}
