@@ -530,19 +530,23 @@ def plot_estimates(estimates, path):
     import matplotlib.pyplot as plt
 
     fig, (ax_angle, ax_dist) = plt.subplots(2, 1, sharex=True, figsize=(10, 6))
+    degraded_label = "degraded"
     for est_id, name in enumerate(ESTIMATORS):
         rows = [e for e in estimates if e["estimator"] == est_id and e["status"] != 2]
         if not rows:
             continue
         t = [e["t_ms"] / 1000.0 for e in rows]
-        ax_angle.plot(t, [e["alpha_udeg"] / 1e6 for e in rows], label="alpha " + name)
-        ax_angle.plot(t, [e["beta_udeg"] / 1e6 for e in rows], "--", label="beta " + name)
-        ax_dist.plot(t, [e["distance_um"] / 1000.0 for e in rows], label=name)
+        ax_angle.plot(t, [e["alpha_udeg"] / 1e6 for e in rows], ".-", markersize=3,
+                      label="alpha " + name)
+        ax_angle.plot(t, [e["beta_udeg"] / 1e6 for e in rows], ".--", markersize=3,
+                      label="beta " + name)
+        ax_dist.plot(t, [e["distance_um"] / 1000.0 for e in rows], ".-", markersize=3, label=name)
         degraded = [e for e in rows if e["status"] == 1]
         if degraded:
             ax_angle.plot([e["t_ms"] / 1000.0 for e in degraded],
                           [e["alpha_udeg"] / 1e6 for e in degraded], "x", color="red",
-                          label="degraded (%s)" % name)
+                          label=degraded_label)
+            degraded_label = None  # one legend entry for all estimators
     invalid = [e["t_ms"] / 1000.0 for e in estimates if e["status"] == 2]
     for t in invalid:
         ax_angle.axvline(t, color="grey", alpha=0.3, linewidth=0.8)

@@ -66,6 +66,13 @@ if(MODE STREQUAL "c_to_python")
      OR NOT invalid_row STREQUAL "8000,,,,invalid,kalman,4,too-few-sensors+no-samples,A,,6")
     message(FATAL_ERROR "unexpected estimate CSV:\n${csv}")
   endif()
+  # The plot of the estimates is written (a PNG signature, not empty).
+  file(REMOVE ${WORK}/estimates.png)
+  run(ignored ${PYTHON} ${SCRIPT} --file ${WORK}/capture.bin --plot ${WORK}/estimates.png)
+  file(READ ${WORK}/estimates.png png_head LIMIT 8 HEX)
+  if(NOT png_head STREQUAL "89504e470d0a1a0a")
+    message(FATAL_ERROR "--plot did not write a PNG (${WORK}/estimates.png)")
+  endif()
 elseif(MODE STREQUAL "python_to_c")
   run(ignored ${PYTHON} ${SCRIPT} --write-commands ${WORK}/commands.bin
       --send "set-window 50 sliding" --send "set-window 2" --send "estimator consensus-paper"

@@ -6,9 +6,12 @@ tests/telemetry/test_tlm_frame.c, so all three agree.
 
 import io
 import os
+import select
 import struct
+import subprocess
 import sys
 import tempfile
+import time
 import unittest
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
@@ -141,13 +144,14 @@ class FormatTest(unittest.TestCase):
             path = os.path.join(tmp, "cap.bin")
             with open(path, "wb") as f:
                 f.write(ESTIMATE_SEQ42 + ACK_SEQ9)
-            out = io.StringIO()
-            old = sys.stdout
-            sys.stdout = out
+            out, err = io.StringIO(), io.StringIO()
+            old = sys.stdout, sys.stderr
+            sys.stdout, sys.stderr = out, err
             try:
                 self.assertEqual(t.main(["--file", path]), 0)
             finally:
-                sys.stdout = old
+                sys.stdout, sys.stderr = old
+            self.assertEqual(err.getvalue(), "# lost_frames=222 (sequence gaps)\n")
             lines = out.getvalue().splitlines()
             self.assertEqual(lines[0], (
                 "seq=42 estimate t_ms=20000 window=199 estimator=consensus status=ok "
@@ -155,6 +159,47 @@ class FormatTest(unittest.TestCase):
                 "distance_mm=123456.000 flatness_um=-12"))
             self.assertEqual(lines[1], "seq=9 ack echo_seq=1 command=set-window result=ok")
             self.assertTrue(lines[2].startswith("# frames_ok=2 bad_crc=0"))
+
+
+class SerialPortTest(unittest.TestCase):
+    """--port on a pseudo-terminal: commands go out, frames come in, idle flush works."""
+
+    def test_send_and_receive_over_a_pty(self):
+        try:
+            import serial  # noqa: F401
+        except ImportError:
+            self.fail("python3-serial missing: run tools/setup.sh and use /usr/bin/python3")
+        master, slave = os.openpty()
+        script = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..",
+                              "tof_telemetry.py")
+        proc = subprocess.Popen(
+            [sys.executable, script, "--port", os.ttyname(slave), "--duration", "2.0",
+             "--send", "set-window 50 sliding", "--send", "start"],
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+        try:
+            expected_cmds = t.encode_commands(["set-window 50 sliding", "start"])
+            received = b""
+            deadline = time.monotonic() + 5
+            while len(received) < len(expected_cmds) and time.monotonic() < deadline:
+                ready, _, _ = select.select([master], [], [], 0.1)
+                if ready:
+                    received += os.read(master, 1024)
+            self.assertEqual(received, expected_cmds)
+            # Answer: two acks, then a partial frame and silence (idle flush -> truncated).
+            os.write(master, t.encode_frame(t.T_ACK, 0, bytes([0, t.T_SET_WINDOW, 0]))
+                     + t.encode_frame(t.T_ACK, 1, bytes([1, t.T_START, 0])) + ACK_SEQ9[:6])
+            out, err = proc.communicate(timeout=10)
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+            os.close(master)
+            os.close(slave)
+        self.assertEqual(proc.returncode, 0, err.decode())
+        lines = out.decode().splitlines()
+        self.assertEqual(lines[0], "seq=0 ack echo_seq=0 command=set-window result=ok")
+        self.assertEqual(lines[1], "seq=1 ack echo_seq=1 command=start result=ok")
+        self.assertEqual(lines[-1], "# frames_ok=2 bad_crc=0 bad_length=0 unknown_type=0 "
+                                    "truncated=1 out_of_range=0 discarded_bytes=6")
 
 
 if __name__ == "__main__":
