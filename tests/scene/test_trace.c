@@ -10,6 +10,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 
+#include "scene/rng.h"
 #include "scene/row_source.h"
 #include "scene/scenario.h"
 #include "scene/trace.h"
@@ -284,6 +285,65 @@ static void test_no_samples(void **state) {
     expect_error(HEAD "\n" COLS, "3:1", "empty line where the header was expected");
 }
 
+/* The reader's decimal fast path gives exactly strtod's double for truth
+ * values in every notation the writer or a person might use. */
+static void test_truth_values_match_strtod(void **state) {
+    (void)state;
+
+    const size_t n_rows = 4000u;
+    char *text = malloc(n_rows * 64u + 128u);
+    char(*values)[40] = malloc(n_rows * sizeof *values);
+    assert_non_null(text);
+    assert_non_null(values);
+    size_t len = (size_t)sprintf(text, HEAD "t_ms,a_mm,b_mm,c_mm,d_mm,alpha_deg\n");
+    struct scene_rng rng;
+    scene_rng_seed(&rng, 99, 0);
+    for (size_t i = 0; i < n_rows; ++i) {
+        double v = scene_rng_range(&rng, -90.0, 90.0);
+        if (i % 5u == 0u) {
+            v = ldexp(v, -(int)scene_rng_below(&rng, 40)); /* small magnitudes */
+        }
+        switch (i % 8u) { /* literal formats, for -Wformat-nonliteral */
+        case 0u:
+            snprintf(values[i], sizeof values[i], "%.6f", v);
+            break;
+        case 1u:
+            snprintf(values[i], sizeof values[i], "%.3f", v);
+            break;
+        case 2u:
+            snprintf(values[i], sizeof values[i], "%.0f", v);
+            break;
+        case 3u:
+            snprintf(values[i], sizeof values[i], "%.15g", v);
+            break;
+        case 4u:
+            snprintf(values[i], sizeof values[i], "%.17g", v);
+            break;
+        case 5u:
+            snprintf(values[i], sizeof values[i], "%.10e", v);
+            break;
+        case 6u:
+            snprintf(values[i], sizeof values[i], "%.2E", v);
+            break;
+        default:
+            snprintf(values[i], sizeof values[i], "%.16f", v);
+            break;
+        }
+        len += (size_t)sprintf(text + len, "%zu,1,2,3,4,%s\n", i, values[i]);
+    }
+    assert_int_equal(trace_reader_open_mem(&reader, text, len, "v.csv"), 0);
+    for (size_t i = 0; i < n_rows; ++i) {
+        struct scene_row row;
+        assert_int_equal(trace_reader_next(&reader, &row), 0);
+        const double want = strtod(values[i], NULL);
+        if (!(row.has_alpha && row.alpha_deg == want)) {
+            fail_msg("'%s' read as %.17g, strtod gives %.17g", values[i], row.alpha_deg, want);
+        }
+    }
+    free(text);
+    free(values);
+}
+
 static void test_errors_are_sticky(void **state) {
     (void)state;
     const char *text = HEAD COLS "0,1,2,3,4\n0,x,2,3,4\n20,1,2,3,4\n";
@@ -516,6 +576,7 @@ int main(void) {
         cmocka_unit_test(test_nul_byte),
         cmocka_unit_test(test_line_too_long),
         cmocka_unit_test(test_no_samples),
+        cmocka_unit_test(test_truth_values_match_strtod),
         cmocka_unit_test(test_errors_are_sticky),
         cmocka_unit_test(test_round_trip),
         cmocka_unit_test(test_writer_rejects_bad_input),

@@ -72,20 +72,28 @@ static int next_line(struct trace_reader *r) {
                 break;
             }
         }
-        const unsigned char c = r->block[r->block_pos++];
+        /* The rest of this line inside the current block, found with memchr. */
+        const unsigned char *seg = r->block + r->block_pos;
+        const size_t avail = r->block_len - r->block_pos;
+        const unsigned char *nl = memchr(seg, '\n', avail);
+        const size_t seg_len = nl != NULL ? (size_t)(nl - seg) : avail;
         any = true;
-        if (c == '\n') {
-            break;
+        const unsigned char *nul = memchr(seg, '\0', seg_len);
+        if (nul != NULL && r->line_len + (size_t)(nul - seg) < TRACE_LINE_MAX) {
+            return fail_at(r, r->line_no + 1u, r->line_len + (size_t)(nul - seg) + 1u, "NUL byte");
         }
-        if (c == '\0') {
-            return fail_at(r, r->line_no + 1u, r->line_len + 1u, "NUL byte");
-        }
-        /* Room for TRACE_LINE_MAX bytes plus the '\r' of a CRLF ending. */
-        if (r->line_len >= TRACE_LINE_MAX && (c != '\r' || r->line_len > TRACE_LINE_MAX)) {
+        /* Room for TRACE_LINE_MAX bytes plus the '\r' of a CRLF ending (checked below). */
+        if (nul != NULL || r->line_len + seg_len > TRACE_LINE_MAX + 1u) {
             return fail_at(r, r->line_no + 1u, TRACE_LINE_MAX + 1u, "line longer than %u bytes",
                            TRACE_LINE_MAX);
         }
-        r->line[r->line_len++] = (char)c;
+        memcpy(r->line + r->line_len, seg, seg_len);
+        r->line_len += seg_len;
+        r->block_pos += seg_len;
+        if (nl != NULL) {
+            r->block_pos++; /* the newline */
+            break;
+        }
     }
     if (!any) {
         return 0;
@@ -94,7 +102,7 @@ static int next_line(struct trace_reader *r) {
     if (r->line_len > 0u && r->line[r->line_len - 1u] == '\r') {
         r->line_len--;
     }
-    if (r->line_len > TRACE_LINE_MAX) { /* a '\r' that was not part of a CRLF ending */
+    if (r->line_len > TRACE_LINE_MAX) { /* byte 1025 was not the '\r' of a CRLF ending */
         return fail_at(r, r->line_no, TRACE_LINE_MAX + 1u, "line longer than %u bytes",
                        TRACE_LINE_MAX);
     }
@@ -214,6 +222,57 @@ static enum parse_result parse_real(const struct field *f, double *out) {
     }
     if (i != f->len) {
         return PARSE_SYNTAX;
+    }
+    /* Clinger's fast path: with at most 15 significant digits the mantissa is
+     * an exact double, and so is 10^k for k <= 22, so one multiplication or
+     * division gives the correctly rounded value, the same as strtod's. */
+    static const double pow10[23] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,
+                                     1e8,  1e9,  1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
+                                     1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
+    uint64_t mantissa = 0;
+    unsigned significant = 0;
+    long exp10 = 0;
+    bool after_point = false;
+    bool negative = false;
+    size_t j = 0;
+    if (f->s[0] == '+' || f->s[0] == '-') {
+        negative = f->s[0] == '-';
+        j = 1;
+    }
+    for (; j < f->len && f->s[j] != 'e' && f->s[j] != 'E'; ++j) {
+        if (f->s[j] == '.') {
+            after_point = true;
+            continue;
+        }
+        if (significant > 0u || f->s[j] != '0') {
+            ++significant;
+            if (significant <= 15u) {
+                mantissa = mantissa * 10u + (uint64_t)(f->s[j] - '0');
+            }
+        }
+        if (after_point && significant <= 15u) {
+            --exp10;
+        } else if (!after_point && significant > 15u) {
+            ++exp10; /* dropped digit before the point (only for the bound check) */
+        }
+    }
+    if (j < f->len) { /* exponent digits, saturated far beyond any double */
+        ++j;
+        const bool exp_negative = f->s[j] == '-';
+        if (f->s[j] == '+' || f->s[j] == '-') {
+            ++j;
+        }
+        long e = 0;
+        for (; j < f->len; ++j) {
+            e = e < 100000 ? e * 10 + (f->s[j] - '0') : e;
+        }
+        exp10 += exp_negative ? -e : e;
+    }
+    if (significant <= 15u && exp10 >= -22 && exp10 <= 22) {
+        double v = (double)mantissa;
+        v = exp10 >= 0 ? v * pow10[exp10] : v / pow10[-exp10];
+        *out = negative ? -v : v;
+        return PARSE_OK;
     }
     char buf[TRACE_LINE_MAX + 1u];
     memcpy(buf, f->s, f->len);
