@@ -220,6 +220,10 @@ bool vl53_is_ranging(const struct vl53_dev *dev) {
     return dev_ok(dev) && dev->ranging;
 }
 
+bool vl53_data_overdue(const struct vl53_dev *dev) {
+    return dev_ok(dev) && dev->ranging && time_reached(now_us(dev), dev->data_deadline_us);
+}
+
 /* ------------------------------------------------------------------------- */
 /* Power, boot, identity, address.                                            */
 
@@ -788,19 +792,15 @@ int vl53_poll(struct vl53_dev *dev, struct vl53_result *result) {
     struct call c = call_begin(dev, call_budget(dev));
     const uint32_t now = c.start_us;
     bool ready = false;
+    bool by_register = false;
     int err = HAL_OK;
+    const uint32_t interval = or_default(dev->cfg->poll_interval_us, VL53_DEFAULT_POLL_INTERVAL_US);
     if (dev->cfg->gpio1_pin != VL53_PIN_NONE) {
         err = vl53_gpio1_ready(dev, &ready);
     } else if (time_reached(now, dev->next_register_poll_us)) {
+        by_register = true;
         err = read_data_ready(&c, dev->cfg->polarity, &ready);
-        uint32_t interval = or_default(dev->cfg->poll_interval_us, VL53_DEFAULT_POLL_INTERVAL_US);
-        if (err == HAL_OK && ready) {
-            /* The range finished within the last interval: the next one a period later. */
-            uint32_t period_us = vl53_period_us(&dev->timing);
-            dev->next_register_poll_us = now + (period_us > interval ? period_us - interval : 0u);
-        } else {
-            dev->next_register_poll_us = now + interval;
-        }
+        dev->next_register_poll_us = now + interval;
     }
     if (err != HAL_OK) {
         return err;
@@ -811,6 +811,12 @@ int vl53_poll(struct vl53_dev *dev, struct vl53_result *result) {
     err = read_result_in(&c, result);
     if (is_bus_error(err)) {
         return err;
+    }
+    if (by_register && err == HAL_OK) {
+        /* The range finished within the last interval: the next one is a period later.
+         * (After a refused block keep polling every interval: the "ready" was not.) */
+        uint32_t period_us = vl53_period_us(&dev->timing);
+        dev->next_register_poll_us = now + (period_us > interval ? period_us - interval : 0u);
     }
     int clear_err = call_write_byte(&c, VL53_REG_SYSTEM_INTERRUPT_CLEAR, VL53_INTERRUPT_CLEAR);
     return err != HAL_OK ? err : clear_err;

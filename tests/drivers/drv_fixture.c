@@ -2,6 +2,8 @@
 
 #include <string.h>
 
+#include "hal/hal_err.h"
+
 uint16_t drv_expected_distance(unsigned sensor, uint32_t index) {
     return (uint16_t)(100u + 10u * sensor + index % 97u);
 }
@@ -62,4 +64,153 @@ void drv_sleep(struct drv_fixture *f, uint32_t us) {
 
 uint32_t drv_transfer_slack_us(const struct drv_fixture *f) {
     return sim_i2c_transfer_ns(f->rig.bus.bus_hz, 2u, 30u) / 1000u + 6u;
+}
+
+bool drv_result_matches(const struct sim_vl53 *m, const struct vl53_result *r) {
+    for (size_t k = 0; k < 2u; ++k) {
+        const struct sim_vl53_published *p = &m->published[k];
+        if (p->valid && p->stream_count == r->stream_count && p->distance_mm == r->distance_mm &&
+            p->range_status == r->range_status) {
+            return true;
+        }
+    }
+    return false;
+}
+
+bool drv_result_safe(const struct sim_vl53 *m, const struct vl53_result *r) {
+    for (size_t k = 0; k < 2u; ++k) {
+        const struct sim_vl53_published *p = &m->published[k];
+        if (p->valid && p->stream_count == r->stream_count && p->distance_mm == r->distance_mm &&
+            (p->range_status == r->range_status || r->range_status != VL53_RANGE_VALID)) {
+            return true;
+        }
+    }
+    return false;
+}
+
+void drv_manager_init(struct drv_manager *m, struct drv_fixture *f) {
+    memset(m, 0, sizeof *m);
+    m->f = f;
+    for (size_t i = 0; i < DRV_SENSORS; ++i) {
+        m->healthy_since_us[i] = UINT64_MAX;
+        m->last_error_us[i] = drv_now(f);
+    }
+}
+
+uint32_t drv_manager_bound_us(const struct drv_manager *m, enum drv_call call) {
+    const struct drv_fixture *f = m->f;
+    uint32_t slack = drv_transfer_slack_us(f);
+    switch (call) {
+    case DRV_CALL_POLL: {
+        uint32_t budget = f->sensor_cfg[0].call_budget_us != 0u ? f->sensor_cfg[0].call_budget_us
+                                                                : VL53_DEFAULT_CALL_BUDGET_US;
+        return budget + slack;
+    }
+    case DRV_CALL_RECOVER_SENSOR:
+        return vl53_array_recover_budget_us(&f->array, 0) + VL53_ARRAY_STEPS_PER_SENSOR * slack;
+    case DRV_CALL_RECOVER_BUS:
+    default:
+        return slack;
+    }
+}
+
+static void timed(struct drv_manager *m, enum drv_call call, uint64_t t0) {
+    uint64_t took = drv_now(m->f) - t0;
+    m->calls[call]++;
+    if (took > m->max_us[call]) {
+        m->max_us[call] = (uint32_t)took;
+    }
+    if (took > drv_manager_bound_us(m, call)) {
+        m->over_budget[call]++;
+    }
+}
+
+static void note_error(struct drv_manager *m, size_t i, int err) {
+    int index = -err;
+    if (index > 0 && index < 12) {
+        m->errors[index]++;
+    }
+    m->consecutive_errors[i]++;
+    m->last_error_us[i] = drv_now(m->f);
+    m->ok_since_error[i] = 0u;
+    m->healthy_since_us[i] = UINT64_MAX;
+}
+
+static void recover_sensor(struct drv_manager *m, size_t i) {
+    uint64_t t0 = drv_now(m->f);
+    int err = vl53_array_recover_sensor(&m->f->array, i);
+    timed(m, DRV_CALL_RECOVER_SENSOR, t0);
+    m->consecutive_errors[i] = 0u;
+    m->last_error_us[i] = drv_now(m->f);
+    m->ok_since_error[i] = 0u;
+    m->healthy_since_us[i] = UINT64_MAX;
+    if (err == HAL_OK) {
+        m->recoveries_ok++;
+    } else {
+        m->recoveries_failed++;
+        m->retry_at_us[i] = drv_now(m->f) + DRV_MANAGER_RETRY_US;
+    }
+}
+
+void drv_manager_tick(struct drv_manager *m, uint32_t tick_us) {
+    struct drv_fixture *f = m->f;
+    bool bus_recovered = false;
+    for (size_t i = 0; i < DRV_SENSORS; ++i) {
+        if (f->array.report[i].state != VL53_SENSOR_RANGING) {
+            if (drv_now(f) >= m->retry_at_us[i]) {
+                recover_sensor(m, i);
+            }
+            continue;
+        }
+        struct vl53_result r;
+        uint64_t t0 = drv_now(f);
+        int err = vl53_array_poll(&f->array, i, &r);
+        timed(m, DRV_CALL_POLL, t0);
+        if (err == HAL_ERR_NOT_READY) {
+            continue;
+        }
+        if (err == HAL_OK) {
+            m->results[i]++;
+            /* Errors are forgiven only after a run of clean results, so a sensor that fails
+             * every other sample still gets recovered. */
+            if (m->ok_since_error[i] + 1u >= DRV_MANAGER_CLEAN_TO_FORGIVE) {
+                m->consecutive_errors[i] = 0u;
+            }
+            if (!drv_result_safe(&f->rig.sensor[i], &r)) {
+                m->unsafe_results++;
+            } else if (!drv_result_matches(&f->rig.sensor[i], &r)) {
+                m->status_degraded++;
+            }
+            m->ok_since_error[i]++;
+            if (m->ok_since_error[i] == 2u) {
+                m->healthy_since_us[i] = drv_now(f);
+            }
+            continue;
+        }
+        note_error(m, i, err);
+        if (err == HAL_ERR_BUS_STUCK) {
+            if (!bus_recovered) {
+                t0 = drv_now(f);
+                (void)vl53_array_recover_bus(&f->array);
+                timed(m, DRV_CALL_RECOVER_BUS, t0);
+                bus_recovered = true;
+            }
+            continue;
+        }
+        if (m->consecutive_errors[i] >= DRV_MANAGER_ERRORS_TO_RECOVER ||
+            vl53_data_overdue(&f->array.dev[i])) {
+            recover_sensor(m, i);
+        }
+    }
+    drv_sleep(f, tick_us);
+}
+
+uint64_t drv_manager_all_healthy_since(const struct drv_manager *m) {
+    uint64_t latest = 0u;
+    for (size_t i = 0; i < DRV_SENSORS; ++i) {
+        if (m->healthy_since_us[i] > latest) {
+            latest = m->healthy_since_us[i];
+        }
+    }
+    return latest;
 }

@@ -50,8 +50,60 @@ uint64_t drv_now(const struct drv_fixture *f);
 /* Advance simulated time by `us` (as a delay would). */
 void drv_sleep(struct drv_fixture *f, uint32_t us);
 
+/* Did model `m` publish exactly this result (distance, status, stream count) as its newest or
+ * previous one? (A measurement may complete between the driver's read and this check.) */
+bool drv_result_matches(const struct sim_vl53 *m, const struct vl53_result *r);
+
 /* Worst wire time (µs, rounded up, plus the bus-free gap) of the longest transfer the driver
  * makes in normal operation: the 30-byte configuration read-back. */
 uint32_t drv_transfer_slack_us(const struct drv_fixture *f);
+
+/* Like drv_result_matches, but a status that differs is acceptable if it is not "valid"
+ * (a flipped status bit that marks a good reading bad loses data, never corrupts it). */
+bool drv_result_safe(const struct sim_vl53 *m, const struct vl53_result *r);
+
+/*
+ * A reference acquisition loop with a simple fault policy, standing in for the firmware's
+ * fault manager in tests and the benchmark: every tick polls each ranging sensor; a stuck
+ * bus gets a bus recovery; overdue data, or DRV_MANAGER_ERRORS_TO_RECOVER errors without
+ * DRV_MANAGER_CLEAN_TO_FORGIVE clean results in between, get a sensor recovery (XSHUT
+ * re-init); a sensor whose recovery failed is retried every DRV_MANAGER_RETRY_US. Every call is
+ * timed in simulated time against its bound.
+ */
+#define DRV_MANAGER_ERRORS_TO_RECOVER 3u
+#define DRV_MANAGER_CLEAN_TO_FORGIVE  10u
+#define DRV_MANAGER_RETRY_US          10000u
+
+enum drv_call { DRV_CALL_POLL, DRV_CALL_RECOVER_SENSOR, DRV_CALL_RECOVER_BUS, DRV_CALL_COUNT };
+
+struct drv_manager {
+    struct drv_fixture *f;
+    uint32_t consecutive_errors[DRV_SENSORS]; /* errors since the last forgiving clean run */
+    uint64_t retry_at_us[DRV_SENSORS];
+    uint64_t last_error_us[DRV_SENSORS];    /* time of the sensor's last error (or recovery) */
+    uint32_t ok_since_error[DRV_SENSORS];   /* valid results since then */
+    uint64_t healthy_since_us[DRV_SENSORS]; /* time of the 2nd result after the last error */
+    uint64_t results[DRV_SENSORS];
+    uint64_t unsafe_results;  /* OK results that do not match what the model published */
+    uint64_t status_degraded; /* OK results whose status a fault turned from valid to not */
+    uint64_t errors[12];      /* by -hal_err */
+    uint32_t calls[DRV_CALL_COUNT];
+    uint32_t max_us[DRV_CALL_COUNT];
+    uint32_t over_budget[DRV_CALL_COUNT]; /* calls that took longer than their bound */
+    uint32_t recoveries_ok;
+    uint32_t recoveries_failed;
+};
+
+void drv_manager_init(struct drv_manager *m, struct drv_fixture *f);
+
+/* One loop tick (poll all, act on errors), then sleep `tick_us`. */
+void drv_manager_tick(struct drv_manager *m, uint32_t tick_us);
+
+/* Bound (µs) the manager checks a call of kind `call` against. */
+uint32_t drv_manager_bound_us(const struct drv_manager *m, enum drv_call call);
+
+/* Earliest time after which every sensor delivered 2 results with no error in between
+ * (max over sensors of healthy_since_us), or UINT64_MAX if one never did since its last error. */
+uint64_t drv_manager_all_healthy_since(const struct drv_manager *m);
 
 #endif /* DRV_FIXTURE_H */

@@ -212,6 +212,10 @@ int vl53_clear_interrupt(struct vl53_dev *dev);
  */
 int vl53_poll(struct vl53_dev *dev, struct vl53_result *result);
 
+/* True while ranging with no new result for 2 periods + VL53_DATA_SLACK_US: what makes
+ * vl53_poll() return HAL_ERR_TIMEOUT without a bus timeout. No bus access. */
+bool vl53_data_overdue(const struct vl53_dev *dev);
+
 /* ULD range status for a raw RESULT__RANGE_STATUS value (masked to 5 bits). */
 uint8_t vl53_range_status_from_raw(uint8_t raw);
 
