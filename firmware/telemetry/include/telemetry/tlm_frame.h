@@ -99,10 +99,9 @@ struct tlm_decoder {
 };
 
 /*
- * Encode one frame of `type` and `seq` carrying `length` bytes of `payload`
- * into `out` (capacity `cap`; may overlap `payload`). Returns the frame size
- * (length + TLM_FRAME_OVERHEAD), or HAL_ERR_INVALID if length >
- * TLM_MAX_PAYLOAD, cap is too small or a needed pointer is NULL.
+ * Encode a frame of `type`, `seq` and `length` payload bytes into `out` (may overlap
+ * `payload`). Returns the frame size, length + TLM_FRAME_OVERHEAD, or HAL_ERR_INVALID
+ * if length > TLM_MAX_PAYLOAD, `cap` is too small or a needed pointer is NULL.
  */
 int tlm_frame_encode(uint8_t type, uint8_t seq, const uint8_t *payload, size_t length, uint8_t *out,
                      size_t cap);
