@@ -58,28 +58,6 @@ static fix_q28_t mean_var_q28(const struct consensus_sensor *s) {
     return fix_div_round_s64(v, (int64_t)s->count * 16);
 }
 
-/* 1σ of the angle from the variance of (a·t) in Q28 mm² and the fused slope t. */
-static fix_udeg_t sigma_udeg(fix_q28_t var_at_q28, int32_t arm_um, fix_q32_t t_q32) {
-    bool ovf = false;
-    /* var(t) = var(a·t)/a² with a in mm = a_um/1000, kept in Q56 for precision */
-    const int64_t var_t_q56 =
-        fix_muldiv_s64(var_at_q28, (int64_t)1000000 << 28, (int64_t)arm_um * arm_um, &ovf);
-    if (ovf) {
-        return INT32_MAX;
-    }
-    uint64_t sd_t_q32;
-    if (var_t_q56 < ((int64_t)1 << 56)) {
-        sd_t_q32 = fix_isqrt_u64((uint64_t)var_t_q56 << 8); /* sqrt(v·2^64) */
-    } else {
-        sd_t_q32 = (uint64_t)fix_isqrt_u64((uint64_t)var_t_q56 >> 8) << 8;
-    }
-    /* dα/dt = 1/(1 + t²) (delta method) */
-    const int64_t t2_q32 = fix_mul_shr_s64(t_q32, t_q32, FIX_Q32_SHIFT, &ovf);
-    const int64_t den = fix_sat_add_s64(FIX_Q32_ONE, t2_q32);
-    const int64_t sd_rad_q32 = fix_muldiv_s64((int64_t)sd_t_q32, FIX_Q32_ONE, den, &ovf);
-    return fix_udeg_from_rad_q32(sd_rad_q32);
-}
-
 /* v ← ((1 − ε)I + ε1πᵀ)v with ε = 1/2 until spread <= tol. Returns πᵀv. */
 static fix_q32_t iterate_product(struct consensus_axis *ax, fix_q32_t tol_q32) {
     fix_q32_t v[ANGLES_PER_AXIS];
@@ -197,7 +175,8 @@ static void product_axis(const struct consensus_product_input *in, const struct 
     const fix_q32_t tol_q32 = (fix_q32_t)in->tolerance_udeg * FIX_Q32_RAD_PER_UDEG_X1000 / 1000;
     ax->tan_q32 = iterate_product(ax, tol_q32);
     ax->angle_udeg = fix_atan_q32_udeg(ax->tan_q32);
-    ax->sigma_udeg = ovf ? INT32_MAX : sigma_udeg(var_at, a, ax->tan_q32);
+    ax->sigma_udeg =
+        ovf ? INT32_MAX : fix_angle_sigma_udeg(fix_sat_mul_s64(var_at, 16), a, ax->tan_q32);
 }
 
 void consensus_product(const struct consensus_product_input *in,

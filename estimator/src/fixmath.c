@@ -393,3 +393,26 @@ fix_udeg_t fix_atan_q32_udeg(fix_q32_t t) {
 fix_udeg_t fix_udeg_from_rad_q32(fix_q32_t rad) {
     return fix_sat_s32(fix_mul_shr_s64(rad, FIX_UDEG_PER_RAD, FIX_Q32_SHIFT, NULL));
 }
+
+fix_udeg_t fix_angle_sigma_udeg(fix_q32_t var_mm2, int32_t arm_um, fix_q32_t tan_q32) {
+    bool ovf = false;
+    if (var_mm2 <= 0 || arm_um <= 0) {
+        return var_mm2 == 0 ? 0 : INT32_MAX;
+    }
+    /* var(t) = var(y)/a² with a in mm = a_um/1000, in Q56 for precision */
+    const int64_t var_t_q56 =
+        fix_muldiv_s64(var_mm2, (int64_t)1000000 << 24, (int64_t)arm_um * arm_um, &ovf);
+    if (ovf) {
+        return INT32_MAX;
+    }
+    uint64_t sd_t_q32;
+    if (var_t_q56 < ((int64_t)1 << 56)) {
+        sd_t_q32 = fix_isqrt_u64((uint64_t)var_t_q56 << 8); /* sqrt(v·2^64) */
+    } else {
+        sd_t_q32 = (uint64_t)fix_isqrt_u64((uint64_t)var_t_q56 >> 8) << 8;
+    }
+    const int64_t t2_q32 = fix_mul_shr_s64(tan_q32, tan_q32, FIX_Q32_SHIFT, &ovf);
+    const int64_t den = fix_sat_add_s64(FIX_Q32_ONE, t2_q32);
+    const int64_t sd_rad_q32 = fix_muldiv_s64((int64_t)sd_t_q32, FIX_Q32_ONE, den, &ovf);
+    return ovf ? INT32_MAX : fix_udeg_from_rad_q32(sd_rad_q32);
+}

@@ -291,6 +291,22 @@ static void test_udeg_from_rad(void **state) {
     assert_int_equal(fix_udeg_from_rad_q32(INT64_MAX), INT32_MAX);
 }
 
+static void test_angle_sigma(void **state) {
+    (void)state;
+    /* var(a·tan α) = 1 mm², a = 30 mm, α = 0: σ = 1/30 rad */
+    const double one_over_30 = 1.0 / 30.0 * 180e6 / TEST_PI;
+    assert_true(fabs(fix_angle_sigma_udeg(FIX_Q32_ONE, 30000, 0) - one_over_30) < 2.0);
+    /* at 45° (t = 1) the delta method halves it */
+    assert_true(fabs(fix_angle_sigma_udeg(FIX_Q32_ONE, 30000, FIX_Q32_ONE) - one_over_30 / 2) <
+                2.0);
+    /* tiny variances keep their precision: (1e-4 mm)² over 30 mm */
+    const int64_t tiny = (int64_t)llround(1e-8 * 4294967296.0);
+    const double expect = sqrt((double)tiny / 4294967296.0) / 30.0 * 180e6 / TEST_PI;
+    assert_true(fabs(fix_angle_sigma_udeg(tiny, 30000, 0) - expect) < 0.01 * expect + 1.0);
+    assert_int_equal(fix_angle_sigma_udeg(0, 30000, 0), 0);
+    assert_int_equal(fix_angle_sigma_udeg(INT64_MAX, 1000, 0), INT32_MAX);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_saturation),
@@ -302,6 +318,7 @@ int main(void) {
         cmocka_unit_test(test_atan2_all_quadrants_and_scales),
         cmocka_unit_test(test_atan2_exact_points_and_symmetry),
         cmocka_unit_test(test_udeg_from_rad),
+        cmocka_unit_test(test_angle_sigma),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -121,4 +121,11 @@ fix_udeg_t fix_atan_q32_udeg(fix_q32_t t);
  * saturated to the int32 range. */
 fix_udeg_t fix_udeg_from_rad_q32(fix_q32_t rad);
 
+/*
+ * 1σ in micro-degrees of α = atan(y/a) where y = a·tan α has variance var_mm2
+ * (Q32 mm²), at the slope t (Q32), by the delta method dα/dt = 1/(1 + t²).
+ * Saturates at INT32_MAX when the variance is too large to mean anything.
+ */
+fix_udeg_t fix_angle_sigma_udeg(fix_q32_t var_mm2, int32_t arm_um, fix_q32_t tan_q32);
+
 #endif /* ESTIMATOR_FIXMATH_H */

@@ -1,0 +1,129 @@
+/*
+ * Three-state Kalman filter of the first paper (Eq. 5, Alg. 2) in fixed point.
+ *
+ * State: θ = [x̄, a·tan α, a·tan β] in mm (Q32). Eq. 5 uses [x̄, tan α, tan β]
+ * with rows [1, ∓a, 0] / [1, 0, ±a]; scaling the two slopes by a makes every
+ * measurement row h_k a vector of 0 and ±1 (A: [1,−1,0], B: [1,0,1],
+ * C: [1,1,0], D: [1,0,−1]), so P h is additions only and every entry of P is in
+ * mm². Identity dynamics with a configurable process noise Q (diagonal; 0 for
+ * the static-window protocol of the paper).
+ *
+ * Each row is four scalar updates, one per valid reading (R is diagonal, so no
+ * matrix inverse: Alg. 2's [C P Cᵀ + R]⁻¹ becomes a division by a scalar s),
+ * skipping flagged sensors. The covariance update is the Joseph form
+ *     P' = (I − k hᵀ) P (I − k hᵀ)ᵀ + k R kᵀ = P − k gᵀ − g kᵀ + s k kᵀ,
+ * g = P h, s = hᵀg + R, evaluated with exact 128-bit products and one rounding
+ * per entry, upper triangle mirrored: symmetric by construction, and correct
+ * for the gain k actually used (rounded to Q30), so rounding the gain only
+ * costs second-order error. Where the paper is unsafe: Alg. 2's
+ * P_post = P_pre − K C P_pre loses symmetry and definiteness in finite
+ * precision. Every update also checks positive definiteness (positive
+ * diagonal, P_ij² < P_ii P_jj); a failure restarts the filter and is counted,
+ * never hidden.
+ *
+ * Robustness the paper does not address:
+ * - Measurement noise follows each sensor: R_k starts at the configured value,
+ *   is replaced by the first window's gated sample variance of that sensor and
+ *   then tracks it (R += (v − R)/2^shift per window), floored at 1/12 mm² (the
+ *   1 mm quantisation), so unequal and drifting noise is weighted correctly.
+ * - Innovation gate: a reading with e² > k²·s (and |e| > floor) is rejected.
+ *   A gate is useless while P is still diffuse, so each (re)start buffers the
+ *   first `warmup_rows` rows, gates them against the per-sensor median of those
+ *   rows (robust to one outlier in three), then processes them and runs online.
+ * - A filter that rejects every reading for KALMAN_LOCKOUT_ROWS rows in a row
+ *   (the plate jumped) restarts instead of locking itself out forever.
+ */
+#ifndef ESTIMATOR_KALMAN_H
+#define ESTIMATOR_KALMAN_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "estimator/angles.h"
+#include "estimator/fixmath.h"
+
+#define KALMAN_STATES       3u
+#define KALMAN_WARMUP_MAX   8u
+#define KALMAN_LOCKOUT_ROWS 4u
+/* Diffuse prior: σ = 4096 mm on each state (P0 = 2^24 mm²). */
+#define KALMAN_P0_MM2_Q32 ((int64_t)1 << 56)
+
+enum kalman_error {
+    KALMAN_OK = 0,
+    KALMAN_ERR_PROCESS_NOISE = -1,     /* a Q entry negative or above P0 */
+    KALMAN_ERR_MEASUREMENT_NOISE = -2, /* an initial R not in (0, 2^20 mm²] */
+    KALMAN_ERR_WARMUP = -3,            /* warmup_rows outside 1..KALMAN_WARMUP_MAX */
+    KALMAN_ERR_NOISE_SHIFT = -4,       /* noise_shift above 8 */
+};
+
+struct kalman_config {
+    fix_q32_t process_noise_mm2[KALMAN_STATES];  /* Q per row: x̄, a·tan α, a·tan β */
+    fix_q32_t initial_noise_mm2[ANGLES_SENSORS]; /* R before any window statistics */
+    uint16_t gate_sigmas_q8; /* innovation (and warm-up) gate k x 256; 0 disables */
+    uint16_t gate_floor_mm;  /* never reject |e| <= this */
+    uint8_t warmup_rows;     /* rows buffered at each (re)start */
+    uint8_t noise_shift;     /* R tracking gain 2^-shift (0: replace each window) */
+};
+
+struct kalman_state {
+    struct kalman_config cfg;
+    fix_q32_t x[KALMAN_STATES];
+    fix_q32_t p[KALMAN_STATES][KALMAN_STATES];
+    fix_q32_t r[ANGLES_SENSORS];
+    bool r_tracked[ANGLES_SENSORS]; /* R already replaced by window statistics */
+    bool started;                   /* warm-up done, running online */
+    uint8_t warm_rows;
+    uint16_t warm_range[KALMAN_WARMUP_MAX][ANGLES_SENSORS];
+    uint8_t warm_valid[KALMAN_WARMUP_MAX];
+    uint8_t lockout_rows;
+    uint32_t restarts;         /* lock-outs and definiteness failures */
+    uint32_t numeric_restarts; /* definiteness failures alone */
+};
+
+/* Outcome of one kalman_push_row(): the rows it processed, oldest first (a
+ * warm-up flush processes several at once, a buffered row none). */
+struct kalman_rows {
+    uint8_t count;
+    uint8_t used[KALMAN_WARMUP_MAX];     /* sensor mask of accepted readings */
+    uint8_t rejected[KALMAN_WARMUP_MAX]; /* sensor mask of gated-out readings */
+};
+
+struct kalman_estimate {
+    bool alpha_observable; /* var(a·tan α) well below the prior */
+    bool beta_observable;
+    fix_udeg_t alpha_udeg;
+    fix_udeg_t beta_udeg;
+    fix_q32_t distance_mm;
+    fix_udeg_t alpha_sigma_udeg; /* from P */
+    fix_udeg_t beta_sigma_udeg;
+    fix_q32_t p_mm2[KALMAN_STATES][KALMAN_STATES]; /* the covariance itself */
+};
+
+/* Checks cfg (a kalman_error naming the bad field) and resets the filter. */
+int kalman_init(struct kalman_state *k, const struct kalman_config *cfg);
+
+/* Forgets the state (diffuse prior, warm-up again) but keeps the learned R:
+ * the start of a static window. */
+void kalman_reset(struct kalman_state *k);
+
+/* One row: predict (P += Q), then one scalar update per valid reading, A..D.
+ * valid_mask: sensors present with status 0. Reports what was processed. */
+void kalman_push_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENSORS],
+                     uint8_t valid_mask, struct kalman_rows *out);
+
+/* Processes any rows still buffered for warm-up (a window shorter than the
+ * warm-up, or the end of the data). */
+void kalman_flush(struct kalman_state *k, struct kalman_rows *out);
+
+/* One scalar measurement update of sensor `sensor` with z in mm (Q32), gated
+ * when `gate` is set. Returns true if the reading was accepted. */
+bool kalman_update(struct kalman_state *k, unsigned sensor, fix_q32_t z_mm, bool gate);
+
+/* Feeds the gated sample variance (Q32 mm²) of `count` readings of a sensor in
+ * the last window to its R (first time: replace; then track). count < 2: ignored. */
+void kalman_track_noise(struct kalman_state *k, unsigned sensor, fix_q32_t var_mm2, uint16_t count);
+
+/* Current estimate, angles through atan of the state over a, and P. */
+void kalman_estimate(const struct kalman_state *k, int32_t arm_um, struct kalman_estimate *out);
+
+#endif /* ESTIMATOR_KALMAN_H */

@@ -1,0 +1,424 @@
+/*
+ * estimator/kalman: agreement with the batch weighted least-squares solution
+ * and with the information-form covariance, positive definiteness over long
+ * runs, skipped and gated readings, the robust warm-up, lock-out restart,
+ * noise tracking, observability with missing sensors, configuration errors.
+ */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <cmocka.h>
+
+#include "estimator/kalman.h"
+
+#define TEST_PI 3.14159265358979323846
+#define Q32     4294967296.0
+
+static struct kalman_state kf;
+
+static uint64_t rs = 0x243F6A8885A308D3u;
+static double urand(void) {
+    rs ^= rs << 13;
+    rs ^= rs >> 7;
+    rs ^= rs << 17;
+    return (double)(rs >> 11) / 9007199254740992.0;
+}
+static double gauss(void) {
+    double u, v, s;
+    do {
+        u = 2 * urand() - 1;
+        v = 2 * urand() - 1;
+        s = u * u + v * v;
+    } while (s >= 1 || s == 0);
+    return u * sqrt(-2 * log(s) / s);
+}
+
+static struct kalman_config default_config(void) {
+    struct kalman_config c;
+    memset(&c, 0, sizeof c);
+    for (unsigned s = 0; s < 4; ++s) {
+        c.initial_noise_mm2[s] = (int64_t)4 << 32;
+    }
+    c.gate_sigmas_q8 = 5 * 256;
+    c.gate_floor_mm = 3;
+    c.warmup_rows = 3;
+    c.noise_shift = 2;
+    return c;
+}
+
+static void ideal(double arm, double xbar, double alpha_deg, double beta_deg, double x[4]) {
+    const double ta = tan(alpha_deg * TEST_PI / 180), tb = tan(beta_deg * TEST_PI / 180);
+    x[0] = xbar - arm * ta;
+    x[1] = xbar + arm * tb;
+    x[2] = xbar + arm * ta;
+    x[3] = xbar - arm * tb;
+}
+
+static void push(const double x[4], uint8_t valid, struct kalman_rows *rows) {
+    uint16_t r[4];
+    for (unsigned k = 0; k < 4; ++k) {
+        const double v = round(x[k]);
+        r[k] = (uint16_t)(v < 0 ? 0 : v > 65535 ? 65535 : v);
+    }
+    kalman_push_row(&kf, r, valid, rows);
+}
+
+static void test_config_errors(void **state) {
+    (void)state;
+    struct kalman_config c = default_config();
+    assert_int_equal(kalman_init(&kf, &c), KALMAN_OK);
+    c.process_noise_mm2[1] = -1;
+    assert_int_equal(kalman_init(&kf, &c), KALMAN_ERR_PROCESS_NOISE);
+    c = default_config();
+    c.initial_noise_mm2[2] = 0;
+    assert_int_equal(kalman_init(&kf, &c), KALMAN_ERR_MEASUREMENT_NOISE);
+    c = default_config();
+    c.warmup_rows = 0;
+    assert_int_equal(kalman_init(&kf, &c), KALMAN_ERR_WARMUP);
+    c.warmup_rows = KALMAN_WARMUP_MAX + 1;
+    assert_int_equal(kalman_init(&kf, &c), KALMAN_ERR_WARMUP);
+    c = default_config();
+    c.noise_shift = 9;
+    assert_int_equal(kalman_init(&kf, &c), KALMAN_ERR_NOISE_SHIFT);
+}
+
+static void test_noise_free_plate_is_exact(void **state) {
+    (void)state;
+    struct kalman_config c = default_config();
+    assert_int_equal(kalman_init(&kf, &c), KALMAN_OK);
+    /* integer-exact geometry: a = 30, x̄ = 100, a·tan α = 3, a·tan β = −2 */
+    const double x[4] = {97, 98, 103, 102};
+    struct kalman_rows rows;
+    for (int i = 0; i < 50; ++i) {
+        push(x, 0x0F, &rows);
+    }
+    struct kalman_estimate est;
+    kalman_estimate(&kf, 30000, &est);
+    assert_true(est.alpha_observable && est.beta_observable);
+    assert_true(abs(est.alpha_udeg - (int32_t)lround(atan(0.1) * 180e6 / TEST_PI)) <= 2);
+    assert_true(abs(est.beta_udeg - (int32_t)lround(atan(-2.0 / 30) * 180e6 / TEST_PI)) <= 2);
+    assert_true(fabs((double)est.distance_mm / Q32 - 100.0) < 1e-6);
+}
+
+/* Batch WLS of all accepted readings with equal R vs the filter (diffuse prior). */
+static void test_matches_batch_least_squares(void **state) {
+    (void)state;
+    for (int trial = 0; trial < 200; ++trial) {
+        struct kalman_config c = default_config();
+        c.gate_sigmas_q8 = 0; /* compare pure filtering */
+        const double sd[4] = {0.5 + 3 * urand(), 0.5 + 3 * urand(), 0.5 + 3 * urand(),
+                              0.5 + 3 * urand()};
+        for (unsigned s = 0; s < 4; ++s) {
+            c.initial_noise_mm2[s] = (int64_t)llround(sd[s] * sd[s] * Q32);
+        }
+        assert_int_equal(kalman_init(&kf, &c), KALMAN_OK);
+        const double arm = 30.0, al = (urand() - 0.5) * 10, be = (urand() - 0.5) * 10;
+        const double xbar = 80 + 400 * urand();
+        double x0[4];
+        ideal(arm, xbar, al, be, x0);
+        /* information form accumulation in double */
+        double m[3][4] = {{0}};
+        static const double h[4][3] = {{1, -1, 0}, {1, 0, 1}, {1, 1, 0}, {1, 0, -1}};
+        const int n = 20 + (int)(urand() * 200);
+        struct kalman_rows rows;
+        for (int i = 0; i < n; ++i) {
+            double x[4];
+            uint8_t valid = 0x0F;
+            if (urand() < 0.1) {
+                valid = (uint8_t)(valid & ~(1u << (int)(urand() * 4))); /* flagged */
+            }
+            for (unsigned s = 0; s < 4; ++s) {
+                x[s] = round(x0[s] + sd[s] * gauss());
+                if (valid & (1u << s)) {
+                    for (unsigned a = 0; a < 3; ++a) {
+                        for (unsigned b = 0; b < 3; ++b) {
+                            m[a][b] += h[s][a] * h[s][b] / (sd[s] * sd[s]);
+                        }
+                        m[a][3] += h[s][a] * x[s] / (sd[s] * sd[s]);
+                    }
+                }
+            }
+            push(x, valid, &rows);
+        }
+        /* solve */
+        double inv[3][3];
+        const double det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) -
+                           m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+                           m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+        inv[0][0] = (m[1][1] * m[2][2] - m[1][2] * m[2][1]) / det;
+        inv[0][1] = (m[0][2] * m[2][1] - m[0][1] * m[2][2]) / det;
+        inv[0][2] = (m[0][1] * m[1][2] - m[0][2] * m[1][1]) / det;
+        inv[1][0] = inv[0][1];
+        inv[1][1] = (m[0][0] * m[2][2] - m[0][2] * m[2][0]) / det;
+        inv[1][2] = (m[0][2] * m[1][0] - m[0][0] * m[1][2]) / det;
+        inv[2][0] = inv[0][2];
+        inv[2][1] = inv[1][2];
+        inv[2][2] = (m[0][0] * m[1][1] - m[0][1] * m[1][0]) / det;
+        double th[3];
+        for (unsigned a = 0; a < 3; ++a) {
+            th[a] = inv[a][0] * m[0][3] + inv[a][1] * m[1][3] + inv[a][2] * m[2][3];
+        }
+        struct kalman_estimate est;
+        kalman_estimate(&kf, 30000, &est);
+        const double alpha_wls = atan(th[1] / arm) * 180e6 / TEST_PI;
+        if (fabs(est.alpha_udeg - alpha_wls) > 5.0) {
+            fail_msg("trial %d: kalman %d udeg, WLS %.1f", trial, est.alpha_udeg, alpha_wls);
+        }
+        assert_true(fabs(est.beta_udeg - atan(th[2] / arm) * 180e6 / TEST_PI) <= 5.0);
+        assert_true(fabs((double)est.distance_mm / Q32 - th[0]) < 1e-4);
+        /* covariance = inverse information (the prior adds < 1e-9 relative) */
+        for (unsigned a = 0; a < 3; ++a) {
+            for (unsigned b = 0; b < 3; ++b) {
+                const double p = (double)est.p_mm2[a][b] / Q32;
+                assert_true(fabs(p - inv[a][b]) < 1e-6 + 1e-5 * fabs(inv[a][a]));
+                assert_true(est.p_mm2[a][b] == est.p_mm2[b][a]);
+            }
+        }
+        assert_int_equal(kf.numeric_restarts, 0);
+    }
+}
+
+static void test_long_run_stays_positive_definite(void **state) {
+    (void)state;
+    struct kalman_config c = default_config();
+    c.process_noise_mm2[0] = (int64_t)1 << 20; /* small Q keeps P from collapsing */
+    c.process_noise_mm2[1] = (int64_t)1 << 18;
+    c.process_noise_mm2[2] = (int64_t)1 << 18;
+    c.initial_noise_mm2[3] = (int64_t)1 << 30; /* 0.25 mm² */
+    assert_int_equal(kalman_init(&kf, &c), KALMAN_OK);
+    double x0[4];
+    ideal(30, 500, 2, -3, x0);
+    struct kalman_rows rows;
+    for (int i = 0; i < 100000; ++i) {
+        double x[4];
+        for (unsigned s = 0; s < 4; ++s) {
+            x[s] = x0[s] + 2 * gauss();
+        }
+        push(x, (uint8_t)(1 + (int)(urand() * 15)), &rows); /* random subsets */
+        for (unsigned a = 0; a < 3; ++a) {
+            assert_true(kf.p[a][a] > 0);
+            for (unsigned b = 0; b < 3; ++b) {
+                assert_true(kf.p[a][b] == kf.p[b][a]);
+            }
+        }
+    }
+    assert_int_equal(kf.numeric_restarts, 0);
+    /* leading principal minors of P (double) are positive */
+    double p[3][3];
+    for (unsigned a = 0; a < 3; ++a) {
+        for (unsigned b = 0; b < 3; ++b) {
+            p[a][b] = (double)kf.p[a][b] / Q32;
+        }
+    }
+    assert_true(p[0][0] * p[1][1] - p[0][1] * p[1][0] > 0);
+    const double det = p[0][0] * (p[1][1] * p[2][2] - p[1][2] * p[2][1]) -
+                       p[0][1] * (p[1][0] * p[2][2] - p[1][2] * p[2][0]) +
+                       p[0][2] * (p[1][0] * p[2][1] - p[1][1] * p[2][0]);
+    assert_true(det > 0);
+}
+
+static void test_flagged_skipped_and_outliers_gated(void **state) {
+    (void)state;
+    struct kalman_config c = default_config();
+    assert_int_equal(kalman_init(&kf, &c), KALMAN_OK);
+    double x0[4];
+    ideal(30, 200, 1, 0, x0);
+    struct kalman_rows rows;
+    int used_b = 0, rejected_b = 0;
+    for (int i = 0; i < 100; ++i) {
+        double x[4];
+        for (unsigned s = 0; s < 4; ++s) {
+            x[s] = x0[s] + 2 * gauss();
+        }
+        uint8_t valid = 0x0F;
+        if (i % 10 == 5) {
+            x[1] += 40; /* gross outlier, valid status */
+        }
+        if (i % 10 == 7) {
+            valid = 0x0B; /* C flagged */
+        }
+        push(x, valid, &rows);
+        for (unsigned r = 0; r < rows.count; ++r) {
+            used_b += (rows.used[r] >> 1) & 1;
+            rejected_b += (rows.rejected[r] >> 1) & 1;
+            assert_false(rows.used[r] & rows.rejected[r]);
+        }
+        if (i % 10 == 7 && rows.count == 1) {
+            assert_false(rows.used[0] & 0x04);
+            assert_false(rows.rejected[0] & 0x04); /* flagged is skipped, not rejected */
+        }
+    }
+    assert_int_equal(rejected_b, 10);
+    assert_int_equal(used_b, 90);
+    struct kalman_estimate est;
+    kalman_estimate(&kf, 30000, &est);
+    assert_true(abs(est.alpha_udeg - 1000000) < 5 * est.alpha_sigma_udeg + 1);
+}
+
+static void test_warmup_outlier_in_first_rows(void **state) {
+    (void)state;
+    struct kalman_config c = default_config();
+    assert_int_equal(kalman_init(&kf, &c), KALMAN_OK);
+    struct kalman_rows rows;
+    const double good[4] = {97, 100, 103, 100};
+    double bad[4] = {97, 100, 103, 100};
+    bad[0] += 60; /* row 0: A is a gross outlier, before any gate could work */
+    push(bad, 0x0F, &rows);
+    assert_int_equal(rows.count, 0); /* buffered */
+    push(good, 0x0F, &rows);
+    assert_int_equal(rows.count, 0);
+    push(good, 0x0F, &rows);
+    assert_int_equal(rows.count, 3); /* the warm-up flush */
+    assert_int_equal(rows.rejected[0], 0x01);
+    assert_int_equal(rows.used[0], 0x0E);
+    assert_int_equal(rows.used[1], 0x0F);
+    struct kalman_estimate est;
+    kalman_estimate(&kf, 30000, &est);
+    assert_true(abs(est.alpha_udeg - 5710593) <= 2);
+}
+
+static void test_lockout_restart_after_jump(void **state) {
+    (void)state;
+    struct kalman_config c = default_config();
+    assert_int_equal(kalman_init(&kf, &c), KALMAN_OK);
+    struct kalman_rows rows;
+    const double before[4] = {97, 100, 103, 100};
+    const double after[4] = {297, 300, 303, 300};
+    for (int i = 0; i < 30; ++i) {
+        push(before, 0x0F, &rows);
+    }
+    for (int i = 0; i < 30; ++i) {
+        push(after, 0x0F, &rows);
+    }
+    assert_true(kf.restarts >= 1);
+    struct kalman_estimate est;
+    kalman_estimate(&kf, 30000, &est);
+    assert_true(fabs((double)est.distance_mm / Q32 - 300.0) < 1e-3);
+}
+
+static void test_missing_sensors_observability(void **state) {
+    (void)state;
+    struct kalman_config c = default_config();
+    const double x[4] = {97, 98, 103, 102};
+    struct kalman_rows rows;
+    struct kalman_estimate est;
+    /* one sensor missing: still both axes */
+    for (unsigned miss = 0; miss < 4; ++miss) {
+        assert_int_equal(kalman_init(&kf, &c), KALMAN_OK);
+        for (int i = 0; i < 20; ++i) {
+            push(x, (uint8_t)(0x0F & ~(1u << miss)), &rows);
+        }
+        kalman_estimate(&kf, 30000, &est);
+        assert_true(est.alpha_observable && est.beta_observable);
+        assert_true(abs(est.alpha_udeg - 5710593) <= 2);
+    }
+    /* A and C missing: α unobservable */
+    assert_int_equal(kalman_init(&kf, &c), KALMAN_OK);
+    for (int i = 0; i < 20; ++i) {
+        push(x, 0x0A, &rows);
+    }
+    kalman_estimate(&kf, 30000, &est);
+    assert_false(est.alpha_observable);
+    assert_true(est.beta_observable);
+    /* A and B missing: neither */
+    assert_int_equal(kalman_init(&kf, &c), KALMAN_OK);
+    for (int i = 0; i < 20; ++i) {
+        push(x, 0x0C, &rows);
+    }
+    kalman_estimate(&kf, 30000, &est);
+    assert_false(est.alpha_observable);
+    assert_false(est.beta_observable);
+    /* nothing valid: not started or no information */
+    assert_int_equal(kalman_init(&kf, &c), KALMAN_OK);
+    for (int i = 0; i < 5; ++i) {
+        push(x, 0x00, &rows);
+    }
+    kalman_estimate(&kf, 30000, &est);
+    assert_false(est.alpha_observable);
+}
+
+static void test_noise_tracking(void **state) {
+    (void)state;
+    struct kalman_config c = default_config();
+    assert_int_equal(kalman_init(&kf, &c), KALMAN_OK);
+    const int64_t nine = (int64_t)9 << 32;
+    kalman_track_noise(&kf, 2, nine, 1); /* fewer than 2 readings: ignored */
+    assert_true(kf.r[2] == (int64_t)4 << 32);
+    kalman_track_noise(&kf, 2, nine, 100); /* first: replaces the guess */
+    assert_true(kf.r[2] == nine);
+    kalman_track_noise(&kf, 2, (int64_t)13 << 32, 100); /* then 1/4 of the way */
+    assert_true(kf.r[2] == (int64_t)10 << 32);
+    kalman_track_noise(&kf, 1, 0, 100); /* zero variance: the 1/12 mm² floor */
+    assert_true(kf.r[1] == 357913941);
+    kalman_reset(&kf); /* a window reset keeps what was learned */
+    assert_true(kf.r[2] == (int64_t)10 << 32);
+}
+
+static void test_process_noise_follows_a_ramp(void **state) {
+    (void)state;
+    struct kalman_config c = default_config();
+    c.process_noise_mm2[1] = (int64_t)1 << 28; /* (0.25 mm)² per row on a·tan α */
+    assert_int_equal(kalman_init(&kf, &c), KALMAN_OK);
+    struct kalman_rows rows;
+    for (int i = 0; i < 400; ++i) {
+        double x[4];
+        ideal(30, 150, -5 + 0.025 * i, 0, x);
+        push(x, 0x0F, &rows);
+    }
+    struct kalman_estimate est;
+    kalman_estimate(&kf, 30000, &est);
+    /* 1 mm quantisation of a noise-free ramp alone moves the readings' own angle
+     * by up to atan(1/60) = 0.95°; the filter stays within half a degree */
+    assert_true(abs(est.alpha_udeg - 4975000) < 500000);
+    /* with Q = 0 the same ramp is averaged, far behind */
+    c.process_noise_mm2[1] = 0;
+    assert_int_equal(kalman_init(&kf, &c), KALMAN_OK);
+    for (int i = 0; i < 400; ++i) {
+        double x[4];
+        ideal(30, 150, -5 + 0.025 * i, 0, x);
+        push(x, 0x0F, &rows);
+    }
+    kalman_estimate(&kf, 30000, &est);
+    assert_true(abs(est.alpha_udeg - 4975000) > 3000000); /* about the ramp's mean */
+}
+
+static void test_flush_short_window(void **state) {
+    (void)state;
+    struct kalman_config c = default_config();
+    c.warmup_rows = 5;
+    assert_int_equal(kalman_init(&kf, &c), KALMAN_OK);
+    struct kalman_rows rows;
+    const double x[4] = {97, 100, 103, 100};
+    push(x, 0x0F, &rows);
+    push(x, 0x0F, &rows);
+    assert_int_equal(rows.count, 0);
+    kalman_flush(&kf, &rows);
+    assert_int_equal(rows.count, 2);
+    struct kalman_estimate est;
+    kalman_estimate(&kf, 30000, &est);
+    assert_true(est.alpha_observable);
+    assert_true(abs(est.alpha_udeg - 5710593) <= 2);
+    kalman_flush(&kf, &rows); /* nothing left */
+    assert_int_equal(rows.count, 0);
+}
+
+int main(void) {
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_config_errors),
+        cmocka_unit_test(test_noise_free_plate_is_exact),
+        cmocka_unit_test(test_matches_batch_least_squares),
+        cmocka_unit_test(test_long_run_stays_positive_definite),
+        cmocka_unit_test(test_flagged_skipped_and_outliers_gated),
+        cmocka_unit_test(test_warmup_outlier_in_first_rows),
+        cmocka_unit_test(test_lockout_restart_after_jump),
+        cmocka_unit_test(test_missing_sensors_observability),
+        cmocka_unit_test(test_noise_tracking),
+        cmocka_unit_test(test_process_noise_follows_a_ramp),
+        cmocka_unit_test(test_flush_short_window),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
