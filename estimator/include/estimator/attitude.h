@@ -1,0 +1,186 @@
+/*
+ * The estimator facade: the firmware calls attitude_push_sample() once per
+ * four-sensor sample and gets, whenever a window is complete, the attitude
+ * from each of the four estimators of DESIGN.md §6:
+ *
+ *   consensus        the product's consensus rule (estimator/consensus.h)
+ *   consensus-paper  the first paper's published weighting, with its failures
+ *                    reported as statuses
+ *   kalman           the 3-state Kalman filter of Eq. 5 (estimator/kalman.h)
+ *   mean             the plain average of the five angle estimates
+ *
+ * Windows are counted in rows: window k covers rows kN .. kN+N−1 whatever the
+ * readings' statuses. Tumbling mode reports once per window, at its last row,
+ * and resets the statistics and the Kalman filter at its first row (the
+ * paper's static-window protocol). Sliding mode reports at every row from row
+ * N−1 on, over the last N rows, and nothing before (the first N−1 rows return
+ * false); its Kalman filter runs continuously (never reset: give it process
+ * noise Q if the plate moves), and the Kalman noise tracking learns from each
+ * block of N rows.
+ *
+ * Everything is integer: angles in micro-degrees, distances in micrometres,
+ * so the host and a Cortex-M image produce byte-identical text. No heap, no
+ * globals: all state lives in the caller's struct attitude_state (about 5 KiB
+ * with the default WINDOW_MAX_SAMPLES = 256).
+ */
+#ifndef ESTIMATOR_ATTITUDE_H
+#define ESTIMATOR_ATTITUDE_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "estimator/consensus.h"
+#include "estimator/kalman.h"
+#include "estimator/window_stats.h"
+
+#define ATTITUDE_SENSORS    4u                 /* A, B, C, D */
+#define ATTITUDE_WINDOW_MAX WINDOW_MAX_SAMPLES /* compile-time maximum N */
+
+enum attitude_estimator {
+    ATTITUDE_EST_CONSENSUS = 0, /* "consensus": the product rule */
+    ATTITUDE_EST_PAPER = 1,     /* "consensus-paper" */
+    ATTITUDE_EST_KALMAN = 2,    /* "kalman" */
+    ATTITUDE_EST_MEAN = 3,      /* "mean" */
+    ATTITUDE_EST_COUNT = 4,
+};
+#define ATTITUDE_EST_BIT(e) ((uint8_t)(1u << (e)))
+#define ATTITUDE_EST_ALL    ((uint8_t)0x0Fu)
+
+enum attitude_window_mode { ATTITUDE_TUMBLING = 0, ATTITUDE_SLIDING = 1 };
+
+enum attitude_status {
+    ATTITUDE_OK = 0,       /* all four sensors, every reading of the window used */
+    ATTITUDE_DEGRADED = 1, /* estimated from fewer sensors or around flagged data */
+    ATTITUDE_INVALID = 2,  /* no estimate: see the reason; the invalid axes read 0 */
+};
+
+enum attitude_reason {
+    ATTITUDE_REASON_NONE = 0,
+    ATTITUDE_REASON_FLAGGED_DATA,       /* degraded: readings flagged, missing or gated out */
+    ATTITUDE_REASON_SENSOR_MISSING,     /* degraded: a sensor gave nothing usable: 3 sensors */
+    ATTITUDE_REASON_KALMAN_RESTARTED,   /* degraded: the filter restarted inside the window */
+    ATTITUDE_REASON_ALPHA_UNOBSERVABLE, /* invalid: α cannot be determined (β may be valid) */
+    ATTITUDE_REASON_BETA_UNOBSERVABLE,  /* invalid: β cannot be determined (α may be valid) */
+    ATTITUDE_REASON_UNOBSERVABLE,       /* invalid: neither angle */
+    ATTITUDE_REASON_DISABLED,           /* invalid: estimator not selected in the config */
+    ATTITUDE_REASON_NO_CONVERGENCE,     /* invalid: product consensus missed its proven bound */
+    ATTITUDE_REASON_PAPER_TOO_FEW_ROWS, /* invalid: fewer than 2 rows with all four sensors */
+    ATTITUDE_REASON_PAPER_NONPOSITIVE_VARIANCE,
+    ATTITUDE_REASON_PAPER_ZERO_COVARIANCE,
+    ATTITUDE_REASON_PAPER_ZERO_ROW_SUM,
+    ATTITUDE_REASON_PAPER_NEGATIVE_ROW_SUM,
+    ATTITUDE_REASON_PAPER_OVERFLOW,
+    ATTITUDE_REASON_PAPER_DIVERGED,
+    ATTITUDE_REASON_PAPER_NO_CONVERGENCE,
+    ATTITUDE_REASON_PAPER_OUTSIDE_HULL,
+    ATTITUDE_REASON_PAPER_INCONSISTENT, /* converged, but too far from the product estimate */
+    ATTITUDE_REASON_COUNT,
+};
+
+/* Errors of attitude_init, one per configuration field (negative). */
+enum attitude_error {
+    ATTITUDE_ERR_NONE = 0,
+    ATTITUDE_ERR_ARM = -1,                      /* arm_um outside [1000, 1000000] */
+    ATTITUDE_ERR_WINDOW = -2,                   /* window outside [2, ATTITUDE_WINDOW_MAX] */
+    ATTITUDE_ERR_MODE = -3,                     /* mode neither tumbling nor sliding */
+    ATTITUDE_ERR_ESTIMATORS = -4,               /* estimators empty or with unknown bits */
+    ATTITUDE_ERR_TOLERANCE = -5,                /* consensus_tolerance_udeg outside [1, 10000000] */
+    ATTITUDE_ERR_PAPER_ITERATIONS = -6,         /* paper_max_iterations is 0 */
+    ATTITUDE_ERR_KALMAN_PROCESS_NOISE = -7,     /* kalman_process_noise_um2 above 2^32 */
+    ATTITUDE_ERR_KALMAN_MEASUREMENT_NOISE = -8, /* a kalman_initial_noise_um2 is 0 */
+    ATTITUDE_ERR_KALMAN_WARMUP = -9,            /* kalman_warmup_rows outside 1..8 */
+    ATTITUDE_ERR_KALMAN_NOISE_SHIFT = -10,      /* kalman_noise_shift above 8 */
+    ATTITUDE_ERR_NULL = -11,                    /* a NULL pointer */
+};
+
+struct attitude_config {
+    int32_t arm_um;                       /* a: each sensor's distance from the centre */
+    uint16_t window;                      /* N rows per window */
+    enum attitude_window_mode mode;       /* tumbling or sliding */
+    uint8_t estimators;                   /* ATTITUDE_EST_BIT() mask of what to compute */
+    int32_t consensus_tolerance_udeg;     /* spread tolerance of both consensus rules */
+    uint16_t paper_max_iterations;        /* cap of the paper's iteration (it gives none) */
+    uint16_t paper_consistency_sigmas_q8; /* flag a paper value farther than k·σ + tol
+                                             from the product estimate; 0: no check */
+    uint16_t gate_sigmas_q8; /* window gate: reject |x − median| > k·1.4826·MAD; 0: off */
+    uint16_t gate_floor_mm;  /* ... but never closer than this */
+    uint32_t kalman_process_noise_um2[KALMAN_STATES];    /* Q per row: x̄, a·tan α, a·tan β */
+    uint32_t kalman_initial_noise_um2[ATTITUDE_SENSORS]; /* R until the first window */
+    uint16_t kalman_gate_sigmas_q8;                      /* innovation gate k; 0: off */
+    uint8_t kalman_warmup_rows;                          /* robust start: rows buffered */
+    uint8_t kalman_noise_shift;                          /* R tracking gain 2^-shift per window */
+};
+
+/* Counts over the rows of the window, per sensor. */
+struct attitude_sensor_counts {
+    uint16_t used;     /* readings that went into the estimate */
+    uint16_t flagged;  /* non-zero range status */
+    uint16_t missing;  /* no reading (present flag false) */
+    uint16_t rejected; /* status 0 but gated out as an outlier */
+};
+
+struct attitude_estimate {
+    enum attitude_status status;
+    enum attitude_reason reason;
+    bool alpha_valid; /* the α value is an estimate (else 0) */
+    bool beta_valid;
+    bool distance_valid;
+    int32_t alpha_udeg;       /* rotation about z, micro-degrees */
+    int32_t beta_udeg;        /* rotation about y, micro-degrees */
+    int32_t distance_um;      /* mean distance x̄, micrometres */
+    int32_t alpha_sigma_udeg; /* predicted 1σ (consensus, kalman); 0: not provided */
+    int32_t beta_sigma_udeg;
+    uint16_t alpha_iterations; /* consensus iterations (0 for kalman and mean) */
+    uint16_t beta_iterations;
+    bool flatness_valid;          /* some row had all four readings */
+    int32_t flatness_residual_um; /* window mean of x_A + x_C − x_B − x_D */
+    struct attitude_sensor_counts counts[ATTITUDE_SENSORS];
+};
+
+struct attitude_output {
+    uint32_t first_row; /* trace row (0-based) the window starts at */
+    uint32_t last_row;  /* ... and ends at: the row this estimate belongs to */
+    uint16_t rows;      /* N */
+    struct attitude_estimate est[ATTITUDE_EST_COUNT]; /* indexed by enum attitude_estimator */
+};
+
+struct attitude_state {
+    struct attitude_config cfg;
+    struct window_state window;
+    struct window_stats stats; /* scratch of the last window */
+    struct kalman_state kalman;
+    uint32_t rows; /* rows pushed since attitude_init */
+    uint32_t kalman_restarts_at_window_start;
+};
+
+/* Fills cfg with the defaults: a = 30 mm, N = 100, tumbling, every estimator,
+ * tolerance 1000 udeg (the paper's 1e-3 deg), 200 paper iterations, paper
+ * consistency 3σ, MAD gate 5σ with a 3 mm floor, Kalman Q = 0, R = (2 mm)²,
+ * innovation gate 5σ, 3 warm-up rows, noise shift 2. */
+void attitude_config_default(struct attitude_config *cfg);
+
+/* Checks cfg and starts st. Returns ATTITUDE_ERR_NONE or the attitude_error
+ * naming the bad field; st is unusable after an error. */
+int attitude_init(struct attitude_state *st, const struct attitude_config *cfg);
+
+/* Message naming what is wrong for an attitude_error code ("" for none). */
+const char *attitude_error_message(int err);
+
+/*
+ * One sample: range_mm[A..D] as reported, range_status[] (0 = valid) and
+ * present[] (false: the sensor produced no reading; its range and status are
+ * ignored). Returns true when a window estimate is ready in *out (out is not
+ * touched otherwise).
+ */
+bool attitude_push_sample(struct attitude_state *st, const uint16_t range_mm[ATTITUDE_SENSORS],
+                          const uint8_t range_status[ATTITUDE_SENSORS],
+                          const bool present[ATTITUDE_SENSORS], struct attitude_output *out);
+
+/* "consensus", "consensus-paper", "kalman", "mean" (DESIGN.md §6), or "unknown". */
+const char *attitude_estimator_name(enum attitude_estimator e);
+/* "ok", "degraded", "invalid", or "unknown". */
+const char *attitude_status_name(enum attitude_status s);
+/* Short kebab-case name of a reason ("paper-diverged", ...), or "unknown". */
+const char *attitude_reason_name(enum attitude_reason r);
+
+#endif /* ESTIMATOR_ATTITUDE_H */

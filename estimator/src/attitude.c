@@ -1,0 +1,553 @@
+/* The estimator facade: see estimator/attitude.h. */
+#include "estimator/attitude.h"
+
+#include <string.h>
+
+/* Kalman outcomes kept per row in window_row.aux: low nibble used, high rejected. */
+#define AUX_USED(m)     ((uint8_t)((m)&0x0Fu))
+#define AUX_REJECTED(m) ((uint8_t)(((m) >> 4) & 0x0Fu))
+#define AUX_MAKE(u, r)  ((uint8_t)(((u)&0x0Fu) | (((r)&0x0Fu) << 4)))
+
+static const uint8_t bit_a = ANGLES_BIT(ANGLES_A);
+static const uint8_t bit_b = ANGLES_BIT(ANGLES_B);
+static const uint8_t bit_c = ANGLES_BIT(ANGLES_C);
+static const uint8_t bit_d = ANGLES_BIT(ANGLES_D);
+
+void attitude_config_default(struct attitude_config *cfg) {
+    memset(cfg, 0, sizeof *cfg);
+    cfg->arm_um = 30000;
+    cfg->window = 100;
+    cfg->mode = ATTITUDE_TUMBLING;
+    cfg->estimators = ATTITUDE_EST_ALL;
+    cfg->consensus_tolerance_udeg = 1000;
+    cfg->paper_max_iterations = 200;
+    cfg->paper_consistency_sigmas_q8 = 3u * 256u;
+    cfg->gate_sigmas_q8 = 5u * 256u;
+    cfg->gate_floor_mm = 3;
+    for (unsigned s = 0; s < ATTITUDE_SENSORS; ++s) {
+        cfg->kalman_initial_noise_um2[s] = 4000000u; /* (2 mm)², the paper's jitter */
+    }
+    cfg->kalman_gate_sigmas_q8 = 5u * 256u;
+    cfg->kalman_warmup_rows = 3;
+    cfg->kalman_noise_shift = 2;
+}
+
+const char *attitude_error_message(int err) {
+    switch (err) {
+    case ATTITUDE_ERR_NONE:
+        return "";
+    case ATTITUDE_ERR_ARM:
+        return "arm_um outside [1000, 1000000] um";
+    case ATTITUDE_ERR_WINDOW:
+        return "window outside [2, ATTITUDE_WINDOW_MAX] rows";
+    case ATTITUDE_ERR_MODE:
+        return "mode is neither tumbling nor sliding";
+    case ATTITUDE_ERR_ESTIMATORS:
+        return "estimators selects none or has unknown bits";
+    case ATTITUDE_ERR_TOLERANCE:
+        return "consensus_tolerance_udeg outside [1, 10000000]";
+    case ATTITUDE_ERR_PAPER_ITERATIONS:
+        return "paper_max_iterations is 0";
+    case ATTITUDE_ERR_KALMAN_PROCESS_NOISE:
+        return "kalman_process_noise_um2 too large";
+    case ATTITUDE_ERR_KALMAN_MEASUREMENT_NOISE:
+        return "kalman_initial_noise_um2 is 0";
+    case ATTITUDE_ERR_KALMAN_WARMUP:
+        return "kalman_warmup_rows outside [1, 8]";
+    case ATTITUDE_ERR_KALMAN_NOISE_SHIFT:
+        return "kalman_noise_shift above 8";
+    case ATTITUDE_ERR_NULL:
+        return "NULL state or config";
+    default:
+        return "unknown attitude error";
+    }
+}
+
+/* um² (uint32) as Q32 mm²: x · 2^32 / 1e6, rounded. */
+static fix_q32_t um2_to_q32_mm2(uint32_t um2) {
+    return fix_muldiv_s64((int64_t)um2, FIX_Q32_ONE, 1000000, NULL);
+}
+
+int attitude_init(struct attitude_state *st, const struct attitude_config *cfg) {
+    if (st == NULL || cfg == NULL) {
+        return ATTITUDE_ERR_NULL;
+    }
+    if (!angles_arm_valid(cfg->arm_um)) {
+        return ATTITUDE_ERR_ARM;
+    }
+    if (cfg->window < WINDOW_MIN_SAMPLES || cfg->window > ATTITUDE_WINDOW_MAX) {
+        return ATTITUDE_ERR_WINDOW;
+    }
+    if (cfg->mode != ATTITUDE_TUMBLING && cfg->mode != ATTITUDE_SLIDING) {
+        return ATTITUDE_ERR_MODE;
+    }
+    if (cfg->estimators == 0u || (cfg->estimators & ~ATTITUDE_EST_ALL) != 0u) {
+        return ATTITUDE_ERR_ESTIMATORS;
+    }
+    if (cfg->consensus_tolerance_udeg < 1 || cfg->consensus_tolerance_udeg > 10000000) {
+        return ATTITUDE_ERR_TOLERANCE;
+    }
+    if (cfg->paper_max_iterations == 0u) {
+        return ATTITUDE_ERR_PAPER_ITERATIONS;
+    }
+    memset(st, 0, sizeof *st);
+    st->cfg = *cfg;
+    const struct window_config wcfg = {.arm_um = cfg->arm_um,
+                                       .length = cfg->window,
+                                       .gate_sigmas_q8 = cfg->gate_sigmas_q8,
+                                       .gate_floor_mm = cfg->gate_floor_mm};
+    if (window_init(&st->window, &wcfg) != WINDOW_OK) {
+        return ATTITUDE_ERR_WINDOW; /* unreachable: checked above */
+    }
+    struct kalman_config kcfg;
+    memset(&kcfg, 0, sizeof kcfg);
+    for (unsigned i = 0; i < KALMAN_STATES; ++i) {
+        kcfg.process_noise_mm2[i] = um2_to_q32_mm2(cfg->kalman_process_noise_um2[i]);
+    }
+    for (unsigned s = 0; s < ATTITUDE_SENSORS; ++s) {
+        kcfg.initial_noise_mm2[s] = um2_to_q32_mm2(cfg->kalman_initial_noise_um2[s]);
+    }
+    kcfg.gate_sigmas_q8 = cfg->kalman_gate_sigmas_q8;
+    kcfg.gate_floor_mm = cfg->gate_floor_mm;
+    kcfg.warmup_rows = cfg->kalman_warmup_rows;
+    kcfg.noise_shift = cfg->kalman_noise_shift;
+    switch (kalman_init(&st->kalman, &kcfg)) {
+    case KALMAN_OK:
+        break;
+    case KALMAN_ERR_PROCESS_NOISE:
+        return ATTITUDE_ERR_KALMAN_PROCESS_NOISE;
+    case KALMAN_ERR_MEASUREMENT_NOISE:
+        return ATTITUDE_ERR_KALMAN_MEASUREMENT_NOISE;
+    case KALMAN_ERR_WARMUP:
+        return ATTITUDE_ERR_KALMAN_WARMUP;
+    default:
+        return ATTITUDE_ERR_KALMAN_NOISE_SHIFT;
+    }
+    return ATTITUDE_ERR_NONE;
+}
+
+/* --- status helpers ------------------------------------------------------------------ */
+
+/* α needs A and C, or B and D plus one of A, C (DESIGN.md §2 model, rank of H). */
+static bool alpha_observable(uint8_t s) {
+    const bool ac = (s & (bit_a | bit_c)) == (bit_a | bit_c);
+    const bool bd = (s & (bit_b | bit_d)) == (bit_b | bit_d);
+    return ac || (bd && (s & (bit_a | bit_c)) != 0u);
+}
+static bool beta_observable(uint8_t s) {
+    const bool ac = (s & (bit_a | bit_c)) == (bit_a | bit_c);
+    const bool bd = (s & (bit_b | bit_d)) == (bit_b | bit_d);
+    return bd || (ac && (s & (bit_b | bit_d)) != 0u);
+}
+
+/* Sets status and reason from observability and the window counts. */
+static void finish_status(struct attitude_estimate *e, bool alpha_ok, bool beta_ok) {
+    e->alpha_valid = alpha_ok;
+    e->beta_valid = beta_ok;
+    if (!alpha_ok) {
+        e->alpha_udeg = 0;
+        e->alpha_sigma_udeg = 0;
+    }
+    if (!beta_ok) {
+        e->beta_udeg = 0;
+        e->beta_sigma_udeg = 0;
+    }
+    if (!alpha_ok || !beta_ok) {
+        e->status = ATTITUDE_INVALID;
+        if (e->reason == ATTITUDE_REASON_NONE) {
+            if (alpha_ok) {
+                e->reason = ATTITUDE_REASON_BETA_UNOBSERVABLE;
+            } else if (beta_ok) {
+                e->reason = ATTITUDE_REASON_ALPHA_UNOBSERVABLE;
+            } else {
+                e->reason = ATTITUDE_REASON_UNOBSERVABLE;
+            }
+        }
+        return;
+    }
+    bool missing_sensor = false;
+    bool flagged = false;
+    for (unsigned k = 0; k < ATTITUDE_SENSORS; ++k) {
+        const struct attitude_sensor_counts *c = &e->counts[k];
+        missing_sensor = missing_sensor || c->used == 0u;
+        flagged = flagged || c->flagged != 0u || c->missing != 0u || c->rejected != 0u;
+    }
+    if (missing_sensor) {
+        e->status = ATTITUDE_DEGRADED;
+        e->reason = ATTITUDE_REASON_SENSOR_MISSING;
+    } else if (e->reason == ATTITUDE_REASON_KALMAN_RESTARTED || flagged) {
+        e->status = ATTITUDE_DEGRADED;
+        if (e->reason == ATTITUDE_REASON_NONE) {
+            e->reason = ATTITUDE_REASON_FLAGGED_DATA;
+        }
+    } else {
+        e->status = ATTITUDE_OK;
+        e->reason = ATTITUDE_REASON_NONE;
+    }
+}
+
+/* Mean distance: the midpoint of each complete opposite pair, averaged. */
+static bool pair_midpoints_um(const struct window_stats *w, int32_t *out_um) {
+    const bool ac = w->sensor[ANGLES_A].used != 0u && w->sensor[ANGLES_C].used != 0u;
+    const bool bd = w->sensor[ANGLES_B].used != 0u && w->sensor[ANGLES_D].used != 0u;
+    int64_t sum = 0;
+    int64_t n = 0;
+    if (ac) {
+        sum += w->sensor[ANGLES_A].mean_mm + w->sensor[ANGLES_C].mean_mm;
+        n += 2;
+    }
+    if (bd) {
+        sum += w->sensor[ANGLES_B].mean_mm + w->sensor[ANGLES_D].mean_mm;
+        n += 2;
+    }
+    if (n == 0) {
+        *out_um = 0;
+        return false;
+    }
+    *out_um = fix_sat_s32(fix_muldiv_s64(sum, 1000, n * FIX_Q32_ONE, NULL));
+    return true;
+}
+
+static int32_t q32_mm_to_um(fix_q32_t mm) {
+    return fix_sat_s32(fix_mul_shr_s64(mm, 1000, FIX_Q32_SHIFT, NULL));
+}
+
+static void common_fields(const struct window_stats *w, struct attitude_estimate *e) {
+    memset(e, 0, sizeof *e);
+    e->flatness_valid = w->residual_valid;
+    e->flatness_residual_um = w->residual_um;
+    for (unsigned k = 0; k < ATTITUDE_SENSORS; ++k) {
+        e->counts[k].used = w->sensor[k].used;
+        e->counts[k].flagged = w->sensor[k].flagged;
+        e->counts[k].missing = w->sensor[k].missing;
+        e->counts[k].rejected = w->sensor[k].rejected;
+    }
+}
+
+static uint8_t sensors_used(const struct attitude_estimate *e) {
+    uint8_t m = 0;
+    for (unsigned k = 0; k < ATTITUDE_SENSORS; ++k) {
+        if (e->counts[k].used != 0u) {
+            m = (uint8_t)(m | (1u << k));
+        }
+    }
+    return m;
+}
+
+/* --- the four estimators ----------------------------------------------------------------- */
+
+static void run_product(struct attitude_state *st, struct consensus_product_result *res,
+                        struct attitude_estimate *e) {
+    const struct window_stats *w = &st->stats;
+    struct consensus_product_input in;
+    memset(&in, 0, sizeof in);
+    in.arm_um = st->cfg.arm_um;
+    in.tolerance_udeg = st->cfg.consensus_tolerance_udeg;
+    for (unsigned k = 0; k < ATTITUDE_SENSORS; ++k) {
+        in.sensor[k].used = w->sensor[k].used != 0u;
+        in.sensor[k].count = w->sensor[k].used;
+        in.sensor[k].mean_mm = w->sensor[k].mean_mm;
+        in.sensor[k].var_mm2 = w->sensor[k].var_mm2;
+    }
+    consensus_product(&in, res);
+    common_fields(w, e);
+    e->alpha_udeg = res->alpha.angle_udeg;
+    e->beta_udeg = res->beta.angle_udeg;
+    e->alpha_sigma_udeg = res->alpha.sigma_udeg;
+    e->beta_sigma_udeg = res->beta.sigma_udeg;
+    e->alpha_iterations = res->alpha.iterations;
+    e->beta_iterations = res->beta.iterations;
+    e->distance_valid = res->distance_valid;
+    e->distance_um = res->distance_valid ? q32_mm_to_um(res->distance_mm) : 0;
+    if (res->alpha.status == CONSENSUS_NO_CONVERGENCE ||
+        res->beta.status == CONSENSUS_NO_CONVERGENCE) {
+        e->reason = ATTITUDE_REASON_NO_CONVERGENCE;
+    }
+    finish_status(e, res->alpha.status == CONSENSUS_OK, res->beta.status == CONSENSUS_OK);
+}
+
+static enum attitude_reason paper_reason(enum consensus_status s) {
+    switch (s) {
+    case CONSENSUS_TOO_FEW_ROWS:
+        return ATTITUDE_REASON_PAPER_TOO_FEW_ROWS;
+    case CONSENSUS_NONPOSITIVE_VARIANCE:
+        return ATTITUDE_REASON_PAPER_NONPOSITIVE_VARIANCE;
+    case CONSENSUS_ZERO_COVARIANCE:
+        return ATTITUDE_REASON_PAPER_ZERO_COVARIANCE;
+    case CONSENSUS_ZERO_ROW_SUM:
+        return ATTITUDE_REASON_PAPER_ZERO_ROW_SUM;
+    case CONSENSUS_NEGATIVE_ROW_SUM:
+        return ATTITUDE_REASON_PAPER_NEGATIVE_ROW_SUM;
+    case CONSENSUS_OVERFLOW:
+        return ATTITUDE_REASON_PAPER_OVERFLOW;
+    case CONSENSUS_DIVERGED:
+        return ATTITUDE_REASON_PAPER_DIVERGED;
+    case CONSENSUS_NO_CONVERGENCE:
+        return ATTITUDE_REASON_PAPER_NO_CONVERGENCE;
+    case CONSENSUS_OUTSIDE_HULL:
+        return ATTITUDE_REASON_PAPER_OUTSIDE_HULL;
+    default:
+        return ATTITUDE_REASON_NONE;
+    }
+}
+
+/* True when the paper's value lies within k·σ + tol of the product's. */
+static bool paper_consistent(const struct attitude_config *cfg, int32_t paper_udeg,
+                             const struct consensus_axis *product) {
+    if (cfg->paper_consistency_sigmas_q8 == 0u || product->status != CONSENSUS_OK) {
+        return true;
+    }
+    const int64_t diff = (int64_t)paper_udeg - product->angle_udeg;
+    const int64_t limit = (((int64_t)cfg->paper_consistency_sigmas_q8 * product->sigma_udeg) >> 8) +
+                          cfg->consensus_tolerance_udeg;
+    return (diff < 0 ? -diff : diff) <= limit;
+}
+
+static void run_paper(struct attitude_state *st, const struct consensus_product_result *product,
+                      struct attitude_estimate *e) {
+    const struct window_stats *w = &st->stats;
+    common_fields(w, e);
+    const struct consensus_paper_config pcfg = {.tolerance_udeg = st->cfg.consensus_tolerance_udeg,
+                                                .max_iterations = st->cfg.paper_max_iterations};
+    struct consensus_paper_result ra;
+    struct consensus_paper_result rb;
+    consensus_paper(w->alpha.complete_mean, w->alpha.cov, w->complete, &pcfg, &ra);
+    consensus_paper(w->beta.complete_mean, w->beta.cov, w->complete, &pcfg, &rb);
+    e->alpha_iterations = ra.iterations;
+    e->beta_iterations = rb.iterations;
+    e->alpha_udeg = ra.angle_udeg;
+    e->beta_udeg = rb.angle_udeg;
+    e->distance_valid = pair_midpoints_um(w, &e->distance_um);
+    bool alpha_ok = ra.status == CONSENSUS_OK;
+    bool beta_ok = rb.status == CONSENSUS_OK;
+    if (!alpha_ok) {
+        e->reason = paper_reason(ra.status);
+    } else if (!beta_ok) {
+        e->reason = paper_reason(rb.status);
+    }
+    /* A faithful P can converge to a poor value without any numerical sign:
+     * check it against the product estimate of the same window. */
+    if (alpha_ok && !paper_consistent(&st->cfg, ra.angle_udeg, &product->alpha)) {
+        alpha_ok = false;
+        e->reason = ATTITUDE_REASON_PAPER_INCONSISTENT;
+    }
+    if (beta_ok && !paper_consistent(&st->cfg, rb.angle_udeg, &product->beta)) {
+        beta_ok = false;
+        if (e->reason == ATTITUDE_REASON_NONE) {
+            e->reason = ATTITUDE_REASON_PAPER_INCONSISTENT;
+        }
+    }
+    finish_status(e, alpha_ok, beta_ok);
+}
+
+static int32_t mean_of_angles(const struct window_axis_stats *ax) {
+    int64_t sum = 0;
+    int64_t n = 0;
+    for (unsigned i = 0; i < ANGLES_PER_AXIS; ++i) {
+        if (ax->count[i] != 0u) {
+            sum += ax->mean[i];
+            n++;
+        }
+    }
+    return n == 0 ? 0 : fix_sat_s32(fix_div_round_s64(sum, n << FIX_UDEG_Q_SHIFT));
+}
+
+static void run_mean(struct attitude_state *st, struct attitude_estimate *e) {
+    const struct window_stats *w = &st->stats;
+    common_fields(w, e);
+    const uint8_t s = sensors_used(e);
+    e->alpha_udeg = mean_of_angles(&w->alpha);
+    e->beta_udeg = mean_of_angles(&w->beta);
+    e->distance_valid = pair_midpoints_um(w, &e->distance_um);
+    finish_status(e, alpha_observable(s), beta_observable(s));
+}
+
+static void run_kalman(struct attitude_state *st, struct attitude_estimate *e) {
+    const struct window_stats *w = &st->stats;
+    common_fields(w, e);
+    /* the filter's own outcomes for the rows of this window */
+    for (unsigned k = 0; k < ATTITUDE_SENSORS; ++k) {
+        e->counts[k].used = 0;
+        e->counts[k].rejected = 0;
+    }
+    for (uint16_t age = 0; age < window_fill(&st->window); ++age) {
+        const struct window_row *row = window_row_at(&st->window, age);
+        for (unsigned k = 0; k < ATTITUDE_SENSORS; ++k) {
+            e->counts[k].used = (uint16_t)(e->counts[k].used + ((AUX_USED(row->aux) >> k) & 1u));
+            e->counts[k].rejected =
+                (uint16_t)(e->counts[k].rejected + ((AUX_REJECTED(row->aux) >> k) & 1u));
+        }
+    }
+    struct kalman_estimate ke;
+    kalman_estimate(&st->kalman, st->cfg.arm_um, &ke);
+    e->alpha_udeg = ke.alpha_udeg;
+    e->beta_udeg = ke.beta_udeg;
+    e->alpha_sigma_udeg = ke.alpha_sigma_udeg;
+    e->beta_sigma_udeg = ke.beta_sigma_udeg;
+    e->distance_valid = ke.alpha_observable || ke.beta_observable;
+    e->distance_um = e->distance_valid ? q32_mm_to_um(ke.distance_mm) : 0;
+    if (st->kalman.restarts != st->kalman_restarts_at_window_start) {
+        e->reason = ATTITUDE_REASON_KALMAN_RESTARTED;
+    }
+    finish_status(e, ke.alpha_observable, ke.beta_observable);
+}
+
+static void disabled(struct attitude_estimate *e, const struct window_stats *w) {
+    common_fields(w, e);
+    e->reason = ATTITUDE_REASON_DISABLED;
+    finish_status(e, false, false);
+    e->reason = ATTITUDE_REASON_DISABLED;
+}
+
+/* Writes the Kalman outcomes of the rows just processed into their ring rows. */
+static void record_kalman_rows(struct attitude_state *st, const struct kalman_rows *rows) {
+    for (unsigned i = 0; i < rows->count; ++i) {
+        struct window_row *row = window_row_at(&st->window, (uint16_t)(rows->count - 1u - i));
+        if (row != NULL) {
+            row->aux = AUX_MAKE(rows->used[i], rows->rejected[i]);
+        }
+    }
+}
+
+bool attitude_push_sample(struct attitude_state *st, const uint16_t range_mm[ATTITUDE_SENSORS],
+                          const uint8_t range_status[ATTITUDE_SENSORS],
+                          const bool present[ATTITUDE_SENSORS], struct attitude_output *out) {
+    const struct attitude_config *cfg = &st->cfg;
+    const bool kalman_on = (cfg->estimators & ATTITUDE_EST_BIT(ATTITUDE_EST_KALMAN)) != 0u;
+    uint8_t present_mask = 0;
+    uint8_t valid_mask = 0;
+    uint16_t ranges[ATTITUDE_SENSORS];
+    for (unsigned k = 0; k < ATTITUDE_SENSORS; ++k) {
+        ranges[k] = present[k] ? range_mm[k] : 0u; /* an absent reading carries nothing */
+        if (present[k]) {
+            present_mask = (uint8_t)(present_mask | (1u << k));
+            if (range_status[k] == 0u) {
+                valid_mask = (uint8_t)(valid_mask | (1u << k));
+            }
+        }
+    }
+    if (cfg->mode == ATTITUDE_TUMBLING && st->rows % cfg->window == 0u) {
+        window_clear(&st->window);
+        kalman_reset(&st->kalman);
+        st->kalman_restarts_at_window_start = st->kalman.restarts;
+    }
+    window_push(&st->window, ranges, present_mask, valid_mask);
+    if (kalman_on) {
+        struct kalman_rows rows;
+        kalman_push_row(&st->kalman, ranges, valid_mask, &rows);
+        record_kalman_rows(st, &rows);
+    }
+    st->rows++;
+    const bool ready = cfg->mode == ATTITUDE_TUMBLING ? st->rows % cfg->window == 0u
+                                                      : window_fill(&st->window) == cfg->window;
+    if (!ready) {
+        return false;
+    }
+    if (kalman_on && cfg->mode == ATTITUDE_TUMBLING) {
+        /* a static window ends here: rows still buffered (a restart late in the
+         * window, or N below the warm-up) are processed now */
+        struct kalman_rows rows;
+        kalman_flush(&st->kalman, &rows);
+        record_kalman_rows(st, &rows);
+    }
+    window_compute(&st->window, &st->stats);
+    const struct window_stats *w = &st->stats;
+    out->last_row = st->rows - 1u;
+    out->first_row = st->rows - cfg->window;
+    out->rows = cfg->window;
+
+    struct consensus_product_result product;
+    memset(&product, 0, sizeof product);
+    const uint8_t want = cfg->estimators;
+    const bool need_product = (want & (ATTITUDE_EST_BIT(ATTITUDE_EST_CONSENSUS) |
+                                       ATTITUDE_EST_BIT(ATTITUDE_EST_PAPER))) != 0u;
+    struct attitude_estimate scratch;
+    memset(&scratch, 0, sizeof scratch);
+    if (need_product) {
+        run_product(st, &product, &scratch);
+    }
+    if ((want & ATTITUDE_EST_BIT(ATTITUDE_EST_CONSENSUS)) != 0u) {
+        out->est[ATTITUDE_EST_CONSENSUS] = scratch;
+    } else {
+        disabled(&out->est[ATTITUDE_EST_CONSENSUS], w);
+    }
+    if ((want & ATTITUDE_EST_BIT(ATTITUDE_EST_PAPER)) != 0u) {
+        run_paper(st, &product, &out->est[ATTITUDE_EST_PAPER]);
+    } else {
+        disabled(&out->est[ATTITUDE_EST_PAPER], w);
+    }
+    if (kalman_on) {
+        run_kalman(st, &out->est[ATTITUDE_EST_KALMAN]);
+    } else {
+        disabled(&out->est[ATTITUDE_EST_KALMAN], w);
+    }
+    if ((want & ATTITUDE_EST_BIT(ATTITUDE_EST_MEAN)) != 0u) {
+        run_mean(st, &out->est[ATTITUDE_EST_MEAN]);
+    } else {
+        disabled(&out->est[ATTITUDE_EST_MEAN], w);
+    }
+
+    /* R follows each sensor's noise: once per block of N rows */
+    if (kalman_on && st->rows % cfg->window == 0u) {
+        for (unsigned k = 0; k < ATTITUDE_SENSORS; ++k) {
+            kalman_track_noise(&st->kalman, k, w->sensor[k].var_mm2, w->sensor[k].used);
+        }
+    }
+    return true;
+}
+
+const char *attitude_estimator_name(enum attitude_estimator e) {
+    switch (e) {
+    case ATTITUDE_EST_CONSENSUS:
+        return "consensus";
+    case ATTITUDE_EST_PAPER:
+        return "consensus-paper";
+    case ATTITUDE_EST_KALMAN:
+        return "kalman";
+    case ATTITUDE_EST_MEAN:
+        return "mean";
+    default:
+        return "unknown";
+    }
+}
+
+const char *attitude_status_name(enum attitude_status s) {
+    switch (s) {
+    case ATTITUDE_OK:
+        return "ok";
+    case ATTITUDE_DEGRADED:
+        return "degraded";
+    case ATTITUDE_INVALID:
+        return "invalid";
+    default:
+        return "unknown";
+    }
+}
+
+const char *attitude_reason_name(enum attitude_reason r) {
+    static const char *const names[ATTITUDE_REASON_COUNT] = {
+        "none",
+        "flagged-data",
+        "sensor-missing",
+        "kalman-restarted",
+        "alpha-unobservable",
+        "beta-unobservable",
+        "unobservable",
+        "disabled",
+        "no-convergence",
+        "paper-too-few-rows",
+        "paper-nonpositive-variance",
+        "paper-zero-covariance",
+        "paper-zero-row-sum",
+        "paper-negative-row-sum",
+        "paper-overflow",
+        "paper-diverged",
+        "paper-no-convergence",
+        "paper-outside-hull",
+        "paper-inconsistent",
+    };
+    if ((unsigned)r >= (unsigned)ATTITUDE_REASON_COUNT) {
+        return "unknown";
+    }
+    return names[r];
+}
