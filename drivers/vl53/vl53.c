@@ -592,6 +592,12 @@ int vl53_set_inter_measurement(struct vl53_dev *dev, uint32_t period_ms) {
 /* ------------------------------------------------------------------------- */
 /* Ranging.                                                                   */
 
+/* Data is overdue 1.5 periods + slack after the last: one lost range is tolerated, and a
+ * 50 % error in the part's period would still not raise a false alarm. */
+static uint32_t overdue_after_us(uint32_t period_us) {
+    return period_us + period_us / 2u + VL53_DATA_SLACK_US;
+}
+
 int vl53_start_ranging(struct vl53_dev *dev) {
     if (!dev_ok(dev)) {
         return HAL_ERR_INVALID;
@@ -612,9 +618,9 @@ int vl53_start_ranging(struct vl53_dev *dev) {
     dev->have_candidate = false;
     dev->ranging_start_us = now;
     dev->last_result_us = now;
-    /* First data is due one budget after the start; overdue two periods later. */
+    /* First data is due one budget after the start; overdue the usual margin later. */
     dev->next_register_poll_us = now + budget_us;
-    dev->data_deadline_us = now + budget_us + 2u * period_us + VL53_DATA_SLACK_US;
+    dev->data_deadline_us = now + budget_us + overdue_after_us(period_us);
     return HAL_OK;
 }
 
@@ -742,8 +748,7 @@ static int read_result_in(const struct call *c, struct vl53_result *result) {
     if (!dev->have_stream || result->stream_count != dev->last_stream) {
         /* The part produced something new, even if it fails the checks below: data is not
          * overdue (a stuck or dead part is what the deadline is for). */
-        dev->data_deadline_us =
-            result->time_us + 2u * vl53_period_us(&dev->timing) + VL53_DATA_SLACK_US;
+        dev->data_deadline_us = result->time_us + overdue_after_us(vl53_period_us(&dev->timing));
     }
     if (result->range_status == VL53_RANGE_UNKNOWN) {
         return HAL_ERR_CORRUPT; /* a raw status the part does not produce: garbled read */

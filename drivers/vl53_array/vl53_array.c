@@ -131,6 +131,22 @@ static int release_and_start(struct vl53_array *array, size_t index) {
     if (err != HAL_OK) {
         return fail(array, index, VL53_ARRAY_CONFIG_FAILED, err, target);
     }
+    /* A sensor that reset while this one was at 0x29 (silent in its early boot when 0x29 was
+     * probed) took the address write too and now answers at `target` as well: its reads
+     * would be wired-AND with ours, undetectably. It lost its own address to do so, so every
+     * other ranging sensor must still answer at its own (read-only probes: undisturbed). */
+    for (size_t j = 0; j < array->cfg->count; ++j) {
+        if (j == index || array->report[j].state != VL53_SENSOR_RANGING) {
+            continue;
+        }
+        err = probe(array, array->cfg->sensors[j].address);
+        if (err == HAL_ERR_ADDR_NACK) {
+            return fail(array, index, VL53_ARRAY_ADDRESS_CONFLICT, HAL_ERR_STATE, target);
+        }
+        if (err != HAL_OK) {
+            return fail(array, index, VL53_ARRAY_BUS_ERROR, err, target);
+        }
+    }
     report->state = VL53_SENSOR_RANGING;
     report->fault = VL53_ARRAY_OK;
     report->err = HAL_OK;
@@ -243,7 +259,9 @@ uint32_t vl53_array_recover_budget_us(const struct vl53_array *array, size_t ind
     }
     const struct vl53_config *cfg = &array->cfg->sensors[index];
     uint32_t transfer = value_or(cfg->i2c_timeout_us, VL53_DEFAULT_I2C_TIMEOUT_US);
-    return VL53_ARRAY_XSHUT_LOW_US + 2u * transfer + release_budget_us(cfg);
+    /* Probes of 0x29 and its address before, of the others' addresses after. */
+    uint32_t probes = 2u + (uint32_t)array->cfg->count - 1u;
+    return VL53_ARRAY_XSHUT_LOW_US + probes * transfer + release_budget_us(cfg);
 }
 
 uint32_t vl53_array_bring_up_budget_us(const struct vl53_array *array) {
@@ -255,8 +273,8 @@ uint32_t vl53_array_bring_up_budget_us(const struct vl53_array *array) {
     /* Two probes of 0x29 around a bus recovery, then one per sensor address. */
     uint32_t total = VL53_ARRAY_XSHUT_LOW_US + (2u + (uint32_t)array->cfg->count) * transfer;
     for (size_t i = 0; i < array->cfg->count; ++i) {
-        /* Probe of 0x29 before the release, then the release itself. */
-        total += transfer + release_budget_us(&array->cfg->sensors[i]);
+        /* Probe of 0x29 before the release, the release, probes of the sensors up before. */
+        total += (1u + (uint32_t)i) * transfer + release_budget_us(&array->cfg->sensors[i]);
     }
     return total;
 }

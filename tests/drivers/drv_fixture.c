@@ -78,14 +78,19 @@ bool drv_result_matches(const struct sim_vl53 *m, const struct vl53_result *r) {
 }
 
 bool drv_result_safe(const struct sim_vl53 *m, const struct vl53_result *r) {
+    if (r->range_status != VL53_RANGE_VALID) {
+        return true; /* not usable: the consumer drops it, whatever its distance */
+    }
     for (size_t k = 0; k < 2u; ++k) {
         const struct sim_vl53_published *p = &m->published[k];
-        if (p->valid && p->stream_count == r->stream_count && p->distance_mm == r->distance_mm &&
-            (p->range_status == r->range_status || r->range_status != VL53_RANGE_VALID)) {
-            return true;
+        if (p->valid && p->stream_count == r->stream_count) {
+            return p->distance_mm == r->distance_mm && p->range_status == VL53_RANGE_VALID;
         }
     }
-    return false;
+    /* A stream count no published result has (a flipped count bit): the reading is still
+     * right if it is the newest measurement. */
+    return m->published[0].valid && m->published[0].distance_mm == r->distance_mm &&
+           m->published[0].range_status == VL53_RANGE_VALID;
 }
 
 void drv_manager_init(struct drv_manager *m, struct drv_fixture *f) {
@@ -114,6 +119,23 @@ uint32_t drv_manager_bound_us(const struct drv_manager *m, enum drv_call call) {
     }
 }
 
+static uint32_t injected_before[SIM_FAULT_COUNT];
+
+static void faults_mark(const struct drv_manager *m) {
+    memcpy(injected_before, m->f->rig.bus.stats.injected, sizeof injected_before);
+}
+
+static void faults_attribute(struct drv_manager *m, int err) {
+    for (unsigned k = 0; k < (unsigned)SIM_FAULT_COUNT; ++k) {
+        uint32_t delta = m->f->rig.bus.stats.injected[k] - injected_before[k];
+        if (err == HAL_OK || err == HAL_ERR_NOT_READY) {
+            m->faults_absorbed[k] += delta;
+        } else {
+            m->faults_surfaced[k] += delta;
+        }
+    }
+}
+
 static void timed(struct drv_manager *m, enum drv_call call, uint64_t t0) {
     uint64_t took = drv_now(m->f) - t0;
     m->calls[call]++;
@@ -138,7 +160,9 @@ static void note_error(struct drv_manager *m, size_t i, int err) {
 
 static void recover_sensor(struct drv_manager *m, size_t i) {
     uint64_t t0 = drv_now(m->f);
+    faults_mark(m);
     int err = vl53_array_recover_sensor(&m->f->array, i);
+    faults_attribute(m, err);
     timed(m, DRV_CALL_RECOVER_SENSOR, t0);
     m->consecutive_errors[i] = 0u;
     m->last_error_us[i] = drv_now(m->f);
@@ -146,6 +170,14 @@ static void recover_sensor(struct drv_manager *m, size_t i) {
     m->healthy_since_us[i] = UINT64_MAX;
     if (err == HAL_OK) {
         m->recoveries_ok++;
+    } else if (err == HAL_ERR_BUS_STUCK) {
+        /* Nothing on the bus can work until SDA is released. */
+        m->recoveries_failed++;
+        uint64_t t1 = drv_now(m->f);
+        faults_mark(m);
+        int bus_err = vl53_array_recover_bus(&m->f->array);
+        faults_attribute(m, bus_err);
+        timed(m, DRV_CALL_RECOVER_BUS, t1);
     } else {
         m->recoveries_failed++;
         m->retry_at_us[i] = drv_now(m->f) + DRV_MANAGER_RETRY_US;
@@ -164,7 +196,9 @@ void drv_manager_tick(struct drv_manager *m, uint32_t tick_us) {
         }
         struct vl53_result r;
         uint64_t t0 = drv_now(f);
+        faults_mark(m);
         int err = vl53_array_poll(&f->array, i, &r);
+        faults_attribute(m, err);
         timed(m, DRV_CALL_POLL, t0);
         if (err == HAL_ERR_NOT_READY) {
             continue;
@@ -179,7 +213,7 @@ void drv_manager_tick(struct drv_manager *m, uint32_t tick_us) {
             if (!drv_result_safe(&f->rig.sensor[i], &r)) {
                 m->unsafe_results++;
             } else if (!drv_result_matches(&f->rig.sensor[i], &r)) {
-                m->status_degraded++;
+                m->glitches++;
             }
             m->ok_since_error[i]++;
             if (m->ok_since_error[i] == 2u) {
@@ -191,7 +225,9 @@ void drv_manager_tick(struct drv_manager *m, uint32_t tick_us) {
         if (err == HAL_ERR_BUS_STUCK) {
             if (!bus_recovered) {
                 t0 = drv_now(f);
-                (void)vl53_array_recover_bus(&f->array);
+                faults_mark(m);
+                int bus_err = vl53_array_recover_bus(&f->array);
+                faults_attribute(m, bus_err);
                 timed(m, DRV_CALL_RECOVER_BUS, t0);
                 bus_recovered = true;
             }

@@ -58,8 +58,9 @@ bool drv_result_matches(const struct sim_vl53 *m, const struct vl53_result *r);
  * makes in normal operation: the 30-byte configuration read-back. */
 uint32_t drv_transfer_slack_us(const struct drv_fixture *f);
 
-/* Like drv_result_matches, but a status that differs is acceptable if it is not "valid"
- * (a flipped status bit that marks a good reading bad loses data, never corrupts it). */
+/* Could a consumer be misled by this OK result? Safe when its status is not "valid" (it is
+ * dropped), or when it is valid and its distance is what the model published for that
+ * stream count (or, if no published result has that count, for the newest measurement). */
 bool drv_result_safe(const struct sim_vl53 *m, const struct vl53_result *r);
 
 /*
@@ -84,14 +85,21 @@ struct drv_manager {
     uint32_t ok_since_error[DRV_SENSORS];   /* valid results since then */
     uint64_t healthy_since_us[DRV_SENSORS]; /* time of the 2nd result after the last error */
     uint64_t results[DRV_SENSORS];
-    uint64_t unsafe_results;  /* OK results that do not match what the model published */
-    uint64_t status_degraded; /* OK results whose status a fault turned from valid to not */
-    uint64_t errors[12];      /* by -hal_err */
+    uint64_t unsafe_results; /* OK results with a "valid" status but a distance the model did
+                                not publish for that measurement (drv_result_safe) */
+    uint64_t glitches;       /* OK results that are safe but not exact: a valid reading turned
+                                invalid, or a flipped stream count on the right distance */
+    uint64_t errors[12];     /* by -hal_err */
     uint32_t calls[DRV_CALL_COUNT];
     uint32_t max_us[DRV_CALL_COUNT];
     uint32_t over_budget[DRV_CALL_COUNT]; /* calls that took longer than their bound */
     uint32_t recoveries_ok;
     uint32_t recoveries_failed;
+    /* Faults injected into the transactions of each call, by kind, split by how the call
+     * ended: with an error (surfaced at once), or OK / NOT_READY (absorbed: harmless unless
+     * the call delivered a wrong reading, which unsafe_results counts). */
+    uint32_t faults_surfaced[SIM_FAULT_COUNT];
+    uint32_t faults_absorbed[SIM_FAULT_COUNT];
 };
 
 void drv_manager_init(struct drv_manager *m, struct drv_fixture *f);

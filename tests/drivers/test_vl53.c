@@ -382,9 +382,9 @@ static void test_overdue_data_is_a_timeout(void **state) {
     }
     uint64_t last = drv_now(&fx);
     assert_int_equal(poll_next(&r), HAL_ERR_TIMEOUT);
-    /* Two periods plus the slack after the last result, within the 1 ms poll loop. */
-    assert_in_range(drv_now(&fx) - last, 40000u + VL53_DATA_SLACK_US,
-                    40000u + VL53_DATA_SLACK_US + 1100u);
+    /* 1.5 periods plus the slack after the last result, within the 1 ms poll loop. */
+    assert_in_range(drv_now(&fx) - last, 30000u + VL53_DATA_SLACK_US,
+                    30000u + VL53_DATA_SLACK_US + 1100u);
 }
 
 /* --- each fault kind, injected deliberately ---------------------------------------------- */

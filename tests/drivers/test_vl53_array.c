@@ -208,11 +208,19 @@ static void test_recover_reset_sensor_without_disturbing_others(void **state) {
     assert_int_equal(vl53_array_recover_sensor(&fx.array, 2), HAL_OK);
     assert_true(drv_now(&fx) - t0 <= vl53_array_recover_budget_us(&fx.array, 2) +
                                          VL53_ARRAY_STEPS_PER_SENSOR * drv_transfer_slack_us(&fx));
-    /* Only 0x29 and C's address were on the bus; only C's XSHUT moved (low, then high). */
+    /* Only 0x29 and C's address were written to; the others saw one model-ID read each
+     * (the check that none of them lost its address); only C's XSHUT moved (low, high). */
     assert_true(fx.rig.bus.record_count > 10u);
+    uint32_t reads_of_others = 0u;
     for (size_t n = 0; n < fx.rig.bus.record_count && n < 64u; ++n) {
-        assert_true(log[n].addr7 == 0x29u || log[n].addr7 == DRV_FIRST_ADDRESS + 2u);
+        if (log[n].addr7 != 0x29u && log[n].addr7 != DRV_FIRST_ADDRESS + 2u) {
+            assert_int_equal(log[n].tx_len, 2u);
+            assert_int_equal(hal_get_be16(log[n].tx), 0x010Fu);
+            assert_int_equal(log[n].rx_len, 2u);
+            reads_of_others++;
+        }
     }
+    assert_int_equal(reads_of_others, 3u);
     assert_int_equal(fx.rig.gpio.writes - gpio_writes, 2u);
     for (size_t i = 0; i < DRV_SENSORS; ++i) {
         if (i == 2u) {
@@ -243,6 +251,31 @@ static void test_two_sensors_reset_at_once(void **state) {
     assert_int_equal(fx.array.report[0].fault, VL53_ARRAY_ADDRESS_CONFLICT);
     assert_int_equal(vl53_array_recover_sensor(&fx.array, 3), HAL_OK);
     assert_int_equal(vl53_array_recover_sensor(&fx.array, 0), HAL_OK);
+    assert_int_equal(vl53_array_ranging_count(&fx.array), 4u);
+    uint32_t got[DRV_SENSORS] = {0};
+    run(100u, got, false);
+    for (size_t i = 0; i < DRV_SENSORS; ++i) {
+        assert_true(got[i] >= 4u);
+    }
+}
+
+static void test_sensor_that_reset_during_recovery_is_caught(void **state) {
+    (void)state;
+    attach();
+    assert_int_equal(vl53_array_bring_up(&fx.array), HAL_OK);
+    /* B resets just before C is recovered, and is still silent in early boot when the
+     * recovery probes 0x29: it boots alongside C and follows it to C's address. */
+    assert_true(sim_vl53_inject(&fx.rig.sensor[1], SIM_FAULT_RESET));
+    assert_int_equal(vl53_shutdown(&fx.array.dev[2]), HAL_OK);
+    fx.rig.sensor[1].power_up_us = drv_now(&fx) + VL53_ARRAY_XSHUT_LOW_US - 100u;
+    assert_int_equal(vl53_array_recover_sensor(&fx.array, 2), HAL_ERR_STATE);
+    assert_int_equal(fx.array.report[2].fault, VL53_ARRAY_ADDRESS_CONFLICT);
+    assert_int_equal(fx.array.report[2].conflict_address, DRV_FIRST_ADDRESS + 2u);
+    assert_int_equal(fx.rig.sensor[1].address, DRV_FIRST_ADDRESS + 2u); /* B did follow */
+    assert_false(fx.rig.sensor[2].powered);                             /* C parked */
+    /* Recovering B (its XSHUT takes it off C's address), then C, restores all four. */
+    assert_int_equal(vl53_array_recover_sensor(&fx.array, 1), HAL_OK);
+    assert_int_equal(vl53_array_recover_sensor(&fx.array, 2), HAL_OK);
     assert_int_equal(vl53_array_ranging_count(&fx.array), 4u);
     uint32_t got[DRV_SENSORS] = {0};
     run(100u, got, false);
@@ -306,6 +339,7 @@ int main(void) {
         cmocka_unit_test_setup(test_two_devices_at_one_address, setup),
         cmocka_unit_test_setup(test_recover_reset_sensor_without_disturbing_others, setup),
         cmocka_unit_test_setup(test_two_sensors_reset_at_once, setup),
+        cmocka_unit_test_setup(test_sensor_that_reset_during_recovery_is_caught, setup),
         cmocka_unit_test_setup(test_stuck_bus_recovery, setup),
         cmocka_unit_test_setup(test_attach_checks, setup),
     };

@@ -58,10 +58,10 @@ static void run_with_faults(const uint32_t ppm[SIM_FAULT_COUNT], bool gpio1, uin
         drv_manager_tick(&mgr, 1000u);
     }
     print_message("  injected %u; polls max %u us, recoveries %u ok %u failed (max %u us), "
-                  "bus recoveries %u; degraded statuses %llu\n",
+                  "bus recoveries %u; safe glitches %llu\n",
                   injected, mgr.max_us[DRV_CALL_POLL], mgr.recoveries_ok, mgr.recoveries_failed,
                   mgr.max_us[DRV_CALL_RECOVER_SENSOR], mgr.calls[DRV_CALL_RECOVER_BUS],
-                  (unsigned long long)mgr.status_degraded);
+                  (unsigned long long)mgr.glitches);
     assert_true(injected > 0u);
     for (unsigned c = 0; c < (unsigned)DRV_CALL_COUNT; ++c) {
         assert_int_equal(mgr.over_budget[c], 0u);

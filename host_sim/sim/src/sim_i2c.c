@@ -89,6 +89,12 @@ void sim_i2c_record(struct sim_i2c_bus *bus, struct sim_i2c_record *records, siz
     bus->records = records;
     bus->record_capacity = records != NULL ? capacity : 0u;
     bus->record_count = 0u;
+    bus->record_ring = false;
+}
+
+void sim_i2c_record_ring(struct sim_i2c_bus *bus, struct sim_i2c_record *records, size_t capacity) {
+    sim_i2c_record(bus, records, capacity);
+    bus->record_ring = records != NULL && capacity > 0u;
 }
 
 void sim_i2c_reset_stats(struct sim_i2c_bus *bus) {
@@ -121,8 +127,8 @@ static void note(struct sim_i2c_bus *bus, uint64_t start_us, uint32_t duration_n
             bus->stats.errors[index]++;
         }
     }
-    if (bus->records != NULL && bus->record_count < bus->record_capacity) {
-        struct sim_i2c_record *r = &bus->records[bus->record_count];
+    if (bus->records != NULL && (bus->record_ring || bus->record_count < bus->record_capacity)) {
+        struct sim_i2c_record *r = &bus->records[bus->record_count % bus->record_capacity];
         r->start_us = start_us;
         r->duration_ns = duration_ns;
         r->addr7 = addr7;
@@ -147,6 +153,13 @@ static size_t find_targets(struct sim_i2c_bus *bus, uint8_t addr7, size_t *match
         }
     }
     return count;
+}
+
+static void count_injection(struct sim_i2c_bus *bus, enum sim_fault_kind kind, uint64_t start_us,
+                            uint32_t *fault_mask) {
+    bus->stats.injected[kind]++;
+    bus->stats.last_injected_us = start_us;
+    *fault_mask |= 1u << kind;
 }
 
 static void fill_garbage(struct sim_i2c_bus *bus, uint8_t *rx, size_t rx_len) {
@@ -185,8 +198,7 @@ static int sim_write_read(void *ctx, uint8_t addr7, const uint8_t *tx, size_t tx
     }
     if (hit[SIM_FAULT_STUCK] && !bus->sda_stuck) {
         bus->sda_stuck = true;
-        bus->stats.injected[SIM_FAULT_STUCK]++;
-        fault_mask |= 1u << SIM_FAULT_STUCK;
+        count_injection(bus, SIM_FAULT_STUCK, start_us, &fault_mask);
     }
     if (bus->sda_stuck) {
         /* The master finds SDA low and waits for the bus to free up, in vain. */
@@ -201,8 +213,7 @@ static int sim_write_read(void *ctx, uint8_t addr7, const uint8_t *tx, size_t tx
     if (count > 0u && hit[SIM_FAULT_RESET]) {
         const struct sim_i2c_target *t = &bus->targets[matched[0]];
         if (t->ops->inject(t->ctx, SIM_FAULT_RESET)) {
-            bus->stats.injected[SIM_FAULT_RESET]++;
-            fault_mask |= 1u << SIM_FAULT_RESET;
+            count_injection(bus, SIM_FAULT_RESET, start_us, &fault_mask);
             count = find_targets(bus, addr7, matched);
         }
     }
@@ -210,8 +221,7 @@ static int sim_write_read(void *ctx, uint8_t addr7, const uint8_t *tx, size_t tx
         bus->nack_remaining[matched[0]] =
             (uint8_t)(1u + sim_prng_below(&bus->prng, bus->faults.nack_burst_max));
         bus->nack_is_data[matched[0]] = (sim_prng_next(&bus->prng) & 1u) != 0u;
-        bus->stats.injected[SIM_FAULT_NACK]++;
-        fault_mask |= 1u << SIM_FAULT_NACK;
+        count_injection(bus, SIM_FAULT_NACK, start_us, &fault_mask);
     }
     if (count == 0u) {
         duration_ns = bits_ns(bus->bus_hz, 11u); /* START, address + NACK, STOP */
@@ -227,8 +237,7 @@ static int sim_write_read(void *ctx, uint8_t addr7, const uint8_t *tx, size_t tx
         }
     } else if (hit[SIM_FAULT_STRETCH]) {
         /* Address ACKed, then SCL held low past the master's timeout; nothing is applied. */
-        bus->stats.injected[SIM_FAULT_STRETCH]++;
-        fault_mask |= 1u << SIM_FAULT_STRETCH;
+        count_injection(bus, SIM_FAULT_STRETCH, start_us, &fault_mask);
         duration_ns = bits_ns(bus->bus_hz, 10u) + timeout_ns + stop_bits_ns;
         result = HAL_ERR_TIMEOUT;
     } else {
@@ -246,22 +255,18 @@ static int sim_write_read(void *ctx, uint8_t addr7, const uint8_t *tx, size_t tx
         const struct sim_i2c_target *first = &bus->targets[matched[0]];
         if (result == HAL_OK && rx_len > 0u && hit[SIM_FAULT_GARBAGE]) {
             fill_garbage(bus, rx, rx_len);
-            bus->stats.injected[SIM_FAULT_GARBAGE]++;
-            fault_mask |= 1u << SIM_FAULT_GARBAGE;
+            count_injection(bus, SIM_FAULT_GARBAGE, start_us, &fault_mask);
         }
         if (result == HAL_OK && rx_len > 0u && hit[SIM_FAULT_BITFLIP] &&
             first->ops->flip_result_bit(first->ctx, tx, tx_len, rx, rx_len,
-                                        sim_prng_next(&bus->prng))) {
-            bus->stats.injected[SIM_FAULT_BITFLIP]++;
-            fault_mask |= 1u << SIM_FAULT_BITFLIP;
+                                        sim_prng_below(&bus->prng, 8u * SIM_I2C_MAX_TRANSFER))) {
+            count_injection(bus, SIM_FAULT_BITFLIP, start_us, &fault_mask);
         }
         if (hit[SIM_FAULT_DRDY_HIGH] && first->ops->inject(first->ctx, SIM_FAULT_DRDY_HIGH)) {
-            bus->stats.injected[SIM_FAULT_DRDY_HIGH]++;
-            fault_mask |= 1u << SIM_FAULT_DRDY_HIGH;
+            count_injection(bus, SIM_FAULT_DRDY_HIGH, start_us, &fault_mask);
         }
         if (hit[SIM_FAULT_DRDY_LOW] && first->ops->inject(first->ctx, SIM_FAULT_DRDY_LOW)) {
-            bus->stats.injected[SIM_FAULT_DRDY_LOW]++;
-            fault_mask |= 1u << SIM_FAULT_DRDY_LOW;
+            count_injection(bus, SIM_FAULT_DRDY_LOW, start_us, &fault_mask);
         }
     }
     spend(bus, duration_ns);

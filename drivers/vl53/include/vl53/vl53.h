@@ -206,13 +206,13 @@ int vl53_clear_interrupt(struct vl53_dev *dev);
 /*
  * Non-blocking acquisition step. HAL_ERR_NOT_READY (quickly, no bus traffic when GPIO1 is
  * wired or the next measurement is not yet due) if there is no new data; HAL_ERR_TIMEOUT if
- * data is overdue (no result for 2 periods + VL53_DATA_SLACK_US); else reads the result
+ * data is overdue (no result for 1.5 periods + VL53_DATA_SLACK_US); else reads the result
  * (vl53_read_result), clears the interrupt and returns the first error of the two (the
  * result is filled whenever the read succeeded). HAL_ERR_STATE if not ranging.
  */
 int vl53_poll(struct vl53_dev *dev, struct vl53_result *result);
 
-/* True while ranging with no new result for 2 periods + VL53_DATA_SLACK_US: what makes
+/* True while ranging with no new result for 1.5 periods + VL53_DATA_SLACK_US: what makes
  * vl53_poll() return HAL_ERR_TIMEOUT without a bus timeout. No bus access. */
 bool vl53_data_overdue(const struct vl53_dev *dev);
 

@@ -67,7 +67,8 @@ int vl53_array_attach(struct vl53_array *array, const struct vl53_array_config *
 /*
  * Hold every XSHUT low, check that nothing answers at 0x29 or at any sensor's address,
  * then for each sensor in turn: release it, wait for boot, verify the model ID, move it to
- * its address (checking 0x29 is free again), configure and start it. A sensor that fails is
+ * its address (checking 0x29 is free again), configure and start it, and check the sensors
+ * already up still answer at theirs (see vl53_array_recover_sensor). A sensor that fails is
  * parked in reset with its report filled, and the others still come up. HAL_OK when all
  * are ranging, else the first failure's error (reports say which sensor and why).
  */
@@ -76,7 +77,9 @@ int vl53_array_bring_up(struct vl53_array *array);
 /*
  * Bring sensor `index` back (after a reset, a lost sensor, a stuck data-ready): XSHUT low,
  * check 0x29 and its address are free, release, boot, identify, re-address, configure,
- * start. Only this sensor's XSHUT and addresses 0x29 / its own are used, so the others
+ * start, then check every other ranging sensor still answers at its own address (one that
+ * reset meanwhile may have followed this one to its address: VL53_ARRAY_ADDRESS_CONFLICT).
+ * Only this sensor's XSHUT moves, and the others see nothing but model-ID reads, so they
  * keep ranging undisturbed. HAL_OK or the failure's error (report updated).
  */
 int vl53_array_recover_sensor(struct vl53_array *array, size_t index);
@@ -91,7 +94,7 @@ int vl53_array_recover_bus(struct vl53_array *array);
  * last transfer of each step (at most VL53_ARRAY_STEPS_PER_SENSOR per sensor, plus one bus
  * recovery and 1 + count probes for bring-up). Lets a scheduler know how long it blocks.
  */
-#define VL53_ARRAY_STEPS_PER_SENSOR 8u
+#define VL53_ARRAY_STEPS_PER_SENSOR (8u + VL53_ARRAY_MAX_SENSORS - 1u)
 uint32_t vl53_array_recover_budget_us(const struct vl53_array *array, size_t index);
 uint32_t vl53_array_bring_up_budget_us(const struct vl53_array *array);
 

@@ -33,7 +33,8 @@ struct sim_i2c_target_ops {
     int (*transfer)(void *ctx, const uint8_t *tx, size_t tx_len, uint8_t *rx, size_t rx_len);
     /* Device-side fault (SIM_FAULT_RESET, _DRDY_HIGH, _DRDY_LOW): true if it took effect. */
     bool (*inject)(void *ctx, enum sim_fault_kind kind);
-    /* Flip bit `bit_choice` (mod the eligible bits) among the rx bytes of this transfer that
+    /* Flip bit `bit_choice` (uniform in 0..8*SIM_I2C_MAX_TRANSFER-1, taken mod the number of
+     * eligible bits) among the rx bytes of this transfer that
      * came from the device's result registers; false if none did. */
     bool (*flip_result_bit)(void *ctx, const uint8_t *tx, size_t tx_len, uint8_t *rx, size_t rx_len,
                             uint32_t bit_choice);
@@ -77,7 +78,8 @@ struct sim_i2c_stats {
     uint64_t busy_ns;         /* time the bus was not free: wire time, stretching, stuck waits */
     uint32_t max_transfer_ns; /* longest single transaction */
     uint32_t injected[SIM_FAULT_COUNT];
-    uint32_t recoveries; /* recover() calls */
+    uint64_t last_injected_us; /* start of the last transaction a fault was injected into */
+    uint32_t recoveries;       /* recover() calls */
 };
 
 struct sim_i2c_bus {
@@ -95,6 +97,7 @@ struct sim_i2c_bus {
     struct sim_i2c_record *records;
     size_t record_capacity;
     size_t record_count; /* transactions seen since recording started (may exceed capacity) */
+    bool record_ring;    /* keep the latest `capacity` (record k at k % capacity) */
 };
 
 /* Empty bus on `clock` at `bus_hz` (e.g. 100000 or 400000), no faults, no recording. */
@@ -112,6 +115,9 @@ void sim_i2c_set_sda_stuck(struct sim_i2c_bus *bus, bool stuck);
 
 /* Record the following transactions into records[0..capacity-1] (NULL stops recording). */
 void sim_i2c_record(struct sim_i2c_bus *bus, struct sim_i2c_record *records, size_t capacity);
+
+/* Same, but keep the latest `capacity` transactions: transaction k goes to k % capacity. */
+void sim_i2c_record_ring(struct sim_i2c_bus *bus, struct sim_i2c_record *records, size_t capacity);
 
 /* Zero the statistics. */
 void sim_i2c_reset_stats(struct sim_i2c_bus *bus);

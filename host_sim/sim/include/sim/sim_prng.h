@@ -1,7 +1,8 @@
 /*
- * The simulator's own seeded integer PRNG (xorshift32, Marsaglia 2003,
- * "Xorshift RNGs", J. Stat. Softw. 8(14), shifts 13/17/5): tiny, no float, the
- * same sequence on every host and core.
+ * The simulator's own seeded integer PRNG: xorshift64* (S. Vigna, "An experimental
+ * exploration of Marsaglia's xorshift generators, scrambled", ACM TOMS 42(4), 2016:
+ * shifts 12/25/27, multiplier 0x2545F4914F6CDD1D, high 32 bits out). Small, no float,
+ * the same sequence on every host and core.
  */
 #ifndef SIM_PRNG_H
 #define SIM_PRNG_H
@@ -10,10 +11,10 @@
 #include <stdint.h>
 
 struct sim_prng {
-    uint32_t state;
+    uint64_t state;
 };
 
-/* Seed the generator; any seed is valid (0 is mapped to a fixed non-zero state). */
+/* Seed the generator; any seed is valid. */
 void sim_prng_seed(struct sim_prng *prng, uint32_t seed);
 
 /* Next 32 random bits. */
