@@ -9,7 +9,7 @@ packages=(
   libcmocka-dev libeigen3-dev
   qemu-system-arm
   cppcheck clang clang-tidy clang-format libclang-rt-14-dev
-  valgrind
+  valgrind bc
   python3 python3-matplotlib python3-numpy python3-serial
   openocd
 )

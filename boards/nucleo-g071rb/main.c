@@ -40,13 +40,16 @@ static void board_init(void) {
     stm32_usart_init(&log_usart);
 }
 
+/* The application's state: static, so its size shows in the map file, not on the stack. */
+static struct tof_app app;
+
 int main(void) {
     board_init();
-    const struct tof_platform platform = {
+    static const struct tof_platform platform = {
         .board_name = "nucleo-g071rb",
         .log = {.ops = &usart_log_ops, .ctx = &log_usart},
     };
-    return tof_app_main(&platform);
+    return tof_app_main(&platform, &tof_app_default_config, &app, 0);
 }
 
 void board_exit(int status) {

@@ -2,6 +2,14 @@
 
 #include <string.h>
 
+#include "firmware/text.h"
+#include "hal/hal_err.h"
+
+/* Error code -> counter slot (codes -1..-11 of hal_err.h; anything else lands in 0). */
+static unsigned error_slot(int err) {
+    return (err < 0 && err >= -11) ? (unsigned)(-err) : 0u;
+}
+
 void tof_log_line(const struct tof_platform *platform, const char *text) {
     if (platform->log.ops == NULL || platform->log.ops->write == NULL) {
         return;
@@ -10,8 +18,281 @@ void tof_log_line(const struct tof_platform *platform, const char *text) {
     platform->log.ops->write(platform->log.ctx, "\n", 1);
 }
 
-int tof_app_main(const struct tof_platform *platform) {
+uint64_t tof_app_now_us(struct tof_app *app) {
+    const struct hal_time *t = &app->platform->time;
+    const uint32_t raw = t->ops->now_us(t->ctx);
+    app->now_us += hal_time_elapsed_us(raw, app->last_raw_us); /* wrap-safe extension */
+    app->last_raw_us = raw;
+    return app->now_us;
+}
+
+static void emit_event(struct tof_app *app, enum tof_event_kind kind, unsigned sensor,
+                       enum tof_health_state from, enum tof_health_state to, int err) {
+    const struct tof_output *out = &app->platform->output;
+    if (out->ops == NULL || out->ops->event == NULL) {
+        return;
+    }
+    const struct tof_event ev = {.kind = kind,
+                                 .t_us = app->now_us,
+                                 .sensor = (uint8_t)sensor,
+                                 .from = from,
+                                 .to = to,
+                                 .err = err};
+    out->ops->event(out->ctx, &ev);
+}
+
+/* Assembled samples flow here: raw output, then the estimators. */
+static void on_sample(void *ctx, const struct tof_sample *sample) {
+    struct tof_app *app = ctx;
+    ++app->counters.samples;
+    const struct tof_output *out = &app->platform->output;
+    if (app->raw_output && out->ops != NULL && out->ops->sample != NULL) {
+        out->ops->sample(out->ctx, sample);
+    }
+    bool present[TOF_SENSORS];
+    for (unsigned i = 0; i < TOF_SENSORS; ++i) {
+        present[i] = (sample->present_mask & (1u << i)) != 0u;
+    }
+    struct tof_estimate_record record;
+    if (attitude_push_sample(&app->estimator, sample->range_mm, sample->status, present,
+                             &record.output)) {
+        record.t_us = sample->t_us;
+        ++app->counters.estimates;
+        if (out->ops != NULL && out->ops->estimate != NULL) {
+            out->ops->estimate(out->ctx, &record);
+        }
+    }
+}
+
+/* Slot boundaries are multiples of the period on the firmware timeline. */
+static uint64_t next_boundary(uint64_t now_us, uint32_t period_us) {
+    return (now_us / period_us + 1u) * period_us;
+}
+
+/*
+ * Sensors start ranging at a slot boundary, so every sensor's n-th measurement
+ * completes in the same slot: samples are simultaneous across the four sensors
+ * and slot k is measurement k. A sensor brought up (or back) is stopped and
+ * started at the next boundary by tof_app_step().
+ */
+static void park_until_boundary(struct tof_app *app, unsigned sensor) {
+    struct vl53_dev *dev = vl53_array_sensor(&app->array, sensor);
+    if (vl53_is_ranging(dev)) {
+        (void)vl53_stop_ranging(dev); /* a failure shows up as an error at the start */
+    }
+    app->start_pending[sensor] = true;
+}
+
+static void note_error(struct tof_app *app, unsigned sensor, int err) {
+    ++app->counters.read_errors[sensor];
+    ++app->counters.errors_by_code[error_slot(err)];
+    const enum tof_health_state before = app->health[sensor].state;
+    tof_health_on_error(&app->health[sensor], &app->cfg->health, (uint32_t)(app->now_us / 1000u));
+    if (app->health[sensor].state != before) {
+        emit_event(app, TOF_EVENT_HEALTH, sensor, before, app->health[sensor].state, err);
+    }
+    if (err == HAL_ERR_BUS_STUCK || err == HAL_ERR_BUS_BUSY) {
+        const int rc = vl53_array_recover_bus(&app->array);
+        ++app->counters.bus_recoveries;
+        emit_event(app, TOF_EVENT_BUS_RECOVERY, 0xFFu, before, before, rc);
+    }
+}
+
+static void note_good(struct tof_app *app, unsigned sensor) {
+    const enum tof_health_state before = app->health[sensor].state;
+    tof_health_on_good(&app->health[sensor], &app->cfg->health, (uint32_t)(app->now_us / 1000u));
+    if (app->health[sensor].state != before) {
+        emit_event(app, TOF_EVENT_HEALTH, sensor, before, app->health[sensor].state, HAL_OK);
+    }
+}
+
+static void poll_sensor(struct tof_app *app, unsigned sensor) {
+    if (!tof_health_usable(&app->health[sensor]) || app->start_pending[sensor]) {
+        return;
+    }
+    struct vl53_result result;
+    const int rc = vl53_array_poll(&app->array, sensor, &result);
+    if (rc == HAL_ERR_NOT_READY) {
+        return;
+    }
+    if (rc != HAL_OK) {
+        note_error(app, sensor, rc);
+        return;
+    }
+    note_good(app, sensor);
+    ++app->counters.readings;
+    /* The reading's time on the 64-bit timeline: now minus how long ago it was read. */
+    (void)tof_app_now_us(app);
+    const uint32_t age_us = hal_time_elapsed_us(app->last_raw_us, result.time_us);
+    const uint64_t t_us = app->now_us >= age_us ? app->now_us - age_us : 0u;
+    tof_assembler_add(&app->assembler, &app->assembler_cfg, sensor, t_us, result.distance_mm,
+                      result.range_status, on_sample, app);
+}
+
+/* Carry out the fault manager's decision for one sensor; returns true if it re-initialised. */
+static bool manage_sensor(struct tof_app *app, unsigned sensor) {
+    const uint32_t now_ms = (uint32_t)(app->now_us / 1000u);
+    const enum tof_health_state before = app->health[sensor].state;
+    const enum tof_health_action action =
+        tof_health_poll(&app->health[sensor], &app->cfg->health, now_ms);
+    if (app->health[sensor].state != before) {
+        emit_event(app, TOF_EVENT_HEALTH, sensor, before, app->health[sensor].state,
+                   HAL_ERR_TIMEOUT);
+    }
+    if (action != TOF_HEALTH_ACT_REINIT) {
+        return false;
+    }
+    const int rc = vl53_array_recover_sensor(&app->array, sensor);
+    (void)tof_app_now_us(app);
+    if (rc == HAL_OK) {
+        ++app->counters.reinits_ok;
+        park_until_boundary(app, sensor);
+    } else {
+        ++app->counters.reinits_failed;
+        ++app->counters.errors_by_code[error_slot(rc)];
+        if (rc == HAL_ERR_BUS_STUCK || rc == HAL_ERR_BUS_BUSY) {
+            /* A stuck bus fails every re-init: free it, or the sensor can never come back. */
+            const int bus_rc = vl53_array_recover_bus(&app->array);
+            ++app->counters.bus_recoveries;
+            emit_event(app, TOF_EVENT_BUS_RECOVERY, 0xFFu, TOF_HEALTH_LOST, TOF_HEALTH_LOST,
+                       bus_rc);
+        }
+    }
+    const enum tof_health_state lost = app->health[sensor].state;
+    tof_health_on_reinit_done(&app->health[sensor], &app->cfg->health,
+                              (uint32_t)(app->now_us / 1000u), rc == HAL_OK);
+    emit_event(app, TOF_EVENT_REINIT, sensor, lost, app->health[sensor].state, rc);
+    return true;
+}
+
+static void start_pending_sensors(struct tof_app *app) {
+    const uint32_t period_us = app->assembler_cfg.period_us;
+    /* Start only in the first part of a slot, so the first measurement ends in this slot's
+     * successor as every other sensor's does. */
+    if (app->now_us % period_us > app->cfg->idle_us) {
+        return;
+    }
+    for (unsigned i = 0; i < TOF_SENSORS; ++i) {
+        if (!app->start_pending[i]) {
+            continue;
+        }
+        app->start_pending[i] = false;
+        const int rc = vl53_start_ranging(vl53_array_sensor(&app->array, i));
+        if (rc != HAL_OK) {
+            note_error(app, i, rc);
+        }
+    }
+}
+
+int tof_app_init(struct tof_app *app, const struct tof_platform *platform,
+                 const struct tof_app_config *cfg) {
+    memset(app, 0, sizeof *app);
+    app->platform = platform;
+    app->cfg = cfg;
+    if (tof_app_config_check(cfg) != NULL || platform->time.ops == NULL) {
+        return HAL_ERR_INVALID;
+    }
+    app->last_raw_us = platform->time.ops->now_us(platform->time.ctx);
+    app->now_us = app->last_raw_us; /* the timeline starts at the platform clock's value */
+    app->raw_output = cfg->raw_output;
+    for (unsigned i = 0; i < TOF_SENSORS; ++i) {
+        app->sensor_cfg[i] = (struct vl53_config){
+            .i2c = platform->i2c,
+            .gpio = platform->gpio,
+            .time = platform->time,
+            .address = cfg->address[i],
+            .xshut_pin = platform->xshut_pin[i],
+            .gpio1_pin = platform->gpio1_pin[i],
+            .polarity = VL53_INT_ACTIVE_HIGH,
+            .timing = cfg->timing,
+        };
+    }
+    app->array_cfg = (struct vl53_array_config){.sensors = app->sensor_cfg, .count = TOF_SENSORS};
+    int rc = vl53_array_attach(&app->array, &app->array_cfg);
+    if (rc != HAL_OK) {
+        return rc;
+    }
+    if (attitude_init(&app->estimator, &cfg->estimator) != ATTITUDE_ERR_NONE) {
+        return HAL_ERR_INVALID; /* tof_app_config_check() names the field */
+    }
+    app->assembler_cfg = (struct tof_assembler_config){
+        .period_us = vl53_period_us(&cfg->timing),
+        .max_skew_us = cfg->max_skew_us,
+        .max_emit_per_call = 8,
+    };
+    rc = vl53_array_bring_up(&app->array);
+    const uint64_t now = tof_app_now_us(app);
+    for (unsigned i = 0; i < TOF_SENSORS; ++i) {
+        tof_health_init(&app->health[i], (uint32_t)(now / 1000u));
+        const struct vl53_sensor_report *report = vl53_array_report(&app->array, i);
+        if (report->state == VL53_SENSOR_RANGING) {
+            park_until_boundary(app, i);
+        } else {
+            /* Failed bring-up: the fault manager retries it after its back-off. */
+            for (uint8_t k = 0; k < cfg->health.errors_to_lost; ++k) {
+                tof_health_on_error(&app->health[i], &cfg->health, (uint32_t)(now / 1000u));
+            }
+            tof_health_on_reinit_done(&app->health[i], &cfg->health, (uint32_t)(now / 1000u),
+                                      false);
+            emit_event(app, TOF_EVENT_HEALTH, i, TOF_HEALTH_HEALTHY, app->health[i].state,
+                       report->err);
+        }
+    }
+    /* Slot 0 is the first whole period after the sensors start at the next boundary. */
+    const uint64_t start = next_boundary(tof_app_now_us(app), app->assembler_cfg.period_us);
+    tof_assembler_init(&app->assembler, start + app->assembler_cfg.period_us);
+    (void)rc; /* per-sensor failures are in the reports and health states */
+    return HAL_OK;
+}
+
+void tof_app_step(struct tof_app *app, bool idle) {
+    const uint64_t begin = tof_app_now_us(app);
+    ++app->counters.iterations;
+    start_pending_sensors(app);
+    for (unsigned i = 0; i < TOF_SENSORS; ++i) {
+        poll_sensor(app, i);
+        (void)tof_app_now_us(app);
+    }
+    /* At most one re-initialisation per iteration keeps the iteration bounded. */
+    for (unsigned i = 0; i < TOF_SENSORS; ++i) {
+        if (manage_sensor(app, i)) {
+            break;
+        }
+    }
+    tof_assembler_poll(&app->assembler, &app->assembler_cfg, tof_app_now_us(app), on_sample, app);
+    const uint64_t end = tof_app_now_us(app);
+    const uint64_t took = end - begin;
+    if (took > app->counters.max_iteration_us) {
+        app->counters.max_iteration_us = took > UINT32_MAX ? UINT32_MAX : (uint32_t)took;
+    }
+    if (took > app->cfg->loop_budget_us) {
+        ++app->counters.overruns;
+        emit_event(app, TOF_EVENT_OVERRUN, 0xFFu, TOF_HEALTH_HEALTHY, TOF_HEALTH_HEALTHY,
+                   HAL_ERR_TIMEOUT);
+    } else if (app->platform->watchdog.ops != NULL) {
+        app->platform->watchdog.ops->kick(app->platform->watchdog.ctx);
+    }
+    if (idle) {
+        app->platform->time.ops->delay_us(app->platform->time.ctx, app->cfg->idle_us);
+    }
+}
+
+int tof_app_main(const struct tof_platform *platform, const struct tof_app_config *cfg,
+                 struct tof_app *app, uint32_t max_iterations) {
     tof_log_line(platform, TOF_FW_NAME " " TOF_FW_VERSION);
     tof_log_line(platform, platform->board_name);
-    return 0;
+    const int rc = tof_app_init(app, platform, cfg);
+    if (rc != HAL_OK) {
+        char line[64];
+        struct tof_text t;
+        tof_text_init(&t, line, sizeof line);
+        tof_text_str(&t, "init failed: ");
+        tof_text_str(&t, hal_err_name(rc));
+        tof_log_line(platform, line);
+        return rc;
+    }
+    for (uint32_t n = 0; max_iterations == 0u || n < max_iterations; ++n) {
+        tof_app_step(app, true);
+    }
+    return HAL_OK;
 }

@@ -1,0 +1,23 @@
+# Target test: run the replay image under QEMU on TRACE and compare its estimate
+# CSV byte for byte with GOLDEN (what host_sim writes for the same trace).
+# cmake -DQEMU= -DBOARD= -DIMAGE= -DTRACE= -DOUT= -DGOLDEN= -P run_replay_test.cmake
+file(REMOVE ${OUT})
+execute_process(
+  COMMAND ${QEMU} -M ${BOARD} -nographic -monitor none -serial none
+          -semihosting-config enable=on,target=native -kernel ${IMAGE}
+          -append "${TRACE} ${OUT}"
+  RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err TIMEOUT 540)
+message("${out}")
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "QEMU ${BOARD} replay exited with '${rc}': ${err}")
+endif()
+if(NOT out MATCHES "tof-attitude [0-9.]+\n${BOARD}\n")
+  message(FATAL_ERROR "QEMU ${BOARD}: no boot banner naming the board")
+endif()
+execute_process(COMMAND ${CMAKE_COMMAND} -E compare_files ${OUT} ${GOLDEN} RESULT_VARIABLE diff)
+if(NOT diff EQUAL 0)
+  message(FATAL_ERROR "QEMU ${BOARD} estimates ${OUT} differ from host_sim's ${GOLDEN}")
+endif()
+file(STRINGS ${OUT} lines)
+list(LENGTH lines n)
+message(STATUS "QEMU ${BOARD}: ${n} lines identical to host_sim's")

@@ -1,0 +1,44 @@
+/*
+ * The firmware's configuration: one const struct, checked at compile time where
+ * its values are constants (tof_app_default_config) and at init otherwise.
+ */
+#ifndef FIRMWARE_CONFIG_H
+#define FIRMWARE_CONFIG_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "estimator/attitude.h"
+#include "firmware/health.h"
+#include "vl53/vl53.h"
+
+struct tof_app_config {
+    uint8_t address[4];        /* 7-bit addresses the sensors are moved to (A..D) */
+    struct vl53_timing timing; /* every sensor: distance mode, budget, period */
+    uint32_t max_skew_us;      /* readings of one sample may lag its slot end this much */
+    uint32_t loop_budget_us;   /* a main-loop iteration longer than this is an overrun */
+    uint32_t idle_us;          /* longest sleep of an idle iteration (data-ready latency) */
+    struct tof_health_config health;
+    struct attitude_config estimator; /* window, mode, estimators, tolerances, Kalman */
+    bool raw_output; /* send every assembled sample to the output too */
+};
+
+/* The product's default configuration (firmware/src/config.c). */
+extern const struct tof_app_config tof_app_default_config;
+
+/* NULL if `cfg` is usable, else the name of the first bad field (the estimator's
+ * fields are checked by attitude_init(), which names them itself). */
+const char *tof_app_config_check(const struct tof_app_config *cfg);
+
+/*
+ * The configuration for replaying a recording made at `period_ms` with arm `arm_um`:
+ * the default with the timing, skew, idle time and health timeouts scaled to the
+ * period, the window and mode given, and raw samples on. host_sim and the QEMU
+ * replay image both use it, so they run the same firmware configuration.
+ * HAL_OK, or HAL_ERR_INVALID when no VL53L1X timing fits the period or a value is
+ * out of range (tof_app_config_check() names it).
+ */
+int tof_app_config_for_replay(struct tof_app_config *cfg, int32_t arm_um, uint32_t period_ms,
+                              uint16_t window, bool sliding);
+
+#endif /* FIRMWARE_CONFIG_H */

@@ -1,0 +1,114 @@
+#include "firmware/config.h"
+
+#include <stddef.h>
+
+#include "hal/hal_err.h"
+
+/* Defaults, checked at compile time below. */
+#define TOF_PERIOD_MS      20u /* 50 Hz per sensor, the paper's experiment rate */
+#define TOF_BUDGET_MS      15u /* VL53L1X short mode: the longest budget that fits the period */
+#define TOF_MAX_SKEW_US    5000u
+#define TOF_IDLE_US        1000u /* data-ready latency bound when idle */
+#define TOF_LOOP_BUDGET_US 40000u /* >= one sensor re-init (boot 1.2 ms + config) + 4 polls */
+
+_Static_assert(TOF_PERIOD_MS >= TOF_BUDGET_MS + VL53_IMP_MARGIN_MS,
+               "inter-measurement period must exceed the timing budget by the margin");
+_Static_assert(TOF_MAX_SKEW_US < TOF_PERIOD_MS * 1000u / 2u,
+               "skew must stay below half a period so slots cannot be confused");
+_Static_assert(TOF_IDLE_US < TOF_MAX_SKEW_US, "idle sleep must be shorter than the skew window");
+
+const struct tof_app_config tof_app_default_config = {
+    /* 0x29 is the power-on default (VL53L1X datasheet DS12385 §2.5.2); 0x30.. are free
+     * 7-bit addresses chosen for the four sensors. */
+    .address = {0x30, 0x31, 0x32, 0x33},
+    .timing = {.mode = VL53_DISTANCE_SHORT,
+               .budget_ms = TOF_BUDGET_MS,
+               .inter_measurement_ms = TOF_PERIOD_MS},
+    .max_skew_us = TOF_MAX_SKEW_US,
+    .loop_budget_us = TOF_LOOP_BUDGET_US,
+    .idle_us = TOF_IDLE_US,
+    .health = {.errors_to_lost = 3,
+               .good_to_healthy = 2,
+               .silence_to_lost_ms = 3u * TOF_PERIOD_MS,
+               .reinit_backoff_ms = 50,
+               .recovery_timeout_ms = 5u * TOF_PERIOD_MS},
+    .estimator =
+        {
+            .arm_um = 30000,
+            .window = 100,
+            .mode = ATTITUDE_TUMBLING,
+            .estimators = ATTITUDE_EST_ALL,
+            .consensus_tolerance_udeg = 1000,
+            .paper_max_iterations = 200,
+            .paper_consistency_sigmas_q8 = 3u * 256u,
+            .gate_sigmas_q8 = 5u * 256u,
+            .gate_floor_mm = 3,
+            .kalman_process_noise_um2 = {0, 0, 0},
+            .kalman_initial_noise_um2 = {4000000, 4000000, 4000000, 4000000},
+            .kalman_gate_sigmas_q8 = 5u * 256u,
+            .kalman_warmup_rows = 3,
+            .kalman_noise_shift = 2,
+        },
+    .raw_output = false,
+};
+
+const char *tof_app_config_check(const struct tof_app_config *cfg) {
+    if (vl53_timing_check(&cfg->timing) != HAL_OK) {
+        return "timing";
+    }
+    for (unsigned i = 0; i < 4u; ++i) {
+        if (cfg->address[i] < 0x08u || cfg->address[i] > 0x77u || cfg->address[i] == 0x29u) {
+            return "address";
+        }
+        for (unsigned j = 0; j < i; ++j) {
+            if (cfg->address[i] == cfg->address[j]) {
+                return "address";
+            }
+        }
+    }
+    const uint32_t period_us = vl53_period_us(&cfg->timing);
+    if (cfg->max_skew_us == 0u || cfg->max_skew_us >= period_us / 2u) {
+        return "max_skew_us";
+    }
+    if (cfg->idle_us == 0u || cfg->idle_us >= cfg->max_skew_us) {
+        return "idle_us";
+    }
+    if (cfg->loop_budget_us == 0u) {
+        return "loop_budget_us";
+    }
+    if (!tof_health_config_valid(&cfg->health)) {
+        return "health";
+    }
+    /* The estimator's own fields are checked by attitude_init() at tof_app_init(). */
+    return NULL;
+}
+
+int tof_app_config_for_replay(struct tof_app_config *cfg, int32_t arm_um, uint32_t period_ms,
+                              uint16_t window, bool sliding) {
+    *cfg = tof_app_default_config;
+    /* The longest VL53L1X budget that leaves the inter-measurement margin. */
+    static const uint16_t budgets[] = {500, 200, 100, 50, 33, 20, 15};
+    bool found = false;
+    for (size_t i = 0; i < sizeof budgets / sizeof budgets[0] && !found; ++i) {
+        const struct vl53_timing t = {.mode = VL53_DISTANCE_SHORT,
+                                      .budget_ms = budgets[i],
+                                      .inter_measurement_ms = period_ms};
+        if (vl53_timing_check(&t) == HAL_OK) {
+            cfg->timing = t;
+            found = true;
+        }
+    }
+    if (!found) {
+        return HAL_ERR_INVALID;
+    }
+    const uint32_t period_us = period_ms * 1000u;
+    cfg->max_skew_us = period_us / 4u;
+    cfg->idle_us = period_us / 20u < TOF_IDLE_US ? period_us / 20u : TOF_IDLE_US;
+    cfg->health.silence_to_lost_ms = 3u * period_ms;
+    cfg->health.recovery_timeout_ms = 5u * period_ms;
+    cfg->estimator.arm_um = arm_um;
+    cfg->estimator.window = window;
+    cfg->estimator.mode = sliding ? ATTITUDE_SLIDING : ATTITUDE_TUMBLING;
+    cfg->raw_output = true;
+    return tof_app_config_check(cfg) == NULL ? HAL_OK : HAL_ERR_INVALID;
+}

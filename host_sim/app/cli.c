@@ -1,0 +1,162 @@
+#include "cli.h"
+
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+const char *const cli_estimator_names[] = {"consensus", "consensus-paper", "kalman", "mean", NULL};
+
+bool cli_parse_u64(const char *text, uint64_t min, uint64_t max, uint64_t *out) {
+    if (text == NULL || *text < '0' || *text > '9') {
+        return false;
+    }
+    errno = 0;
+    char *end = NULL;
+    unsigned long long v = strtoull(text, &end, 10);
+    if (errno != 0 || end == text || *end != '\0' || v < min || v > max) {
+        return false;
+    }
+    *out = (uint64_t)v;
+    return true;
+}
+
+static int usage_error(const char *cmd, const char *what, const char *value) {
+    if (value != NULL) {
+        fprintf(stderr, "host_sim %s: %s: '%s'\n", cmd, what, value);
+    } else {
+        fprintf(stderr, "host_sim %s: %s\n", cmd, what);
+    }
+    fprintf(stderr, "run 'host_sim --help' for usage\n");
+    return -1;
+}
+
+/* The value after option argv[*i], advancing *i; NULL (after an error) when missing. */
+static const char *option_value(const char *cmd, int argc, char **argv, int *i) {
+    if (*i + 1 >= argc) {
+        usage_error(cmd, "option needs a value", argv[*i]);
+        return NULL;
+    }
+    ++*i;
+    return argv[*i];
+}
+
+static bool known_estimator(const char *name) {
+    for (size_t k = 0; cli_estimator_names[k] != NULL; ++k) {
+        if (strcmp(cli_estimator_names[k], name) == 0) {
+            return true;
+        }
+    }
+    return false;
+}
+
+int cli_parse_replay(int argc, char **argv, struct replay_args *out) {
+    *out = (struct replay_args){.estimator = NULL, .window = 100, .sliding = false, .seed = 1};
+    const char *cmd = "replay";
+    for (int i = 1; i < argc; ++i) {
+        const char *arg = argv[i];
+        const char *v = NULL;
+        uint64_t n = 0;
+        if (strcmp(arg, "--estimator") == 0) {
+            if ((v = option_value(cmd, argc, argv, &i)) == NULL) {
+                return -1;
+            }
+            if (!known_estimator(v)) {
+                return usage_error(
+                    cmd, "--estimator: unknown (consensus, consensus-paper, kalman, mean)", v);
+            }
+            out->estimator = v;
+        } else if (strcmp(arg, "--window") == 0) {
+            if ((v = option_value(cmd, argc, argv, &i)) == NULL) {
+                return -1;
+            }
+            if (!cli_parse_u64(v, 2, 255, &n)) {
+                return usage_error(cmd, "--window: expected an integer 2..255", v);
+            }
+            out->window = (unsigned)n;
+        } else if (strcmp(arg, "--mode") == 0) {
+            if ((v = option_value(cmd, argc, argv, &i)) == NULL) {
+                return -1;
+            }
+            if (strcmp(v, "tumbling") == 0) {
+                out->sliding = false;
+            } else if (strcmp(v, "sliding") == 0) {
+                out->sliding = true;
+            } else {
+                return usage_error(cmd, "--mode: expected tumbling or sliding", v);
+            }
+        } else if (strcmp(arg, "--out") == 0) {
+            if ((out->out_path = option_value(cmd, argc, argv, &i)) == NULL) {
+                return -1;
+            }
+        } else if (strcmp(arg, "--report") == 0) {
+            if ((out->report_path = option_value(cmd, argc, argv, &i)) == NULL) {
+                return -1;
+            }
+        } else if (strcmp(arg, "--plot") == 0) {
+            if ((out->plot_path = option_value(cmd, argc, argv, &i)) == NULL) {
+                return -1;
+            }
+        } else if (strcmp(arg, "--faults") == 0) {
+            if ((out->faults = option_value(cmd, argc, argv, &i)) == NULL) {
+                return -1;
+            }
+        } else if (strcmp(arg, "--seed") == 0) {
+            if ((v = option_value(cmd, argc, argv, &i)) == NULL) {
+                return -1;
+            }
+            if (!cli_parse_u64(v, 0, UINT64_MAX, &out->seed)) {
+                return usage_error(cmd, "--seed: expected a non-negative integer", v);
+            }
+        } else if (strcmp(arg, "--quiet") == 0) {
+            out->quiet = true;
+        } else if (arg[0] == '-' && arg[1] != '\0') {
+            return usage_error(cmd, "unknown option", arg);
+        } else if (out->trace_path == NULL) {
+            out->trace_path = arg;
+        } else {
+            return usage_error(cmd, "more than one trace given", arg);
+        }
+    }
+    if (out->trace_path == NULL) {
+        return usage_error(cmd, "missing TRACE.csv", NULL);
+    }
+    if (out->estimator == NULL) {
+        out->estimator = "consensus"; /* the product's default (DESIGN.md §6) */
+    }
+    return 0;
+}
+
+int cli_parse_scenario(int argc, char **argv, struct scenario_args *out) {
+    *out = (struct scenario_args){.seed = 1};
+    const char *cmd = "scenario";
+    for (int i = 1; i < argc; ++i) {
+        const char *arg = argv[i];
+        const char *v = NULL;
+        if (strcmp(arg, "--seed") == 0) {
+            if ((v = option_value(cmd, argc, argv, &i)) == NULL) {
+                return -1;
+            }
+            if (!cli_parse_u64(v, 0, UINT64_MAX, &out->seed)) {
+                return usage_error(cmd, "--seed: expected a non-negative integer", v);
+            }
+        } else if (strcmp(arg, "--trace-out") == 0) {
+            if ((out->trace_out = option_value(cmd, argc, argv, &i)) == NULL) {
+                return -1;
+            }
+        } else if (arg[0] == '-' && arg[1] != '\0') {
+            return usage_error(cmd, "unknown option", arg);
+        } else if (out->name == NULL) {
+            out->name = arg;
+        } else {
+            return usage_error(cmd, "more than one scenario name given", arg);
+        }
+    }
+    if (out->name == NULL) {
+        return usage_error(cmd, "missing scenario NAME", NULL);
+    }
+    if (out->trace_out == NULL) {
+        return usage_error(cmd, "missing --trace-out TRACE.csv", NULL);
+    }
+    return 0;
+}

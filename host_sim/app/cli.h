@@ -1,0 +1,48 @@
+/*
+ * host_sim command line (DESIGN.md §6; names are an interface, keep them):
+ *
+ *   host_sim replay TRACE.csv --estimator NAME [--window N] [--mode tumbling|sliding]
+ *                             [--out EST.csv] [--report REPORT.json] [--plot FIG.png]
+ *                             [--faults SPEC] [--seed S]
+ *   host_sim scenario NAME [--seed S] --trace-out TRACE.csv
+ *   host_sim camera ...      (synthetic ToF camera + pose pipeline; see docs/pose.md)
+ */
+#ifndef HOST_SIM_CLI_H
+#define HOST_SIM_CLI_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+struct replay_args {
+    const char *trace_path;
+    const char *estimator; /* consensus | consensus-paper | kalman | mean */
+    unsigned window;       /* samples per window, default 100 */
+    bool sliding;          /* --mode sliding */
+    const char *out_path;
+    const char *report_path;
+    const char *plot_path;
+    const char *faults;    /* fault spec, parsed by the replay */
+    uint64_t seed;
+    bool quiet;            /* --quiet: no summary table on stdout */
+};
+
+struct scenario_args {
+    const char *name;
+    uint64_t seed;
+    const char *trace_out;
+};
+
+/* Parse `replay` arguments (argv[0] is "replay"). 0, or -1 after printing the error to stderr. */
+int cli_parse_replay(int argc, char **argv, struct replay_args *out);
+
+/* Parse `scenario` arguments (argv[0] is "scenario"). 0, or -1 after printing the error. */
+int cli_parse_scenario(int argc, char **argv, struct scenario_args *out);
+
+/* Parse a decimal unsigned integer in [min, max]; false when `text` is not exactly that. */
+bool cli_parse_u64(const char *text, uint64_t min, uint64_t max, uint64_t *out);
+
+/* The estimator names replay accepts, in output order; NULL-terminated. */
+extern const char *const cli_estimator_names[];
+
+#endif /* HOST_SIM_CLI_H */

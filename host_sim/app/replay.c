@@ -1,0 +1,549 @@
+#include "replay.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "estimator/attitude.h"
+#include "firmware/app.h"
+#include "firmware/est_csv.h"
+#include "hal/hal_err.h"
+#include "scene/crb.h"
+#include "scene/row_source.h"
+#include "scene/trace.h"
+#include "sim/sim_fault.h"
+#include "sim/sim_replay.h"
+
+/* "No value" in tables and JSON (printed as nan / null). */
+#define NO_VALUE ((double)NAN)
+
+#ifndef TOF_SOURCE_DIR
+#error "TOF_SOURCE_DIR must name the repository (for tools/plot_replay.py)"
+#endif
+
+/* ---- per-estimator error statistics ---- */
+
+struct err_stats {
+    uint64_t n_alpha, n_beta;
+    double sum2_alpha, sum_abs_alpha, max_alpha;
+    double sum2_beta, sum_abs_beta, max_beta;
+    uint32_t status_count[3]; /* ok, degraded, invalid */
+};
+
+static void err_add(double err, uint64_t *n, double *sum2, double *sum_abs, double *max) {
+    ++*n;
+    *sum2 += err * err;
+    *sum_abs += fabs(err);
+    if (fabs(err) > *max) {
+        *max = fabs(err);
+    }
+}
+
+static double rms(double sum2, uint64_t n) {
+    return n > 0u ? sqrt(sum2 / (double)n) : NO_VALUE;
+}
+
+/* Per-sensor sums over a window's valid readings, for its Cramér-Rao bound. */
+struct window_truth {
+    uint32_t n[4];
+    double sum[4], sum2[4];
+};
+
+/* The replay's state (static: the trace reader alone is ~66 KB). */
+struct replay {
+    const struct replay_args *args;
+    struct trace_reader reader;
+    struct scene_row_stream stream;
+    double arm_mm;
+    uint32_t period_ms;
+    struct sim_fault_config faults;
+    struct sim_replay sim;
+    struct tof_app_config app_cfg;
+    struct tof_platform platform;
+    struct tof_app app;
+    enum attitude_estimator primary;
+    FILE *est_out;
+    FILE *plot_data;
+    char plot_data_path[4096];
+    struct err_stats stats[ATTITUDE_EST_COUNT];
+    uint64_t estimates;
+    uint64_t samples_done;
+    bool truth_seen;
+    struct window_truth win;
+    double crb_sum2_alpha, crb_sum2_beta;
+    uint64_t crb_windows;
+    uint32_t health_events, reinit_events, bus_recovery_events, overrun_events;
+    int failed; /* an output or data error: stop and report */
+};
+
+static struct replay R;
+
+static void write_plot_row(struct replay *r, const struct scene_row *row,
+                           const struct attitude_output *out) {
+    for (unsigned e = 0; e < ATTITUDE_EST_COUNT; ++e) {
+        const struct attitude_estimate *est = &out->est[e];
+        if (est->reason == ATTITUDE_REASON_DISABLED) {
+            continue;
+        }
+        fprintf(r->plot_data, "%u,%s,", row->t_ms,
+                attitude_estimator_name((enum attitude_estimator)e));
+        if (est->alpha_valid) {
+            fprintf(r->plot_data, "%.6f", est->alpha_udeg / 1e6);
+        }
+        fputc(',', r->plot_data);
+        if (est->beta_valid) {
+            fprintf(r->plot_data, "%.6f", est->beta_udeg / 1e6);
+        }
+        fprintf(r->plot_data, ",%.3f,%s,", est->distance_um / 1e3,
+                attitude_status_name(est->status));
+        if (row->has_alpha) {
+            fprintf(r->plot_data, "%.6f", row->alpha_deg);
+        }
+        fputc(',', r->plot_data);
+        if (row->has_beta) {
+            fprintf(r->plot_data, "%.6f", row->beta_deg);
+        }
+        fputc('\n', r->plot_data);
+    }
+}
+
+static void window_truth_add(struct replay *r, const struct scene_row *row) {
+    for (unsigned k = 0; k < 4; ++k) {
+        if (scene_row_valid(row, k)) {
+            ++r->win.n[k];
+            r->win.sum[k] += row->range_mm[k];
+            r->win.sum2[k] += (double)row->range_mm[k] * row->range_mm[k];
+        }
+    }
+}
+
+/* The bound of the window just finished: per-sensor σ from the window's own readings
+ * (the plate is static within a window in the protocols this serves), floored at the
+ * 1 mm quantisation noise, 1/12 mm². */
+static void window_truth_close(struct replay *r, const struct scene_row *last) {
+    double sigma[4];
+    for (unsigned k = 0; k < 4; ++k) {
+        const double n = r->win.n[k];
+        double var = 0.0;
+        if (n >= 2.0) {
+            var = (r->win.sum2[k] - r->win.sum[k] * r->win.sum[k] / n) / (n - 1.0);
+        }
+        sigma[k] = sqrt(var > 1.0 / 12.0 ? var : 1.0 / 12.0);
+    }
+    struct scene_crb crb;
+    if (last->has_alpha && last->has_beta &&
+        scene_crb(r->arm_mm, sigma, r->win.n, last->alpha_deg, last->beta_deg, &crb) == 0) {
+        r->crb_sum2_alpha += crb.sd_alpha_deg * crb.sd_alpha_deg;
+        r->crb_sum2_beta += crb.sd_beta_deg * crb.sd_beta_deg;
+        ++r->crb_windows;
+    }
+    memset(&r->win, 0, sizeof r->win);
+}
+
+static void on_estimate(void *ctx, const struct tof_estimate_record *record) {
+    struct replay *r = ctx;
+    const struct attitude_output *out = &record->output;
+    int rc = 0;
+    const struct scene_row *row = scene_row_stream_get(&r->stream, out->last_row, &rc);
+    if (row == NULL) {
+        fprintf(stderr, "host_sim replay: internal: trace row %u no longer available\n",
+                out->last_row);
+        r->failed = 1;
+        return;
+    }
+    ++r->estimates;
+    if (r->est_out != NULL) {
+        char line[TOF_EST_CSV_ROW_MAX];
+        struct tof_text t;
+        tof_text_init(&t, line, sizeof line);
+        tof_est_csv_row(&t, row->t_ms, &out->est[r->primary]);
+        if (t.overflow || fputs(line, r->est_out) == EOF) {
+            r->failed = 1;
+        }
+    }
+    if (r->plot_data != NULL) {
+        write_plot_row(r, row, out);
+    }
+    for (unsigned e = 0; e < ATTITUDE_EST_COUNT; ++e) {
+        const struct attitude_estimate *est = &out->est[e];
+        struct err_stats *s = &r->stats[e];
+        if (est->reason == ATTITUDE_REASON_DISABLED) {
+            continue;
+        }
+        ++s->status_count[est->status <= ATTITUDE_INVALID ? est->status : ATTITUDE_INVALID];
+        if (row->has_alpha && est->alpha_valid) {
+            err_add(est->alpha_udeg / 1e6 - row->alpha_deg, &s->n_alpha, &s->sum2_alpha,
+                    &s->sum_abs_alpha, &s->max_alpha);
+        }
+        if (row->has_beta && est->beta_valid) {
+            err_add(est->beta_udeg / 1e6 - row->beta_deg, &s->n_beta, &s->sum2_beta,
+                    &s->sum_abs_beta, &s->max_beta);
+        }
+    }
+}
+
+static void on_sample(void *ctx, const struct tof_sample *sample) {
+    struct replay *r = ctx;
+    int rc = 0;
+    r->samples_done = (uint64_t)sample->index + 1u;
+    const struct scene_row *row = scene_row_stream_get(&r->stream, sample->index, &rc);
+    if (row == NULL) {
+        if (rc < 0) {
+            r->failed = 1; /* the stream's own message is printed by run() */
+        }
+        return; /* past the end of the trace: nothing to account */
+    }
+    r->truth_seen = r->truth_seen || row->has_alpha || row->has_beta;
+    window_truth_add(r, row);
+    if (!r->args->sliding && (sample->index + 1u) % r->app_cfg.estimator.window == 0u) {
+        window_truth_close(r, row);
+    }
+}
+
+static void on_event(void *ctx, const struct tof_event *ev) {
+    struct replay *r = ctx;
+    switch (ev->kind) {
+    case TOF_EVENT_HEALTH:
+        ++r->health_events;
+        break;
+    case TOF_EVENT_REINIT:
+        ++r->reinit_events;
+        break;
+    case TOF_EVENT_BUS_RECOVERY:
+        ++r->bus_recovery_events;
+        break;
+    case TOF_EVENT_OVERRUN:
+    default:
+        ++r->overrun_events;
+        break;
+    }
+}
+
+static const struct tof_output_ops replay_output_ops = {
+    .estimate = on_estimate, .sample = on_sample, .event = on_event};
+
+static bool parse_meta_double(const char *text, double *out) {
+    if (text == NULL) {
+        return false;
+    }
+    errno = 0;
+    char *end = NULL;
+    const double v = strtod(text, &end);
+    if (errno != 0 || end == text || *end != '\0' || !isfinite(v)) {
+        return false;
+    }
+    *out = v;
+    return true;
+}
+
+static int open_inputs(struct replay *r) {
+    FILE *f = fopen(r->args->trace_path, "rb");
+    if (f == NULL) {
+        fprintf(stderr, "host_sim replay: %s: %s\n", r->args->trace_path, strerror(errno));
+        return -1;
+    }
+    if (trace_reader_open(&r->reader, f, r->args->trace_path) != 0) {
+        fprintf(stderr, "host_sim replay: %s\n", trace_reader_error(&r->reader));
+        return -1;
+    }
+    const char *arm = trace_reader_meta(&r->reader, "arm_mm");
+    if (!parse_meta_double(arm, &r->arm_mm) || r->arm_mm < 1.0 || r->arm_mm > 1000.0) {
+        fprintf(stderr, "host_sim replay: %s: arm_mm '%s' is not a length in 1..1000 mm\n",
+                r->args->trace_path, arm != NULL ? arm : "");
+        return -1;
+    }
+    r->period_ms = 20;
+    const char *period = trace_reader_meta(&r->reader, "period_ms");
+    if (period != NULL) {
+        uint64_t p = 0;
+        if (!cli_parse_u64(period, 1, 10000, &p)) {
+            fprintf(stderr, "host_sim replay: %s: period_ms '%s' is not an integer 1..10000\n",
+                    r->args->trace_path, period);
+            return -1;
+        }
+        r->period_ms = (uint32_t)p;
+    }
+    scene_row_stream_init(&r->stream, scene_pull_trace, &r->reader);
+    return 0;
+}
+
+static int configure(struct replay *r) {
+    const int32_t arm_um = (int32_t)lround(r->arm_mm * 1000.0);
+    if (tof_app_config_for_replay(&r->app_cfg, arm_um, r->period_ms, (uint16_t)r->args->window,
+                                  r->args->sliding) != HAL_OK) {
+        const char *bad = tof_app_config_check(&r->app_cfg);
+        fprintf(stderr,
+                "host_sim replay: %s: no firmware configuration fits period_ms %u and arm_mm "
+                "%.3f (%s; the shortest period is 15 ms budget + %u ms margin)\n",
+                r->args->trace_path, r->period_ms, r->arm_mm, bad != NULL ? bad : "estimator",
+                VL53_IMP_MARGIN_MS);
+        return -1;
+    }
+    const uint32_t period_us = r->period_ms * 1000u;
+    for (unsigned e = 0; e < ATTITUDE_EST_COUNT; ++e) {
+        if (strcmp(attitude_estimator_name((enum attitude_estimator)e), r->args->estimator) == 0) {
+            r->primary = (enum attitude_estimator)e;
+        }
+    }
+    if (r->args->faults != NULL) {
+        size_t at = 0;
+        const char *what = NULL;
+        if (sim_fault_parse(r->args->faults, &r->faults, &at, &what) != 0) {
+            fprintf(stderr, "host_sim replay: --faults: %s at column %zu of '%s'\n",
+                    what != NULL ? what : "invalid", at + 1u, r->args->faults);
+            return -1;
+        }
+    }
+    r->faults.seed = (uint32_t)(r->args->seed ^ (r->args->seed >> 32));
+    sim_replay_init(&r->sim, scene_row_stream_source(&r->stream), period_us, &r->faults);
+    r->platform = (struct tof_platform){
+        .board_name = "host_sim",
+        .i2c = r->sim.rig.i2c,
+        .gpio = r->sim.rig.hal_gpio,
+        .time = r->sim.rig.time,
+        .output = {.ops = &replay_output_ops, .ctx = r},
+    };
+    for (unsigned i = 0; i < 4; ++i) {
+        r->platform.xshut_pin[i] = SIM_RIG_XSHUT_PIN(i);
+        r->platform.gpio1_pin[i] = SIM_RIG_GPIO1_PIN(i);
+    }
+    return 0;
+}
+
+static int open_outputs(struct replay *r) {
+    if (r->args->out_path != NULL) {
+        r->est_out = fopen(r->args->out_path, "w");
+        if (r->est_out == NULL || fputs(TOF_EST_CSV_HEADER, r->est_out) == EOF) {
+            fprintf(stderr, "host_sim replay: %s: %s\n", r->args->out_path, strerror(errno));
+            return -1;
+        }
+    }
+    if (r->args->plot_path != NULL) {
+        snprintf(r->plot_data_path, sizeof r->plot_data_path, "%s.data.csv", r->args->plot_path);
+        r->plot_data = fopen(r->plot_data_path, "w");
+        if (r->plot_data == NULL) {
+            fprintf(stderr, "host_sim replay: %s: %s\n", r->plot_data_path, strerror(errno));
+            return -1;
+        }
+        fputs("t_ms,estimator,alpha_deg,beta_deg,distance_mm,status,true_alpha_deg,"
+              "true_beta_deg\n",
+              r->plot_data);
+    }
+    return 0;
+}
+
+/* Run the firmware until every trace row has become a sample (or the source failed). */
+static int run(struct replay *r) {
+    if (tof_app_init(&r->app, &r->platform, &r->app_cfg) != HAL_OK) {
+        fprintf(stderr, "host_sim replay: firmware init failed\n");
+        return -1;
+    }
+    sim_replay_set_origin(&r->sim, r->app.assembler.origin_us);
+    for (;;) {
+        tof_app_step(&r->app, true);
+        if (r->stream.end < 0) {
+            /* The reader's message names file, line and column; the stream's says where
+             * the replay was. */
+            const char *why = trace_reader_error(&r->reader);
+            fprintf(stderr, "host_sim replay: %s\n",
+                    why != NULL && why[0] != '\0' ? why : scene_row_stream_error(&r->stream));
+            return -1;
+        }
+        if (r->failed) {
+            return -1;
+        }
+        if (r->stream.end == 1 && r->samples_done >= r->stream.next_index) {
+            if (r->stream.next_index == 0u) {
+                fprintf(stderr, "host_sim replay: %s: no samples after the header\n",
+                        r->args->trace_path);
+                return -1;
+            }
+            return 0; /* every row of the trace went through the firmware */
+        }
+        if (!sim_replay_progressing(&r->sim, r->samples_done)) {
+            fprintf(stderr, "host_sim replay: firmware stalled: no sample for %u s of simulated "
+                            "time at row %llu\n",
+                    SIM_REPLAY_STALL_US / 1000000u, (unsigned long long)r->samples_done);
+            return -1;
+        }
+    }
+}
+
+static void json_number(FILE *f, double v) {
+    if (isfinite(v)) {
+        fprintf(f, "%.6g", v);
+    } else {
+        fputs("null", f);
+    }
+}
+
+static double crb_rms(double sum2, uint64_t n) {
+    return n > 0u ? sqrt(sum2 / (double)n) : NO_VALUE;
+}
+
+static int write_report(struct replay *r, const char *path) {
+    FILE *f = fopen(path, "w");
+    if (f == NULL) {
+        fprintf(stderr, "host_sim replay: %s: %s\n", path, strerror(errno));
+        return -1;
+    }
+    fprintf(f, "{\n  \"trace\": \"%s\",\n  \"rows\": %llu,\n  \"window\": %u,\n  \"mode\": \"%s\",\n",
+            r->args->trace_path, (unsigned long long)r->stream.next_index, r->args->window,
+            r->args->sliding ? "sliding" : "tumbling");
+    fprintf(f, "  \"primary\": \"%s\",\n  \"estimates\": %llu,\n  \"truth\": %s,\n",
+            r->args->estimator, (unsigned long long)r->estimates, r->truth_seen ? "true" : "false");
+    fputs("  \"crb_alpha_deg\": ", f);
+    json_number(f, crb_rms(r->crb_sum2_alpha, r->crb_windows));
+    fputs(",\n  \"crb_beta_deg\": ", f);
+    json_number(f, crb_rms(r->crb_sum2_beta, r->crb_windows));
+    fputs(",\n  \"estimators\": {\n", f);
+    for (unsigned e = 0; e < ATTITUDE_EST_COUNT; ++e) {
+        const struct err_stats *s = &r->stats[e];
+        fprintf(f, "    \"%s\": {\"ok\": %u, \"degraded\": %u, \"invalid\": %u",
+                attitude_estimator_name((enum attitude_estimator)e), s->status_count[0],
+                s->status_count[1], s->status_count[2]);
+        static const char *const keys[6] = {"rms_alpha_deg", "mean_abs_alpha_deg",
+                                            "max_alpha_deg", "rms_beta_deg",
+                                            "mean_abs_beta_deg", "max_beta_deg"};
+        const double vals[6] = {rms(s->sum2_alpha, s->n_alpha),
+                                s->n_alpha ? s->sum_abs_alpha / (double)s->n_alpha : NO_VALUE,
+                                s->n_alpha ? s->max_alpha : NO_VALUE,
+                                rms(s->sum2_beta, s->n_beta),
+                                s->n_beta ? s->sum_abs_beta / (double)s->n_beta : NO_VALUE,
+                                s->n_beta ? s->max_beta : NO_VALUE};
+        for (unsigned k = 0; k < 6; ++k) {
+            fprintf(f, ", \"%s\": ", keys[k]);
+            json_number(f, vals[k]);
+        }
+        fprintf(f, "}%s\n", e + 1u < ATTITUDE_EST_COUNT ? "," : "");
+    }
+    const struct sim_i2c_stats *b = &r->sim.rig.bus.stats;
+    const double sim_s = (double)sim_clock_now(&r->sim.rig.clock) / 1e6;
+    fprintf(f,
+            "  },\n  \"bus\": {\"transactions\": %u, \"ok\": %u, \"tx_bytes\": %llu, "
+            "\"rx_bytes\": %llu, \"utilization\": ",
+            b->transactions, b->ok, (unsigned long long)b->tx_bytes,
+            (unsigned long long)b->rx_bytes);
+    json_number(f, sim_s > 0 ? (double)b->busy_ns / 1e9 / sim_s : NO_VALUE);
+    fprintf(f, ", \"recoveries\": %u},\n", b->recoveries);
+    const struct tof_app_counters *c = &r->app.counters;
+    fprintf(f,
+            "  \"firmware\": {\"samples\": %u, \"readings\": %u, \"reinits_ok\": %u, "
+            "\"reinits_failed\": %u, \"bus_recoveries\": %u, \"overruns\": %u, "
+            "\"max_iteration_us\": %u, \"late_readings\": %u, \"incomplete_samples\": %u},\n",
+            c->samples, c->readings, c->reinits_ok, c->reinits_failed, c->bus_recoveries,
+            c->overruns, c->max_iteration_us, r->app.assembler.counters.late,
+            r->app.assembler.counters.incomplete);
+    fprintf(f,
+            "  \"health_events\": {\"transitions\": %u, \"reinits\": %u, \"bus_recoveries\": %u, "
+            "\"overruns\": %u},\n  \"sensors\": [",
+            r->health_events, r->reinit_events, r->bus_recovery_events, r->overrun_events);
+    for (unsigned i = 0; i < 4; ++i) {
+        fprintf(f, "%s{\"name\": \"%c\", \"state\": \"%s\", \"losses\": %u, \"read_errors\": %u}",
+                i ? ", " : "", 'A' + i, tof_health_name(r->app.health[i].state),
+                r->app.health[i].losses, c->read_errors[i]);
+    }
+    fprintf(f, "]\n}\n");
+    if (fclose(f) != 0) {
+        fprintf(stderr, "host_sim replay: %s: write failed\n", path);
+        return -1;
+    }
+    return 0;
+}
+
+static void print_summary(struct replay *r) {
+    printf("replay %s: %llu rows, window %u (%s), %llu estimates, primary %s\n",
+           r->args->trace_path, (unsigned long long)r->stream.next_index, r->args->window,
+           r->args->sliding ? "sliding" : "tumbling", (unsigned long long)r->estimates,
+           r->args->estimator);
+    printf("%-16s %10s %10s %10s %10s %10s %10s %6s %6s %6s\n", "estimator", "rms_a[deg]",
+           "mae_a[deg]", "max_a[deg]", "rms_b[deg]", "mae_b[deg]", "max_b[deg]", "ok", "degr",
+           "inval");
+    for (unsigned e = 0; e < ATTITUDE_EST_COUNT; ++e) {
+        const struct err_stats *s = &r->stats[e];
+        printf("%-16s %10.4f %10.4f %10.4f %10.4f %10.4f %10.4f %6u %6u %6u\n",
+               attitude_estimator_name((enum attitude_estimator)e), rms(s->sum2_alpha, s->n_alpha),
+               s->n_alpha ? s->sum_abs_alpha / (double)s->n_alpha : NO_VALUE,
+               s->n_alpha ? s->max_alpha : NO_VALUE, rms(s->sum2_beta, s->n_beta),
+               s->n_beta ? s->sum_abs_beta / (double)s->n_beta : NO_VALUE,
+               s->n_beta ? s->max_beta : NO_VALUE, s->status_count[0], s->status_count[1],
+               s->status_count[2]);
+    }
+    if (r->truth_seen) {
+        printf("%-16s %10.4f %10s %10s %10.4f   (Cramer-Rao bound from each window's own sigma)\n",
+               "bound", crb_rms(r->crb_sum2_alpha, r->crb_windows), "", "",
+               crb_rms(r->crb_sum2_beta, r->crb_windows));
+    } else {
+        printf("(no ground truth in this trace: errors and bound not available)\n");
+    }
+    const struct sim_i2c_stats *b = &r->sim.rig.bus.stats;
+    printf("bus: %u transactions (%u ok), %u bus recoveries; firmware: %u reinits, %u overruns, "
+           "max iteration %u us\n",
+           b->transactions, b->ok, r->app.counters.bus_recoveries, r->app.counters.reinits_ok,
+           r->app.counters.overruns, r->app.counters.max_iteration_us);
+}
+
+static int make_plot(struct replay *r) {
+    if (fclose(r->plot_data) != 0) {
+        r->plot_data = NULL;
+        fprintf(stderr, "host_sim replay: %s: write failed\n", r->plot_data_path);
+        return -1;
+    }
+    r->plot_data = NULL;
+    if (strchr(r->plot_data_path, '\'') != NULL || strchr(r->args->trace_path, '\'') != NULL) {
+        fprintf(stderr, "host_sim replay: --plot: paths with a quote character are not supported\n");
+        return -1;
+    }
+    char cmd[12288];
+    snprintf(cmd, sizeof cmd, "/usr/bin/python3 '%s/tools/plot_replay.py' '%s' '%s' --title '%s'",
+             TOF_SOURCE_DIR, r->plot_data_path, r->args->plot_path, r->args->trace_path);
+    const int rc = system(cmd);
+    if (rc != 0) {
+        fprintf(stderr,
+                "host_sim replay: plotting failed (status %d); is python3-matplotlib installed? "
+                "(tools/setup.sh)\n",
+                rc);
+        return -1;
+    }
+    remove(r->plot_data_path);
+    return 0;
+}
+
+int replay_run(const struct replay_args *args) {
+    memset(&R, 0, sizeof R);
+    R.args = args;
+    int rc = open_inputs(&R);
+    if (rc == 0) {
+        rc = configure(&R);
+    }
+    if (rc == 0) {
+        rc = open_outputs(&R);
+    }
+    if (rc == 0) {
+        rc = run(&R);
+    }
+    if (R.est_out != NULL && fclose(R.est_out) != 0 && rc == 0) {
+        fprintf(stderr, "host_sim replay: %s: write failed\n", args->out_path);
+        rc = -1;
+    }
+    if (R.reader.file != NULL) {
+        fclose(R.reader.file);
+    }
+    if (rc == 0 && args->report_path != NULL) {
+        rc = write_report(&R, args->report_path);
+    }
+    if (rc == 0 && !args->quiet) {
+        print_summary(&R);
+    }
+    if (R.plot_data != NULL) {
+        if (rc == 0) {
+            rc = make_plot(&R);
+        } else {
+            fclose(R.plot_data);
+            remove(R.plot_data_path);
+        }
+    }
+    return rc == 0 ? 0 : 1;
+}
