@@ -21,14 +21,14 @@ void attitude_config_default(struct attitude_config *cfg) {
     cfg->estimators = ATTITUDE_EST_ALL;
     cfg->consensus_tolerance_udeg = 1000;
     cfg->paper_max_iterations = 200;
-    cfg->paper_consistency_sigmas_q8 = 3u * 256u;
+    cfg->paper_consistency_sigmas_q8 = 2u * 256u;
     cfg->gate_sigmas_q8 = 5u * 256u;
     cfg->gate_floor_mm = 3;
     for (unsigned s = 0; s < ATTITUDE_SENSORS; ++s) {
         cfg->kalman_initial_noise_um2[s] = 4000000u; /* (2 mm)², the paper's jitter */
     }
     cfg->kalman_gate_sigmas_q8 = 5u * 256u;
-    cfg->kalman_warmup_rows = 3;
+    cfg->kalman_warmup_rows = 5;
     cfg->kalman_noise_shift = 2;
 }
 

@@ -50,7 +50,7 @@ void kalman_reset(struct kalman_state *k) {
     diffuse_covariance(k);
     k->started = false;
     k->warm_rows = 0;
-    k->lockout_rows = 0;
+    memset(k->reject_run, 0, sizeof k->reject_run);
 }
 
 /* Necessary conditions for positive definiteness that fixed-point failures
@@ -208,7 +208,7 @@ static void flush_warmup(struct kalman_state *k, struct kalman_rows *out) {
     }
     k->warm_rows = 0;
     k->started = true;
-    k->lockout_rows = 0;
+    memset(k->reject_run, 0, sizeof k->reject_run);
 }
 
 void kalman_push_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENSORS],
@@ -240,14 +240,18 @@ void kalman_push_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENS
     out->count = 1;
     out->used[0] = used;
     out->rejected[0] = rejected;
-    if (valid_mask != 0u && used == 0u) {
-        k->lockout_rows++;
-        if (k->lockout_rows >= KALMAN_LOCKOUT_ROWS) {
-            kalman_reset(k); /* the plate moved past the gate: start again */
-            k->restarts++;
+    bool locked_out = false;
+    for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
+        if ((rejected & (1u << s)) != 0u) {
+            k->reject_run[s]++;
+            locked_out = locked_out || k->reject_run[s] >= KALMAN_LOCKOUT_ROWS;
+        } else if ((used & (1u << s)) != 0u) {
+            k->reject_run[s] = 0;
         }
-    } else {
-        k->lockout_rows = 0;
+    }
+    if (locked_out) {
+        kalman_reset(k); /* the gate no longer matches the data: start again */
+        k->restarts++;
     }
 }
 

@@ -155,8 +155,8 @@ struct attitude_state {
 
 /* Fills cfg with the defaults: a = 30 mm, N = 100, tumbling, every estimator,
  * tolerance 1000 udeg (the paper's 1e-3 deg), 200 paper iterations, paper
- * consistency 3σ, MAD gate 5σ with a 3 mm floor, Kalman Q = 0, R = (2 mm)²,
- * innovation gate 5σ, 3 warm-up rows, noise shift 2. */
+ * consistency 2σ, MAD gate 5σ with a 3 mm floor, Kalman Q = 0, R = (2 mm)²,
+ * innovation gate 5σ, 5 warm-up rows, noise shift 2. */
 void attitude_config_default(struct attitude_config *cfg);
 
 /* Checks cfg and starts st. Returns ATTITUDE_ERR_NONE or the attitude_error

@@ -30,8 +30,10 @@
  *   A gate is useless while P is still diffuse, so each (re)start buffers the
  *   first `warmup_rows` rows, gates them against the per-sensor median of those
  *   rows (robust to one outlier in three), then processes them and runs online.
- * - A filter that rejects every reading for KALMAN_LOCKOUT_ROWS rows in a row
- *   (the plate jumped) restarts instead of locking itself out forever.
+ * - A filter that rejects KALMAN_LOCKOUT_ROWS readings of one sensor in a row
+ *   restarts instead of locking itself out: the plate jumped, or (rare, with
+ *   outliers in most warm-up rows of one sensor) the start itself was wrong and
+ *   the gate now rejects the good readings while accepting the others.
  */
 #ifndef ESTIMATOR_KALMAN_H
 #define ESTIMATOR_KALMAN_H
@@ -75,9 +77,9 @@ struct kalman_state {
     uint8_t warm_rows;
     uint16_t warm_range[KALMAN_WARMUP_MAX][ANGLES_SENSORS];
     uint8_t warm_valid[KALMAN_WARMUP_MAX];
-    uint8_t lockout_rows;
-    uint32_t restarts;         /* lock-outs and definiteness failures */
-    uint32_t numeric_restarts; /* definiteness failures alone */
+    uint8_t reject_run[ANGLES_SENSORS]; /* consecutive gated-out readings per sensor */
+    uint32_t restarts;                  /* lock-outs and definiteness failures */
+    uint32_t numeric_restarts;          /* definiteness failures alone */
 };
 
 /* Outcome of one kalman_push_row(): the rows it processed, oldest first (a

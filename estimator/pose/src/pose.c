@@ -26,6 +26,8 @@ const char *pose_status_name(enum pose_status status) {
         return "DEGENERATE";
     case POSE_STATUS_RESIDUAL:
         return "RESIDUAL";
+    case POSE_STATUS_IMPLAUSIBLE:
+        return "IMPLAUSIBLE";
     case POSE_STATUS_RUN_OVERFLOW:
         return "RUN_OVERFLOW";
     default:
@@ -60,20 +62,39 @@ void pose_config_default(struct pose_config *cfg) {
     cfg->blob_max_pixels = 40000u;
     /* Discs tilted 20 deg seen 26 deg off axis: axis ratio >= cos 46 deg = 0.69. */
     cfg->min_axis_ratio = 0.5f;
+    /* Below ~4 px across, pixelisation dominates the moments (a 2-pixel blob has ratio 0). */
+    cfg->shape_min_pixels = 12u;
     cfg->ellipse_rim_tolerance = 0.15f;
     cfg->ellipse_rim_fraction = 0.8f;
     cfg->ellipse_area_tolerance = 0.2f;
     cfg->ellipse_min_pixels = 30u;
-    cfg->lateral_sigma_px = 0.1f;
+    /*
+     * Two equal touching discs have moment axis ratio r / sqrt(r^2 + D^2) <= 1/sqrt(5)
+     * = 0.447 (D >= 2r): such a merged pair must never be re-admitted as one disc.
+     */
+    cfg->readmit_min_axis_ratio = 0.45f;
+
+    /*
+     * Centroid error model: 0.02 px floor (pixel-lock of the thresholded blob, seen
+     * noise-free on the synthetic camera) plus 0.2 px / sqrt(pixels) from noise.
+     */
+    cfg->centroid_sigma_floor_px = 0.02f;
+    cfg->centroid_sigma_one_px = 0.2f;
     /* Marker depths spread about +-150 mm about their median (heights, tilt <= 20 deg). */
     cfg->depth_spread_mm = 100.0f;
     cfg->range_sigma_fraction = 0.01f;
+    /* Mean range of a tilted disc's pixels vs its centre: ~1-4 mm at 0.15-1 m. */
+    cfg->range_floor_mm = 2.0f;
     pose_match_config_default(&cfg->match);
     cfg->refine_max_iterations = 200u;
     cfg->refine_optimal_translation = true;
     cfg->refine_tol_mm = 0.002f;
     cfg->reproj_gate_px = 1.5f;
-    cfg->range_gate_fraction = 0.05f;
+    cfg->range_gate_sigmas = 5.0f;
+    cfg->fuse_range = true;
+    cfg->fuse_max_iterations = 10u;
+    cfg->loo_gate_sigmas = 8.0f;
+
     cfg->perspective_correction = true;
 }
 
@@ -96,9 +117,10 @@ static bool config_valid(const struct pose_config *c) {
            c->min_axis_ratio >= 0.0f && c->min_axis_ratio <= 1.0f &&
            c->ellipse_rim_tolerance > 0.0f && c->ellipse_rim_fraction >= 0.0f &&
            c->ellipse_rim_fraction <= 1.0f && c->ellipse_area_tolerance > 0.0f &&
-           c->lateral_sigma_px > 0.0f && c->depth_spread_mm > 0.0f &&
-           c->range_sigma_fraction > 0.0f && c->refine_max_iterations >= 1u &&
-           c->refine_tol_mm > 0.0f && c->reproj_gate_px > 0.0f && c->range_gate_fraction > 0.0f;
+           c->centroid_sigma_floor_px > 0.0f && c->centroid_sigma_one_px >= 0.0f &&
+           c->depth_spread_mm > 0.0f && c->range_sigma_fraction > 0.0f &&
+           c->refine_max_iterations >= 1u && c->refine_tol_mm > 0.0f && c->reproj_gate_px > 0.0f &&
+           c->range_gate_sigmas > 0.0f && c->range_floor_mm >= 0.0f && c->fuse_max_iterations >= 1u;
 }
 
 int pose_init(struct pose_pipeline *p, const struct pose_config *cfg, const struct pose_camera *cam,
@@ -185,25 +207,28 @@ static float median(const float *v, size_t n) {
  * variance (posterior mean with prior spread depth_spread_mm). Near range the
  * standard error is < 1 mm and the shrinkage vanishes.
  */
-static void blob_point(const struct pose_pipeline *p, const struct pose_blob *b, float med,
-                       float point[3], float *sigma) {
-    const struct pose_config *cfg = &p->cfg;
-    float se = b->range_se_mm;
+/* Statistical standard error of a blob's mean range: sample value, floored at one pixel's. */
+static float blob_range_se(const struct pose_config *cfg, const struct pose_blob *b) {
     float floor_se = b->range_mm * cfg->range_sigma_fraction / sqrtf((float)b->pixels);
-    if (b->pixels < 2u || se < floor_se) {
-        se = floor_se;
-    }
+    return (b->pixels < 2u || b->range_se_mm < floor_se) ? floor_se : b->range_se_mm;
+}
+
+static void blob_point(const struct pose_pipeline *p, const struct pose_blob *b, float med,
+                       float point[3], float *range_sigma_out, float *lateral_out) {
+    const struct pose_config *cfg = &p->cfg;
+    float se = blob_range_se(cfg, b);
     float prior2 = cfg->depth_spread_mm * cfg->depth_spread_mm;
     float k = prior2 / (prior2 + se * se);
     float range = med + k * (b->range_mm - med);
     float range_sigma = se * sqrtf(k);
-    float lateral = range * cfg->lateral_sigma_px / p->cam.fx_px;
+    float lateral = range * b->centroid_sigma_px / p->cam.fx_px;
     float e[3];
     line_of_sight(&p->cam, b->u_px, b->v_px, e);
     for (int i = 0; i < 3; ++i) {
         point[i] = range * e[i];
     }
-    *sigma = sqrtf(range_sigma * range_sigma + lateral * lateral);
+    *range_sigma_out = range_sigma;
+    *lateral_out = lateral;
 }
 
 static void apply(const float r[3][3], const float t[3], const float x[3], float out[3]) {
@@ -225,6 +250,8 @@ struct solve_set {
     float uc[POSE_MAX_MARKERS]; /* centroids after the perspective correction */
     float vc[POSE_MAX_MARKERS];
     float range[POSE_MAX_MARKERS];
+    float range_sigma[POSE_MAX_MARKERS]; /* statistical and systematic */
+    float centroid_sigma[POSE_MAX_MARKERS];
     uint8_t blob[POSE_MAX_MARKERS];
     uint8_t marker[POSE_MAX_MARKERS];
 };
@@ -241,6 +268,8 @@ static void remove_entry(struct solve_set *s, size_t k) {
         s->uc[i] = s->uc[i + 1u];
         s->vc[i] = s->vc[i + 1u];
         s->range[i] = s->range[i + 1u];
+        s->range_sigma[i] = s->range_sigma[i + 1u];
+        s->centroid_sigma[i] = s->centroid_sigma[i + 1u];
         s->blob[i] = s->blob[i + 1u];
         s->marker[i] = s->marker[i + 1u];
     }
@@ -348,9 +377,9 @@ static int refine(const struct pose_pipeline *p, struct solve_set *s, float r[3]
             float c[3];
             apply(r, t, s->model[k], c);
             float along = los[k][0] * c[0] + los[k][1] * c[1] + los[k][2] * c[2];
-            /* Equal weight per unit of angle: object-space residuals grow with range. */
-            float scale = 1000.0f / along;
-            s->weight[k] = scale * scale;
+            /* Weight 1 / (object-space sigma)^2: the centroid's angular error times range. */
+            float sigma_mm = along * s->centroid_sigma[k] / p->cam.fx_px;
+            s->weight[k] = 1.0f / (sigma_mm * sigma_mm);
         }
         float t_used[3] = {t[0], t[1], t[2]};
         if (cfg->refine_optimal_translation) {
@@ -384,6 +413,193 @@ static int refine(const struct pose_pipeline *p, struct solve_set *s, float r[3]
         }
     }
     return it;
+}
+
+/* Solves the symmetric positive definite 6x6 system h x = g by Cholesky; false if not SPD. */
+static bool solve6(float h[6][6], const float g[6], float x[6]) {
+    float l[6][6] = {{0.0f}};
+    for (int i = 0; i < 6; ++i) {
+        for (int j = 0; j <= i; ++j) {
+            float sum = h[i][j];
+            for (int k = 0; k < j; ++k) {
+                sum -= l[i][k] * l[j][k];
+            }
+            if (i == j) {
+                if (!(sum > 0.0f)) {
+                    return false;
+                }
+                l[i][i] = sqrtf(sum);
+            } else {
+                l[i][j] = sum / l[j][j];
+            }
+        }
+    }
+    float y[6];
+    for (int i = 0; i < 6; ++i) {
+        float sum = g[i];
+        for (int k = 0; k < i; ++k) {
+            sum -= l[i][k] * y[k];
+        }
+        y[i] = sum / l[i][i];
+    }
+    for (int i = 5; i >= 0; --i) {
+        float sum = y[i];
+        for (int k = i + 1; k < 6; ++k) {
+            sum -= l[k][i] * x[k];
+        }
+        x[i] = sum / l[i][i];
+    }
+    return true;
+}
+
+/* r <- exp([w]x) r (Rodrigues), re-orthonormalised implicitly by the exact exponential. */
+static void rotate_by(float r[3][3], const float w[3]) {
+    float th = sqrtf(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+    float a = 1.0f;
+    float b = 0.5f;
+    if (th > 1e-4f) {
+        a = sinf(th) / th;
+        b = (1.0f - cosf(th)) / (th * th);
+    }
+    float k[3][3] = {{0.0f, -w[2], w[1]}, {w[2], 0.0f, -w[0]}, {-w[1], w[0], 0.0f}};
+    float e[3][3];
+    for (int i = 0; i < 3; ++i) {
+        for (int j = 0; j < 3; ++j) {
+            float kk = k[i][0] * k[0][j] + k[i][1] * k[1][j] + k[i][2] * k[2][j];
+            e[i][j] = ((i == j) ? 1.0f : 0.0f) + a * k[i][j] + b * kk;
+        }
+    }
+    float out[3][3];
+    for (int i = 0; i < 3; ++i) {
+        for (int j = 0; j < 3; ++j) {
+            out[i][j] = e[i][0] * r[0][j] + e[i][1] * r[1][j] + e[i][2] * r[2][j];
+        }
+    }
+    memcpy(r, out, sizeof out);
+}
+
+/*
+ * Range fusion (our extension, after the paper's refinement): the line-of-sight
+ * refinement discards the measured ranges, which costs accuracy beyond ~2 m where
+ * the bearings of a 0.4 m target barely constrain its tilt. This Gauss-Newton
+ * polish minimises the full weighted error, image residuals over each blob's
+ * modelled centroid error plus range residuals over its range standard error,
+ * starting from the refined pose. Near range the bearings dominate and it
+ * changes little. Returns the iterations taken (0 if the system was singular);
+ * *converged tells whether the last step was below refine_tol_mm.
+ */
+static uint8_t fuse_ranges(const struct pose_pipeline *p, struct solve_set *s, float r[3][3],
+                           float t[3], bool *converged) {
+    const struct pose_camera *cam = &p->cam;
+    uint8_t it = 0u;
+    *converged = false;
+    while (it < p->cfg.fuse_max_iterations) {
+        float h[6][6] = {{0.0f}};
+        float g[6] = {0.0f};
+        for (size_t k = 0; k < s->n; ++k) {
+            corrected_centroid(p, r, t, s, k, &s->uc[k], &s->vc[k]);
+            float rp[3];
+            const float zero[3] = {0.0f, 0.0f, 0.0f};
+            apply(r, zero, s->model[k], rp);
+            float y[3] = {rp[0] + t[0], rp[1] + t[1], rp[2] + t[2]};
+            if (!(y[2] > 0.0f)) {
+                return it;
+            }
+            float dist = sqrtf(y[0] * y[0] + y[1] * y[1] + y[2] * y[2]);
+            /* Residual rows: u, v (normalised by sigma in px) and range (by its sigma). */
+            float su = 1.0f / s->centroid_sigma[k];
+            float sr = 1.0f / s->range_sigma[k];
+            float res[3] = {su * (cam->fx_px * y[0] / y[2] + cam->cx_px - s->uc[k]),
+                            su * (cam->fy_px * y[1] / y[2] + cam->cy_px - s->vc[k]),
+                            sr * (dist - s->range[k])};
+            float dy[3][3] = {
+                {su * cam->fx_px / y[2], 0.0f, -su * cam->fx_px * y[0] / (y[2] * y[2])},
+                {0.0f, su * cam->fy_px / y[2], -su * cam->fy_px * y[1] / (y[2] * y[2])},
+                {sr * y[0] / dist, sr * y[1] / dist, sr * y[2] / dist}};
+            /* dy/dw = -[r p]x, dy/dt = I. */
+            float rx[3][3] = {{0.0f, rp[2], -rp[1]}, {-rp[2], 0.0f, rp[0]}, {rp[1], -rp[0], 0.0f}};
+            float jac[3][6];
+            for (int row = 0; row < 3; ++row) {
+                for (int c = 0; c < 3; ++c) {
+                    jac[row][c] =
+                        dy[row][0] * rx[0][c] + dy[row][1] * rx[1][c] + dy[row][2] * rx[2][c];
+                    jac[row][c + 3] = dy[row][c];
+                }
+            }
+            for (int a = 0; a < 6; ++a) {
+                for (int row = 0; row < 3; ++row) {
+                    g[a] -= jac[row][a] * res[row];
+                    for (int b = 0; b < 6; ++b) {
+                        h[a][b] += jac[row][a] * jac[row][b];
+                    }
+                }
+            }
+        }
+        float step[6];
+        if (!solve6(h, g, step)) {
+            return it;
+        }
+        ++it;
+        rotate_by(r, step);
+        t[0] += step[3];
+        t[1] += step[4];
+        t[2] += step[5];
+        float dt = sqrtf(step[3] * step[3] + step[4] * step[4] + step[5] * step[5]);
+        float dw = sqrtf(step[0] * step[0] + step[1] * step[1] + step[2] * step[2]) * 1000.0f;
+        float tol = p->cfg.refine_tol_mm + 2e-6f * sqrtf(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]);
+        if (dt < tol && dw < tol) {
+            *converged = true;
+            break;
+        }
+    }
+    return it;
+}
+
+/* Normalised residual of match k under (r, t): image and range errors over their sigmas. */
+static float match_chi(const struct pose_pipeline *p, struct solve_set *s, size_t k,
+                       const float r[3][3], const float t[3]) {
+    float uc;
+    float vc;
+    corrected_centroid(p, r, t, s, k, &uc, &vc);
+    float c[3];
+    apply(r, t, s->model[k], c);
+    if (!(c[2] > 0.0f)) {
+        return 1e30f;
+    }
+    float du = (p->cam.fx_px * c[0] / c[2] + p->cam.cx_px - uc) / s->centroid_sigma[k];
+    float dv = (p->cam.fy_px * c[1] / c[2] + p->cam.cy_px - vc) / s->centroid_sigma[k];
+    float dr = (sqrtf(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]) - s->range[k]) / s->range_sigma[k];
+    return sqrtf(du * du + dv * dv + dr * dr);
+}
+
+/*
+ * Leave-one-out check (ours): with few matches a wrong one is absorbed by the fit
+ * (a rotated pose explains it within the gates, seen at >= 5 m). Each match is
+ * predicted from the pose fitted to all the others (a few fused Gauss-Newton
+ * steps from the current pose); returns the match with the largest normalised
+ * prediction error and that error in *chi.
+ */
+static size_t leave_one_out_worst(const struct pose_pipeline *p, const struct solve_set *s,
+                                  const float r[3][3], const float t[3], float *chi) {
+    size_t worst = s->n;
+    *chi = 0.0f;
+    for (size_t k = 0; k < s->n; ++k) {
+        struct solve_set rest = *s;
+        remove_entry(&rest, k);
+        float r2[3][3];
+        float t2[3];
+        memcpy(r2, r, sizeof r2);
+        memcpy(t2, t, sizeof t2);
+        bool converged = false;
+        (void)fuse_ranges(p, &rest, r2, t2, &converged);
+        struct solve_set one = *s;
+        float x = match_chi(p, &one, k, (const float(*)[3])r2, t2);
+        if (x > *chi) {
+            *chi = x;
+            worst = k;
+        }
+    }
+    return worst;
 }
 
 /* Initial SVD on the 3-D points with outlier rejection; returns POSE_OK or an error. */
@@ -442,13 +658,19 @@ int pose_solve(struct pose_pipeline *p, const struct pose_blob *blobs, const uin
         const struct pose_blob *b = &blobs[blob_idx[k]];
         const struct pose_marker *mk = &p->markers[marker_idx[k]];
         memcpy(s.model[k], mk->position_mm, sizeof s.model[k]);
-        blob_point(p, b, med, s.point[k], &s.sigma[k]);
+        float range_sigma;
+        float lateral;
+        blob_point(p, b, med, s.point[k], &range_sigma, &lateral);
+        s.sigma[k] = sqrtf(range_sigma * range_sigma + lateral * lateral);
         s.radius[k] = 0.5f * mk->diameter_mm;
         s.u[k] = b->u_px;
         s.v[k] = b->v_px;
         s.uc[k] = b->u_px;
         s.vc[k] = b->v_px;
         s.range[k] = b->range_mm;
+        float se = blob_range_se(&p->cfg, b);
+        s.range_sigma[k] = sqrtf(se * se + p->cfg.range_floor_mm * p->cfg.range_floor_mm);
+        s.centroid_sigma[k] = b->centroid_sigma_px;
         s.blob[k] = blob_idx[k];
         s.marker[k] = marker_idx[k];
     }
@@ -470,6 +692,12 @@ int pose_solve(struct pose_pipeline *p, const struct pose_blob *blobs, const uin
             err = iterations;
             break;
         }
+        if (p->cfg.fuse_range) {
+            bool fused = false;
+            out->fuse_iterations = fuse_ranges(p, &s, r, t, &fused);
+            /* The refinement's bound is not a failure when the fused solution converged. */
+            converged = converged || fused;
+        }
         /* Final residuals: reprojection (px) and range along the line of sight (mm). */
         size_t worst = s.n;
         float worst_excess = 1.0f;
@@ -481,7 +709,7 @@ int pose_solve(struct pose_pipeline *p, const struct pose_blob *blobs, const uin
             float reproj = sqrtf(du * du + dv * dv);
             float dist = sqrtf(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
             float range_res = s.range[k] - dist;
-            float range_gate = p->cfg.range_gate_fraction * dist + 20.0f;
+            float range_gate = p->cfg.range_gate_sigmas * s.range_sigma[k];
             float excess = reproj / p->cfg.reproj_gate_px;
             if (fabsf(range_res) / range_gate > excess) {
                 excess = fabsf(range_res) / range_gate;
@@ -489,6 +717,13 @@ int pose_solve(struct pose_pipeline *p, const struct pose_blob *blobs, const uin
             if (excess > worst_excess) {
                 worst_excess = excess;
                 worst = k;
+            }
+        }
+        if (worst == s.n && s.n >= 4u && p->cfg.loo_gate_sigmas > 0.0f) {
+            float chi = 0.0f;
+            size_t loo = leave_one_out_worst(p, &s, (const float(*)[3])r, t, &chi);
+            if (chi > p->cfg.loo_gate_sigmas) {
+                worst = loo;
             }
         }
         if (worst == s.n) {
@@ -513,6 +748,8 @@ int pose_solve(struct pose_pipeline *p, const struct pose_blob *blobs, const uin
     }
     memcpy(out->r, r, sizeof r);
     memcpy(out->t_mm, t, sizeof out->t_mm);
+    /* Reflectors are seen only from the plate's front: its normal must face the camera. */
+    bool facing = r[0][2] * t[0] + r[1][2] * t[1] + r[2][2] * t[2] < 0.0f;
     float sum_reproj = 0.0f;
     float sum_range = 0.0f;
     float sum_obj = 0.0f;
@@ -546,6 +783,8 @@ int pose_solve(struct pose_pipeline *p, const struct pose_blob *blobs, const uin
     out->object_rms_mm = sqrtf(sum_obj * inv_n);
     if (!gated) {
         out->status = POSE_STATUS_RESIDUAL;
+    } else if (!facing) {
+        out->status = POSE_STATUS_IMPLAUSIBLE;
     } else if (s.n >= 4u && converged) {
         out->status = POSE_STATUS_OK;
     } else {
@@ -571,7 +810,8 @@ int pose_process(struct pose_pipeline *p, const struct pose_frame *frame, struct
     }
     float med = median(ranges, out->n_blobs);
     for (size_t i = 0; i < out->n_blobs; ++i) {
-        blob_point(p, &out->blobs[i], med, ws->obs[i].point_mm, &ws->obs[i].sigma_mm);
+        blob_point(p, &out->blobs[i], med, ws->obs[i].point_mm, &ws->obs[i].range_sigma_mm,
+                   &ws->obs[i].lateral_sigma_mm);
     }
     int matches = pose_match(&p->cfg.match, p->markers, p->n_markers, ws->obs, out->n_blobs,
                              &ws->match, ws->assignment, &out->anneal_steps);

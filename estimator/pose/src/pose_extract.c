@@ -259,6 +259,10 @@ static void accumulate(const struct pose_frame *f, struct pose_workspace *ws, ui
         if (run->peak_response > comp->peak_response) {
             comp->peak_response = run->peak_response;
         }
+        if (run->x0 == 0u || (uint32_t)run->x1 + 1u >= f->width || run->y == 0u ||
+            (uint32_t)run->y + 1u >= f->height) {
+            comp->touches_border = true;
+        }
         int64_t dy = (int64_t)run->y - (int64_t)comp->y_origin;
         for (uint32_t x = run->x0; x <= run->x1; ++x) {
             uint16_t g = gray_at(f, x, run->y);
@@ -283,6 +287,9 @@ static void accumulate(const struct pose_frame *f, struct pose_workspace *ws, ui
                 comp->range_sum += dd;
                 comp->range_sq_sum += dd * dd;
                 ++comp->range_count;
+                comp->range_w += (uint64_t)w;
+                comp->range_w2 += (uint64_t)(w * w);
+                comp->range_wsum += w * dd;
             }
         }
     }
@@ -320,7 +327,7 @@ static void component_moments(const struct pose_component *c, float *mx, float *
 static bool ellipse_confirm(const struct pose_config *cfg, const struct pose_workspace *ws,
                             uint32_t n_runs, uint8_t c_index) {
     const struct pose_component *c = &ws->components[c_index];
-    if (c->pixels < cfg->ellipse_min_pixels) {
+    if (c->pixels < cfg->ellipse_min_pixels || c->pixels < cfg->shape_min_pixels) {
         return true;
     }
     float mx;
@@ -433,13 +440,17 @@ int pose_extract_frame(struct pose_pipeline *p, const struct pose_frame *f, stru
         float l2;
         component_moments(comp, &mx, &my, &cxx, &cyy, &cxy, &l1, &l2);
         float ratio = (l1 > 0.0f) ? sqrtf(l2 / l1) : 1.0f;
+        comp->axis_ratio = ratio;
         if (comp->pixels < cfg->blob_min_pixels || comp->pixels > cfg->blob_max_pixels) {
             comp->reject = POSE_REJECT_SIZE;
         } else if (comp->gray_max < cfg->gray_peak || comp->peak_response < cfg->nlog_peak) {
             comp->reject = POSE_REJECT_DIM;
         } else if (comp->range_count == 0u) {
             comp->reject = POSE_REJECT_NO_RANGE;
-        } else if (ratio < cfg->min_axis_ratio) {
+        } else if (comp->touches_border) {
+            comp->reject = POSE_REJECT_BORDER;
+
+        } else if (comp->pixels >= cfg->shape_min_pixels && ratio < cfg->min_axis_ratio) {
             comp->reject = POSE_REJECT_ECCENTRIC;
         } else {
             comp->reject = POSE_REJECT_NONE;
@@ -458,7 +469,9 @@ int pose_extract_frame(struct pose_pipeline *p, const struct pose_frame *f, stru
             if (comp->reject == POSE_REJECT_NONE && !comp->ellipse_ok) {
                 comp->reject = POSE_REJECT_NOT_ELLIPSE;
             } else if (comp->reject == POSE_REJECT_ECCENTRIC && comp->ellipse_ok &&
-                       comp->pixels >= cfg->ellipse_min_pixels) {
+                       comp->pixels >= cfg->ellipse_min_pixels &&
+                       comp->axis_ratio >= cfg->readmit_min_axis_ratio) {
+
                 comp->reject = POSE_REJECT_NONE; /* a steeply tilted disc: supplement */
             }
         }
@@ -497,9 +510,22 @@ int pose_extract_frame(struct pose_pipeline *p, const struct pose_frame *f, stru
         b->v_px = (float)comp->y_origin + my;
         float n = (float)comp->range_count;
         float mean_dev = (float)comp->range_sum / n;
-        b->range_mm = (float)comp->range_ref + mean_dev;
+        b->range_mean_mm = (float)comp->range_ref + mean_dev;
+        /*
+         * The paper's Eq. 20 weighs member pixels equally. A partly covered edge
+         * pixel also returns light from the plate 100-150 mm behind, which pulls the
+         * mean long (a few mm at 2 m, ~20 mm at 5 m where small markers are all
+         * edge); weighting members by their centroid weight (coverage) halves that.
+         */
+        float wsum = (float)comp->range_w;
+        b->range_mm = (float)comp->range_ref + (float)comp->range_wsum / wsum;
         float var = (float)comp->range_sq_sum / n - mean_dev * mean_dev;
-        b->range_se_mm = (comp->range_count > 1u && var > 0.0f) ? sqrtf(var / (n - 1.0f)) : 0.0f;
+        float sample_var = (comp->range_count > 1u && var > 0.0f) ? var * n / (n - 1.0f) : 0.0f;
+        /* Standard error of a weighted mean: sigma * sqrt(sum w^2) / sum w. */
+        b->range_se_mm = sqrtf(sample_var * (float)comp->range_w2) / wsum;
+        float one = cfg->centroid_sigma_one_px;
+        float fl = cfg->centroid_sigma_floor_px;
+        b->centroid_sigma_px = sqrtf(fl * fl + one * one / (float)comp->pixels);
         b->weight = (float)comp->w;
         b->pixels = comp->pixels;
         b->axis_ratio = (l1 > 0.0f) ? sqrtf(l2 / l1) : 1.0f;

@@ -44,6 +44,35 @@ static float dist3(const float a[3], const float b[3]) {
     return sqrtf(dx * dx + dy * dy + dz * dz);
 }
 
+/*
+ * Standard error of the distance between two observations. A range error moves a
+ * point along its line of sight e, which changes the distance by the component
+ * of the pair's direction along e: pairs side by side at one range (the usual
+ * case on a target facing the camera) are measured almost as well as the
+ * bearings, even when the ranges are poor (first-order propagation).
+ */
+static float distance_sigma(const struct pose_match_obs *a, const struct pose_match_obs *b,
+                            float d) {
+    float var =
+        a->lateral_sigma_mm * a->lateral_sigma_mm + b->lateral_sigma_mm * b->lateral_sigma_mm;
+    if (!(d > 0.0f)) {
+        return sqrtf(var + a->range_sigma_mm * a->range_sigma_mm +
+                     b->range_sigma_mm * b->range_sigma_mm);
+    }
+    const struct pose_match_obs *pts[2] = {a, b};
+    for (int k = 0; k < 2; ++k) {
+        const float *q = pts[k]->point_mm;
+        float n = sqrtf(q[0] * q[0] + q[1] * q[1] + q[2] * q[2]);
+        float along = 0.0f;
+        for (int i = 0; i < 3; ++i) {
+            along += (a->point_mm[i] - b->point_mm[i]) * q[i];
+        }
+        float g = (n > 0.0f) ? along / (n * d) : 1.0f;
+        var += g * g * pts[k]->range_sigma_mm * pts[k]->range_sigma_mm;
+    }
+    return sqrtf(var);
+}
+
 static bool config_valid(const struct pose_match_config *cfg) {
     return cfg->tol_mm >= 0.0f && cfg->tol_sigmas >= 0.0f && cfg->beta0 > 0.0f &&
            cfg->beta_rate > 1.0f && cfg->beta_max >= cfg->beta0 && cfg->slack_support >= 0.0f &&
@@ -75,9 +104,7 @@ static void build_tables(const struct pose_match_config *cfg, const struct pose_
     for (size_t i = 0; i < n_obs; ++i) {
         for (size_t j = i + 1u; j < n_obs; ++j) {
             float d = dist3(obs[i].point_mm, obs[j].point_mm);
-            float si = obs[i].sigma_mm;
-            float sj = obs[j].sigma_mm;
-            float tol = cfg->tol_mm + cfg->tol_sigmas * sqrtf(si * si + sj * sj);
+            float tol = cfg->tol_mm + cfg->tol_sigmas * distance_sigma(&obs[i], &obs[j], d);
             if (!(tol > 0.0f)) {
                 tol = 1e-3f;
             }
@@ -196,9 +223,25 @@ int pose_match(const struct pose_match_config *cfg, const struct pose_marker *ma
     float beta = cfg->beta0;
     uint16_t steps = 0u;
     while (beta <= cfg->beta_max && steps < MATCH_MAX_STEPS) {
+        /*
+         * The slack's support scales with the current confidence of the assignment
+         * (mean over observations of their largest probability). Q_ia sums
+         * probabilities, so while M is still diffuse every Q is a fraction of its
+         * final value; a fixed slack would win at that stage and every observation
+         * would freeze into the slack (seen with 9 observations at 2 m).
+         */
+        float confidence = 0.0f;
+        for (size_t i = 0; i < n_obs; ++i) {
+            float best = 0.0f;
+            for (size_t a = 0; a < n_markers; ++a) {
+                best = (work->m[i][a] > best) ? work->m[i][a] : best;
+            }
+            confidence += best;
+        }
+        float slack = cfg->slack_support * confidence / (float)n_obs;
         compute_support(n_markers, n_obs, work);
         /* Gibbs weights exp(beta * Q) (Eq. 35), shifted by the largest exponent to stay finite. */
-        float qmax = cfg->slack_support;
+        float qmax = slack;
         for (size_t i = 0; i < n_obs; ++i) {
             for (size_t a = 0; a < n_markers; ++a) {
                 if (work->q[i][a] > qmax) {
@@ -210,10 +253,10 @@ int pose_match(const struct pose_match_config *cfg, const struct pose_marker *ma
             for (size_t a = 0; a < n_markers; ++a) {
                 work->m[i][a] = expf(beta * (work->q[i][a] - qmax));
             }
-            work->m[i][n_markers] = expf(beta * (cfg->slack_support - qmax));
+            work->m[i][n_markers] = expf(beta * (slack - qmax));
         }
         for (size_t a = 0; a <= n_markers; ++a) {
-            work->m[n_obs][a] = expf(beta * (cfg->slack_support - qmax));
+            work->m[n_obs][a] = expf(beta * (slack - qmax));
         }
         sinkhorn(n_markers, n_obs, cfg->sinkhorn_iterations, work);
         beta *= cfg->beta_rate;

@@ -339,7 +339,7 @@ int host_sim_camera_main(int argc, char **argv) {
     struct pose_result res;
     struct camera_eval ev;
 
-    long valid = 0, correct = 0, complete = 0, status_count[POSE_STATUS_RUN_OVERFLOW + 1] = {0};
+    long valid = 0, correct = 0, complete = 0, status_count[POSE_STATUS_COUNT] = {0};
     long visible_sum = 0, detected_sum = 0, matched_sum = 0, wrong_sum = 0;
     double rot_sq = 0, pos_sq = 0, rot_max = 0, pos_max = 0;
     double extract_sq = 0, raw_sq = 0, final_sq = 0;
@@ -382,11 +382,12 @@ int host_sim_camera_main(int argc, char **argv) {
                 const struct pose_blob *b = &res.blobs[i];
                 fprintf(stderr,
                         "  blob %zu: (%.3f, %.3f) range %.1f se %.2f px %u ratio %.3f peak %.0f "
-                        "ellipse %d/%d truth %d\n",
+                        "ellipse %d/%d truth %d anneal %d\n",
                         i, (double)b->u_px, (double)b->v_px, (double)b->range_mm,
                         (double)b->range_se_mm, b->pixels, (double)b->axis_ratio,
                         (double)b->peak_response, b->ellipse_checked, b->ellipse_ok,
-                        ev.blob_marker[i]);
+                        ev.blob_marker[i], pipe.ws.assignment[i]);
+
             }
         }
         ++status_count[res.status];
@@ -456,7 +457,7 @@ int host_sim_camera_main(int argc, char **argv) {
     /* > 1: some drawn rotations could not keep all markers in view and were redrawn. */
     fprintf(out, "  \"pose_draws_per_frame\": %.4f,\n", (double)pose_draws / nf);
     fprintf(out, "  \"status\": {");
-    for (int s = 0; s <= POSE_STATUS_RUN_OVERFLOW; ++s) {
+    for (int s = 0; s < POSE_STATUS_COUNT; ++s) {
         fprintf(out, "%s\"%s\": %ld", s ? ", " : "", pose_status_name((enum pose_status)s),
                 status_count[s]);
     }

@@ -39,23 +39,32 @@ struct pose_config {
     uint16_t gray_peak;       /* a blob needs one pixel with gray >= this */
     uint32_t blob_min_pixels; /* component size limits (paper criterion 3) */
     uint32_t blob_max_pixels;
-    float min_axis_ratio; /* minor / major axis of the moment ellipse; below = eccentric */
+    float min_axis_ratio;      /* minor / major axis of the moment ellipse; below = eccentric */
+    uint32_t shape_min_pixels; /* smaller blobs are too coarse for any shape criterion */
     /* ellipse confirmation (documented simplification of §3.3, see pose_extract.c) */
     float ellipse_rim_tolerance;  /* |normalised rim radius - 1| allowed */
     float ellipse_rim_fraction;   /* share of rim points that must lie on the ellipse */
     float ellipse_area_tolerance; /* |pixel area / moment-ellipse area - 1| allowed */
     uint32_t ellipse_min_pixels;  /* smaller blobs cannot be judged and pass */
+    float readmit_min_axis_ratio; /* eccentric blobs confirmed as ellipses return above this */
+
     /* --- 3-D points for matching --- */
-    float lateral_sigma_px;     /* assumed centroid standard error */
+    float centroid_sigma_floor_px; /* centroid standard error: sqrt(floor^2 + one_px^2 / pixels) */
+    float centroid_sigma_one_px;
     float depth_spread_mm;      /* prior spread of marker depths about their median */
     float range_sigma_fraction; /* range standard error of a one-pixel blob, fraction of range */
+    float range_floor_mm; /* systematic range error of a blob mean (disc tilt, mixed pixels) */
     struct pose_match_config match;
     /* --- pose (paper §5) --- */
     uint16_t refine_max_iterations;
     bool refine_optimal_translation; /* re-solve t for each R (Lu et al.); false: as the paper */
-    float refine_tol_mm;       /* stop when |dt| and the rotation change (x 1 m lever) are below */
-    float reproj_gate_px;      /* matches with a larger final reprojection residual are dropped */
-    float range_gate_fraction; /* and those whose range residual exceeds this x range + 20 mm */
+    float refine_tol_mm;     /* stop when |dt| and the rotation change (x 1 m lever) are below */
+    float reproj_gate_px;    /* matches with a larger final reprojection residual are dropped */
+    float range_gate_sigmas; /* and those whose range residual exceeds this many standard errors */
+    bool fuse_range;         /* after the paper's refinement, fuse measured ranges (see pose.c) */
+    uint8_t fuse_max_iterations;
+    float loo_gate_sigmas; /* leave-one-out prediction error that drops a match; 0 = off */
+
     bool perspective_correction; /* correct the circle-centre perspective offset (see pose.c) */
 };
 
@@ -67,6 +76,7 @@ enum pose_reject {
     POSE_REJECT_ECCENTRIC,   /* axis ratio below min_axis_ratio and not confirmed as an ellipse */
     POSE_REJECT_NOT_ELLIPSE, /* dropped by ellipse confirmation (count mismatch, not an ellipse) */
     POSE_REJECT_NO_RANGE,    /* no member pixel has a range return */
+    POSE_REJECT_BORDER,      /* touches the image border: cut off, its centroid is biased */
     POSE_REJECT_CAPACITY,    /* more accepted blobs than POSE_MAX_OBS: the lightest are dropped */
     POSE_REJECT_COUNT
 };
@@ -75,9 +85,12 @@ enum pose_reject {
 struct pose_blob {
     float u_px; /* intensity-weighted centroid (paper Eq. 19) */
     float v_px;
-    float range_mm;    /* mean range over member pixels with a return (Eq. 20) */
-    float range_se_mm; /* standard error of that mean */
-    float weight;      /* sum of (gray - weight floor) over members */
+    float range_mean_mm;     /* mean range over member pixels with a return (paper Eq. 20) */
+    float range_mm;          /* same pixels weighted by centroid weight: used (pose_extract.c) */
+    float range_se_mm;       /* standard error of range_mm */
+    float centroid_sigma_px; /* modelled centroid standard error (config centroid_sigma_*) */
+
+    float weight; /* sum of (gray - weight floor) over members */
     uint32_t pixels;
     float axis_ratio;     /* minor / major axis of the moment ellipse */
     float peak_response;  /* largest nLoG response */
@@ -86,13 +99,15 @@ struct pose_blob {
 };
 
 enum pose_status {
-    POSE_STATUS_OK = 0,      /* >= 4 matches, refinement converged, residuals within gates */
-    POSE_STATUS_DEGRADED,    /* valid pose from 3 matches or with the refinement bound hit */
-    POSE_STATUS_FEW_BLOBS,   /* fewer than 3 candidate reflectors */
-    POSE_STATUS_NO_MATCH,    /* fewer than 3 consistent matches */
-    POSE_STATUS_DEGENERATE,  /* matched reflectors collinear */
-    POSE_STATUS_RESIDUAL,    /* fewer than 3 matches left inside the residual gates */
-    POSE_STATUS_RUN_OVERFLOW /* filtered active set needed more than POSE_MAX_RUNS runs */
+    POSE_STATUS_OK = 0,       /* >= 4 matches, refinement converged, residuals within gates */
+    POSE_STATUS_DEGRADED,     /* valid pose from 3 matches or with the refinement bound hit */
+    POSE_STATUS_FEW_BLOBS,    /* fewer than 3 candidate reflectors */
+    POSE_STATUS_NO_MATCH,     /* fewer than 3 consistent matches */
+    POSE_STATUS_DEGENERATE,   /* matched reflectors collinear */
+    POSE_STATUS_RESIDUAL,     /* fewer than 3 matches left inside the residual gates */
+    POSE_STATUS_IMPLAUSIBLE,  /* the solution turns the plate away from the camera */
+    POSE_STATUS_RUN_OVERFLOW, /* filtered active set needed more than POSE_MAX_RUNS runs */
+    POSE_STATUS_COUNT
 };
 
 /* Short constant name of a status ("OK", "NO_MATCH"); never NULL. */
@@ -119,6 +134,7 @@ struct pose_result {
     float range_rms_mm;
     float object_rms_mm; /* line-of-sight (object-space) residual, the refined quantity */
     uint16_t refine_iterations;
+    uint8_t fuse_iterations;
     uint16_t anneal_steps;
     /* extraction bookkeeping: nothing is dropped without being counted here */
     uint32_t active_pixels; /* size of the active set after the cap */
@@ -156,7 +172,13 @@ struct pose_component {
     int64_t range_sum;
     int64_t range_sq_sum;
     uint32_t range_count; /* member pixels with a return */
+    uint64_t range_w;     /* sums of w, w^2 and w (range - range_ref) over those pixels */
+    uint64_t range_w2;
+    int64_t range_wsum;
+    float axis_ratio;
+    bool touches_border;
     enum pose_reject reject;
+
     bool ellipse_checked;
     bool ellipse_ok;
 };

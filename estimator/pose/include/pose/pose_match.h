@@ -38,10 +38,15 @@ struct pose_match_config {
     float accept_probability;    /* final assignment needs M_ia >= this */
 };
 
-/* One observed reflector: its 3-D position in the camera frame and its standard error. */
+/*
+ * One observed reflector: its 3-D position in the camera frame (range along its
+ * line of sight, which is point / |point|) and the standard errors of its range
+ * and of its position across the line of sight.
+ */
 struct pose_match_obs {
     float point_mm[3];
-    float sigma_mm;
+    float range_sigma_mm;
+    float lateral_sigma_mm;
 };
 
 /* Scratch memory of the matcher (no heap): distance tables, compatibilities, M. */
