@@ -184,6 +184,26 @@ static void start_pending_sensors(struct tof_app *app) {
     }
 }
 
+/*
+ * How long an idle iteration sleeps. Readings of slot k arrive just after the slot
+ * starts (sensors start at a slot boundary), so once every sensor has reported for the
+ * pending slots there is nothing to do before the next slot: sleep until it starts.
+ * Otherwise poll every idle_us, which bounds the data-ready latency.
+ */
+static uint32_t idle_time_us(const struct tof_app *app, uint64_t now_us) {
+    const uint64_t next_slot = app->assembler.origin_us +
+                               (uint64_t)app->assembler.next_index * app->assembler_cfg.period_us;
+    bool waiting = false;
+    for (unsigned i = 0; i < TOF_SENSORS; ++i) {
+        waiting = waiting || app->start_pending[i];
+    }
+    if (!waiting && now_us < next_slot && app->assembler.pending[0].present_mask == 0u) {
+        const uint64_t gap = next_slot - now_us;
+        return gap < app->assembler_cfg.period_us ? (uint32_t)gap : app->assembler_cfg.period_us;
+    }
+    return app->cfg->idle_us;
+}
+
 int tof_app_init(struct tof_app *app, const struct tof_platform *platform,
                  const struct tof_app_config *cfg) {
     memset(app, 0, sizeof *app);
@@ -273,7 +293,7 @@ void tof_app_step(struct tof_app *app, bool idle) {
         app->platform->watchdog.ops->kick(app->platform->watchdog.ctx);
     }
     if (idle) {
-        app->platform->time.ops->delay_us(app->platform->time.ctx, app->cfg->idle_us);
+        app->platform->time.ops->delay_us(app->platform->time.ctx, idle_time_us(app, end));
     }
 }
 
