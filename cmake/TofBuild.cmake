@@ -14,7 +14,7 @@ if(CMAKE_CROSSCOMPILING)
   foreach(core IN LISTS TOF_CORES)
     add_library(tof_core_${core} INTERFACE)
     target_compile_options(tof_core_${core} INTERFACE ${TOF_CORE_FLAGS_${core}}
-      -ffunction-sections -fdata-sections -fstack-usage -fno-common -Os -g3)
+      -ffunction-sections -fdata-sections -fstack-usage -fcallgraph-info=su -fno-common -Os -g3)
     target_link_options(tof_core_${core} INTERFACE ${TOF_CORE_FLAGS_${core}})
   endforeach()
   set(TOF_TARGET_CORES ${TOF_CORES})
@@ -82,9 +82,19 @@ function(tof_image name)
   if(ARG_NO_FLOAT)
     set(float_flag -DNO_FLOAT=1)
   endif()
+  # The stack the linker script reserves, for the worst-case stack check.
+  file(READ ${ARG_LINKER_SCRIPT} ld_text)
+  if(NOT ld_text MATCHES "STACK_SIZE = ([0-9]+)K;")
+    message(FATAL_ERROR "${ARG_LINKER_SCRIPT}: no 'STACK_SIZE = <n>K;' line")
+  endif()
+  math(EXPR stack_limit "${CMAKE_MATCH_1} * 1024")
   add_custom_command(TARGET ${name} POST_BUILD
     COMMAND ${CMAKE_COMMAND} -DNM=${CMAKE_NM} -DELF=$<TARGET_FILE:${name}> ${float_flag}
             -P ${PROJECT_SOURCE_DIR}/cmake/check_image.cmake
+    COMMAND /usr/bin/python3 ${PROJECT_SOURCE_DIR}/tools/stack_check.py
+            --root ${CMAKE_BINARY_DIR} --match _${ARG_CORE}.dir --match /${name}.dir/
+            --map $<TARGET_FILE_DIR:${name}>/${name}.map --limit ${stack_limit} --name ${name}
+            --json $<TARGET_FILE_DIR:${name}>/${name}.stack.json
     COMMAND ${CMAKE_OBJCOPY} -O binary $<TARGET_FILE:${name}> $<TARGET_FILE_DIR:${name}>/${name}.bin
     VERBATIM)
   set_property(GLOBAL APPEND PROPERTY TOF_IMAGES ${name})

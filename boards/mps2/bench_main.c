@@ -1,0 +1,204 @@
+/*
+ * On-target benchmark (DESIGN.md §7), run under QEMU with -icount shift=7 so the
+ * CMSDK timer counts instructions exactly (insn_counter.h). For each operation it
+ * prints "BENCH <cpu> <impl> <op> <instructions>", averaged over a workload of
+ * BENCH_WINDOWS windows of N = 100 samples of a plate at changing attitudes:
+ *   sample     four ranges in, ten angles, window statistics, Kalman update
+ *   consensus  one window's product consensus: weights, P, iterated to tolerance
+ *   kalman     one four-measurement Kalman update
+ *   window     (fixed only) the whole window-end work of all four estimators
+ * `fixed` is the product's estimator; `float` the plain single-precision baseline
+ * in tests/bench/float_baseline.c. tools/bench_report.py collects the lines.
+ */
+#include <string.h>
+
+#include "board.h"
+#include "estimator/attitude.h"
+#include "firmware/app.h"
+#include "firmware/text.h"
+#include "float_baseline.h"
+#include "insn_counter.h"
+#include "semihost.h"
+
+#define BENCH_WINDOWS 10u
+#define BENCH_N       100u
+
+static struct attitude_state est;
+static struct kalman_state kal;
+static struct flt_window fwin;
+static struct flt_kalman fkal;
+static volatile float float_sink; /* keeps the float results alive */
+static volatile int32_t fixed_sink;
+
+/* Deterministic workload: an LCG (Numerical Recipes constants) gives a triangular-ish
+ * noise of about 1.6 mm on each sensor of a plate whose tilt changes every window. */
+static uint32_t lcg_state = 12345u;
+static int32_t noise_mm(void) {
+    int32_t sum = 0;
+    for (unsigned i = 0; i < 4u; ++i) {
+        lcg_state = lcg_state * 1664525u + 1013904223u;
+        sum += (int32_t)((lcg_state >> 29) % 5u) - 2; /* -2..2 */
+    }
+    return sum / 2;
+}
+
+static void make_sample(unsigned window, uint16_t range[4]) {
+    /* a·tan α and a·tan β in mm for the window's attitude: up to ±3 mm (±5.7° at a = 30). */
+    const int32_t ta = (int32_t)(window % 7u) - 3;
+    const int32_t tb = 2 - (int32_t)(window % 5u);
+    const int32_t mean = 100;
+    range[0] = (uint16_t)(mean - ta + noise_mm());
+    range[1] = (uint16_t)(mean + tb + noise_mm());
+    range[2] = (uint16_t)(mean + ta + noise_mm());
+    range[3] = (uint16_t)(mean - tb + noise_mm());
+}
+
+static void report(const char *cpu, const char *impl, const char *op, uint64_t total,
+                   uint32_t count) {
+    char line[96];
+    struct tof_text t;
+    tof_text_init(&t, line, sizeof line);
+    tof_text_str(&t, "BENCH ");
+    tof_text_str(&t, cpu);
+    tof_text_str(&t, " ");
+    tof_text_str(&t, impl);
+    tof_text_str(&t, " ");
+    tof_text_str(&t, op);
+    tof_text_str(&t, " ");
+    tof_text_u64(&t, count > 0u ? (total + count / 2u) / count : 0u);
+    tof_text_str(&t, "\n");
+    semihost_write_stdout(line, t.len);
+}
+
+/* The measurement's own cost (two timer reads), subtracted from every figure. */
+static uint64_t overhead;
+static uint64_t measured(uint32_t before, uint32_t after) {
+    const uint64_t n = insn_counter_between(before, after);
+    return n > overhead ? n - overhead : 0u;
+}
+
+static void bench_fixed(const char *cpu) {
+    struct attitude_config cfg;
+    attitude_config_default(&cfg);
+    if (attitude_init(&est, &cfg) != ATTITUDE_ERR_NONE) {
+        semihost_write_stdout("bench: attitude_init failed\n", 28);
+        semihost_exit(1);
+    }
+    const struct kalman_config kcfg = {
+        .initial_noise_mm2 = {(fix_q32_t)4 << 32, (fix_q32_t)4 << 32, (fix_q32_t)4 << 32,
+                              (fix_q32_t)4 << 32},
+        .gate_sigmas_q8 = 5u * 256u,
+        .gate_floor_mm = 3,
+        .warmup_rows = 5,
+        .noise_shift = 2,
+    };
+    if (kalman_init(&kal, &kcfg) != KALMAN_OK) {
+        semihost_write_stdout("bench: kalman_init failed\n", 26);
+        semihost_exit(1);
+    }
+    uint64_t sample_total = 0, window_total = 0, consensus_total = 0, kalman_total = 0;
+    uint32_t samples = 0, windows = 0, kalman_rows = 0;
+    const uint8_t status[4] = {0, 0, 0, 0};
+    const bool present[4] = {true, true, true, true};
+    lcg_state = 12345u;
+    for (unsigned w = 0; w < BENCH_WINDOWS; ++w) {
+        for (unsigned i = 0; i < BENCH_N; ++i) {
+            uint16_t range[4];
+            make_sample(w, range);
+            struct attitude_output out;
+            const uint32_t t0 = insn_counter_ticks();
+            const bool ready = attitude_push_sample(&est, range, status, present, &out);
+            const uint32_t t1 = insn_counter_ticks();
+            if (ready) {
+                window_total += measured(t0, t1);
+                ++windows;
+                fixed_sink = out.est[ATTITUDE_EST_CONSENSUS].alpha_udeg;
+            } else {
+                sample_total += measured(t0, t1);
+                ++samples;
+            }
+            struct kalman_rows rows;
+            const uint32_t k0 = insn_counter_ticks();
+            kalman_push_row(&kal, range, 0x0Fu, &rows);
+            const uint32_t k1 = insn_counter_ticks();
+            if (i >= kcfg.warmup_rows) { /* past the warm-up buffer: one real update */
+                kalman_total += measured(k0, k1);
+                ++kalman_rows;
+            }
+        }
+        /* The product consensus of this window, from its statistics. */
+        struct consensus_product_input in;
+        memset(&in, 0, sizeof in);
+        in.arm_um = cfg.arm_um;
+        in.tolerance_udeg = cfg.consensus_tolerance_udeg;
+        for (unsigned k = 0; k < 4u; ++k) {
+            in.sensor[k].used = est.stats.sensor[k].used != 0u;
+            in.sensor[k].count = est.stats.sensor[k].used;
+            in.sensor[k].mean_mm = est.stats.sensor[k].mean_mm;
+            in.sensor[k].var_mm2 = est.stats.sensor[k].var_mm2;
+        }
+        struct consensus_product_result res;
+        const uint32_t c0 = insn_counter_ticks();
+        consensus_product(&in, &res);
+        const uint32_t c1 = insn_counter_ticks();
+        consensus_total += measured(c0, c1);
+        fixed_sink = res.alpha.angle_udeg;
+    }
+    report(cpu, "fixed", "sample", sample_total, samples);
+    report(cpu, "fixed", "consensus", consensus_total, BENCH_WINDOWS);
+    report(cpu, "fixed", "kalman", kalman_total, kalman_rows);
+    report(cpu, "fixed", "window", window_total, windows);
+}
+
+static void bench_float(const char *cpu) {
+    uint64_t sample_total = 0, consensus_total = 0, kalman_total = 0;
+    uint32_t samples = 0;
+    lcg_state = 12345u;
+    for (unsigned w = 0; w < BENCH_WINDOWS; ++w) {
+        flt_window_init(&fwin, 30.0f);
+        flt_kalman_init(&fkal, 30.0f, 4.0f);
+        for (unsigned i = 0; i < BENCH_N; ++i) {
+            uint16_t range[4];
+            make_sample(w, range);
+            const uint32_t t0 = insn_counter_ticks();
+            flt_window_push(&fwin, range);
+            const uint32_t t1 = insn_counter_ticks();
+            flt_kalman_update(&fkal, range);
+            const uint32_t t2 = insn_counter_ticks();
+            sample_total += measured(t0, t1) + measured(t1, t2);
+            kalman_total += measured(t1, t2);
+            ++samples;
+        }
+        struct flt_result res;
+        const uint32_t c0 = insn_counter_ticks();
+        flt_consensus(&fwin, 0.001f, &res);
+        const uint32_t c1 = insn_counter_ticks();
+        consensus_total += measured(c0, c1);
+        float_sink = res.alpha_deg + fkal.x[1];
+    }
+    report(cpu, "float", "sample", sample_total, samples);
+    report(cpu, "float", "consensus", consensus_total, BENCH_WINDOWS);
+    report(cpu, "float", "kalman", kalman_total, samples);
+}
+
+int main(void) {
+    const char *cpu = BOARD_CPU;
+    insn_counter_start();
+    const uint32_t a = insn_counter_ticks();
+    const uint32_t b = insn_counter_ticks();
+    overhead = insn_counter_between(a, b);
+    bench_fixed(cpu);
+    bench_float(cpu);
+    return 0;
+}
+
+void board_exit(int status) {
+    semihost_exit(status < 0 ? -status : status);
+}
+
+void board_fault(const char *what) {
+    semihost_write_stdout("FAULT: ", 7);
+    semihost_write_stdout(what, strlen(what));
+    semihost_write_stdout("\n", 1);
+    semihost_exit(128);
+}

@@ -1,0 +1,83 @@
+#!/usr/bin/python3
+"""Collect the on-target benchmark into bench.json (DESIGN.md §7).
+
+Runs each benchmark image under QEMU with -icount shift=7 (exact instruction
+counts, boards/mps2/insn_counter.h), parses its "BENCH cpu impl op insn" lines,
+then builds the m4 preset and adds its image figures: flash (text + data), RAM
+(data + bss, the reserved stack included) and the worst-case stack depth from the
+call graph (tools/stack_check.py).
+
+Usage: bench_report.py --qemu QEMU --out bench.json --source-dir DIR IMAGE=BOARD=CPU ...
+"""
+import argparse
+import json
+import os
+import re
+import subprocess
+import sys
+
+
+def run(cmd, **kw):
+    r = subprocess.run(cmd, capture_output=True, text=True, **kw)
+    if r.returncode != 0:
+        sys.exit(f"bench_report: {' '.join(cmd)} failed ({r.returncode}):\n{r.stdout}{r.stderr}")
+    return r.stdout
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--qemu", required=True)
+    ap.add_argument("--out", required=True)
+    ap.add_argument("--source-dir", required=True)
+    ap.add_argument("images", nargs="+")
+    a = ap.parse_args()
+    results = []
+    for spec in a.images:
+        image, board, cpu = spec.split("=")
+        out = run([a.qemu, "-M", board, "-nographic", "-monitor", "none", "-serial", "none",
+                   "-icount", "shift=7", "-semihosting-config", "enable=on,target=native",
+                   "-kernel", image], timeout=600)
+        lines = re.findall(r"^BENCH (\S+) (\S+) (\S+) (\d+)$", out, re.M)
+        if not lines:
+            sys.exit(f"bench_report: {image} printed no BENCH lines:\n{out}")
+        for c, impl, op, insn in lines:
+            if c != cpu:
+                sys.exit(f"bench_report: {image} reports cpu {c}, expected {cpu}")
+            results.append({"cpu": c, "impl": impl, "op": op, "insn": int(insn)})
+
+    src = a.source_dir
+    m4 = os.path.join(src, "build", "m4")
+    run(["cmake", "--preset", "m4"], cwd=src)
+    run(["cmake", "--build", "--preset", "m4"], cwd=src)
+    elf = os.path.join(m4, "boards", "nucleo-l476rg", "firmware-nucleo-l476rg.elf")
+    size = run(["arm-none-eabi-size", "-B", elf]).splitlines()[1].split()
+    text, data, bss = int(size[0]), int(size[1]), int(size[2])
+    stack_json = os.path.join(m4, "stack.json")
+    run(["/usr/bin/python3", os.path.join(src, "tools", "stack_check.py"), "--root", m4,
+         "--match", "_cortex-m4f.dir", "--match", "firmware-nucleo-l476rg.dir",
+         "--map", elf[:-4] + ".map", "--limit", str(stack_limit(src)), "--name", "m4",
+         "--json", stack_json])
+    with open(stack_json) as f:
+        stack = json.load(f)["stack_bytes_max"]
+    doc = {"results": results,
+           "image": {"preset": "m4", "flash_bytes": text + data, "ram_bytes": data + bss,
+                     "stack_bytes_max": stack}}
+    with open(a.out, "w") as f:
+        json.dump(doc, f, indent=1)
+    print(f"{'cpu':<10} {'impl':<6} {'op':<10} {'insn':>9}")
+    for r in results:
+        print(f"{r['cpu']:<10} {r['impl']:<6} {r['op']:<10} {r['insn']:>9}")
+    print(f"m4 image: flash {text + data} B, RAM {data + bss} B (stack reserve included), "
+          f"worst-case stack {stack} B")
+    print(f"written: {a.out}")
+
+
+def stack_limit(src):
+    ld = os.path.join(src, "boards", "nucleo-l476rg", "stm32l476rg.ld")
+    with open(ld) as f:
+        m = re.search(r"STACK_SIZE\s*=\s*(\d+)K", f.read())
+    return int(m.group(1)) * 1024
+
+
+if __name__ == "__main__":
+    main()

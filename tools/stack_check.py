@@ -1,0 +1,180 @@
+#!/usr/bin/python3
+"""Worst-case stack depth of a firmware image from GCC's call-graph files.
+
+Every firmware object is compiled with -fstack-usage -fcallgraph-info=su, which
+writes a .ci file per object: one node per function with its frame size, one edge
+per call. This tool joins them, walks the call graph from the entry points and
+reports the deepest path, failing when it exceeds the stack the linker script
+reserves.
+
+Rules (an upper bound under the project's rules, not a proof):
+- a frame marked dynamic and not bounded is an error (the project has no VLAs/alloca);
+- recursion (a function twice on one path through direct calls) is an error;
+- an indirect call (the ops structs' function pointers) may reach any function that
+  no one calls directly, i.e. the callbacks; a function already on the path is
+  skipped there;
+- functions without a .ci (newlib, libgcc) are charged LIB_FRAME bytes each;
+- interrupts: the deepest handler plus the exception frame (EXC_FRAME bytes, the
+  extended frame with FP state) is added on top of the deepest thread path.
+
+Usage: stack_check.py --root BUILD_DIR --match SUBSTR [--match ...] --map IMAGE.map
+                      --limit BYTES [--json OUT] [--entry NAME ...] [--handler NAME ...]
+"""
+import argparse
+import json
+import os
+import re
+import sys
+
+LIB_FRAME = 64
+EXC_FRAME = 104  # 8 core words + 18 FP words (ARMv7-M ARM B1.5.7), rounded to 8
+
+NODE_RE = re.compile(r'node: \{ title: "([^"]+)" label: "([^"]*)"')
+EDGE_RE = re.compile(r'edge: \{ sourcename: "([^"]+)" targetname: "([^"]+)"')
+FRAME_RE = re.compile(r"\\n(\d+) bytes \(([^)]*)\)")
+
+
+def load(root, matches):
+    frames, calls, errors = {}, {}, []
+    for dirpath, _, files in os.walk(root):
+        for name in files:
+            if not name.endswith(".ci"):
+                continue
+            path = os.path.join(dirpath, name)
+            if matches and not any(m in path for m in matches):
+                continue
+            with open(path, encoding="utf-8", errors="replace") as f:
+                for line in f:
+                    m = NODE_RE.search(line)
+                    if m:
+                        fm = FRAME_RE.search(m.group(2))
+                        if fm:
+                            size, kind = int(fm.group(1)), fm.group(2)
+                            if "dynamic" in kind and "bounded" not in kind:
+                                errors.append(f"{m.group(1)}: unbounded dynamic stack ({kind})")
+                            frames[m.group(1)] = max(size, frames.get(m.group(1), 0))
+                        continue
+                    m = EDGE_RE.search(line)
+                    if m:
+                        calls.setdefault(m.group(1), []).append(m.group(2))
+    return frames, calls, errors
+
+
+def linked_functions(map_path):
+    """Names of the functions the linker kept (-ffunction-sections: .text.<name>)."""
+    kept, in_map = set(), False
+    with open(map_path, encoding="utf-8", errors="replace") as f:
+        for line in f:
+            if line.startswith("Linker script and memory map"):
+                in_map = True
+            elif in_map:
+                m = re.match(r"\s+\.text\.(?:startup\.|unlikely\.|hot\.)?([A-Za-z_]\w*)", line)
+                if m:
+                    kept.add(m.group(1))
+    return kept
+
+
+def analyse(frames, calls, entries, handlers):
+    called = {t for ts in calls.values() for t in ts}
+
+    def resolve(name):
+        if name in frames:
+            return name
+        suffix = ":" + name
+        hits = [f for f in frames if f.endswith(suffix)]
+        return hits[0] if len(hits) == 1 else name
+
+    callbacks = [f for f in frames
+                 if f not in called and f.split(":")[-1] not in called
+                 and f not in entries and f not in handlers]
+    memo, libs, errors = {}, set(), []
+
+    def worst(fn, path, direct):
+        if fn in memo:
+            return memo[fn]
+        if fn not in frames:
+            libs.add(fn)
+            return LIB_FRAME, [fn]
+        best, best_path = 0, []
+        path = path | {fn}
+        direct = direct | {fn}
+        for target in calls.get(fn, []):
+            if target == "__indirect_call":
+                for cb in callbacks:
+                    if cb in path:
+                        continue
+                    d, p = worst(cb, path, frozenset())
+                    if d > best:
+                        best, best_path = d, ["(indirect)"] + p
+                continue
+            t = resolve(target)
+            if t in direct:
+                errors.append(f"recursion: {fn} -> {t}")
+                continue
+            if t in path:
+                continue  # reached again only through an indirect call: not a real cycle
+            d, p = worst(t, path, direct)
+            if d > best:
+                best, best_path = d, p
+        result = (frames[fn] + best, [fn] + best_path)
+        memo[fn] = result
+        return result
+
+    thread = {e: worst(resolve(e), frozenset(), frozenset())
+              for e in entries if resolve(e) in frames}
+    irq = {h: worst(resolve(h), frozenset(), frozenset()) for h in handlers if resolve(h) in frames}
+    return thread, irq, sorted(libs), errors
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--root", required=True)
+    ap.add_argument("--match", action="append", default=[])
+    ap.add_argument("--limit", type=int, required=True)
+    ap.add_argument("--entry", action="append", default=[])
+    ap.add_argument("--handler", action="append", default=[])
+    ap.add_argument("--map", help="link map: only functions the linker kept are analysed")
+    ap.add_argument("--json")
+    ap.add_argument("--name", default="image")
+    a = ap.parse_args()
+    entries = a.entry or ["Reset_Handler"]
+    handlers = a.handler or ["HardFault_Handler", "Default_Handler", "SysTick_Handler"]
+    frames, calls, errors = load(a.root, a.match)
+    if not frames:
+        print(f"stack_check: no .ci call-graph files under {a.root} matching {a.match}",
+              file=sys.stderr)
+        return 2
+    if a.map:
+        kept = linked_functions(a.map)
+        frames = {f: v for f, v in frames.items() if f.split(":")[-1].split(".")[0] in kept}
+    thread, irq, libs, more = analyse(frames, calls, entries, handlers)
+    errors += more
+    t_worst = max((d for d, _ in thread.values()), default=0)
+    i_worst = max((d for d, _ in irq.values()), default=0)
+    total = t_worst + (i_worst + EXC_FRAME if irq else 0)
+    print(f"stack_check {a.name}: worst case {total} bytes of {a.limit} reserved "
+          f"(thread {t_worst}, deepest handler {i_worst} + {EXC_FRAME} exception frame)")
+    for e, (d, p) in thread.items():
+        print(f"  {e}: {d} bytes via " + " -> ".join(x.split(":")[-1] for x in p[:12]))
+    for h, (d, p) in irq.items():
+        print(f"  {h}: {d} bytes")
+    if libs:
+        print(f"  charged {LIB_FRAME} bytes each (no call graph): " + ", ".join(libs[:12]))
+    if a.json:
+        with open(a.json, "w") as f:
+            json.dump({"image": a.name, "stack_bytes_max": total, "limit": a.limit,
+                       "thread": {k: v[0] for k, v in thread.items()},
+                       "handlers": {k: v[0] for k, v in irq.items()}}, f, indent=1)
+    for e in sorted(set(errors)):
+        print(f"stack_check: {e}", file=sys.stderr)
+    if errors:
+        return 1
+    if total > a.limit:
+        print(f"stack_check: {a.name} needs up to {total} bytes of stack, the linker script "
+              f"reserves {a.limit}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
