@@ -108,6 +108,13 @@ int cli_parse_replay(int argc, char **argv, struct replay_args *out) {
             if (!cli_parse_u64(v, 0, UINT64_MAX, &out->seed)) {
                 return usage_error(cmd, "--seed: expected a non-negative integer", v);
             }
+        } else if (strcmp(arg, "--faults-until") == 0) {
+            if ((v = option_value(cmd, argc, argv, &i)) == NULL) {
+                return -1;
+            }
+            if (!cli_parse_u64(v, 1, UINT32_MAX, &out->faults_until_row)) {
+                return usage_error(cmd, "--faults-until: expected a row number >= 1", v);
+            }
         } else if (strcmp(arg, "--quiet") == 0) {
             out->quiet = true;
         } else if (arg[0] == '-' && arg[1] != '\0') {

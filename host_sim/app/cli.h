@@ -25,6 +25,7 @@ struct replay_args {
     const char *faults;    /* fault spec, parsed by the replay */
     uint64_t seed;
     bool quiet;            /* --quiet: no summary table on stdout */
+    uint64_t faults_until_row; /* --faults-until ROW: injection stops there (0: never) */
 };
 
 struct scenario_args {

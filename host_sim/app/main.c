@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "camera/camera_cmd.h"
+#include "campaign.h"
 #include "cli.h"
 #include "replay.h"
 #include "scene/scenario.h"
@@ -21,6 +22,7 @@ static void usage(FILE *f) {
           "                  [--quiet]\n"
           "  host_sim scenario NAME [--seed S] --trace-out TRACE.csv\n"
           "  host_sim camera --frames K --range-mm R ... (see docs/pose.md)\n"
+          "  host_sim campaign [--trace T.csv] [--seed S] [--markdown FILE.md]\n"
           "fault SPEC: kind=probability[,...] per bus transaction, kinds:\n"
           "  nack stretch reset drdy_high drdy_low garbage bitflip stuck (docs/driver.md)\n"
           "scenarios:",
@@ -59,6 +61,9 @@ int main(int argc, char **argv) {
     }
     if (strcmp(cmd, "scenario") == 0) {
         return scenario_main(argc - 1, argv + 1);
+    }
+    if (strcmp(cmd, "campaign") == 0) {
+        return campaign_main(argc - 1, argv + 1);
     }
     if (strcmp(cmd, "camera") == 0) {
         return host_sim_camera_main(argc - 1, argv + 1);

@@ -74,6 +74,11 @@ struct replay {
     struct window_truth win;
     double crb_sum2_alpha, crb_sum2_beta;
     uint64_t crb_windows;
+    double last_crb_alpha, last_crb_beta; /* bound of the window just closed (NaN: none) */
+    uint32_t unflagged_wrong[ATTITUDE_EST_COUNT];
+    bool faults_stopped;
+    uint64_t faults_stop_us;
+    int64_t recovery_us;
     uint32_t health_events, reinit_events, bus_recovery_events, overrun_events;
     int failed; /* an output or data error: stop and report */
 };
@@ -133,11 +138,15 @@ static void window_truth_close(struct replay *r, const struct scene_row *last) {
         sigma[k] = sqrt(var > 1.0 / 12.0 ? var : 1.0 / 12.0);
     }
     struct scene_crb crb;
+    r->last_crb_alpha = NO_VALUE;
+    r->last_crb_beta = NO_VALUE;
     if (last->has_alpha && last->has_beta &&
         scene_crb(r->arm_mm, sigma, r->win.n, last->alpha_deg, last->beta_deg, &crb) == 0) {
         r->crb_sum2_alpha += crb.sd_alpha_deg * crb.sd_alpha_deg;
         r->crb_sum2_beta += crb.sd_beta_deg * crb.sd_beta_deg;
         ++r->crb_windows;
+        r->last_crb_alpha = crb.sd_alpha_deg;
+        r->last_crb_beta = crb.sd_beta_deg;
     }
     memset(&r->win, 0, sizeof r->win);
 }
@@ -173,6 +182,14 @@ static void on_estimate(void *ctx, const struct tof_estimate_record *record) {
             continue;
         }
         ++s->status_count[est->status <= ATTITUDE_INVALID ? est->status : ATTITUDE_INVALID];
+        /* An ok estimate more than 5x its window's bound from the truth went unflagged. */
+        if (est->status == ATTITUDE_OK && !r->args->sliding &&
+            ((row->has_alpha && est->alpha_valid &&
+              fabs(est->alpha_udeg / 1e6 - row->alpha_deg) > 5.0 * r->last_crb_alpha) ||
+             (row->has_beta && est->beta_valid &&
+              fabs(est->beta_udeg / 1e6 - row->beta_deg) > 5.0 * r->last_crb_beta))) {
+            ++r->unflagged_wrong[e];
+        }
         if (row->has_alpha && est->alpha_valid) {
             err_add(est->alpha_udeg / 1e6 - row->alpha_deg, &s->n_alpha, &s->sum2_alpha,
                     &s->sum_abs_alpha, &s->max_alpha);
@@ -334,6 +351,29 @@ static int open_outputs(struct replay *r) {
     return 0;
 }
 
+/* --faults-until: stop injecting at that row, then time the return to four healthy
+ * sensors (the issue's recovery goal). */
+static void track_fault_stop(struct replay *r) {
+    if (r->args->faults_until_row == 0u) {
+        return;
+    }
+    if (!r->faults_stopped && r->samples_done >= r->args->faults_until_row) {
+        const struct sim_fault_config none = {0};
+        sim_i2c_set_faults(&r->sim.rig.bus, &none);
+        r->faults_stopped = true;
+        r->faults_stop_us = sim_clock_now(&r->sim.rig.clock);
+    }
+    if (r->faults_stopped && r->recovery_us < 0) {
+        bool all = true;
+        for (unsigned i = 0; i < 4; ++i) {
+            all = all && r->app.health[i].state == TOF_HEALTH_HEALTHY;
+        }
+        if (all) {
+            r->recovery_us = (int64_t)(sim_clock_now(&r->sim.rig.clock) - r->faults_stop_us);
+        }
+    }
+}
+
 /* Run the firmware until every trace row has become a sample (or the source failed). */
 static int run(struct replay *r) {
     if (tof_app_init(&r->app, &r->platform, &r->app_cfg) != HAL_OK) {
@@ -341,8 +381,10 @@ static int run(struct replay *r) {
         return -1;
     }
     sim_replay_set_origin(&r->sim, r->app.assembler.origin_us);
+    r->recovery_us = -1;
     for (;;) {
         tof_app_step(&r->app, true);
+        track_fault_stop(r);
         if (r->stream.end < 0) {
             /* The reader's message names file, line and column; the stream's says where
              * the replay was. */
@@ -379,10 +421,6 @@ static void json_number(FILE *f, double v) {
     }
 }
 
-static double crb_rms(double sum2, uint64_t n) {
-    return n > 0u ? sqrt(sum2 / (double)n) : NO_VALUE;
-}
-
 static int write_report(struct replay *r, const char *path) {
     FILE *f = fopen(path, "w");
     if (f == NULL) {
@@ -395,15 +433,17 @@ static int write_report(struct replay *r, const char *path) {
     fprintf(f, "  \"primary\": \"%s\",\n  \"estimates\": %llu,\n  \"truth\": %s,\n",
             r->args->estimator, (unsigned long long)r->estimates, r->truth_seen ? "true" : "false");
     fputs("  \"crb_alpha_deg\": ", f);
-    json_number(f, crb_rms(r->crb_sum2_alpha, r->crb_windows));
+    json_number(f, rms(r->crb_sum2_alpha, r->crb_windows));
     fputs(",\n  \"crb_beta_deg\": ", f);
-    json_number(f, crb_rms(r->crb_sum2_beta, r->crb_windows));
+    json_number(f, rms(r->crb_sum2_beta, r->crb_windows));
     fputs(",\n  \"estimators\": {\n", f);
     for (unsigned e = 0; e < ATTITUDE_EST_COUNT; ++e) {
         const struct err_stats *s = &r->stats[e];
-        fprintf(f, "    \"%s\": {\"ok\": %u, \"degraded\": %u, \"invalid\": %u",
+        fprintf(f,
+                "    \"%s\": {\"ok\": %u, \"degraded\": %u, \"invalid\": %u, "
+                "\"unflagged_wrong\": %u",
                 attitude_estimator_name((enum attitude_estimator)e), s->status_count[0],
-                s->status_count[1], s->status_count[2]);
+                s->status_count[1], s->status_count[2], r->unflagged_wrong[e]);
         static const char *const keys[6] = {"rms_alpha_deg", "mean_abs_alpha_deg",
                                             "max_alpha_deg", "rms_beta_deg",
                                             "mean_abs_beta_deg", "max_beta_deg"};
@@ -432,10 +472,12 @@ static int write_report(struct replay *r, const char *path) {
     fprintf(f,
             "  \"firmware\": {\"samples\": %u, \"readings\": %u, \"reinits_ok\": %u, "
             "\"reinits_failed\": %u, \"bus_recoveries\": %u, \"overruns\": %u, "
-            "\"max_iteration_us\": %u, \"late_readings\": %u, \"incomplete_samples\": %u},\n",
+            "\"max_iteration_us\": %u, \"late_readings\": %u, \"incomplete_samples\": %u, "
+            "\"faults_stopped\": %s, \"recovery_us\": %lld},\n",
             c->samples, c->readings, c->reinits_ok, c->reinits_failed, c->bus_recoveries,
             c->overruns, c->max_iteration_us, r->app.assembler.counters.late,
-            r->app.assembler.counters.incomplete);
+            r->app.assembler.counters.incomplete, r->faults_stopped ? "true" : "false",
+            (long long)r->recovery_us);
     fprintf(f,
             "  \"health_events\": {\"transitions\": %u, \"reinits\": %u, \"bus_recoveries\": %u, "
             "\"overruns\": %u},\n  \"sensors\": [",
@@ -473,8 +515,8 @@ static void print_summary(struct replay *r) {
     }
     if (r->truth_seen) {
         printf("%-16s %10.4f %10s %10s %10.4f   (Cramer-Rao bound from each window's own sigma)\n",
-               "bound", crb_rms(r->crb_sum2_alpha, r->crb_windows), "", "",
-               crb_rms(r->crb_sum2_beta, r->crb_windows));
+               "bound", rms(r->crb_sum2_alpha, r->crb_windows), "", "",
+               rms(r->crb_sum2_beta, r->crb_windows));
     } else {
         printf("(no ground truth in this trace: errors and bound not available)\n");
     }
@@ -511,7 +553,30 @@ static int make_plot(struct replay *r) {
     return 0;
 }
 
+static void fill_result(const struct replay *r, struct replay_result *out) {
+    memset(out, 0, sizeof *out);
+    out->rows = r->stream.next_index;
+    out->estimates = r->estimates;
+    for (unsigned e = 0; e < ATTITUDE_EST_COUNT; ++e) {
+        memcpy(out->status_count[e], r->stats[e].status_count, sizeof out->status_count[e]);
+        out->unflagged_wrong[e] = r->unflagged_wrong[e];
+        out->rms_alpha_deg[e] = rms(r->stats[e].sum2_alpha, r->stats[e].n_alpha);
+    }
+    out->crb_alpha_deg = rms(r->crb_sum2_alpha, r->crb_windows);
+    out->overruns = r->app.counters.overruns;
+    out->max_iteration_us = r->app.counters.max_iteration_us;
+    out->reinits = r->app.counters.reinits_ok + r->app.counters.reinits_failed;
+    out->bus_recoveries = r->app.counters.bus_recoveries;
+    out->faults_stopped = r->faults_stopped;
+    out->recovery_us = r->recovery_us;
+}
+
 int replay_run(const struct replay_args *args) {
+    struct replay_result result;
+    return replay_execute(args, &result) == 0 ? 0 : 1;
+}
+
+int replay_execute(const struct replay_args *args, struct replay_result *result) {
     memset(&R, 0, sizeof R);
     R.args = args;
     int rc = open_inputs(&R);
@@ -545,5 +610,6 @@ int replay_run(const struct replay_args *args) {
             remove(R.plot_data_path);
         }
     }
-    return rc == 0 ? 0 : 1;
+    fill_result(&R, result);
+    return rc == 0 ? 0 : -1;
 }
