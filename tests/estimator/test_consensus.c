@@ -122,7 +122,7 @@ static void test_product_equals_wls_blue(void **state) {
         fill_input(&in, mean, var, n, mask, (int32_t)lround(arm * 1000.0));
         const double arm_fixed = in.arm_um / 1000.0;
         consensus_product(&in, &out);
-        double th[3];
+        double th[3] = {0.0, 0.0, 0.0};
         assert_true(wls(mean, vmean, mask, arm_fixed, th));
         assert_int_equal(out.alpha.status, CONSENSUS_OK);
         assert_int_equal(out.beta.status, CONSENSUS_OK);
