@@ -49,7 +49,7 @@ int main(void) {
         .board_name = "nucleo-l476rg",
         .log = {.ops = &usart_log_ops, .ctx = &log_usart},
     };
-    return tof_app_main(&platform, &tof_app_default_config, &app, 0);
+    return tof_app_main(&platform, &tof_app_default_config, &app, NULL, 0);
 }
 
 void board_exit(int status) {

@@ -2,6 +2,7 @@
 
 #include <string.h>
 
+#include "firmware/link.h"
 #include "firmware/text.h"
 #include "hal/hal_err.h"
 
@@ -48,6 +49,9 @@ static void on_sample(void *ctx, const struct tof_sample *sample) {
     const struct tof_output *out = &app->platform->output;
     if (app->raw_output && out->ops != NULL && out->ops->sample != NULL) {
         out->ops->sample(out->ctx, sample);
+    }
+    if (!app->running) {
+        return;
     }
     bool present[TOF_SENSORS];
     for (unsigned i = 0; i < TOF_SENSORS; ++i) {
@@ -233,8 +237,10 @@ int tof_app_init(struct tof_app *app, const struct tof_platform *platform,
         return rc;
     }
     if (attitude_init(&app->estimator, &cfg->estimator) != ATTITUDE_ERR_NONE) {
-        return HAL_ERR_INVALID; /* tof_app_config_check() names the field */
+        return HAL_ERR_INVALID; /* attitude_error_message() names the field */
     }
+    app->primary = ATTITUDE_EST_CONSENSUS;
+    app->running = true;
     app->assembler_cfg = (struct tof_assembler_config){
         .period_us = vl53_period_us(&cfg->timing),
         .max_skew_us = cfg->max_skew_us,
@@ -297,8 +303,31 @@ void tof_app_step(struct tof_app *app, bool idle) {
     }
 }
 
+int tof_app_set_window(struct tof_app *app, uint16_t window, bool sliding) {
+    if (window < 2u || window > ATTITUDE_WINDOW_MAX) {
+        return HAL_ERR_INVALID;
+    }
+    struct attitude_config next = app->estimator.cfg;
+    next.window = window;
+    next.mode = sliding ? ATTITUDE_SLIDING : ATTITUDE_TUMBLING;
+    /* The rest of the configuration was accepted at init, so this cannot fail. */
+    return attitude_init(&app->estimator, &next) == ATTITUDE_ERR_NONE ? HAL_OK : HAL_ERR_STATE;
+}
+
+int tof_app_set_primary(struct tof_app *app, enum attitude_estimator primary) {
+    if ((unsigned)primary >= (unsigned)ATTITUDE_EST_COUNT) {
+        return HAL_ERR_INVALID;
+    }
+    app->primary = primary;
+    return HAL_OK;
+}
+
+void tof_app_set_running(struct tof_app *app, bool running) {
+    app->running = running;
+}
+
 int tof_app_main(const struct tof_platform *platform, const struct tof_app_config *cfg,
-                 struct tof_app *app, uint32_t max_iterations) {
+                 struct tof_app *app, struct tof_link *link, uint32_t max_iterations) {
     tof_log_line(platform, TOF_FW_NAME " " TOF_FW_VERSION);
     tof_log_line(platform, platform->board_name);
     const int rc = tof_app_init(app, platform, cfg);
@@ -311,8 +340,15 @@ int tof_app_main(const struct tof_platform *platform, const struct tof_app_confi
         tof_log_line(platform, line);
         return rc;
     }
+    if (link != NULL) {
+        tof_link_bind(link, app);
+        tof_link_send_status(link);
+    }
     for (uint32_t n = 0; max_iterations == 0u || n < max_iterations; ++n) {
         tof_app_step(app, true);
+        if (link != NULL) {
+            tof_link_poll(link);
+        }
     }
     return HAL_OK;
 }

@@ -70,7 +70,9 @@ struct tof_app {
     bool start_pending[TOF_SENSORS]; /* configured, waiting for the next slot boundary */
     struct tof_assembler_config assembler_cfg;
     struct tof_assembler assembler;
-    struct attitude_state estimator;
+    struct attitude_state estimator;      /* its cfg is the live estimator configuration */
+    enum attitude_estimator primary;      /* the estimator telemetry and status lead with */
+    bool running;                         /* false: samples are assembled, not estimated */
     uint64_t now_us;     /* 64-bit extension of the platform's 32-bit microsecond clock */
     uint32_t last_raw_us;
     bool raw_output;
@@ -89,17 +91,33 @@ int tof_app_init(struct tof_app *app, const struct tof_platform *platform,
 /* One bounded main-loop iteration; `idle` true lets it sleep until the next due reading. */
 void tof_app_step(struct tof_app *app, bool idle);
 
+/*
+ * Change the window length and mode at run time (a command): the estimators restart
+ * with the next sample. HAL_OK, or HAL_ERR_INVALID (nothing changed) when `window` is
+ * outside 2..ATTITUDE_WINDOW_MAX.
+ */
+int tof_app_set_window(struct tof_app *app, uint16_t window, bool sliding);
+
+/* Choose the primary estimator; HAL_ERR_INVALID for an unknown one. */
+int tof_app_set_primary(struct tof_app *app, enum attitude_estimator primary);
+
+/* Start (true) or stop (false) estimating; acquisition and the fault manager go on. */
+void tof_app_set_running(struct tof_app *app, bool running);
+
 /* Current firmware time in microseconds (64-bit, monotonic). */
 uint64_t tof_app_now_us(struct tof_app *app);
 
 /* Write a NUL-terminated line (plus '\n') to the platform log, if it has one. */
 void tof_log_line(const struct tof_platform *platform, const char *text);
 
+struct tof_link; /* firmware/link.h */
+
 /*
  * The firmware's main program on a board: banner, init, then `max_iterations`
- * iterations (0: forever). Returns 0, or the init error.
+ * iterations (0: forever), polling the telemetry `link` (may be NULL) after each.
+ * Returns 0, or the init error.
  */
 int tof_app_main(const struct tof_platform *platform, const struct tof_app_config *cfg,
-                 struct tof_app *app, uint32_t max_iterations);
+                 struct tof_app *app, struct tof_link *link, uint32_t max_iterations);
 
 #endif /* FIRMWARE_APP_H */

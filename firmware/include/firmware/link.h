@@ -1,0 +1,49 @@
+/*
+ * The telemetry link: estimates, raw samples and health go out as frames of the
+ * protocol in docs/telemetry.md over a byte stream; commands come in, are
+ * validated, applied to the application and answered with an ack or a nack.
+ * Malformed input is counted by the decoder and reported in health frames.
+ *
+ * Use: tof_link_init(), put tof_link_output_ops with the link as the platform's
+ * output, and call tof_link_poll() once per main-loop iteration.
+ */
+#ifndef FIRMWARE_LINK_H
+#define FIRMWARE_LINK_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "firmware/app.h"
+#include "hal/hal_serial.h"
+#include "telemetry/tlm_frame.h"
+
+/* Received bytes handled per poll: bounds the time tof_link_poll() takes. */
+#define TOF_LINK_RX_PER_POLL 64u
+
+struct tof_link {
+    struct tof_app *app; /* set by tof_link_bind(), once the app exists */
+    struct hal_serial serial;
+    struct tlm_decoder decoder;
+    uint8_t seq;          /* sequence number of the next frame sent */
+    uint32_t tx_frames;   /* frames handed to the serial port whole */
+    uint32_t tx_dropped;  /* frames the port did not accept whole */
+    uint32_t commands_ok; /* commands applied */
+    uint32_t commands_refused; /* valid commands refused in the current state */
+};
+
+/* Start a link over `serial`. */
+void tof_link_init(struct tof_link *link, struct hal_serial serial);
+
+/* Attach the application the commands act on (after tof_app_init). */
+void tof_link_bind(struct tof_link *link, struct tof_app *app);
+
+/* Handle up to TOF_LINK_RX_PER_POLL received bytes: decode, apply, answer. */
+void tof_link_poll(struct tof_link *link);
+
+/* Send a status frame (also the answer to a status request). */
+void tof_link_send_status(struct tof_link *link);
+
+/* Output ops sending estimates, raw samples and a health frame per window (ctx: the link). */
+extern const struct tof_output_ops tof_link_output_ops;
+
+#endif /* FIRMWARE_LINK_H */

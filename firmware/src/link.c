@@ -1,0 +1,248 @@
+#include "firmware/link.h"
+
+#include <string.h>
+
+#include "hal/hal_err.h"
+#include "telemetry/tlm_messages.h"
+
+/* Firmware version as numbers for the status message (TOF_FW_VERSION "0.1.0"). */
+#define FW_MAJOR 0u
+#define FW_MINOR 1u
+#define FW_PATCH 0u
+
+static void send(struct tof_link *link, const uint8_t *frame, int len) {
+    if (len <= 0 || link->serial.ops == NULL) {
+        ++link->tx_dropped; /* an encoder refusal is a firmware defect: count it, never hide */
+        return;
+    }
+    const size_t n = link->serial.ops->write(link->serial.ctx, frame, (size_t)len);
+    if (n == (size_t)len) {
+        ++link->tx_frames;
+    } else {
+        ++link->tx_dropped;
+    }
+    ++link->seq;
+}
+
+static uint8_t reason_bits(const struct attitude_estimate *e) {
+    if (e->status == ATTITUDE_OK) {
+        return 0;
+    }
+    switch (e->reason) {
+    case ATTITUDE_REASON_SENSOR_MISSING:
+        return TLM_REASON_SENSOR_MISSING;
+    case ATTITUDE_REASON_ALPHA_UNOBSERVABLE:
+    case ATTITUDE_REASON_BETA_UNOBSERVABLE:
+    case ATTITUDE_REASON_UNOBSERVABLE:
+    case ATTITUDE_REASON_PAPER_TOO_FEW_ROWS:
+        return TLM_REASON_TOO_FEW_SENSORS;
+    case ATTITUDE_REASON_NO_CONVERGENCE:
+    case ATTITUDE_REASON_PAPER_NO_CONVERGENCE:
+    case ATTITUDE_REASON_PAPER_DIVERGED:
+    case ATTITUDE_REASON_PAPER_OUTSIDE_HULL:
+    case ATTITUDE_REASON_PAPER_INCONSISTENT:
+    case ATTITUDE_REASON_PAPER_NONPOSITIVE_VARIANCE:
+    case ATTITUDE_REASON_PAPER_ZERO_COVARIANCE:
+    case ATTITUDE_REASON_PAPER_ZERO_ROW_SUM:
+    case ATTITUDE_REASON_PAPER_NEGATIVE_ROW_SUM:
+        return TLM_REASON_NOT_CONVERGED;
+    case ATTITUDE_REASON_PAPER_OVERFLOW:
+        return TLM_REASON_SATURATED;
+    case ATTITUDE_REASON_DISABLED:
+        return TLM_REASON_NO_SAMPLES;
+    case ATTITUDE_REASON_FLAGGED_DATA:
+    case ATTITUDE_REASON_KALMAN_RESTARTED:
+    default:
+        return TLM_REASON_SENSOR_FLAGGED; /* any other cause of a non-ok status */
+    }
+}
+
+static void send_estimates(struct tof_link *link, const struct tof_estimate_record *record) {
+    const struct attitude_output *out = &record->output;
+    const uint16_t n = link->app->estimator.cfg.window;
+    const bool sliding = link->app->estimator.cfg.mode == ATTITUDE_SLIDING;
+    for (unsigned e = 0; e < ATTITUDE_EST_COUNT; ++e) {
+        const struct attitude_estimate *est = &out->est[e];
+        if (est->reason == ATTITUDE_REASON_DISABLED) {
+            continue;
+        }
+        /* The protocol's invalid estimate carries no values (docs/telemetry.md), even
+         * when one axis alone was observable; the other statuses carry all three. */
+        const bool values = est->status != ATTITUDE_INVALID;
+        uint8_t used = 0;
+        for (unsigned k = 0; k < TOF_SENSORS; ++k) {
+            used = (uint8_t)(used | (est->counts[k].used > 0u ? 1u << k : 0u));
+        }
+        const struct tlm_estimate msg = {
+            .t_ms = (uint32_t)(record->t_us / 1000u),
+            .window_index = sliding ? out->last_row : out->last_row / n,
+            .estimator = (uint8_t)e, /* enum attitude_estimator matches enum tlm_estimator */
+            .status = (uint8_t)est->status,
+            .reason = reason_bits(est),
+            .sensors_used = est->status == ATTITUDE_OK ? TLM_SENSOR_MASK_ALL : used,
+            .alpha_udeg = values ? est->alpha_udeg : TLM_NO_VALUE,
+            .beta_udeg = values ? est->beta_udeg : TLM_NO_VALUE,
+            .distance_um = values ? est->distance_um : TLM_NO_VALUE,
+            .flatness_um = est->flatness_valid ? est->flatness_residual_um : TLM_NO_VALUE,
+        };
+        uint8_t frame[TLM_FRAME_MAX];
+        send(link, frame, tlm_encode_estimate(link->seq, &msg, frame, sizeof frame));
+    }
+}
+
+static void send_health(struct tof_link *link) {
+    const struct tof_app *app = link->app;
+    const struct tof_app_counters *c = &app->counters;
+    struct tlm_health msg;
+    memset(&msg, 0, sizeof msg);
+    msg.uptime_ms = (uint32_t)(app->now_us / 1000u);
+    for (unsigned i = 0; i < TOF_SENSORS; ++i) {
+        msg.sensor_state[i] = (uint8_t)app->health[i].state; /* same order as tlm_sensor_health */
+        msg.sensor[i].comm_errors = c->read_errors[i];
+        msg.sensor[i].reinits = app->health[i].losses;
+    }
+    msg.bus.addr_nack = c->errors_by_code[-HAL_ERR_ADDR_NACK];
+    msg.bus.data_nack = c->errors_by_code[-HAL_ERR_DATA_NACK];
+    msg.bus.busy = c->errors_by_code[-HAL_ERR_BUS_BUSY];
+    msg.bus.timeout = c->errors_by_code[-HAL_ERR_TIMEOUT];
+    msg.bus.stuck = c->errors_by_code[-HAL_ERR_BUS_STUCK];
+    for (int code = -HAL_ERR_INVALID; code <= -HAL_ERR_IO; ++code) {
+        if (code != -HAL_ERR_BUS_STUCK) {
+            msg.bus.other += c->errors_by_code[code];
+        }
+    }
+    msg.bus.other += c->errors_by_code[0];
+    msg.bus.recoveries = c->bus_recoveries;
+    msg.loop_overruns = c->overruns;
+    msg.loop_max_us = c->max_iteration_us;
+    msg.tx_dropped = link->tx_dropped;
+    msg.link = link->decoder.counters;
+    uint8_t frame[TLM_FRAME_MAX];
+    send(link, frame, tlm_encode_health(link->seq, &msg, frame, sizeof frame));
+}
+
+static void on_estimate(void *ctx, const struct tof_estimate_record *record) {
+    struct tof_link *link = ctx;
+    if (link->app == NULL) {
+        return;
+    }
+    send_estimates(link, record);
+    send_health(link);
+}
+
+static void on_sample(void *ctx, const struct tof_sample *sample) {
+    struct tof_link *link = ctx;
+    const struct tlm_raw_sample msg = {
+        .t_ms = (uint32_t)(sample->t_us / 1000u),
+        .range_mm = {sample->range_mm[0], sample->range_mm[1], sample->range_mm[2],
+                     sample->range_mm[3]},
+        .range_status = {sample->status[0], sample->status[1], sample->status[2],
+                         sample->status[3]},
+        .present_mask = sample->present_mask,
+    };
+    uint8_t frame[TLM_FRAME_MAX];
+    send(link, frame, tlm_encode_raw_sample(link->seq, &msg, frame, sizeof frame));
+}
+
+const struct tof_output_ops tof_link_output_ops = {.estimate = on_estimate,
+                                                   .sample = on_sample};
+
+void tof_link_send_status(struct tof_link *link) {
+    const struct tof_app *app = link->app;
+    const struct tlm_status msg = {
+        .fw_major = FW_MAJOR,
+        .fw_minor = FW_MINOR,
+        .fw_patch = FW_PATCH,
+        .uptime_ms = (uint32_t)(app->now_us / 1000u),
+        .window_n = app->estimator.cfg.window,
+        .mode = app->estimator.cfg.mode == ATTITUDE_SLIDING ? TLM_WINDOW_SLIDING
+                                                             : TLM_WINDOW_TUMBLING,
+        .estimator = (uint8_t)app->primary,
+        .running = app->running,
+        .raw_stream = app->raw_output,
+        .period_ms = (uint16_t)(app->assembler_cfg.period_us / 1000u),
+    };
+    uint8_t frame[TLM_FRAME_MAX];
+    send(link, frame, tlm_encode_status(link->seq, &msg, frame, sizeof frame));
+}
+
+static void answer(struct tof_link *link, uint8_t seq, uint8_t command, uint8_t result) {
+    const struct tlm_ack msg = {.echo_seq = seq, .command = command, .result = result};
+    uint8_t frame[TLM_FRAME_MAX];
+    send(link, frame, tlm_encode_ack(link->seq, &msg, frame, sizeof frame));
+}
+
+/* Apply a validated command; returns the result code to answer with. */
+static uint8_t apply(struct tof_link *link, const struct tlm_command *cmd) {
+    struct tof_app *app = link->app;
+    switch (cmd->type) {
+    case TLM_TYPE_SET_WINDOW:
+        if (cmd->u.set_window.window_n > ATTITUDE_WINDOW_MAX) {
+            return TLM_RESULT_OUT_OF_RANGE;
+        }
+        return tof_app_set_window(app, cmd->u.set_window.window_n,
+                                  cmd->u.set_window.mode == TLM_WINDOW_SLIDING) == HAL_OK
+                   ? TLM_RESULT_OK
+                   : TLM_RESULT_STATE;
+    case TLM_TYPE_SELECT_ESTIMATOR:
+        return tof_app_set_primary(app, (enum attitude_estimator)cmd->u.estimator) == HAL_OK
+                   ? TLM_RESULT_OK
+                   : TLM_RESULT_OUT_OF_RANGE;
+    case TLM_TYPE_START:
+        tof_app_set_running(app, true);
+        return TLM_RESULT_OK;
+    case TLM_TYPE_STOP:
+        tof_app_set_running(app, false);
+        return TLM_RESULT_OK;
+    case TLM_TYPE_RAW_STREAM:
+        app->raw_output = cmd->u.raw_enable;
+        return TLM_RESULT_OK;
+    case TLM_TYPE_STATUS_REQUEST:
+        return TLM_RESULT_OK; /* the status frame follows the ack */
+    default:
+        return TLM_RESULT_UNKNOWN_TYPE;
+    }
+}
+
+static void on_frame(void *ctx, const struct tlm_frame *frame) {
+    struct tof_link *link = ctx;
+    struct tlm_command cmd;
+    uint8_t result = (uint8_t)tlm_parse_command(frame, &cmd, &link->decoder.counters);
+    if (result == TLM_RESULT_OK) {
+        result = apply(link, &cmd);
+        if (result == TLM_RESULT_OK) {
+            ++link->commands_ok;
+        } else {
+            ++link->commands_refused;
+        }
+    }
+    answer(link, frame->seq, frame->type, result);
+    if (result == TLM_RESULT_OK && frame->type == TLM_TYPE_STATUS_REQUEST) {
+        tof_link_send_status(link);
+    }
+}
+
+static void on_reject(void *ctx, const struct tlm_reject *reject) {
+    struct tof_link *link = ctx;
+    answer(link, reject->seq, reject->type, (uint8_t)reject->reason);
+}
+
+void tof_link_init(struct tof_link *link, struct hal_serial serial) {
+    memset(link, 0, sizeof *link);
+    link->serial = serial;
+    tlm_decoder_init(&link->decoder, TLM_ACCEPT_COMMANDS);
+}
+
+void tof_link_bind(struct tof_link *link, struct tof_app *app) {
+    link->app = app;
+}
+
+void tof_link_poll(struct tof_link *link) {
+    if (link->serial.ops == NULL || link->app == NULL) {
+        return;
+    }
+    uint8_t buf[TOF_LINK_RX_PER_POLL];
+    const size_t n = link->serial.ops->read(link->serial.ctx, buf, sizeof buf);
+    const struct tlm_frame_sink sink = {.on_frame = on_frame, .on_reject = on_reject, .ctx = link};
+    tlm_decoder_feed(&link->decoder, buf, n, &sink);
+}

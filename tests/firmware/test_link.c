@@ -1,0 +1,233 @@
+/*
+ * The firmware on the simulated rig, driven over its telemetry link: commands in
+ * (set window, select estimator, status request, stop/start, malformed frames),
+ * estimates, health and acks out, decoded with the protocol's own decoder.
+ */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <string.h>
+#include <cmocka.h>
+
+#include "firmware/link.h"
+#include "sim/sim_rig.h"
+#include "telemetry/tlm_messages.h"
+
+#define BUF 65536u
+
+struct fake_serial {
+    uint8_t rx[BUF];
+    size_t rx_len, rx_pos;
+    uint8_t tx[BUF];
+    size_t tx_len;
+};
+
+static size_t serial_write(void *ctx, const uint8_t *data, size_t len) {
+    struct fake_serial *s = ctx;
+    const size_t n = len <= BUF - s->tx_len ? len : 0u; /* whole frames or nothing */
+    memcpy(s->tx + s->tx_len, data, n);
+    s->tx_len += n;
+    return n;
+}
+
+static size_t serial_read(void *ctx, uint8_t *buf, size_t max) {
+    struct fake_serial *s = ctx;
+    size_t n = s->rx_len - s->rx_pos;
+    n = n < max ? n : max;
+    memcpy(buf, s->rx + s->rx_pos, n);
+    s->rx_pos += n;
+    return n;
+}
+
+static const struct hal_serial_ops serial_ops = {.write = serial_write, .read = serial_read};
+
+static struct {
+    struct sim_rig rig;
+    struct fake_serial serial;
+    struct tof_link link;
+    struct tof_app app;
+    struct tof_platform platform;
+    /* decoded output */
+    unsigned acks, nacks, estimates, health, status, raw;
+    uint8_t last_nack_result, last_ack_command;
+    struct tlm_status last_status;
+    struct tlm_estimate last_estimate[4];
+    struct tlm_health last_health;
+} t;
+
+static void push_command(const struct tlm_command *cmd, uint8_t seq) {
+    uint8_t frame[TLM_FRAME_MAX];
+    const int n = tlm_encode_command(seq, cmd, frame, sizeof frame);
+    assert_true(n > 0);
+    memcpy(t.serial.rx + t.serial.rx_len, frame, (size_t)n);
+    t.serial.rx_len += (size_t)n;
+}
+
+static void on_frame(void *ctx, const struct tlm_frame *frame) {
+    (void)ctx;
+    struct tlm_telemetry msg;
+    assert_int_equal(tlm_parse_telemetry(frame, &msg, NULL), TLM_RESULT_OK);
+    switch (msg.type) {
+    case TLM_TYPE_ACK:
+        if (msg.u.ack.result == TLM_RESULT_OK) {
+            ++t.acks;
+            t.last_ack_command = msg.u.ack.command;
+        } else {
+            ++t.nacks;
+            t.last_nack_result = msg.u.ack.result;
+        }
+        break;
+    case TLM_TYPE_ESTIMATE:
+        ++t.estimates;
+        t.last_estimate[msg.u.estimate.estimator] = msg.u.estimate;
+        break;
+    case TLM_TYPE_HEALTH:
+        ++t.health;
+        t.last_health = msg.u.health;
+        break;
+    case TLM_TYPE_STATUS:
+        ++t.status;
+        t.last_status = msg.u.status;
+        break;
+    case TLM_TYPE_RAW_SAMPLE:
+        ++t.raw;
+        break;
+    default:
+        fail_msg("unexpected telemetry type 0x%02x", msg.type);
+    }
+}
+
+static void decode_output(void) {
+    struct tlm_decoder dec;
+    tlm_decoder_init(&dec, TLM_ACCEPT_TELEMETRY);
+    const struct tlm_frame_sink sink = {.on_frame = on_frame, .ctx = NULL};
+    tlm_decoder_feed(&dec, t.serial.tx, t.serial.tx_len, &sink);
+    assert_int_equal(dec.counters.bad_crc, 0);
+    assert_int_equal(dec.counters.discarded_bytes, 0);
+}
+
+static void run_ms(uint32_t ms) {
+    const uint64_t end = sim_clock_now(&t.rig.clock) + (uint64_t)ms * 1000u;
+    for (unsigned guard = 0; sim_clock_now(&t.rig.clock) < end && guard < 1000000u; ++guard) {
+        tof_app_step(&t.app, true);
+        tof_link_poll(&t.link);
+    }
+}
+
+static int setup(void **state) {
+    (void)state;
+    memset(&t, 0, sizeof t);
+    struct sim_rig_config cfg;
+    sim_rig_default_config(&cfg); /* every sensor reads 100 mm: a parallel plate */
+    sim_rig_init(&t.rig, &cfg);
+    tof_link_init(&t.link, (struct hal_serial){.ops = &serial_ops, .ctx = &t.serial});
+    t.platform = (struct tof_platform){.board_name = "test",
+                                       .i2c = t.rig.i2c,
+                                       .gpio = t.rig.hal_gpio,
+                                       .time = t.rig.time,
+                                       .output = {.ops = &tof_link_output_ops, .ctx = &t.link}};
+    for (unsigned i = 0; i < 4; ++i) {
+        t.platform.xshut_pin[i] = SIM_RIG_XSHUT_PIN(i);
+        t.platform.gpio1_pin[i] = SIM_RIG_GPIO1_PIN(i);
+    }
+    assert_int_equal(tof_app_init(&t.app, &t.platform, &tof_app_default_config), 0);
+    tof_link_bind(&t.link, &t.app);
+    return 0;
+}
+
+static void test_default_windows_report_a_parallel_plate(void **state) {
+    (void)state;
+    run_ms(2 * 100 * 20 + 100); /* two windows of 100 samples at 20 ms */
+    decode_output();
+    assert_int_equal(t.estimates, 2 * 4); /* four estimators per window */
+    assert_int_equal(t.health, 2);
+    const struct tlm_estimate *e = &t.last_estimate[TLM_ESTIMATOR_CONSENSUS];
+    assert_int_equal(e->status, TLM_STATUS_OK);
+    assert_int_equal(e->alpha_udeg, 0);
+    assert_int_equal(e->beta_udeg, 0);
+    assert_int_equal(e->distance_um, 100000);
+    assert_int_equal(e->window_index, 1);
+    for (unsigned i = 0; i < 4; ++i) {
+        assert_int_equal(t.last_health.sensor_state[i], TLM_HEALTH_HEALTHY);
+    }
+}
+
+static void test_commands_are_applied_and_acknowledged(void **state) {
+    (void)state;
+    struct tlm_command cmd = {.type = TLM_TYPE_SET_WINDOW};
+    cmd.u.set_window.window_n = 10;
+    cmd.u.set_window.mode = TLM_WINDOW_TUMBLING;
+    push_command(&cmd, 1);
+    cmd = (struct tlm_command){.type = TLM_TYPE_SELECT_ESTIMATOR};
+    cmd.u.estimator = TLM_ESTIMATOR_KALMAN;
+    push_command(&cmd, 2);
+    cmd = (struct tlm_command){.type = TLM_TYPE_STATUS_REQUEST};
+    push_command(&cmd, 3);
+    run_ms(30 * 20);
+    decode_output();
+    assert_int_equal(t.acks, 3);
+    assert_int_equal(t.nacks, 0);
+    assert_int_equal(t.status, 1);
+    assert_int_equal(t.last_status.window_n, 10);
+    assert_int_equal(t.last_status.estimator, TLM_ESTIMATOR_KALMAN);
+    assert_true(t.last_status.running);
+    assert_int_equal(t.last_status.period_ms, 20);
+    /* windows of 10 samples: at least two in 600 ms */
+    assert_true(t.estimates >= 2u * 4u);
+    assert_int_equal(t.app.estimator.cfg.window, 10);
+}
+
+static void test_stop_silences_estimates_and_raw_stream_sends_samples(void **state) {
+    (void)state;
+    struct tlm_command cmd = {.type = TLM_TYPE_STOP};
+    push_command(&cmd, 7);
+    cmd = (struct tlm_command){.type = TLM_TYPE_RAW_STREAM};
+    cmd.u.raw_enable = true;
+    push_command(&cmd, 8);
+    run_ms(150 * 20);
+    decode_output();
+    assert_int_equal(t.acks, 2);
+    assert_int_equal(t.estimates, 0);
+    assert_true(t.raw >= 140u);
+}
+
+static void test_malformed_frames_are_counted_and_refused(void **state) {
+    (void)state;
+    /* bad CRC: a valid frame with its last byte changed */
+    struct tlm_command cmd = {.type = TLM_TYPE_START};
+    push_command(&cmd, 4);
+    t.serial.rx[t.serial.rx_len - 1u] ^= 0xFFu;
+    /* out of range: window 1 (encoded by hand: the encoder refuses it) */
+    const uint8_t payload[3] = {1, 0, 0};
+    uint8_t frame[TLM_FRAME_MAX];
+    const int n = tlm_frame_encode(TLM_TYPE_SET_WINDOW, 5, payload, sizeof payload, frame,
+                                   sizeof frame);
+    assert_true(n > 0);
+    memcpy(t.serial.rx + t.serial.rx_len, frame, (size_t)n);
+    t.serial.rx_len += (size_t)n;
+    /* unknown command type 0x9F with an empty payload */
+    const int m = tlm_frame_encode(0x9F, 6, NULL, 0, frame, sizeof frame);
+    assert_true(m > 0);
+    memcpy(t.serial.rx + t.serial.rx_len, frame, (size_t)m);
+    t.serial.rx_len += (size_t)m;
+    run_ms(2 * 100 * 20 + 100);
+    decode_output();
+    assert_int_equal(t.acks, 0);
+    assert_int_equal(t.nacks, 2); /* the bad-CRC frame gets no answer: it is not a frame */
+    assert_int_equal(t.link.decoder.counters.bad_crc, 1);
+    assert_int_equal(t.link.decoder.counters.out_of_range, 1);
+    assert_int_equal(t.link.decoder.counters.unknown_type, 1);
+    assert_int_equal(t.last_health.link.bad_crc, 1);
+    assert_int_equal(t.app.estimator.cfg.window, 100); /* nothing applied */
+}
+
+int main(void) {
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test_setup(test_default_windows_report_a_parallel_plate, setup),
+        cmocka_unit_test_setup(test_commands_are_applied_and_acknowledged, setup),
+        cmocka_unit_test_setup(test_stop_silences_estimates_and_raw_stream_sends_samples, setup),
+        cmocka_unit_test_setup(test_malformed_frames_are_counted_and_refused, setup),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
