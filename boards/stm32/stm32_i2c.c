@@ -159,6 +159,7 @@ static int run_phase(struct stm32_i2c *bus, struct budget *b, uint8_t addr7, boo
     enum wait_result w;
 
     set_reg(cfg, STM32_I2C_CR2, cr2_chunk(addr7, read, len, stop_at_end) | STM32_I2C_CR2_START);
+    size_t chunk_left = len > STM32_I2C_NBYTES_MAX ? STM32_I2C_NBYTES_MAX : len;
     for (size_t done = 0; done < len;) {
         w = wait_isr(cfg, b, data_flag, &isr);
         if (w != WAIT_DONE) {
@@ -172,13 +173,16 @@ static int run_phase(struct stm32_i2c *bus, struct budget *b, uint8_t addr7, boo
             set_reg(cfg, STM32_I2C_TXDR, tx[done]);
         }
         ++done;
-        if (done < len && done % STM32_I2C_NBYTES_MAX == 0u) {
+        --chunk_left;
+        if (chunk_left == 0u && done < len) {
             /* Chunk of 255 done with RELOAD: TCR, then the next NBYTES. */
             w = wait_isr(cfg, b, STM32_I2C_ISR_TCR, &isr);
             if (w != WAIT_DONE) {
                 return failure(bus, w, isr, read);
             }
-            set_reg(cfg, STM32_I2C_CR2, cr2_chunk(addr7, read, len - done, stop_at_end));
+            const size_t remaining = len - done;
+            chunk_left = remaining > STM32_I2C_NBYTES_MAX ? STM32_I2C_NBYTES_MAX : remaining;
+            set_reg(cfg, STM32_I2C_CR2, cr2_chunk(addr7, read, remaining, stop_at_end));
         }
     }
     w = wait_isr(cfg, b, stop_at_end ? STM32_I2C_ISR_STOPF : STM32_I2C_ISR_TC, &isr);
@@ -211,6 +215,11 @@ static void clean_up(struct stm32_i2c *bus, int err) {
         } while (!budget_spent(&b));
     }
     set_reg(cfg, STM32_I2C_ICR, STM32_I2C_ICR_ALL);
+    /* TXIS asks for the next byte while the current one is still being shifted
+     * out, so after a NACK TXDR may hold a byte that was never sent; writing
+     * TXE = 1 flushes it (I2C_ISR "TXE" bit description) so the next transfer
+     * cannot start with it. */
+    set_reg(cfg, STM32_I2C_ISR, STM32_I2C_ISR_TXE);
     if (reset) {
         software_reset(cfg);
     }

@@ -64,11 +64,9 @@ void stm32_systick_time_delay_us(void *ctx, uint32_t us) {
     const uint32_t start = stm32_systick_time_now_us(time);
     /* Backstop if SysTick were stopped: one iteration takes far more than one
      * core cycle, so us x cycles-per-us iterations outlast `us` microseconds. */
-    uint32_t polls = us;
+    uint32_t polls = UINT32_MAX;
     if (time->cycles_per_us != 0u && us <= UINT32_MAX / time->cycles_per_us) {
         polls = us * time->cycles_per_us;
-    } else {
-        polls = UINT32_MAX;
     }
     /* `<= us`: the start reading is floored to whole microseconds. */
     while (us != 0u && polls > 0u &&

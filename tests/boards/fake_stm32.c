@@ -255,6 +255,14 @@ static void i2c_write(uint32_t index, uint32_t value) {
     case I2C_ICR:
         regs[I2C_ISR] &= ~(value & STM32_I2C_ICR_ALL);
         break;
+    case I2C_ISR:
+        /* Only TXE is writable by a master: 1 flushes TXDR. */
+        if (value != STM32_I2C_ISR_TXE) {
+            fake.i2c.protocol_errors++;
+        }
+        regs[I2C_ISR] |= STM32_I2C_ISR_TXE;
+        fake.i2c.txdr_flushes++;
+        break;
     case I2C_TXDR: {
         if ((regs[I2C_ISR] & STM32_I2C_ISR_TXIS) == 0u) {
             fake.i2c.protocol_errors++;

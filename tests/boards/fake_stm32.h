@@ -59,6 +59,7 @@ struct fake_i2c {
     size_t log_len;
     uint32_t isr_reads;
     uint32_t software_resets; /* PE 1 -> 0 transitions */
+    uint32_t txdr_flushes;    /* ISR.TXE written with 1 */
     uint32_t protocol_errors; /* TXDR without TXIS, RXDR without RXNE, TIMINGR with PE = 1, ... */
     /* internal */
     uint32_t pending_flags; /* raised, not yet visible */

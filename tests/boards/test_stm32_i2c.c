@@ -176,6 +176,22 @@ static void test_long_transfers_use_reload(void **state) {
     assert_int_equal(fake.i2c.protocol_errors, 0u);
 }
 
+static void test_reload_chunk_boundaries(void **state) {
+    (void)state;
+    static uint8_t tx[511];
+    const size_t sizes[5] = {1u, 255u, 256u, 510u, 511u};
+    for (size_t k = 0; k < 5u; ++k) {
+        fake.i2c.log_len = 0u;
+        assert_int_equal(stm32_i2c_write_read(&bus, DEV, tx, sizes[k], NULL, 0u, 100u), HAL_OK);
+        assert_int_equal(fake_i2c_count(EV_BYTE_OUT), sizes[k]);
+        assert_int_equal(fake_i2c_count(EV_STOP), 1u);
+        const uint32_t cr2 = fake.i2c.log[0].value;
+        assert_int_equal((cr2 & STM32_I2C_CR2_RELOAD) != 0u, sizes[k] > 255u);
+        assert_int_equal((cr2 & STM32_I2C_CR2_AUTOEND) != 0u, sizes[k] <= 255u);
+    }
+    assert_int_equal(fake.i2c.protocol_errors, 0u);
+}
+
 static void test_flags_arriving_late_are_waited_for(void **state) {
     (void)state;
     fake.i2c.script.latency = 9u;
@@ -221,8 +237,10 @@ static void test_data_nack_first_and_later_bytes(void **state) {
     assert_int_equal(bus.stats.data_nacks, 2u);
     assert_int_equal(bus.stats.addr_nacks, 0u);
     assert_int_equal(fake.i2c.protocol_errors, 0u);
-    /* The automatic STOP after the NACK was waited for: no reset, flags clear. */
+    /* The automatic STOP after the NACK was waited for: no reset, TXDR
+     * flushed, flags clear. */
     assert_int_equal(fake.i2c.software_resets, 0u);
+    assert_int_equal(fake.i2c.txdr_flushes, 2u);
     assert_true((fake_i2c_reg(STM32_I2C_ISR) & (STM32_I2C_ISR_NACKF | STM32_I2C_ISR_STOPF)) == 0u);
 }
 
@@ -404,6 +422,7 @@ int main(void) {
         cmocka_unit_test_setup(test_write_then_read_uses_repeated_start, setup),
         cmocka_unit_test_setup(test_read_only, setup),
         cmocka_unit_test_setup(test_long_transfers_use_reload, setup),
+        cmocka_unit_test_setup(test_reload_chunk_boundaries, setup),
         cmocka_unit_test_setup(test_flags_arriving_late_are_waited_for, setup),
         cmocka_unit_test_setup(test_address_nack, setup),
         cmocka_unit_test_setup(test_data_nack_first_and_later_bytes, setup),
