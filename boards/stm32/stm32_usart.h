@@ -8,6 +8,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "stm32_reg.h"
+
 struct stm32_usart {
     uintptr_t base;    /* peripheral base address */
     uint32_t brr;      /* BRR value: kernel clock / baud rate (oversampling 16) */
@@ -20,16 +22,6 @@ void stm32_usart_init(struct stm32_usart *usart);
 
 /* hal_log write: polled, each byte bounded by spin_max polls. */
 void stm32_usart_log_write(void *ctx, const char *text, size_t len);
-
-/* Write a 32-bit peripheral register. */
-static inline void stm32_reg_write(uintptr_t addr, uint32_t value) {
-    *(volatile uint32_t *)addr = value;
-}
-
-/* Read a 32-bit peripheral register. */
-static inline uint32_t stm32_reg_read(uintptr_t addr) {
-    return *(volatile uint32_t *)addr;
-}
 
 /* Request a system reset (ARMv6-M/ARMv7-M AIRCR.SYSRESETREQ with VECTKEY 0x05FA). */
 __attribute__((noreturn)) void cortex_m_system_reset(void);

@@ -1,0 +1,54 @@
+/*
+ * STM32L476 addresses and bits used by board_hal.c. Base addresses: RM0351
+ * §2.2.2 Table 1 "STM32L4x6 memory map and peripheral register boundary
+ * addresses"; RCC bits: RM0351 §6.4 "RCC registers" (register named at each
+ * group); DBGMCU: RM0351 chapter "Debug support (DBG)", "DBGMCU APB1
+ * peripheral freeze register 1". Values as in ST's STM32L476xx CMSIS header.
+ */
+#ifndef BOARDS_NUCLEO_L476RG_STM32L476_REGS_H
+#define BOARDS_NUCLEO_L476RG_STM32L476_REGS_H
+
+#define L476_RCC_BASE    0x40021000u
+#define L476_GPIOA_BASE  0x48000000u
+#define L476_GPIOB_BASE  0x48000400u
+#define L476_GPIOC_BASE  0x48000800u
+#define L476_USART2_BASE 0x40004400u
+#define L476_I2C1_BASE   0x40005400u
+#define L476_IWDG_BASE   0x40003000u
+
+/* RCC_CR: HSI16 on / ready. */
+#define L476_RCC_CR        (L476_RCC_BASE + 0x00u)
+#define L476_RCC_CR_HSION  (1u << 8)
+#define L476_RCC_CR_HSIRDY (1u << 10)
+/* RCC_CFGR: SW[1:0] selects SYSCLK, SWS[3:2] reports it; 01 = HSI16. */
+#define L476_RCC_CFGR           (L476_RCC_BASE + 0x08u)
+#define L476_RCC_CFGR_SW_MASK   (3u << 0)
+#define L476_RCC_CFGR_SW_HSI16  (1u << 0)
+#define L476_RCC_CFGR_SWS_MASK  (3u << 2)
+#define L476_RCC_CFGR_SWS_HSI16 (1u << 2)
+/* RCC_AHB2ENR: GPIO port clocks. */
+#define L476_RCC_AHB2ENR         (L476_RCC_BASE + 0x4Cu)
+#define L476_RCC_AHB2ENR_GPIOAEN (1u << 0)
+#define L476_RCC_AHB2ENR_GPIOBEN (1u << 1)
+#define L476_RCC_AHB2ENR_GPIOCEN (1u << 2)
+/* RCC_APB1ENR1. */
+#define L476_RCC_APB1ENR1          (L476_RCC_BASE + 0x58u)
+#define L476_RCC_APB1ENR1_USART2EN (1u << 17)
+#define L476_RCC_APB1ENR1_I2C1EN   (1u << 21)
+/* RCC_CCIPR: I2C1SEL[13:12] = 10 -> HSI16 kernel clock; USART2SEL
+ * [3:2] stays 00 -> PCLK1 (= SYSCLK = 16 MHz with the reset prescalers). */
+#define L476_RCC_CCIPR               (L476_RCC_BASE + 0x88u)
+#define L476_RCC_CCIPR_I2C1SEL_MASK  (3u << 12)
+#define L476_RCC_CCIPR_I2C1SEL_HSI16 (2u << 12)
+
+/* DBGMCU_APB1FZR1: DBG_IWDG_STOP freezes the IWDG while the core is halted. */
+#define L476_DBGMCU_APB1FZR1               0xE0042008u
+#define L476_DBGMCU_APB1FZR1_DBG_IWDG_STOP (1u << 12)
+
+/* Alternate functions: STM32L476xx datasheet (DS10198) Table 17 "Alternate
+ * function AF0 to AF7", cross-checked with ST's pin data as exported in
+ * zephyrproject-rtos/hal_stm32 dts/st/l4/stm32l476r(c-e-g)tx-pinctrl.dtsi. */
+#define L476_AF7_USART2_TX_PA2 7u
+#define L476_AF4_I2C1_PB8_PB9  4u
+
+#endif /* BOARDS_NUCLEO_L476RG_STM32L476_REGS_H */
