@@ -93,7 +93,8 @@ function(tof_image name)
             -P ${PROJECT_SOURCE_DIR}/cmake/check_image.cmake
     COMMAND /usr/bin/python3 ${PROJECT_SOURCE_DIR}/tools/stack_check.py
             --root ${CMAKE_BINARY_DIR} --match _${ARG_CORE}.dir --match /${name}.dir/
-            --map $<TARGET_FILE_DIR:${name}>/${name}.map --limit ${stack_limit} --name ${name}
+            --map $<TARGET_FILE_DIR:${name}>/${name}.map --elf $<TARGET_FILE:${name}>
+            --limit ${stack_limit} --name ${name}
             --json $<TARGET_FILE_DIR:${name}>/${name}.stack.json
     COMMAND ${CMAKE_OBJCOPY} -O binary $<TARGET_FILE:${name}> $<TARGET_FILE_DIR:${name}>/${name}.bin
     VERBATIM)

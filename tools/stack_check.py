@@ -10,9 +10,10 @@ reserves.
 Rules (an upper bound under the project's rules, not a proof):
 - a frame marked dynamic and not bounded is an error (the project has no VLAs/alloca);
 - recursion (a function twice on one path through direct calls) is an error;
-- an indirect call (the ops structs' function pointers) may reach any function that
-  no one calls directly, i.e. the callbacks; a function already on the path is
-  skipped there;
+- an indirect call (the ops structs' function pointers) may reach any function whose
+  address is taken: with --elf, the functions whose (Thumb) address appears as a
+  word anywhere in the image (ops tables, literal pools); without it, any function
+  no one calls directly. A function already on the path is skipped there;
 - functions without a .ci (newlib, libgcc) are charged LIB_FRAME bytes each;
 - interrupts: the deepest handler plus the exception frame (EXC_FRAME bytes, the
   extended frame with FP state) is added on top of the deepest thread path.
@@ -74,7 +75,30 @@ def linked_functions(map_path):
     return kept
 
 
-def analyse(frames, calls, entries, handlers):
+def address_taken(elf):
+    """Functions whose Thumb address (odd) is stored as a word in the linked image."""
+    import subprocess
+    import tempfile
+    nm = subprocess.run(["arm-none-eabi-nm", "--defined-only", elf], capture_output=True,
+                        text=True, check=True).stdout
+    funcs = {}
+    for line in nm.splitlines():
+        parts = line.split()
+        if len(parts) == 3 and parts[1] in "Tt":
+            funcs.setdefault(int(parts[0], 16), set()).add(parts[2].split(".")[0])
+    with tempfile.NamedTemporaryFile(suffix=".bin") as tmp:
+        subprocess.run(["arm-none-eabi-objcopy", "-O", "binary", "--only-section=.text",
+                        "--only-section=.data", elf, tmp.name], check=True)
+        blob = open(tmp.name, "rb").read()
+    taken = set()
+    for i in range(0, len(blob) - 3, 2):  # literal pools are 4-aligned, tables too; 2 is safe
+        word = int.from_bytes(blob[i:i + 4], "little")
+        if word & 1 and (word & ~1) in funcs:
+            taken |= funcs[word & ~1]
+    return taken
+
+
+def analyse(frames, calls, entries, handlers, taken=None):
     called = {t for ts in calls.values() for t in ts}
 
     def resolve(name):
@@ -84,9 +108,13 @@ def analyse(frames, calls, entries, handlers):
         hits = [f for f in frames if f.endswith(suffix)]
         return hits[0] if len(hits) == 1 else name
 
-    callbacks = [f for f in frames
-                 if f not in called and f.split(":")[-1] not in called
-                 and f not in entries and f not in handlers]
+    if taken is not None:
+        callbacks = [f for f in frames if f.split(":")[-1].split(".")[0] in taken
+                     and f not in entries and f not in handlers]
+    else:
+        callbacks = [f for f in frames
+                     if f not in called and f.split(":")[-1] not in called
+                     and f not in entries and f not in handlers]
     memo, libs, errors = {}, set(), []
 
     def worst(fn, path, direct):
@@ -134,6 +162,7 @@ def main():
     ap.add_argument("--entry", action="append", default=[])
     ap.add_argument("--handler", action="append", default=[])
     ap.add_argument("--map", help="link map: only functions the linker kept are analysed")
+    ap.add_argument("--elf", help="linked image: indirect calls reach address-taken functions")
     ap.add_argument("--json")
     ap.add_argument("--name", default="image")
     a = ap.parse_args()
@@ -147,7 +176,8 @@ def main():
     if a.map:
         kept = linked_functions(a.map)
         frames = {f: v for f, v in frames.items() if f.split(":")[-1].split(".")[0] in kept}
-    thread, irq, libs, more = analyse(frames, calls, entries, handlers)
+    taken = address_taken(a.elf) if a.elf else None
+    thread, irq, libs, more = analyse(frames, calls, entries, handlers, taken)
     errors += more
     t_worst = max((d for d, _ in thread.values()), default=0)
     i_worst = max((d for d, _ in irq.values()), default=0)

@@ -130,6 +130,10 @@ int board_hal_init(void) {
     peripheral_clocks_init();
 
     stm32_gpio_set_af(L476_GPIOA_BASE, 2u, L476_AF7_USART2_TX_PA2);
+    /* PA3 = USART2_RX, the same AF as TX on this part (datasheet alternate-function table):
+     * telemetry commands come in from the ST-LINK virtual COM port. */
+    stm32_gpio_set_af(L476_GPIOA_BASE, 3u, L476_AF7_USART2_TX_PA2);
+    stm32_gpio_set_mode(L476_GPIOA_BASE, 3u, STM32_GPIO_MODE_AF);
     stm32_gpio_set_mode(L476_GPIOA_BASE, 2u, STM32_GPIO_MODE_AF);
     stm32_usart_init(&log_usart);
 
@@ -174,6 +178,15 @@ struct hal_log board_hal_log(void) {
 
 const struct stm32_i2c_stats *board_hal_i2c_stats(void) {
     return &board_i2c.stats;
+}
+
+void board_hal_fault_write(const char *text, size_t len) {
+    stm32_usart_log_write(&log_usart, text, len); /* direct: no function pointer on the fault path */
+}
+
+struct hal_serial board_hal_serial(void) {
+    struct hal_serial serial = {&stm32_usart_serial_ops, &log_usart};
+    return serial;
 }
 
 uint32_t board_hal_log_dropped(void) {

@@ -10,11 +10,13 @@
 #ifndef BOARDS_STM32_BOARD_HAL_H
 #define BOARDS_STM32_BOARD_HAL_H
 
+#include <stddef.h>
 #include <stdint.h>
 
 #include "hal/hal_gpio.h"
 #include "hal/hal_i2c.h"
 #include "hal/hal_log.h"
+#include "hal/hal_serial.h"
 #include "hal/hal_time.h"
 #include "hal/hal_watchdog.h"
 #include "stm32_i2c.h"
@@ -43,6 +45,13 @@ struct hal_log board_hal_log(void);
 
 /* Error counters of the I2C bus, for status telemetry. */
 const struct stm32_i2c_stats *board_hal_i2c_stats(void);
+
+/* Write text to the log UART from a fault handler: a direct call, so the fault path's
+ * stack depth is known exactly (no function pointer). */
+void board_hal_fault_write(const char *text, size_t len);
+
+/* The telemetry byte stream: USART2 (ST-LINK virtual COM port), shared with the log. */
+struct hal_serial board_hal_serial(void);
 
 /* Log bytes dropped because the USART transmitter never became ready. */
 uint32_t board_hal_log_dropped(void);

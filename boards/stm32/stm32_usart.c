@@ -4,7 +4,12 @@
 #define USART_CR1     0x00u
 #define USART_BRR     0x0Cu
 #define USART_ISR     0x1Cu
+#define USART_ICR     0x20u
+#define USART_RDR     0x24u
 #define USART_TDR     0x28u
+#define USART_CR1_RE  (1u << 2)
+#define USART_ISR_ORE (1u << 3) /* overrun error; cleared by ICR.ORECF (same bit) */
+#define USART_ISR_RXNE (1u << 5) /* RXNE (L4) / RXFNE (G0, FIFO disabled: same meaning) */
 #define USART_CR1_UE  (1u << 0)
 #define USART_CR1_TE  (1u << 3)
 #define USART_ISR_TXE (1u << 7) /* TXE (L4) / TXFNF (G0, FIFO disabled: same meaning) */
@@ -12,7 +17,7 @@
 void stm32_usart_init(struct stm32_usart *usart) {
     stm32_reg_write(usart->base + USART_CR1, 0u);
     stm32_reg_write(usart->base + USART_BRR, usart->brr);
-    stm32_reg_write(usart->base + USART_CR1, USART_CR1_TE | USART_CR1_UE);
+    stm32_reg_write(usart->base + USART_CR1, USART_CR1_TE | USART_CR1_RE | USART_CR1_UE);
 }
 
 void stm32_usart_log_write(void *ctx, const char *text, size_t len) {
@@ -39,3 +44,26 @@ void cortex_m_system_reset(void) {
         /* the reset takes effect within a few cycles */
     }
 }
+
+static size_t serial_write(void *ctx, const uint8_t *data, size_t len) {
+    struct stm32_usart *usart = ctx;
+    const uint32_t dropped = usart->dropped;
+    stm32_usart_log_write(ctx, (const char *)data, len);
+    return usart->dropped == dropped ? len : 0u; /* a frame with a lost byte is lost */
+}
+
+static size_t serial_read(void *ctx, uint8_t *buf, size_t max) {
+    struct stm32_usart *usart = ctx;
+    size_t n = 0;
+    const uint32_t isr = stm32_reg_read(usart->base + USART_ISR);
+    if ((isr & USART_ISR_ORE) != 0u) {
+        ++usart->overruns; /* counted; the frame decoder resynchronises on what follows */
+        stm32_reg_write(usart->base + USART_ICR, USART_ISR_ORE);
+    }
+    while (n < max && (stm32_reg_read(usart->base + USART_ISR) & USART_ISR_RXNE) != 0u) {
+        buf[n++] = (uint8_t)stm32_reg_read(usart->base + USART_RDR);
+    }
+    return n;
+}
+
+const struct hal_serial_ops stm32_usart_serial_ops = {.write = serial_write, .read = serial_read};

@@ -8,6 +8,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "hal/hal_serial.h"
+
 #include "stm32_reg.h"
 
 struct stm32_usart {
@@ -15,9 +17,11 @@ struct stm32_usart {
     uint32_t brr;      /* BRR value: kernel clock / baud rate (oversampling 16) */
     uint32_t spin_max; /* TXE polls per byte before the byte is dropped and counted */
     uint32_t dropped;  /* bytes dropped because TXE never came (mutable) */
+    uint32_t overruns; /* receive overruns (bytes lost before they were read; mutable) */
 };
 
-/* Enable the transmitter (the caller has clocked the peripheral and set the pin). */
+/* Enable the transmitter and the receiver (the caller has clocked the peripheral and set
+ * the pins). */
 void stm32_usart_init(struct stm32_usart *usart);
 
 /* hal_log write: polled, each byte bounded by spin_max polls. */
@@ -25,5 +29,8 @@ void stm32_usart_log_write(void *ctx, const char *text, size_t len);
 
 /* Request a system reset (ARMv6-M/ARMv7-M AIRCR.SYSRESETREQ with VECTKEY 0x05FA). */
 __attribute__((noreturn)) void cortex_m_system_reset(void);
+
+/* hal_serial over the same USART (ctx: struct stm32_usart *): polled, bounded per byte. */
+extern const struct hal_serial_ops stm32_usart_serial_ops;
 
 #endif /* BOARDS_STM32_USART_H */
