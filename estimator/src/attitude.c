@@ -378,7 +378,7 @@ static void run_kalman(struct attitude_state *st, struct attitude_estimate *e) {
                 (uint16_t)(e->counts[k].rejected + ((AUX_REJECTED(row->aux) >> k) & 1u));
         }
     }
-    struct kalman_estimate ke;
+    struct kalman_result ke;
     kalman_estimate(&st->kalman, st->cfg.arm_um, &ke);
     e->alpha_udeg = ke.alpha_udeg;
     e->beta_udeg = ke.beta_udeg;
@@ -397,6 +397,15 @@ static void disabled(struct attitude_estimate *e, const struct window_stats *w) 
     e->reason = ATTITUDE_REASON_DISABLED;
     finish_status(e, false, false);
     e->reason = ATTITUDE_REASON_DISABLED;
+}
+
+/* After a restart the filter's estimate no longer contains the window's earlier
+ * readings: they stop counting as used (their rejections still count). */
+static void forget_kalman_used(struct attitude_state *st) {
+    for (uint16_t age = 0; age < window_fill(&st->window); ++age) {
+        struct window_row *row = window_row_at(&st->window, age);
+        row->aux = AUX_MAKE(0u, AUX_REJECTED(row->aux));
+    }
 }
 
 /* Writes the Kalman outcomes of the rows just processed into their ring rows. */
@@ -433,9 +442,13 @@ bool attitude_push_sample(struct attitude_state *st, const uint16_t range_mm[ATT
     }
     window_push(&st->window, ranges, present_mask, valid_mask);
     if (kalman_on) {
+        const uint32_t restarts = st->kalman.restarts;
         struct kalman_rows rows;
         kalman_push_row(&st->kalman, ranges, valid_mask, &rows);
         record_kalman_rows(st, &rows);
+        if (st->kalman.restarts != restarts) {
+            forget_kalman_used(st);
+        }
     }
     st->rows++;
     const bool ready = cfg->mode == ATTITUDE_TUMBLING ? st->rows % cfg->window == 0u
@@ -446,9 +459,13 @@ bool attitude_push_sample(struct attitude_state *st, const uint16_t range_mm[ATT
     if (kalman_on && cfg->mode == ATTITUDE_TUMBLING) {
         /* a static window ends here: rows still buffered (a restart late in the
          * window, or N below the warm-up) are processed now */
+        const uint32_t restarts = st->kalman.restarts;
         struct kalman_rows rows;
         kalman_flush(&st->kalman, &rows);
         record_kalman_rows(st, &rows);
+        if (st->kalman.restarts != restarts) {
+            forget_kalman_used(st);
+        }
     }
     window_compute(&st->window, &st->stats);
     const struct window_stats *w = &st->stats;

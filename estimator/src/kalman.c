@@ -250,7 +250,15 @@ void kalman_push_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENS
         }
     }
     if (locked_out) {
-        kalman_reset(k); /* the gate no longer matches the data: start again */
+        /* The gate no longer matches the data: start again. A sensor whose R is
+         * still the configured guess was probably rejected for being noisier
+         * than guessed, so its R is also raised (x4, bounded) for the restart. */
+        for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
+            if (k->reject_run[s] >= KALMAN_LOCKOUT_ROWS && !k->r_tracked[s]) {
+                k->r[s] = k->r[s] < R_MAX_Q32 / 4 ? 4 * k->r[s] : R_MAX_Q32;
+            }
+        }
+        kalman_reset(k);
         k->restarts++;
     }
 }
@@ -276,7 +284,7 @@ void kalman_track_noise(struct kalman_state *k, unsigned sensor, fix_q32_t var_m
     k->r[sensor] += fix_asr_s64(v - k->r[sensor], k->cfg.noise_shift);
 }
 
-void kalman_estimate(const struct kalman_state *k, int32_t arm_um, struct kalman_estimate *out) {
+void kalman_estimate(const struct kalman_state *k, int32_t arm_um, struct kalman_result *out) {
     memcpy(out->p_mm2, k->p, sizeof out->p_mm2);
     const int64_t observable_below = KALMAN_P0_MM2_Q32 >> 6;
     out->alpha_observable = k->started && k->p[1][1] < observable_below;

@@ -96,7 +96,7 @@ static void test_noise_free_plate_is_exact(void **state) {
     for (int i = 0; i < 50; ++i) {
         push(x, 0x0F, &rows);
     }
-    struct kalman_estimate est;
+    struct kalman_result est;
     kalman_estimate(&kf, 30000, &est);
     assert_true(est.alpha_observable && est.beta_observable);
     assert_true(abs(est.alpha_udeg - (int32_t)lround(atan(0.1) * 180e6 / TEST_PI)) <= 2);
@@ -162,7 +162,7 @@ static void test_matches_batch_least_squares(void **state) {
         for (unsigned a = 0; a < 3; ++a) {
             th[a] = inv[a][0] * m[0][3] + inv[a][1] * m[1][3] + inv[a][2] * m[2][3];
         }
-        struct kalman_estimate est;
+        struct kalman_result est;
         kalman_estimate(&kf, 30000, &est);
         const double alpha_wls = atan(th[1] / arm) * 180e6 / TEST_PI;
         if (fabs(est.alpha_udeg - alpha_wls) > 5.0) {
@@ -254,7 +254,7 @@ static void test_flagged_skipped_and_outliers_gated(void **state) {
     }
     assert_int_equal(rejected_b, 10);
     assert_int_equal(used_b, 90);
-    struct kalman_estimate est;
+    struct kalman_result est;
     kalman_estimate(&kf, 30000, &est);
     assert_true(abs(est.alpha_udeg - 1000000) < 5 * est.alpha_sigma_udeg + 1);
 }
@@ -276,7 +276,7 @@ static void test_warmup_outlier_in_first_rows(void **state) {
     assert_int_equal(rows.rejected[0], 0x01);
     assert_int_equal(rows.used[0], 0x0E);
     assert_int_equal(rows.used[1], 0x0F);
-    struct kalman_estimate est;
+    struct kalman_result est;
     kalman_estimate(&kf, 30000, &est);
     assert_true(abs(est.alpha_udeg - 5710593) <= 2);
 }
@@ -295,7 +295,7 @@ static void test_lockout_restart_after_jump(void **state) {
         push(after, 0x0F, &rows);
     }
     assert_true(kf.restarts >= 1);
-    struct kalman_estimate est;
+    struct kalman_result est;
     kalman_estimate(&kf, 30000, &est);
     assert_true(fabs((double)est.distance_mm / Q32 - 300.0) < 1e-3);
 }
@@ -305,7 +305,7 @@ static void test_missing_sensors_observability(void **state) {
     struct kalman_config c = default_config();
     const double x[4] = {97, 98, 103, 102};
     struct kalman_rows rows;
-    struct kalman_estimate est;
+    struct kalman_result est;
     /* one sensor missing: still both axes */
     for (unsigned miss = 0; miss < 4; ++miss) {
         assert_int_equal(kalman_init(&kf, &c), KALMAN_OK);
@@ -369,7 +369,7 @@ static void test_process_noise_follows_a_ramp(void **state) {
         ideal(30, 150, -5 + 0.025 * i, 0, x);
         push(x, 0x0F, &rows);
     }
-    struct kalman_estimate est;
+    struct kalman_result est;
     kalman_estimate(&kf, 30000, &est);
     /* 1 mm quantisation of a noise-free ramp alone moves the readings' own angle
      * by up to atan(1/60) = 0.95°; the filter stays within half a degree */
@@ -398,7 +398,7 @@ static void test_flush_short_window(void **state) {
     assert_int_equal(rows.count, 0);
     kalman_flush(&kf, &rows);
     assert_int_equal(rows.count, 2);
-    struct kalman_estimate est;
+    struct kalman_result est;
     kalman_estimate(&kf, 30000, &est);
     assert_true(est.alpha_observable);
     assert_true(abs(est.alpha_udeg - 5710593) <= 2);

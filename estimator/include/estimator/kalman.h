@@ -33,7 +33,9 @@
  * - A filter that rejects KALMAN_LOCKOUT_ROWS readings of one sensor in a row
  *   restarts instead of locking itself out: the plate jumped, or (rare, with
  *   outliers in most warm-up rows of one sensor) the start itself was wrong and
- *   the gate now rejects the good readings while accepting the others.
+ *   the gate now rejects the good readings while accepting the others. If that
+ *   sensor's R is still the configured guess (no window statistics yet), the
+ *   guess was probably too small and is raised x4 for the restart.
  */
 #ifndef ESTIMATOR_KALMAN_H
 #define ESTIMATOR_KALMAN_H
@@ -90,7 +92,7 @@ struct kalman_rows {
     uint8_t rejected[KALMAN_WARMUP_MAX]; /* sensor mask of gated-out readings */
 };
 
-struct kalman_estimate {
+struct kalman_result {
     bool alpha_observable; /* var(a·tan α) well below the prior */
     bool beta_observable;
     fix_udeg_t alpha_udeg;
@@ -126,6 +128,6 @@ bool kalman_update(struct kalman_state *k, unsigned sensor, fix_q32_t z_mm, bool
 void kalman_track_noise(struct kalman_state *k, unsigned sensor, fix_q32_t var_mm2, uint16_t count);
 
 /* Current estimate, angles through atan of the state over a, and P. */
-void kalman_estimate(const struct kalman_state *k, int32_t arm_um, struct kalman_estimate *out);
+void kalman_estimate(const struct kalman_state *k, int32_t arm_um, struct kalman_result *out);
 
 #endif /* ESTIMATOR_KALMAN_H */
