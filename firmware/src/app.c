@@ -46,6 +46,10 @@ static void emit_event(struct tof_app *app, enum tof_event_kind kind, unsigned s
 static void on_sample(void *ctx, const struct tof_sample *sample) {
     struct tof_app *app = ctx;
     ++app->counters.samples;
+    if (app->slot_first_us < app->assembler_cfg.period_us) {
+        app->phase_us = app->slot_first_us; /* when the sensors report within a slot */
+    }
+    app->slot_first_us = app->assembler_cfg.period_us;
     const struct tof_output *out = &app->platform->output;
     if (app->raw_output && out->ops != NULL && out->ops->sample != NULL) {
         out->ops->sample(out->ctx, sample);
@@ -129,6 +133,13 @@ static void poll_sensor(struct tof_app *app, unsigned sensor) {
     (void)tof_app_now_us(app);
     const uint32_t age_us = hal_time_elapsed_us(app->last_raw_us, result.time_us);
     const uint64_t t_us = app->now_us >= age_us ? app->now_us - age_us : 0u;
+    if (t_us >= app->assembler.origin_us) {
+        const uint32_t offset =
+            (uint32_t)((t_us - app->assembler.origin_us) % app->assembler_cfg.period_us);
+        if (offset < app->slot_first_us) {
+            app->slot_first_us = offset;
+        }
+    }
     tof_assembler_add(&app->assembler, &app->assembler_cfg, sensor, t_us, result.distance_mm,
                       result.range_status, on_sample, app);
 }
@@ -189,14 +200,18 @@ static void start_pending_sensors(struct tof_app *app) {
 }
 
 /*
- * How long an idle iteration sleeps. Readings of slot k arrive just after the slot
- * starts (sensors start at a slot boundary), so once every sensor has reported for the
- * pending slots there is nothing to do before the next slot: sleep until it starts.
- * Otherwise poll every idle_us, which bounds the data-ready latency.
+ * How long an idle iteration sleeps. The sensors start at a slot boundary, so their
+ * readings arrive at the same offset into every slot (phase_us, learnt from the last
+ * sample). Once every sensor has reported for the pending slots there is nothing to do
+ * until one idle_us before that offset in the next slot: sleep until then. Otherwise
+ * poll every idle_us, which bounds the data-ready latency.
  */
 static uint32_t idle_time_us(const struct tof_app *app, uint64_t now_us) {
+    const uint32_t lead = app->phase_us > app->cfg->idle_us ? app->phase_us - app->cfg->idle_us
+                                                            : 0u;
     const uint64_t next_slot = app->assembler.origin_us +
-                               (uint64_t)app->assembler.next_index * app->assembler_cfg.period_us;
+                               (uint64_t)app->assembler.next_index * app->assembler_cfg.period_us +
+                               lead;
     bool waiting = false;
     for (unsigned i = 0; i < TOF_SENSORS; ++i) {
         waiting = waiting || app->start_pending[i];
@@ -246,6 +261,7 @@ int tof_app_init(struct tof_app *app, const struct tof_platform *platform,
         .max_skew_us = cfg->max_skew_us,
         .max_emit_per_call = 8,
     };
+    app->slot_first_us = app->assembler_cfg.period_us;
     rc = vl53_array_bring_up(&app->array);
     const uint64_t now = tof_app_now_us(app);
     for (unsigned i = 0; i < TOF_SENSORS; ++i) {

@@ -470,12 +470,13 @@ static int write_report(struct replay *r, const char *path) {
     fprintf(f, ", \"recoveries\": %u},\n", b->recoveries);
     const struct tof_app_counters *c = &r->app.counters;
     fprintf(f,
-            "  \"firmware\": {\"samples\": %u, \"readings\": %u, \"reinits_ok\": %u, "
+            "  \"firmware\": {\"iterations\": %u, \"samples\": %u, \"readings\": %u, "
+            "\"reinits_ok\": %u, "
             "\"reinits_failed\": %u, \"bus_recoveries\": %u, \"overruns\": %u, "
             "\"max_iteration_us\": %u, \"late_readings\": %u, \"incomplete_samples\": %u, "
             "\"faults_stopped\": %s, \"recovery_us\": %lld},\n",
-            c->samples, c->readings, c->reinits_ok, c->reinits_failed, c->bus_recoveries,
-            c->overruns, c->max_iteration_us, r->app.assembler.counters.late,
+            c->iterations, c->samples, c->readings, c->reinits_ok, c->reinits_failed,
+            c->bus_recoveries, c->overruns, c->max_iteration_us, r->app.assembler.counters.late,
             r->app.assembler.counters.incomplete, r->faults_stopped ? "true" : "false",
             (long long)r->recovery_us);
     fprintf(f,

@@ -73,6 +73,8 @@ struct tof_app {
     struct attitude_state estimator;      /* its cfg is the live estimator configuration */
     enum attitude_estimator primary;      /* the estimator telemetry and status lead with */
     bool running;                         /* false: samples are assembled, not estimated */
+    uint32_t phase_us;      /* offset into its slot of the earliest reading of the last sample */
+    uint32_t slot_first_us; /* ... being measured for the current slot (period: none yet) */
     uint64_t now_us;     /* 64-bit extension of the platform's 32-bit microsecond clock */
     uint32_t last_raw_us;
     bool raw_output;
