@@ -21,7 +21,10 @@ void attitude_config_default(struct attitude_config *cfg) {
     cfg->estimators = ATTITUDE_EST_ALL;
     cfg->consensus_tolerance_udeg = 1000;
     cfg->paper_max_iterations = 200;
-    cfg->paper_consistency_sigmas_q8 = 2u * 256u;
+    /* 1.5σ: a paper value that is merely noisier than the efficient product differs
+     * from it by sqrt(var_paper − var_product) ≈ 0.3σ (Hausman), so 1.5σ + tol
+     * flags only values the paper's weights pulled off (β ≠ 0, near-singular P) */
+    cfg->paper_consistency_sigmas_q8 = 384u;
     cfg->gate_sigmas_q8 = 5u * 256u;
     cfg->gate_floor_mm = 3;
     for (unsigned s = 0; s < ATTITUDE_SENSORS; ++s) {
@@ -92,6 +95,7 @@ int attitude_init(struct attitude_state *st, const struct attitude_config *cfg) 
     }
     memset(st, 0, sizeof *st);
     st->cfg = *cfg;
+    st->kalman_rows_since_restart = UINT32_MAX;
     const struct window_config wcfg = {.arm_um = cfg->arm_um,
                                        .length = cfg->window,
                                        .gate_sigmas_q8 = cfg->gate_sigmas_q8,
@@ -154,7 +158,8 @@ static void finish_status(struct attitude_estimate *e, bool alpha_ok, bool beta_
     }
     if (!alpha_ok || !beta_ok) {
         e->status = ATTITUDE_INVALID;
-        if (e->reason == ATTITUDE_REASON_NONE) {
+        /* "kalman-restarted" is a degraded reason: an invalid estimate names its axes */
+        if (e->reason == ATTITUDE_REASON_NONE || e->reason == ATTITUDE_REASON_KALMAN_RESTARTED) {
             if (alpha_ok) {
                 e->reason = ATTITUDE_REASON_BETA_UNOBSERVABLE;
             } else if (beta_ok) {
@@ -386,7 +391,7 @@ static void run_kalman(struct attitude_state *st, struct attitude_estimate *e) {
     e->beta_sigma_udeg = ke.beta_sigma_udeg;
     e->distance_valid = ke.alpha_observable || ke.beta_observable;
     e->distance_um = e->distance_valid ? q32_mm_to_um(ke.distance_mm) : 0;
-    if (st->kalman.restarts != st->kalman_restarts_at_window_start) {
+    if (st->kalman_rows_since_restart < st->cfg.window) { /* restarted inside the window */
         e->reason = ATTITUDE_REASON_KALMAN_RESTARTED;
     }
     finish_status(e, ke.alpha_observable, ke.beta_observable);
@@ -406,6 +411,12 @@ static void forget_kalman_used(struct attitude_state *st) {
         struct window_row *row = window_row_at(&st->window, age);
         row->aux = AUX_MAKE(0u, AUX_REJECTED(row->aux));
     }
+}
+
+/* A restart while processing the newest row: the row count restarts with it. */
+static void note_kalman_restart(struct attitude_state *st) {
+    forget_kalman_used(st);
+    st->kalman_rows_since_restart = 0;
 }
 
 /* Writes the Kalman outcomes of the rows just processed into their ring rows. */
@@ -435,10 +446,12 @@ bool attitude_push_sample(struct attitude_state *st, const uint16_t range_mm[ATT
             }
         }
     }
+    if (st->kalman_rows_since_restart < UINT32_MAX) {
+        st->kalman_rows_since_restart++;
+    }
     if (cfg->mode == ATTITUDE_TUMBLING && st->rows % cfg->window == 0u) {
         window_clear(&st->window);
         kalman_reset(&st->kalman);
-        st->kalman_restarts_at_window_start = st->kalman.restarts;
     }
     window_push(&st->window, ranges, present_mask, valid_mask);
     if (kalman_on) {
@@ -447,7 +460,7 @@ bool attitude_push_sample(struct attitude_state *st, const uint16_t range_mm[ATT
         kalman_push_row(&st->kalman, ranges, valid_mask, &rows);
         record_kalman_rows(st, &rows);
         if (st->kalman.restarts != restarts) {
-            forget_kalman_used(st);
+            note_kalman_restart(st);
         }
     }
     st->rows++;
@@ -464,7 +477,7 @@ bool attitude_push_sample(struct attitude_state *st, const uint16_t range_mm[ATT
         kalman_flush(&st->kalman, &rows);
         record_kalman_rows(st, &rows);
         if (st->kalman.restarts != restarts) {
-            forget_kalman_used(st);
+            note_kalman_restart(st);
         }
     }
     window_compute(&st->window, &st->stats);

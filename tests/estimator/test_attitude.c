@@ -425,6 +425,37 @@ static void test_paper_failures_are_statuses(void **state) {
                 0);
 }
 
+static void test_sliding_restart_reason_expires(void **state) {
+    (void)state;
+    init_default(20, ATTITUDE_SLIDING);
+    double before[4], after[4];
+    ideal(1, 0, before);
+    ideal(1, 0, after);
+    for (unsigned k = 0; k < 4; ++k) {
+        after[k] += 200; /* the plate jumps 200 mm away at row 100 */
+    }
+    int restarted_reports = 0;
+    for (uint32_t row = 0; row < 200; ++row) {
+        const bool ready =
+            push_noisy(&st, row < 100 ? before : after, 1, all_ok, all_present, &out);
+        if (!ready) {
+            continue;
+        }
+        const struct attitude_estimate *k = &out.est[ATTITUDE_EST_KALMAN];
+        if (k->reason == ATTITUDE_REASON_KALMAN_RESTARTED) {
+            restarted_reports++;
+            /* only while the restart lies inside the last N rows */
+            assert_true(row >= 100 && row < 100 + 20 + KALMAN_LOCKOUT_ROWS + 5);
+        }
+        if (row >= 160) {
+            assert_int_equal(k->status, ATTITUDE_OK);
+            assert_true(abs(k->distance_um - 300000) < 2000);
+        }
+    }
+    assert_true(restarted_reports > 0);
+    assert_true(st.kalman.restarts >= 1);
+}
+
 static void test_deterministic(void **state) {
     (void)state;
     struct attitude_config cfg;
@@ -482,6 +513,7 @@ int main(void) {
         cmocka_unit_test(test_outliers_rejected_by_window_and_kalman),
         cmocka_unit_test(test_extreme_ranges),
         cmocka_unit_test(test_paper_failures_are_statuses),
+        cmocka_unit_test(test_sliding_restart_reason_expires),
         cmocka_unit_test(test_deterministic),
         cmocka_unit_test(test_disabled_estimators),
     };

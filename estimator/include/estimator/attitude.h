@@ -149,13 +149,13 @@ struct attitude_state {
     struct window_state window;
     struct window_stats stats; /* scratch of the last window */
     struct kalman_state kalman;
-    uint32_t rows; /* rows pushed since attitude_init */
-    uint32_t kalman_restarts_at_window_start;
+    uint32_t rows;                      /* rows pushed since attitude_init */
+    uint32_t kalman_rows_since_restart; /* since the filter last restarted (UINT32_MAX: never) */
 };
 
 /* Fills cfg with the defaults: a = 30 mm, N = 100, tumbling, every estimator,
  * tolerance 1000 udeg (the paper's 1e-3 deg), 200 paper iterations, paper
- * consistency 2σ, MAD gate 5σ with a 3 mm floor, Kalman Q = 0, R = (2 mm)²,
+ * consistency 1.5σ, MAD gate 5σ with a 3 mm floor, Kalman Q = 0, R = (2 mm)²,
  * innovation gate 5σ, 5 warm-up rows, noise shift 2. */
 void attitude_config_default(struct attitude_config *cfg);
 
