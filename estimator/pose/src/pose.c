@@ -126,7 +126,9 @@ static bool config_valid(const struct pose_config *c) {
 int pose_init(struct pose_pipeline *p, const struct pose_config *cfg, const struct pose_camera *cam,
               const struct pose_marker *markers, size_t n_markers) {
     if (p == NULL || cfg == NULL || cam == NULL || markers == NULL || n_markers < 2u ||
-        n_markers > POSE_MAX_MARKERS || !config_valid(cfg)) {
+        n_markers > POSE_MAX_MARKERS || !config_valid(cfg) ||
+        !pose_match_config_valid(&cfg->match)) {
+
         return POSE_ERR_INVALID;
     }
     if (cam->width == 0u || cam->height == 0u || cam->width > POSE_MAX_WIDTH ||
@@ -369,6 +371,7 @@ static int refine(const struct pose_pipeline *p, struct solve_set *s, float r[3]
     *converged = false;
     int it = 0;
     float los[POSE_MAX_MARKERS][3];
+    float prev_step = 0.0f;
     while (it < (int)cfg->refine_max_iterations) {
         ++it;
         for (size_t k = 0; k < s->n; ++k) {
@@ -405,9 +408,21 @@ static int refine(const struct pose_pipeline *p, struct solve_set *s, float r[3]
         float dtheta = pose_rotation_angle(r, r2) * 1000.0f; /* over a 1 m lever */
         memcpy(r, r2, sizeof r2);
         memcpy(t, t2, sizeof t2);
-        /* Float resolution of t: a relative floor keeps 15 m poses from chasing rounding. */
-        float tol = cfg->refine_tol_mm + 2e-6f * sqrtf(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]);
-        if (dt < tol && dtheta < tol) {
+        /*
+         * Stop on the change still to come, not on the last step: the iteration
+         * converges linearly, often slowly (ratio q of successive steps near 1), and
+         * then the remaining distance to the fixed point is step / (1 - q), far more
+         * than the step itself. The relative floor is ~8 float ulps of |t|: the
+         * steps of a converged iteration jitter at that level (4e-4 mm at 1 m).
+         */
+        float step = (dt > dtheta) ? dt : dtheta;
+        float remaining = step;
+        if (prev_step > 0.0f && step < prev_step) {
+            remaining = step / (1.0f - step / prev_step);
+        }
+        prev_step = step;
+        float tol = cfg->refine_tol_mm + 5e-7f * sqrtf(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]);
+        if (remaining < tol) {
             *converged = true;
             break;
         }

@@ -328,6 +328,12 @@ int host_sim_camera_main(int argc, char **argv) {
         fprintf(stderr, "camera: pose_init rejected the default configuration\n");
         return EXIT_IO;
     }
+    /* Open the report first: a bad path fails before minutes of rendering. */
+    FILE *out = fopen(o.report, "w");
+    if (out == NULL) {
+        fprintf(stderr, "camera: --report %s: %s\n", o.report, strerror(errno));
+        return EXIT_IO;
+    }
     struct camera_scenario sc = {o.range_mm, (int)o.spurious, (int)o.missing, 20.0,
                                  o.allow_partial};
     struct camera_noise noise = {o.gray_noise, o.depth_noise};
@@ -352,6 +358,8 @@ int host_sim_camera_main(int argc, char **argv) {
                     "(or no room for %ld spurious blobs); use a longer range or "
                     "--allow-partial\n",
                     f, o.range_mm, o.spurious);
+            fclose(out);
+            remove(o.report); /* no half-written report */
             return EXIT_USAGE;
         }
         pose_draws += scene.pose_draws;
@@ -365,6 +373,8 @@ int host_sim_camera_main(int argc, char **argv) {
         if (err != POSE_OK) {
             fprintf(stderr, "camera: frame %ld: pose_process failed: %s (pixel %u,%u)\n", f,
                     pose_err_name(err), bx, by);
+            fclose(out);
+            remove(o.report);
             return EXIT_IO;
         }
         camera_evaluate(&scene, &truth, &res, &ev);
@@ -387,7 +397,6 @@ int host_sim_camera_main(int argc, char **argv) {
                         (double)b->range_se_mm, b->pixels, (double)b->axis_ratio,
                         (double)b->peak_response, b->ellipse_checked, b->ellipse_ok,
                         ev.blob_marker[i], pipe.ws.assignment[i]);
-
             }
         }
         ++status_count[res.status];
@@ -417,17 +426,14 @@ int host_sim_camera_main(int argc, char **argv) {
         if (f == 0 && o.image != NULL) {
             if (write_image(o.image, &k, &frame, &scene, &truth, &res) != 0) {
                 fprintf(stderr, "camera: --image %s: %s\n", o.image, strerror(errno));
+                fclose(out);
+                remove(o.report);
                 return EXIT_IO;
             }
         }
     }
     double nf = (double)o.frames;
     double nv = valid > 0 ? (double)valid : 1.0;
-    FILE *out = fopen(o.report, "w");
-    if (out == NULL) {
-        fprintf(stderr, "camera: --report %s: %s\n", o.report, strerror(errno));
-        return EXIT_IO;
-    }
     fprintf(out, "{\n");
     fprintf(out,
             "  \"frames\": %ld, \"range_mm\": %g, \"spurious\": %ld, \"missing\": %ld,\n"

@@ -24,6 +24,10 @@
 #include "pose/pose_match.h"
 #include "pose/pose_types.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 /* nLoG kernel half-width: a (2R+1)^2 kernel; 3 sigma must fit, so sigma <= R / 3. */
 #define POSE_NLOG_MAX_RADIUS 4
 #define POSE_NLOG_MAX_SIZE   (2 * POSE_NLOG_MAX_RADIUS + 1)
@@ -243,5 +247,9 @@ int pose_process(struct pose_pipeline *p, const struct pose_frame *frame, struct
  */
 int pose_solve(struct pose_pipeline *p, const struct pose_blob *blobs, const uint8_t *blob_idx,
                const uint8_t *marker_idx, size_t n, struct pose_result *out);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* POSE_POSE_H */

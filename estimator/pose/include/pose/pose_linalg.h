@@ -11,6 +11,10 @@
 
 #include "pose/pose_types.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 /* Sweep bound of the Jacobi SVD; 3x3 matrices converge in 4-6 sweeps in float. */
 #define POSE_SVD_MAX_SWEEPS 16
 
@@ -43,5 +47,9 @@ float pose_rotation_angle(const float a[3][3], const float b[3][3]);
  */
 int pose_circle_image_centre(const float centre[3], const float normal[3], float radius_mm,
                              float out_xy[2]);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* POSE_POSE_LINALG_H */

@@ -23,6 +23,10 @@
 
 #include "pose/pose_types.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 #define POSE_MAX_OBS_PAIRS      (POSE_MAX_OBS * (POSE_MAX_OBS - 1u) / 2u)
 #define POSE_MAX_MARKER_PAIRS   (POSE_MAX_MARKERS * (POSE_MAX_MARKERS - 1u) / 2u)
 #define POSE_MATCH_MAX_SINKHORN 64u
@@ -60,6 +64,9 @@ struct pose_match_work {
 /* Defaults used by the pipeline (values and reasons in pose_match.c). */
 void pose_match_config_default(struct pose_match_config *cfg);
 
+/* True when every field is in range (cooling rate > 1, bounded Sinkhorn count, ...). */
+bool pose_match_config_valid(const struct pose_match_config *cfg);
+
 /*
  * Assigns observations to markers. assignment[i] receives the marker index of
  * observation i or -1 (spurious / unassigned). Returns the number of matches
@@ -72,5 +79,9 @@ int pose_match(const struct pose_match_config *cfg, const struct pose_marker *ma
 
 /* Index of the unordered pair (i, j), i != j, among n points: 0 .. n(n-1)/2 - 1. */
 size_t pose_pair_index(size_t i, size_t j, size_t n);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* POSE_POSE_MATCH_H */

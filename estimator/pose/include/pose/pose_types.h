@@ -20,6 +20,10 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 /* Capacities: every buffer of the pipeline is sized by these. */
 #define POSE_MAX_MARKERS    16u   /* catalog entries */
 #define POSE_MAX_OBS        16u   /* candidate reflectors passed to matching */
@@ -70,5 +74,9 @@ struct pose_marker {
     float position_mm[3];
     float diameter_mm;
 };
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* POSE_POSE_TYPES_H */
