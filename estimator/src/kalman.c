@@ -7,6 +7,9 @@
 #define QUANT_VAR_Q32 357913941
 /* Largest accepted initial R: 2^20 mm² (σ = 1024 mm). */
 #define R_MAX_Q32 ((int64_t)1 << 52)
+/* Cap of each P_ii under process noise: 16 x the diffuse prior, far above any state worth
+ * estimating, and low enough that hᵀPh + R (at most 4 x 2^60 + 2^52) stays inside int64. */
+#define P_MAX_Q32 (KALMAN_P0_MM2_Q32 << 4)
 
 /* Rows of Eq. 5 with the slopes scaled by a: A, B, C, D. */
 static const int8_t h_rows[ANGLES_SENSORS][KALMAN_STATES] = {
@@ -135,7 +138,10 @@ bool kalman_update(struct kalman_state *k, unsigned sensor, fix_q32_t z_mm, bool
 
 static void predict(struct kalman_state *k) {
     for (unsigned i = 0; i < KALMAN_STATES; ++i) {
-        k->p[i][i] = fix_sat_add_s64(k->p[i][i], k->cfg.process_noise_mm2[i]);
+        if (k->p[i][i] < P_MAX_Q32) { /* a long outage saturates here, never overflows */
+            const int64_t grown = k->p[i][i] + k->cfg.process_noise_mm2[i];
+            k->p[i][i] = grown < P_MAX_Q32 ? grown : P_MAX_Q32;
+        }
     }
 }
 
@@ -275,7 +281,10 @@ void kalman_track_noise(struct kalman_state *k, unsigned sensor, fix_q32_t var_m
     if (count < 2u || sensor >= ANGLES_SENSORS) {
         return;
     }
-    const fix_q32_t v = var_mm2 > QUANT_VAR_Q32 ? var_mm2 : QUANT_VAR_Q32;
+    /* Bounded like a configured R: a window variance beyond σ = 1024 mm (readings 0 and
+     * 65535 mm in one window give 2^31 mm²) would overflow s = hᵀPh + R. */
+    const fix_q32_t v =
+        var_mm2 < QUANT_VAR_Q32 ? QUANT_VAR_Q32 : (var_mm2 > R_MAX_Q32 ? R_MAX_Q32 : var_mm2);
     if (!k->r_tracked[sensor]) {
         k->r[sensor] = v; /* the configured R was only a guess */
         k->r_tracked[sensor] = true;

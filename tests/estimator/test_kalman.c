@@ -386,6 +386,39 @@ static void test_process_noise_follows_a_ramp(void **state) {
     assert_true(abs(est.alpha_udeg - 4975000) > 3000000); /* about the ramp's mean */
 }
 
+static void test_extreme_noise_and_long_outage(void **state) {
+    (void)state;
+    struct kalman_config c = default_config();
+    c.process_noise_mm2[0] = KALMAN_P0_MM2_Q32; /* the largest Q accepted */
+    c.process_noise_mm2[1] = KALMAN_P0_MM2_Q32;
+    c.process_noise_mm2[2] = KALMAN_P0_MM2_Q32;
+    assert_int_equal(kalman_init(&kf, &c), KALMAN_OK);
+    /* a window of 0 and 65535 mm readings: variance 2^30 mm², beyond any usable R */
+    kalman_track_noise(&kf, 0, (int64_t)1 << 62, 100);
+    assert_true(kf.r[0] == (int64_t)1 << 52); /* bounded like a configured R (σ 1024 mm) */
+    struct kalman_rows rows;
+    const double x[4] = {97, 100, 103, 100};
+    for (int i = 0; i < 10; ++i) {
+        push(x, 0x0F, &rows);
+    }
+    /* a long outage under maximal process noise: P grows but never overflows */
+    for (int i = 0; i < 100000; ++i) {
+        push(x, 0x00, &rows);
+    }
+    for (unsigned a = 0; a < 3; ++a) {
+        assert_true(kf.p[a][a] > 0);
+        assert_true(kf.p[a][a] <= KALMAN_P0_MM2_Q32 << 4);
+    }
+    /* and the readings coming back are used again */
+    const uint16_t r[4] = {0, 65535, 65535, 0};
+    kalman_push_row(&kf, r, 0x0F, &rows);
+    push(x, 0x0F, &rows);
+    assert_int_equal(kf.numeric_restarts, 0);
+    struct kalman_result est;
+    kalman_estimate(&kf, 30000, &est);
+    assert_true(est.alpha_udeg >= -FIX_UDEG_90 && est.alpha_udeg <= FIX_UDEG_90);
+}
+
 static void test_flush_short_window(void **state) {
     (void)state;
     struct kalman_config c = default_config();
@@ -418,6 +451,7 @@ int main(void) {
         cmocka_unit_test(test_missing_sensors_observability),
         cmocka_unit_test(test_noise_tracking),
         cmocka_unit_test(test_process_noise_follows_a_ramp),
+        cmocka_unit_test(test_extreme_noise_and_long_outage),
         cmocka_unit_test(test_flush_short_window),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -25,7 +25,9 @@
  * - Measurement noise follows each sensor: R_k starts at the configured value,
  *   is replaced by the first window's gated sample variance of that sensor and
  *   then tracks it (R += (v − R)/2^shift per window), floored at 1/12 mm² (the
- *   1 mm quantisation), so unequal and drifting noise is weighted correctly.
+ *   1 mm quantisation) and capped at 2^20 mm² like a configured R, so unequal and
+ *   drifting noise is weighted correctly. Each P_ii grows under Q up to 16·P0 at
+ *   most (a long outage), so hᵀPh + R always fits int64.
  * - Innovation gate: a reading with e² > k²·s (and |e| > floor) is rejected.
  *   A gate is useless while P is still diffuse, so each (re)start buffers the
  *   first `warmup_rows` rows, gates them against the per-sensor median of those
