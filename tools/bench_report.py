@@ -29,6 +29,7 @@ def main():
     ap.add_argument("--qemu", required=True)
     ap.add_argument("--out", required=True)
     ap.add_argument("--source-dir", required=True)
+    ap.add_argument("--m4-build-dir", help="build folder of the m4 preset (default build/m4)")
     ap.add_argument("images", nargs="+")
     a = ap.parse_args()
     results = []
@@ -46,9 +47,9 @@ def main():
             results.append({"cpu": c, "impl": impl, "op": op, "insn": int(insn)})
 
     src = a.source_dir
-    m4 = os.path.join(src, "build", "m4")
-    run(["cmake", "--preset", "m4"], cwd=src)
-    run(["cmake", "--build", "--preset", "m4"], cwd=src)
+    m4 = a.m4_build_dir or os.path.join(src, "build", "m4")
+    run(["cmake", "--preset", "m4", "-B", m4], cwd=src)
+    run(["cmake", "--build", m4], cwd=src)
     elf = os.path.join(m4, "boards", "nucleo-l476rg", "firmware-nucleo-l476rg.elf")
     size = run(["arm-none-eabi-size", "-B", elf]).splitlines()[1].split()
     text, data, bss = int(size[0]), int(size[1]), int(size[2])

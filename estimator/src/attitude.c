@@ -14,25 +14,8 @@ static const uint8_t bit_c = ANGLES_BIT(ANGLES_C);
 static const uint8_t bit_d = ANGLES_BIT(ANGLES_D);
 
 void attitude_config_default(struct attitude_config *cfg) {
-    memset(cfg, 0, sizeof *cfg);
-    cfg->arm_um = 30000;
-    cfg->window = 100;
-    cfg->mode = ATTITUDE_TUMBLING;
-    cfg->estimators = ATTITUDE_EST_ALL;
-    cfg->consensus_tolerance_udeg = 1000;
-    cfg->paper_max_iterations = 200;
-    /* 1.5σ: a paper value that is merely noisier than the efficient product differs
-     * from it by sqrt(var_paper − var_product) ≈ 0.3σ (Hausman), so 1.5σ + tol
-     * flags only values the paper's weights pulled off (β ≠ 0, near-singular P) */
-    cfg->paper_consistency_sigmas_q8 = 384u;
-    cfg->gate_sigmas_q8 = 5u * 256u;
-    cfg->gate_floor_mm = 3;
-    for (unsigned s = 0; s < ATTITUDE_SENSORS; ++s) {
-        cfg->kalman_initial_noise_um2[s] = 4000000u; /* (2 mm)², the paper's jitter */
-    }
-    cfg->kalman_gate_sigmas_q8 = 5u * 256u;
-    cfg->kalman_warmup_rows = 5;
-    cfg->kalman_noise_shift = 2;
+    const struct attitude_config defaults = ATTITUDE_CONFIG_DEFAULT;
+    *cfg = defaults;
 }
 
 const char *attitude_error_message(int err) {

@@ -8,7 +8,7 @@
 #define TOF_PERIOD_MS      20u /* 50 Hz per sensor, the paper's experiment rate */
 #define TOF_BUDGET_MS      15u /* VL53L1X short mode: the longest budget that fits the period */
 #define TOF_MAX_SKEW_US    5000u
-#define TOF_IDLE_US        1000u /* data-ready latency bound when idle */
+#define TOF_IDLE_US        1000u  /* data-ready latency bound when idle */
 #define TOF_LOOP_BUDGET_US 40000u /* >= one sensor re-init (boot 1.2 ms + config) + 4 polls */
 
 _Static_assert(TOF_PERIOD_MS >= TOF_BUDGET_MS + VL53_IMP_MARGIN_MS,
@@ -32,23 +32,7 @@ const struct tof_app_config tof_app_default_config = {
                .silence_to_lost_ms = 3u * TOF_PERIOD_MS,
                .reinit_backoff_ms = 50,
                .recovery_timeout_ms = 5u * TOF_PERIOD_MS},
-    .estimator =
-        {
-            .arm_um = 30000,
-            .window = 100,
-            .mode = ATTITUDE_TUMBLING,
-            .estimators = ATTITUDE_EST_ALL,
-            .consensus_tolerance_udeg = 1000,
-            .paper_max_iterations = 200,
-            .paper_consistency_sigmas_q8 = 3u * 256u,
-            .gate_sigmas_q8 = 5u * 256u,
-            .gate_floor_mm = 3,
-            .kalman_process_noise_um2 = {0, 0, 0},
-            .kalman_initial_noise_um2 = {4000000, 4000000, 4000000, 4000000},
-            .kalman_gate_sigmas_q8 = 5u * 256u,
-            .kalman_warmup_rows = 3,
-            .kalman_noise_shift = 2,
-        },
+    .estimator = ATTITUDE_CONFIG_DEFAULT, /* the estimator's own defaults (attitude.h) */
     .raw_output = false,
 };
 

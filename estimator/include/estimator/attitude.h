@@ -153,10 +153,26 @@ struct attitude_state {
     uint32_t kalman_rows_since_restart; /* since the filter last restarted (UINT32_MAX: never) */
 };
 
-/* Fills cfg with the defaults: a = 30 mm, N = 100, tumbling, every estimator,
+/*
+ * The default configuration as an initializer, so a const configuration (the
+ * firmware's) can embed it: a = 30 mm, N = 100, tumbling, every estimator,
  * tolerance 1000 udeg (the paper's 1e-3 deg), 200 paper iterations, paper
- * consistency 1.5σ, MAD gate 5σ with a 3 mm floor, Kalman Q = 0, R = (2 mm)²,
- * innovation gate 5σ, 5 warm-up rows, noise shift 2. */
+ * consistency 1.5σ (a paper value merely noisier than the efficient product differs
+ * from it by sqrt(var_paper − var_product) ≈ 0.3σ (Hausman), so 1.5σ + tol flags only
+ * values the paper's weights pulled off), MAD gate 5σ with a 3 mm floor, Kalman Q = 0,
+ * R = (2 mm)² (the paper's jitter), innovation gate 5σ, 5 warm-up rows, noise shift 2.
+ */
+#define ATTITUDE_CONFIG_DEFAULT                                                                    \
+    {                                                                                              \
+        .arm_um = 30000, .window = 100, .mode = ATTITUDE_TUMBLING, .estimators = ATTITUDE_EST_ALL, \
+        .consensus_tolerance_udeg = 1000, .paper_max_iterations = 200,                             \
+        .paper_consistency_sigmas_q8 = 384u, .gate_sigmas_q8 = 5u * 256u, .gate_floor_mm = 3,      \
+        .kalman_process_noise_um2 = {0, 0, 0},                                                     \
+        .kalman_initial_noise_um2 = {4000000u, 4000000u, 4000000u, 4000000u},                      \
+        .kalman_gate_sigmas_q8 = 5u * 256u, .kalman_warmup_rows = 5, .kalman_noise_shift = 2,      \
+    }
+
+/* Fills cfg with ATTITUDE_CONFIG_DEFAULT. */
 void attitude_config_default(struct attitude_config *cfg);
 
 /* Checks cfg and starts st. Returns ATTITUDE_ERR_NONE or the attitude_error
