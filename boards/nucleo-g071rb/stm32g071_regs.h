@@ -1,5 +1,5 @@
 /*
- * STM32G071 addresses and bits used by board_hal.c. Base addresses: RM0444
+ * STM32G071 addresses and bits used by board_desc.c. Base addresses: RM0444
  * §2.2 Table 6 "STM32G0x1 peripheral register boundary addresses"; RCC bits:
  * RM0444 §5.4 "RCC registers" (register named at each group); DBG: RM0444
  * chapter "Debug support (DBG)", "DBG APB freeze register 1". Values as in

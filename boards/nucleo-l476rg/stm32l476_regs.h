@@ -1,5 +1,5 @@
 /*
- * STM32L476 addresses and bits used by board_hal.c. Base addresses: RM0351
+ * STM32L476 addresses and bits used by board_desc.c. Base addresses: RM0351
  * §2.2.2 Table 1 "STM32L4x6 memory map and peripheral register boundary
  * addresses"; RCC bits: RM0351 §6.4 "RCC registers" (register named at each
  * group); DBGMCU: RM0351 chapter "Debug support (DBG)", "DBGMCU APB1

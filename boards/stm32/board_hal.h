@@ -1,7 +1,8 @@
 /*
  * What an STM32 NUCLEO board (nucleo-l476rg, nucleo-g071rb) hands its main():
  * one init call, then the HAL implementations for struct tof_platform. Each
- * board folder has its own board_hal.c implementing this header.
+ * board folder describes itself in board_desc.c; boards/stm32/stm32_board.c implements this
+ * header once for all of them.
  *
  * Numbered GPIO pins (both boards, Arduino connector, docs/boards.md):
  *   0..3  XSHUT of sensors A..D  (D2..D5, open-drain outputs, start low)

@@ -1,0 +1,75 @@
+/*
+ * NUCLEO-L476RG board description for the shared STM32 board HAL
+ * (boards/stm32/stm32_board.c): pins, addresses, alternate functions and clocks (docs/boards.md has
+ * the pin map, clock choice, I2C timing and watchdog figures).
+ *
+ * Clock: SYSCLK = HSI16 = 16 MHz (AHB and APB prescalers left at /1). The
+ * application needs well under 1 MIPS (four sensors at tens of Hz, ~15k
+ * instructions per consensus solve), so 16 MHz leaves ample margin, keeps
+ * flash at 0 wait states in voltage range 1 (RM0351 "Embedded Flash memory",
+ * "Read access latency" table: 0 WS up to 16 MHz) with no PLL, and gives both NUCLEO boards the
+ * same core clock, SysTick reload, USART BRR and I2C TIMINGR. I2C1 takes
+ * HSI16 directly as its kernel clock, so its timing does not depend on SYSCLK.
+ */
+#include "hal/hal_err.h"
+#include "stm32_board.h"
+#include "stm32_reg.h"
+#include "stm32l476_regs.h"
+#include "board_hal.h"
+
+/* Numbered pins (board_hal.h): Arduino D2..D9 of UM1724 "Arduino connectors"
+ * (same mapping in Zephyr boards/arm/nucleo_l476rg/arduino_r3_connector.dtsi).
+ * PB3/PB4 leave their reset JTDO/NJTRST function; SWD (PA13/PA14) is untouched. */
+static const struct stm32_pin sensor_pins[2u * BOARD_HAL_SENSOR_COUNT] = {
+    {L476_GPIOA_BASE, 10u, STM32_PIN_OUTPUT_OPEN_DRAIN}, /* 0: XSHUT A, D2 */
+    {L476_GPIOB_BASE, 3u, STM32_PIN_OUTPUT_OPEN_DRAIN},  /* 1: XSHUT B, D3 */
+    {L476_GPIOB_BASE, 5u, STM32_PIN_OUTPUT_OPEN_DRAIN},  /* 2: XSHUT C, D4 */
+    {L476_GPIOB_BASE, 4u, STM32_PIN_OUTPUT_OPEN_DRAIN},  /* 3: XSHUT D, D5 */
+    {L476_GPIOB_BASE, 10u, STM32_PIN_INPUT_PULL_UP},     /* 4: GPIO1 A, D6 */
+    {L476_GPIOA_BASE, 8u, STM32_PIN_INPUT_PULL_UP},      /* 5: GPIO1 B, D7 */
+    {L476_GPIOA_BASE, 9u, STM32_PIN_INPUT_PULL_UP},      /* 6: GPIO1 C, D8 */
+    {L476_GPIOC_BASE, 7u, STM32_PIN_INPUT_PULL_UP},      /* 7: GPIO1 D, D9 */
+};
+
+const struct stm32_board_desc stm32_board_desc = {
+    .sensor_pins = sensor_pins,
+    /* I2C1 on D15 = PB8 (SCL) and D14 = PB9 (SDA), 400 kHz. */
+    .i2c_base = L476_I2C1_BASE,
+    .i2c_scl = {L476_GPIOB_BASE, 8u, L476_AF4_I2C1_PB8_PB9},
+    .i2c_sda = {L476_GPIOB_BASE, 9u, L476_AF4_I2C1_PB8_PB9},
+    /* USART2 on PA2 (TX) and PA3 (RX), the same alternate function for both
+     * (datasheet alternate-function table): the ST-LINK virtual COM port. */
+    .usart_base = L476_USART2_BASE,
+    .usart_port = L476_GPIOA_BASE,
+    .usart_tx_pin = 2u,
+    .usart_rx_pin = 3u,
+    .usart_af = L476_AF7_USART2_TX_PA2,
+    .iwdg_base = L476_IWDG_BASE,
+    .dbg_freeze_reg = L476_DBGMCU_APB1FZR1,
+    .dbg_freeze_bit = L476_DBGMCU_APB1FZR1_DBG_IWDG_STOP,
+};
+
+/* SYSCLK from MSI 4 MHz (reset) to HSI16. No flash latency change is needed
+ * at 16 MHz in range 1, and the AHB/APB prescalers stay /1. */
+int stm32_board_clock_init(void) {
+    stm32_reg_modify(L476_RCC_CR, 0u, L476_RCC_CR_HSION);
+    if (!stm32_board_poll_bits(L476_RCC_CR, L476_RCC_CR_HSIRDY, L476_RCC_CR_HSIRDY,
+                               STM32_BOARD_CLOCK_READY_POLLS)) {
+        return HAL_ERR_TIMEOUT;
+    }
+    stm32_reg_modify(L476_RCC_CFGR, L476_RCC_CFGR_SW_MASK, L476_RCC_CFGR_SW_HSI16);
+    if (!stm32_board_poll_bits(L476_RCC_CFGR, L476_RCC_CFGR_SWS_MASK, L476_RCC_CFGR_SWS_HSI16,
+                               STM32_BOARD_CLOCK_READY_POLLS)) {
+        return HAL_ERR_TIMEOUT;
+    }
+    return HAL_OK;
+}
+
+void stm32_board_peripheral_clocks_init(void) {
+    stm32_reg_modify(L476_RCC_AHB2ENR, 0u,
+                     L476_RCC_AHB2ENR_GPIOAEN | L476_RCC_AHB2ENR_GPIOBEN |
+                         L476_RCC_AHB2ENR_GPIOCEN);
+    stm32_reg_modify(L476_RCC_CCIPR, L476_RCC_CCIPR_I2C1SEL_MASK, L476_RCC_CCIPR_I2C1SEL_HSI16);
+    stm32_reg_modify(L476_RCC_APB1ENR1, 0u, L476_RCC_APB1ENR1_USART2EN | L476_RCC_APB1ENR1_I2C1EN);
+    (void)stm32_reg_read(L476_RCC_APB1ENR1); /* read back: the enables have taken effect */
+}

@@ -1,0 +1,136 @@
+/*
+ * The board HAL (board_hal.h) of the STM32 NUCLEO boards, once for all of them:
+ * SysTick time, USART2 log and telemetry, the sensor GPIOs, I2C1 at 400 kHz and
+ * the independent watchdog. What differs per board is in its descriptor and its
+ * clock functions (stm32_board.h; boards/nucleo-<board>/board_desc.c). Pin map, clock
+ * choice, I2C timing and watchdog figures: docs/boards.md.
+ */
+#include "board_hal.h"
+
+#include "hal/hal_err.h"
+#include "stm32_board.h"
+#include "stm32_gpio_regs.h"
+#include "stm32_i2c_regs.h"
+#include "stm32_iwdg.h"
+#include "stm32_reg.h"
+#include "stm32_systick_time.h"
+#include "stm32_usart.h"
+
+/* IWDG update flags clear within ~5 LSI periods (~160 us); 10 ms is generous. */
+#define IWDG_UPDATE_BUDGET_US 10000u
+
+void SysTick_Handler(void);
+
+static struct stm32_systick_time board_time;
+static const struct hal_time board_time_handle = {&stm32_systick_time_ops, &board_time};
+static struct stm32_gpio board_gpio;
+static struct stm32_i2c_config i2c_config; /* filled from the descriptor at init */
+static struct stm32_i2c board_i2c;
+static struct stm32_iwdg_config iwdg_config;
+static struct stm32_iwdg board_iwdg;
+static struct stm32_usart log_usart;
+static const struct hal_log_ops log_ops = {.write = stm32_usart_log_write};
+
+void SysTick_Handler(void) {
+    stm32_systick_time_tick(&board_time);
+}
+
+bool stm32_board_poll_bits(uintptr_t addr, uint32_t mask, uint32_t want, uint32_t polls) {
+    for (uint32_t i = 0; i < polls; ++i) {
+        if ((stm32_reg_read(addr) & mask) == want) {
+            return true;
+        }
+    }
+    return false;
+}
+
+int board_hal_init(void) {
+    const struct stm32_board_desc *d = &stm32_board_desc;
+    int err = stm32_board_clock_init();
+    if (err != HAL_OK) {
+        return err;
+    }
+    stm32_board_peripheral_clocks_init();
+
+    /* USART2 TX/RX -> ST-LINK virtual COM port: log text and telemetry frames. */
+    log_usart = (struct stm32_usart){
+        .base = d->usart_base,
+        .brr = (STM32_BOARD_CORE_HZ + STM32_BOARD_LOG_BAUD / 2u) / STM32_BOARD_LOG_BAUD,
+        .spin_max = 20000u, /* one byte is 87 us = 1390 cycles: >> the polls it needs */
+    };
+    stm32_gpio_set_af(d->usart_port, d->usart_tx_pin, d->usart_af);
+    stm32_gpio_set_af(d->usart_port, d->usart_rx_pin, d->usart_af);
+    stm32_gpio_set_mode(d->usart_port, d->usart_rx_pin, STM32_GPIO_MODE_AF);
+    stm32_gpio_set_mode(d->usart_port, d->usart_tx_pin, STM32_GPIO_MODE_AF);
+    stm32_usart_init(&log_usart);
+
+    board_gpio = (struct stm32_gpio){d->sensor_pins, 2u * BOARD_HAL_SENSOR_COUNT};
+    i2c_config = (struct stm32_i2c_config){
+        .base = d->i2c_base,
+        .timingr = STM32_I2C_TIMINGR_400KHZ_AT_16MHZ,
+        .byte_time_us = 23u, /* 9 bits x 2.5 us = 22.5 us */
+        .core_cycles_per_us = STM32_BOARD_CORE_HZ / 1000000u,
+        .recovery_half_period_us = 5u,
+        .scl = d->i2c_scl,
+        .sda = d->i2c_sda,
+        .time = board_time_handle,
+    };
+    /* IWDG: LSI / 32 (PR = 3) = 1 ms per count at the nominal 32 kHz; RLR = 399 -> 400 ms.
+     * The LSI RC tolerance (datasheet "LSI oscillator characteristics") scales it. */
+    iwdg_config = (struct stm32_iwdg_config){d->iwdg_base, 3u, 399u};
+
+    err = stm32_systick_time_init(&board_time, STM32_BOARD_CORE_HZ);
+    if (err == HAL_OK) {
+        err = stm32_gpio_configure(&board_gpio);
+    }
+    if (err == HAL_OK) {
+        err = stm32_i2c_init(&board_i2c, &i2c_config);
+    }
+    if (err == HAL_OK) {
+        stm32_reg_modify(d->dbg_freeze_reg, 0u, d->dbg_freeze_bit); /* a halt must not reset */
+        err =
+            stm32_iwdg_start(&board_iwdg, &iwdg_config, &board_time_handle, IWDG_UPDATE_BUDGET_US);
+    }
+    return err;
+}
+
+struct hal_i2c board_hal_i2c(void) {
+    return stm32_i2c_hal(&board_i2c);
+}
+
+struct hal_gpio board_hal_gpio(void) {
+    struct hal_gpio gpio = {&stm32_gpio_hal_ops, &board_gpio};
+    return gpio;
+}
+
+struct hal_time board_hal_time(void) {
+    return board_time_handle;
+}
+
+struct hal_watchdog board_hal_watchdog(void) {
+    struct hal_watchdog wdg = {&stm32_iwdg_ops, &board_iwdg};
+    return wdg;
+}
+
+struct hal_log board_hal_log(void) {
+    struct hal_log log = {&log_ops, &log_usart};
+    return log;
+}
+
+const struct stm32_i2c_stats *board_hal_i2c_stats(void) {
+    return &board_i2c.stats;
+}
+
+void board_hal_fault_write(const char *text, size_t len) {
+    stm32_usart_log_write(&log_usart, text,
+                          len); /* direct: no function pointer on the fault path */
+}
+
+struct hal_serial board_hal_serial(void) {
+    struct hal_serial serial = {&stm32_usart_serial_ops, &log_usart};
+    return serial;
+}
+
+uint32_t board_hal_log_dropped(void) {
+    return log_usart.dropped;
+}

@@ -1,0 +1,48 @@
+/*
+ * What distinguishes one STM32 NUCLEO board from another for the shared board
+ * HAL (stm32_board.c implements board_hal.h once for all of them): addresses,
+ * pins and alternate functions in a const descriptor, and the two steps that
+ * differ in kind (system clock switch, peripheral clock enables) as functions.
+ * Each board folder provides `stm32_board_desc` and the two functions.
+ */
+#ifndef BOARDS_STM32_BOARD_H
+#define BOARDS_STM32_BOARD_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "stm32_gpio.h"
+#include "stm32_i2c.h"
+
+/* Both boards run from HSI16 at 16 MHz (docs/boards.md): one SysTick reload, USART
+ * divisor and I2C TIMINGR serve them all. */
+#define STM32_BOARD_CORE_HZ  16000000u
+#define STM32_BOARD_LOG_BAUD 115200u
+
+struct stm32_board_desc {
+    const struct stm32_pin *sensor_pins; /* numbered pins 0..7: XSHUT A..D, GPIO1 A..D */
+    uintptr_t i2c_base;
+    struct stm32_i2c_pin i2c_scl, i2c_sda;
+    uintptr_t usart_base;
+    uintptr_t usart_port; /* GPIO port of the USART pins */
+    uint8_t usart_tx_pin, usart_rx_pin, usart_af;
+    uintptr_t iwdg_base;
+    uintptr_t dbg_freeze_reg; /* register whose bit stops the IWDG while the core is halted */
+    uint32_t dbg_freeze_bit;
+};
+
+extern const struct stm32_board_desc stm32_board_desc;
+
+/* Switch SYSCLK to HSI16 (16 MHz). HAL_OK or HAL_ERR_TIMEOUT (bounded polls). */
+int stm32_board_clock_init(void);
+
+/* Clock the GPIO ports, I2C1 (kernel clock HSI16), USART2 and the debug unit. */
+void stm32_board_peripheral_clocks_init(void);
+
+/* Poll `addr` until (value & mask) == want, at most `polls` reads; true if it did. */
+bool stm32_board_poll_bits(uintptr_t addr, uint32_t mask, uint32_t want, uint32_t polls);
+
+/* Upper bound on the polls of a clock switch: > 2 ms even at the 4 MHz reset clock. */
+#define STM32_BOARD_CLOCK_READY_POLLS 10000u
+
+#endif /* BOARDS_STM32_BOARD_H */
