@@ -432,6 +432,10 @@ static int refine(const struct pose_pipeline *p, struct solve_set *s, float r[3]
 
 /* Solves the symmetric positive definite 6x6 system h x = g by Cholesky; false if not SPD. */
 static bool solve6(float h[6][6], const float g[6], float x[6]) {
+    for (int i = 0; i < 6; ++i) {
+        x[i] = 0.0f;
+    }
+
     float l[6][6] = {{0.0f}};
     for (int i = 0; i < 6; ++i) {
         for (int j = 0; j <= i; ++j) {
@@ -449,7 +453,7 @@ static bool solve6(float h[6][6], const float g[6], float x[6]) {
             }
         }
     }
-    float y[6];
+    float y[6] = {0.0f};
     for (int i = 0; i < 6; ++i) {
         float sum = g[i];
         for (int k = 0; k < i; ++k) {
@@ -516,7 +520,7 @@ static uint8_t fuse_ranges(const struct pose_pipeline *p, struct solve_set *s, f
             float rp[3];
             const float zero[3] = {0.0f, 0.0f, 0.0f};
             apply(r, zero, s->model[k], rp);
-            float y[3] = {rp[0] + t[0], rp[1] + t[1], rp[2] + t[2]};
+            const float y[3] = {rp[0] + t[0], rp[1] + t[1], rp[2] + t[2]};
             if (!(y[2] > 0.0f)) {
                 return it;
             }
@@ -524,9 +528,9 @@ static uint8_t fuse_ranges(const struct pose_pipeline *p, struct solve_set *s, f
             /* Residual rows: u, v (normalised by sigma in px) and range (by its sigma). */
             float su = 1.0f / s->centroid_sigma[k];
             float sr = 1.0f / s->range_sigma[k];
-            float res[3] = {su * (cam->fx_px * y[0] / y[2] + cam->cx_px - s->uc[k]),
-                            su * (cam->fy_px * y[1] / y[2] + cam->cy_px - s->vc[k]),
-                            sr * (dist - s->range[k])};
+            const float res[3] = {su * (cam->fx_px * y[0] / y[2] + cam->cx_px - s->uc[k]),
+                                  su * (cam->fy_px * y[1] / y[2] + cam->cy_px - s->vc[k]),
+                                  sr * (dist - s->range[k])};
             float dy[3][3] = {
                 {su * cam->fx_px / y[2], 0.0f, -su * cam->fx_px * y[0] / (y[2] * y[2])},
                 {0.0f, su * cam->fy_px / y[2], -su * cam->fy_px * y[1] / (y[2] * y[2])},

@@ -367,8 +367,8 @@ static bool ellipse_confirm(const struct pose_config *cfg, const struct pose_wor
         }
         const struct pose_run *run = &ws->runs[i];
         float y = (float)((int32_t)run->y - (int32_t)c->y_origin) - my;
-        float xs[2] = {(float)((int32_t)run->x0 - (int32_t)c->x_origin) - 0.5f - mx,
-                       (float)((int32_t)run->x1 - (int32_t)c->x_origin) + 0.5f - mx};
+        const float xs[2] = {(float)((int32_t)run->x0 - (int32_t)c->x_origin) - 0.5f - mx,
+                             (float)((int32_t)run->x1 - (int32_t)c->x_origin) + 0.5f - mx};
         for (int k = 0; k < 2; ++k) {
             float x = xs[k];
             float rho = sqrtf(ixx * x * x + 2.0f * ixy * x * y + iyy * y * y);

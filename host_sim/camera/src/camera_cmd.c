@@ -348,6 +348,8 @@ int host_sim_camera_main(int argc, char **argv) {
     long valid = 0, correct = 0, complete = 0, status_count[POSE_STATUS_COUNT] = {0};
     long visible_sum = 0, detected_sum = 0, matched_sum = 0, wrong_sum = 0;
     double rot_sq = 0, pos_sq = 0, rot_max = 0, pos_max = 0;
+    long ok_frames = 0, ok_wrong = 0;
+    double ok_rot_sq = 0, ok_pos_sq = 0;
     double extract_sq = 0, raw_sq = 0, final_sq = 0;
     long n_extract = 0, n_final = 0, refine_iter_sum = 0, pose_draws = 0;
     double pipeline_seconds = 0.0;
@@ -419,6 +421,12 @@ int host_sim_camera_main(int argc, char **argv) {
             if (ev.correct) {
                 ++correct;
             }
+            if (res.status == POSE_STATUS_OK) {
+                ++ok_frames;
+                ok_wrong += !ev.correct;
+                ok_rot_sq += ev.rot_err_deg * ev.rot_err_deg;
+                ok_pos_sq += ev.pos_err_mm * ev.pos_err_mm;
+            }
             if (ev.complete) {
                 ++complete;
             }
@@ -444,6 +452,12 @@ int host_sim_camera_main(int argc, char **argv) {
     fprintf(out, "  \"valid_rate\": %.6f,\n", (double)valid / nf);
     fprintf(out, "  \"match_rate\": %.6f,\n", (double)correct / nf);
     fprintf(out, "  \"complete_match_rate\": %.6f,\n", (double)complete / nf);
+    /* The same restricted to status OK (>= 4 matches, converged): DEGRADED = 3 matches. */
+    double nok = ok_frames > 0 ? (double)ok_frames : 1.0;
+    fprintf(out, "  \"ok_rate\": %.6f,\n", (double)ok_frames / nf);
+    fprintf(out, "  \"ok_wrong_frames\": %ld,\n", ok_wrong);
+    fprintf(out, "  \"rot_err_deg_rms_ok\": %.6f,\n", ok_frames ? sqrt(ok_rot_sq / nok) : -1.0);
+    fprintf(out, "  \"pos_err_mm_rms_ok\": %.6f,\n", ok_frames ? sqrt(ok_pos_sq / nok) : -1.0);
     fprintf(out, "  \"rot_err_deg_rms\": %.6f,\n", valid ? sqrt(rot_sq / nv) : -1.0);
     fprintf(out, "  \"rot_err_deg_max\": %.6f,\n", valid ? rot_max : -1.0);
     fprintf(out, "  \"pos_err_mm_rms\": %.6f,\n", valid ? sqrt(pos_sq / nv) : -1.0);

@@ -62,8 +62,8 @@ struct pose_config {
     /* --- pose (paper §5) --- */
     uint16_t refine_max_iterations;
     bool refine_optimal_translation; /* re-solve t for each R (Lu et al.); false: as the paper */
-    float refine_tol_mm;     /* stop when |dt| and the rotation change (x 1 m lever) are below */
-    float reproj_gate_px;    /* matches with a larger final reprojection residual are dropped */
+    float refine_tol_mm;  /* stop when the change still to come (|dt|, rotation x 1 m) is below */
+    float reproj_gate_px; /* matches with a larger final reprojection residual are dropped */
     float range_gate_sigmas; /* and those whose range residual exceeds this many standard errors */
     bool fuse_range;         /* after the paper's refinement, fuse measured ranges (see pose.c) */
     uint8_t fuse_max_iterations;
@@ -103,8 +103,8 @@ struct pose_blob {
 };
 
 enum pose_status {
-    POSE_STATUS_OK = 0,       /* >= 4 matches, refinement converged, residuals within gates */
-    POSE_STATUS_DEGRADED,     /* valid pose from 3 matches or with the refinement bound hit */
+    POSE_STATUS_OK = 0,       /* >= 4 matches, converged, residuals within the gates */
+    POSE_STATUS_DEGRADED,     /* usable with care: only 3 matches, or the iteration bound hit */
     POSE_STATUS_FEW_BLOBS,    /* fewer than 3 candidate reflectors */
     POSE_STATUS_NO_MATCH,     /* fewer than 3 consistent matches */
     POSE_STATUS_DEGENERATE,   /* matched reflectors collinear */
