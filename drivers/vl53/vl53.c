@@ -260,15 +260,22 @@ int vl53_wait_boot(struct vl53_dev *dev) {
         return HAL_ERR_INVALID;
     }
     const uint32_t boot_window_us = VL53_BOOT_TIME_MAX_US + VL53_BOOT_SLACK_US;
-    const uint32_t deadline = dev->power_up_us + boot_window_us;
     const uint32_t per_transfer = or_default(dev->cfg->i2c_timeout_us, VL53_DEFAULT_I2C_TIMEOUT_US);
     /* Bounded by count as well as by time: the loop ends even if time stood still. */
     const uint32_t max_polls = boot_window_us / VL53_BOOT_POLL_US + 2u;
+    /* How long this call may wait, measured from its own start: to the end of the boot
+     * window, or one poll once that is over. Not an absolute deadline: compared with the
+     * wrapping clock, that would read as "not yet" once power-up lies more than half the
+     * counter's range (36 min) back, and the clock could wrap in mid-call. */
+    const uint32_t start = now_us(dev);
+    const uint32_t since_power_up = hal_time_elapsed_us(start, dev->power_up_us);
+    const uint32_t wait_us =
+        since_power_up < boot_window_us ? boot_window_us - since_power_up : VL53_BOOT_POLL_US;
     bool answered = false;
     int last_err = HAL_ERR_TIMEOUT;
     for (uint32_t poll = 0; poll < max_polls; ++poll) {
-        uint32_t now = now_us(dev);
-        uint32_t left = time_reached(now, deadline) ? VL53_BOOT_POLL_US : deadline - now;
+        uint32_t elapsed = hal_time_elapsed_us(now_us(dev), start);
+        uint32_t left = elapsed < wait_us ? wait_us - elapsed : VL53_BOOT_POLL_US;
         uint8_t state = 0u;
         int err = hal_i2c_reg16_read(&dev->cfg->i2c, dev->address, VL53_REG_FIRMWARE_SYSTEM_STATUS,
                                      &state, 1u, left < per_transfer ? left : per_transfer);
@@ -279,7 +286,7 @@ int vl53_wait_boot(struct vl53_dev *dev) {
             }
         }
         last_err = err;
-        if (time_reached(now_us(dev) + VL53_BOOT_POLL_US, deadline)) {
+        if (hal_time_elapsed_us(now_us(dev), start) + VL53_BOOT_POLL_US >= wait_us) {
             break;
         }
         delay_us(dev, VL53_BOOT_POLL_US);
