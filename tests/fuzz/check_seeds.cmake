@@ -1,0 +1,31 @@
+# The committed seed corpus is what fuzz_seeds writes today (so it follows the
+# harnesses' input formats): regenerate into OUT, compare with WANT file by file.
+#   cmake -DTOOL=<fuzz_seeds> -DOUT=<dir> -DWANT=<tests/fuzz/corpus> -P check_seeds.cmake
+foreach(var TOOL OUT WANT)
+  if(NOT DEFINED ${var})
+    message(FATAL_ERROR "check_seeds.cmake: -D${var}=... is required")
+  endif()
+endforeach()
+file(REMOVE_RECURSE ${OUT})
+execute_process(COMMAND ${TOOL} ${OUT} RESULT_VARIABLE rc ERROR_VARIABLE err)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "fuzz_seeds failed (exit ${rc}):\n${err}")
+endif()
+file(GLOB_RECURSE made RELATIVE ${OUT} ${OUT}/*)
+file(GLOB_RECURSE committed RELATIVE ${WANT} ${WANT}/*)
+list(SORT made)
+list(SORT committed)
+if(NOT made STREQUAL committed)
+  message(FATAL_ERROR "seed files differ:\n  written:   ${made}\n  committed: ${committed}\n"
+                      "regenerate: fuzz_seeds tests/fuzz/corpus")
+endif()
+foreach(f IN LISTS made)
+  file(SHA256 ${OUT}/${f} a)
+  file(SHA256 ${WANT}/${f} b)
+  if(NOT a STREQUAL b)
+    message(FATAL_ERROR "${f}: committed seed differs from what fuzz_seeds writes; "
+                        "regenerate: fuzz_seeds tests/fuzz/corpus")
+  endif()
+endforeach()
+list(LENGTH made n)
+message(STATUS "${n} seeds current")
