@@ -30,6 +30,8 @@ def main():
     ap.add_argument("--out", required=True)
     ap.add_argument("--source-dir", required=True)
     ap.add_argument("--m4-build-dir", help="build folder of the m4 preset (default build/m4)")
+    ap.add_argument("--pose-script", help="tests/pose/qemu_insn/run.sh: camera pose frames on M4")
+    ap.add_argument("--pose-out", help="build folder for the pose benchmark")
     ap.add_argument("images", nargs="+")
     a = ap.parse_args()
     results = []
@@ -45,6 +47,16 @@ def main():
             if c != cpu:
                 sys.exit(f"bench_report: {image} reports cpu {c}, expected {cpu}")
             results.append({"cpu": c, "impl": impl, "op": op, "insn": int(insn)})
+
+    if a.pose_script:
+        # The camera pose pipeline (estimator/pose, float on the M4F's FPU): one frame at
+        # about 0.7 m and one at about 3 m, instructions for the whole pipeline.
+        out = run(["bash", a.pose_script] + ([a.pose_out] if a.pose_out else []), timeout=900)
+        for block in re.findall(r"frame \d+\n((?:  .*\n?)+)", out):
+            fields = dict(line.split() for line in block.strip().splitlines())
+            range_mm = round(int(fields["t_z_um"]) / 1e6, 1)
+            results.append({"cpu": "cortex-m4", "impl": "float",
+                            "op": f"pose_frame_{range_mm}m", "insn": int(fields["insn_process"])})
 
     src = a.source_dir
     m4 = a.m4_build_dir or os.path.join(src, "build", "m4")
