@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Run every test: install what is missing, configure and build all five
 # presets (the image checks run at link time), run the host tests (ASan+UBSan),
-# the release-build tests, the on-target QEMU tests, and static analysis.
+# the release-build tests, the on-target QEMU tests, static analysis, and the
+# on-target benchmark (which must run and write build/qemu/bench.json).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 tools/setup.sh
@@ -25,4 +26,6 @@ echo "== tests: on target (QEMU)"
 ctest --preset qemu -j "$(nproc)"
 echo "== static analysis"
 cmake --build --preset host --target analyze
+echo "== benchmark: exact instruction counts under QEMU -> build/qemu/bench.json"
+cmake --build --preset qemu --target bench
 echo "== all tests passed"
