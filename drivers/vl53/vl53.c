@@ -55,6 +55,8 @@ static const struct timing_entry *find_timing(const struct vl53_timing *timing) 
         count = sizeof long_mode_timing / sizeof long_mode_timing[0];
     } else if (timing->mode != VL53_DISTANCE_SHORT) {
         return NULL;
+    } else {
+        /* short mode: the table chosen above */
     }
     for (size_t i = 0; i < count; ++i) {
         if (table[i].budget_ms == timing->budget_ms) {
@@ -99,9 +101,11 @@ static void delay_us(const struct vl53_dev *dev, uint32_t us) {
     dev->cfg->time.ops->delay_us(dev->cfg->time.ctx, us);
 }
 
-/* True once `now` is at or past `moment` (wrap-safe within half the counter range). */
+/* True once `now` is at or past `moment` (wrap-safe within half the counter range): the
+ * unsigned difference is below 2^31 exactly when (int32_t)(now - moment) >= 0. */
 static bool time_reached(uint32_t now, uint32_t moment) {
-    return (int32_t)(now - moment) >= 0;
+    const uint32_t since = now - moment;
+    return since < 0x80000000u;
 }
 
 static uint32_t or_default(uint32_t value, uint32_t fallback) {
@@ -464,8 +468,9 @@ static int read_data_ready(const struct call *c, enum vl53_polarity polarity, bo
     if (err != HAL_OK) {
         return err;
     }
-    bool level_high = (status & VL53_TIO_HV_STATUS_LEVEL_BIT) != 0u;
-    *ready = level_high == (polarity == VL53_INT_ACTIVE_HIGH);
+    const bool level_high = (status & VL53_TIO_HV_STATUS_LEVEL_BIT) != 0u;
+    const bool active_high = polarity == VL53_INT_ACTIVE_HIGH;
+    *ready = level_high == active_high;
     return HAL_OK;
 }
 
@@ -660,7 +665,8 @@ int vl53_gpio1_ready(struct vl53_dev *dev, bool *ready) {
     if (err != HAL_OK) {
         return err;
     }
-    *ready = level_high == (dev->cfg->polarity == VL53_INT_ACTIVE_HIGH);
+    const bool active_high = dev->cfg->polarity == VL53_INT_ACTIVE_HIGH;
+    *ready = level_high == active_high;
     return HAL_OK;
 }
 
@@ -757,7 +763,7 @@ static int read_result_in(const struct call *c, struct vl53_result *result) {
          * overdue (a stuck or dead part is what the deadline is for). */
         dev->data_deadline_us = result->time_us + overdue_after_us(vl53_period_us(&dev->timing));
     }
-    if (result->range_status == VL53_RANGE_UNKNOWN) {
+    if (result->range_status == (uint8_t)VL53_RANGE_UNKNOWN) {
         return HAL_ERR_CORRUPT; /* a raw status the part does not produce: garbled read */
     }
     err = check_stream(dev, result);
@@ -813,6 +819,8 @@ int vl53_poll(struct vl53_dev *dev, struct vl53_result *result) {
         by_register = true;
         err = read_data_ready(&c, dev->cfg->polarity, &ready);
         dev->next_register_poll_us = now + interval;
+    } else {
+        /* the next measurement is not due yet: no bus traffic, not ready */
     }
     if (err != HAL_OK) {
         return err;

@@ -160,10 +160,11 @@ int vl53_array_bring_up(struct vl53_array *array) {
     }
     const size_t count = array->cfg->count;
     int first_err = HAL_OK;
-    bool skip[VL53_ARRAY_MAX_SENSORS] = {false};
+    bool skip[VL53_ARRAY_MAX_SENSORS]; /* read only below `count`, each set here first */
     for (size_t i = 0; i < count; ++i) {
         struct vl53_sensor_report fresh = {VL53_SENSOR_OFF, VL53_ARRAY_OK, HAL_OK, 0u, 0u};
         array->report[i] = fresh;
+        skip[i] = false;
         int err = vl53_shutdown(&array->dev[i]);
         if (err != HAL_OK) {
             (void)fail(array, i, VL53_ARRAY_BUS_ERROR, err, 0u);
