@@ -93,24 +93,25 @@ struct att_cfg {
     unsigned gate_q8;
     unsigned floor_mm;
     unsigned warmup;
+    bool twins; /* also run the twin state and compare */
 };
 
-static const struct att_cfg att_default = {30000u, 100u, false, 15u, 1280u, 3u, 5u};
+static const struct att_cfg att_default = {30000u, 100u, false, 15u, 1280u, 3u, 5u, true};
 
 /* The guided configuration of fuzz_attitude.c, field by field (fuzz_range_u32 takes
  * lo + v % span: each v below is the wanted value minus lo). */
 static void att_guided(struct buf *b, const struct att_cfg *c) {
-    put_u8(b, 0);                    /* guided */
-    put_u32(b, c->arm_um - 1000u);   /* arm: 4 bytes (span >= 2^16) */
-    put_u8(b, c->window - 2u);       /* window 2..256: 1 byte */
-    put_u8(b, c->sliding ? 1u : 0u); /* mode */
-    put_u8(b, c->estimators - 1u);   /* estimators 1..15 */
-    put_u32(b, 1000u - 1u);          /* tolerance 1000 udeg */
-    put_u16(b, 200u - 1u);           /* paper iterations */
-    put_u16(b, 512u);                /* paper consistency 2 sigma */
-    put_u16(b, c->gate_q8);          /* MAD gate */
-    put_u8(b, c->floor_mm);          /* gate floor */
-    put_u8(b, 0);                    /* Q shift */
+    put_u8(b, c->twins ? 0x80u : 0u); /* guided */
+    put_u32(b, c->arm_um - 1000u);    /* arm: 4 bytes (span >= 2^16) */
+    put_u8(b, c->window - 2u);        /* window 2..256: 1 byte */
+    put_u8(b, c->sliding ? 1u : 0u);  /* mode */
+    put_u8(b, c->estimators - 1u);    /* estimators 1..15 */
+    put_u32(b, 1000u - 1u);           /* tolerance 1000 udeg */
+    put_u16(b, 200u - 1u);            /* paper iterations */
+    put_u16(b, 512u);                 /* paper consistency 2 sigma */
+    put_u16(b, c->gate_q8);           /* MAD gate */
+    put_u8(b, c->floor_mm);           /* gate floor */
+    put_u8(b, 0);                     /* Q shift */
     for (unsigned i = 0; i < 3u; ++i) {
         put_u16(b, 0); /* Q = 0 */
     }
@@ -187,6 +188,7 @@ static void attitude_seeds(void) {
     seed.len = 0; /* a sensor drops out for a window and more */
     c = att_default;
     c.window = 50u;
+    c.twins = false;
     att_guided(&seed, &c);
     att_plate(&seed, 50u, 800u, 2, 2, 1u, 0u, 0u, 4u);
     att_gap(&seed, 0x4u, 60u);
