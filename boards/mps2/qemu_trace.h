@@ -14,7 +14,7 @@
 
 #include "sim/range_source.h"
 
-#define QEMU_TRACE_RING 64u  /* rows kept for the device models and the output */
+#define QEMU_TRACE_RING 64u   /* rows kept for the device models and the output */
 #define QEMU_TRACE_LINE 1024u /* longest accepted line, as on the host */
 
 struct qemu_trace_row {
@@ -36,8 +36,8 @@ struct qemu_trace {
     int32_t arm_um;
     uint32_t period_ms;
     struct qemu_trace_row ring[QEMU_TRACE_RING];
-    uint32_t rows;  /* rows parsed so far (row i is in ring[i % RING] if i + RING > rows) */
-    bool done;      /* end of file reached */
+    uint32_t rows;   /* rows parsed so far (row i is in ring[i % RING] if i + RING > rows) */
+    bool done;       /* end of file reached */
     char error[160]; /* non-empty after an error: "file:line:col: what" */
 };
 

@@ -9,8 +9,9 @@
 
 #define CORTEX_M_SYST_CSR 0xE000E010u /* SysTick control and status (B3.3.3) */
 #define CORTEX_M_SYST_RVR 0xE000E014u /* reload value, 24 bits (B3.3.4) */
-#define CORTEX_M_SYST_CVR 0xE000E018u /* current value, counts down; any write clears it (B3.3.5)  \
-                                       */
+#define CORTEX_M_SYST_CVR                                                                          \
+    0xE000E018u /* current value, counts down; any write clears it (B3.3.5)                        \
+                 */
 
 #define CORTEX_M_SYST_CSR_ENABLE    (1u << 0)
 #define CORTEX_M_SYST_CSR_TICKINT   (1u << 1) /* exception on the count to 0 */

@@ -1,18 +1,18 @@
 #include "stm32_usart.h"
 
 /* USARTv2 register offsets and bits (RM0351 §40.8 / RM0444 §33.8). */
-#define USART_CR1     0x00u
-#define USART_BRR     0x0Cu
-#define USART_ISR     0x1Cu
-#define USART_ICR     0x20u
-#define USART_RDR     0x24u
-#define USART_TDR     0x28u
-#define USART_CR1_RE  (1u << 2)
-#define USART_ISR_ORE (1u << 3) /* overrun error; cleared by ICR.ORECF (same bit) */
+#define USART_CR1      0x00u
+#define USART_BRR      0x0Cu
+#define USART_ISR      0x1Cu
+#define USART_ICR      0x20u
+#define USART_RDR      0x24u
+#define USART_TDR      0x28u
+#define USART_CR1_RE   (1u << 2)
+#define USART_ISR_ORE  (1u << 3) /* overrun error; cleared by ICR.ORECF (same bit) */
 #define USART_ISR_RXNE (1u << 5) /* RXNE (L4) / RXFNE (G0, FIFO disabled: same meaning) */
-#define USART_CR1_UE  (1u << 0)
-#define USART_CR1_TE  (1u << 3)
-#define USART_ISR_TXE (1u << 7) /* TXE (L4) / TXFNF (G0, FIFO disabled: same meaning) */
+#define USART_CR1_UE   (1u << 0)
+#define USART_CR1_TE   (1u << 3)
+#define USART_ISR_TXE  (1u << 7) /* TXE (L4) / TXFNF (G0, FIFO disabled: same meaning) */
 
 void stm32_usart_init(struct stm32_usart *usart) {
     stm32_reg_write(usart->base + USART_CR1, 0u);

@@ -207,8 +207,8 @@ static void start_pending_sensors(struct tof_app *app) {
  * poll every idle_us, which bounds the data-ready latency.
  */
 static uint32_t idle_time_us(const struct tof_app *app, uint64_t now_us) {
-    const uint32_t lead = app->phase_us > app->cfg->idle_us ? app->phase_us - app->cfg->idle_us
-                                                            : 0u;
+    const uint32_t lead =
+        app->phase_us > app->cfg->idle_us ? app->phase_us - app->cfg->idle_us : 0u;
     const uint64_t next_slot = app->assembler.origin_us +
                                (uint64_t)app->assembler.next_index * app->assembler_cfg.period_us +
                                lead;

@@ -144,8 +144,7 @@ static void on_sample(void *ctx, const struct tof_sample *sample) {
     send(link, frame, tlm_encode_raw_sample(link->seq, &msg, frame, sizeof frame));
 }
 
-const struct tof_output_ops tof_link_output_ops = {.estimate = on_estimate,
-                                                   .sample = on_sample};
+const struct tof_output_ops tof_link_output_ops = {.estimate = on_estimate, .sample = on_sample};
 
 void tof_link_send_status(struct tof_link *link) {
     const struct tof_app *app = link->app;
@@ -155,8 +154,8 @@ void tof_link_send_status(struct tof_link *link) {
         .fw_patch = FW_PATCH,
         .uptime_ms = (uint32_t)(app->now_us / 1000u),
         .window_n = app->estimator.cfg.window,
-        .mode = app->estimator.cfg.mode == ATTITUDE_SLIDING ? TLM_WINDOW_SLIDING
-                                                             : TLM_WINDOW_TUMBLING,
+        .mode =
+            app->estimator.cfg.mode == ATTITUDE_SLIDING ? TLM_WINDOW_SLIDING : TLM_WINDOW_TUMBLING,
         .estimator = (uint8_t)app->primary,
         .running = app->running,
         .raw_stream = app->raw_output,

@@ -41,8 +41,8 @@ static void print_row(FILE *f, const struct campaign_row *row, bool markdown) {
     for (unsigned s = 0; s < 3; ++s) {
         windows += r->status_count[ATTITUDE_EST_CONSENSUS][s];
     }
-    available = r->status_count[ATTITUDE_EST_CONSENSUS][0] +
-                r->status_count[ATTITUDE_EST_CONSENSUS][1];
+    available =
+        r->status_count[ATTITUDE_EST_CONSENSUS][0] + r->status_count[ATTITUDE_EST_CONSENSUS][1];
     for (unsigned e = 0; e < ATTITUDE_EST_COUNT; ++e) {
         wrong += r->unflagged_wrong[e];
     }
@@ -58,9 +58,9 @@ static void print_row(FILE *f, const struct campaign_row *row, bool markdown) {
                 row->kind, row->rate * 100.0, row->rc == 0 ? "0" : "FAIL", r->overruns, wrong,
                 avail, recovery, r->max_iteration_us, r->reinits, r->bus_recoveries);
     } else {
-        fprintf(f, "%-9s %7.2f %5s %5u %9u %7.1f %8s %7u %7u %7u\n", row->kind,
-                row->rate * 100.0, row->rc == 0 ? "0" : "FAIL", r->overruns, wrong, avail,
-                recovery, r->max_iteration_us, r->reinits, r->bus_recoveries);
+        fprintf(f, "%-9s %7.2f %5s %5u %9u %7.1f %8s %7u %7u %7u\n", row->kind, row->rate * 100.0,
+                row->rc == 0 ? "0" : "FAIL", r->overruns, wrong, avail, recovery,
+                r->max_iteration_us, r->reinits, r->bus_recoveries);
     }
 }
 
@@ -70,8 +70,8 @@ static void print_table(FILE *f, const struct campaign_row *rows, size_t n, bool
               "| reinits | bus rec |\n|---|---|---|---|---|---|---|---|---|---|\n",
               f);
     } else {
-        fprintf(f, "%-9s %7s %5s %5s %9s %7s %8s %7s %7s %7s\n", "fault", "rate%", "hang",
-                "overr", "unflagged", "avail%", "recov_ms", "max_it", "reinits", "busrec");
+        fprintf(f, "%-9s %7s %5s %5s %9s %7s %8s %7s %7s %7s\n", "fault", "rate%", "hang", "overr",
+                "unflagged", "avail%", "recov_ms", "max_it", "reinits", "busrec");
     }
     for (size_t i = 0; i < n; ++i) {
         print_row(f, &rows[i], markdown);
@@ -161,8 +161,9 @@ int campaign_main(int argc, char **argv) {
             perror(markdown);
             failures = 1;
         } else {
-            fprintf(f, "Fault campaign: `host_sim campaign --seed %llu` on the table1 scenario "
-                       "(%llu rows); faults stop at row %llu.\n\n",
+            fprintf(f,
+                    "Fault campaign: `host_sim campaign --seed %llu` on the table1 scenario "
+                    "(%llu rows); faults stop at row %llu.\n\n",
                     (unsigned long long)seed, (unsigned long long)base.rows,
                     (unsigned long long)stop_row);
             print_table(f, rows, n, true);
@@ -173,8 +174,10 @@ int campaign_main(int argc, char **argv) {
         remove(generated);
     }
     if (failures != 0) {
-        fprintf(stderr, "host_sim campaign: %d run(s) hung, failed or reported an unflagged "
-                        "wrong estimate\n", failures);
+        fprintf(stderr,
+                "host_sim campaign: %d run(s) hung, failed or reported an unflagged "
+                "wrong estimate\n",
+                failures);
         return 1;
     }
     return 0;

@@ -22,9 +22,9 @@ struct replay_args {
     const char *out_path;
     const char *report_path;
     const char *plot_path;
-    const char *faults;    /* fault spec, parsed by the replay */
+    const char *faults; /* fault spec, parsed by the replay */
     uint64_t seed;
-    bool quiet;            /* --quiet: no summary table on stdout */
+    bool quiet;                /* --quiet: no summary table on stdout */
     uint64_t faults_until_row; /* --faults-until ROW: injection stops there (0: never) */
 };
 

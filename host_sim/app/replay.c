@@ -405,8 +405,9 @@ static int run(struct replay *r) {
             return 0; /* every row of the trace went through the firmware */
         }
         if (!sim_replay_progressing(&r->sim, r->samples_done)) {
-            fprintf(stderr, "host_sim replay: firmware stalled: no sample for %u s of simulated "
-                            "time at row %llu\n",
+            fprintf(stderr,
+                    "host_sim replay: firmware stalled: no sample for %u s of simulated "
+                    "time at row %llu\n",
                     SIM_REPLAY_STALL_US / 1000000u, (unsigned long long)r->samples_done);
             return -1;
         }
@@ -427,7 +428,8 @@ static int write_report(struct replay *r, const char *path) {
         fprintf(stderr, "host_sim replay: %s: %s\n", path, strerror(errno));
         return -1;
     }
-    fprintf(f, "{\n  \"trace\": \"%s\",\n  \"rows\": %llu,\n  \"window\": %u,\n  \"mode\": \"%s\",\n",
+    fprintf(f,
+            "{\n  \"trace\": \"%s\",\n  \"rows\": %llu,\n  \"window\": %u,\n  \"mode\": \"%s\",\n",
             r->args->trace_path, (unsigned long long)r->stream.next_index, r->args->window,
             r->args->sliding ? "sliding" : "tumbling");
     fprintf(f, "  \"primary\": \"%s\",\n  \"estimates\": %llu,\n  \"truth\": %s,\n",
@@ -444,9 +446,8 @@ static int write_report(struct replay *r, const char *path) {
                 "\"unflagged_wrong\": %u",
                 attitude_estimator_name((enum attitude_estimator)e), s->status_count[0],
                 s->status_count[1], s->status_count[2], r->unflagged_wrong[e]);
-        static const char *const keys[6] = {"rms_alpha_deg", "mean_abs_alpha_deg",
-                                            "max_alpha_deg", "rms_beta_deg",
-                                            "mean_abs_beta_deg", "max_beta_deg"};
+        static const char *const keys[6] = {"rms_alpha_deg", "mean_abs_alpha_deg", "max_alpha_deg",
+                                            "rms_beta_deg",  "mean_abs_beta_deg",  "max_beta_deg"};
         const double vals[6] = {rms(s->sum2_alpha, s->n_alpha),
                                 s->n_alpha ? s->sum_abs_alpha / (double)s->n_alpha : NO_VALUE,
                                 s->n_alpha ? s->max_alpha : NO_VALUE,
@@ -536,7 +537,8 @@ static int make_plot(struct replay *r) {
     }
     r->plot_data = NULL;
     if (strchr(r->plot_data_path, '\'') != NULL || strchr(r->args->trace_path, '\'') != NULL) {
-        fprintf(stderr, "host_sim replay: --plot: paths with a quote character are not supported\n");
+        fprintf(stderr,
+                "host_sim replay: --plot: paths with a quote character are not supported\n");
         return -1;
     }
     char cmd[12288];

@@ -17,11 +17,11 @@ struct replay_result {
     uint32_t unflagged_wrong[ATTITUDE_EST_COUNT]; /* ok yet > 5x the window's bound off */
     double rms_alpha_deg[ATTITUDE_EST_COUNT];
     double crb_alpha_deg; /* RMS over windows of the bound */
-    uint32_t overruns;          /* main-loop iterations over their budget */
+    uint32_t overruns;    /* main-loop iterations over their budget */
     uint32_t max_iteration_us;
     uint32_t reinits, bus_recoveries;
-    bool faults_stopped;        /* --faults-until was reached */
-    int64_t recovery_us;        /* from the stop to four healthy sensors (-1: never) */
+    bool faults_stopped; /* --faults-until was reached */
+    int64_t recovery_us; /* from the stop to four healthy sensors (-1: never) */
 };
 
 /* Run `host_sim replay` with parsed arguments. Returns the process exit status. */

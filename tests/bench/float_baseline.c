@@ -142,7 +142,8 @@ void flt_kalman_update(struct flt_kalman *k, const uint16_t range_mm[4]) {
         }
         for (unsigned i = 0; i < 3; ++i) {
             for (unsigned j = 0; j < 3; ++j) {
-                tmp[i][j] = ikh[i][0] * k->p[0][j] + ikh[i][1] * k->p[1][j] + ikh[i][2] * k->p[2][j];
+                tmp[i][j] =
+                    ikh[i][0] * k->p[0][j] + ikh[i][1] * k->p[1][j] + ikh[i][2] * k->p[2][j];
             }
         }
         for (unsigned i = 0; i < 3; ++i) {

@@ -12,9 +12,9 @@
 struct flt_window {
     float arm_mm;
     unsigned n;
-    float sum_x[4], sum_xx[4];               /* per sensor */
-    float sum_a[5], sum_aa[5][5];            /* α1..α5 and their cross products */
-    float sum_b[5], sum_bb[5][5];            /* β1..β5 */
+    float sum_x[4], sum_xx[4];    /* per sensor */
+    float sum_a[5], sum_aa[5][5]; /* α1..α5 and their cross products */
+    float sum_b[5], sum_bb[5][5]; /* β1..β5 */
 };
 
 struct flt_kalman {

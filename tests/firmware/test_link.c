@@ -201,8 +201,8 @@ static void test_malformed_frames_are_counted_and_refused(void **state) {
     /* out of range: window 1 (encoded by hand: the encoder refuses it) */
     const uint8_t payload[3] = {1, 0, 0};
     uint8_t frame[TLM_FRAME_MAX];
-    const int n = tlm_frame_encode(TLM_TYPE_SET_WINDOW, 5, payload, sizeof payload, frame,
-                                   sizeof frame);
+    const int n =
+        tlm_frame_encode(TLM_TYPE_SET_WINDOW, 5, payload, sizeof payload, frame, sizeof frame);
     assert_true(n > 0);
     memcpy(t.serial.rx + t.serial.rx_len, frame, (size_t)n);
     t.serial.rx_len += (size_t)n;

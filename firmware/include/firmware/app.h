@@ -26,10 +26,10 @@
 #define TOF_FW_VERSION "0.1.0"
 
 enum tof_event_kind {
-    TOF_EVENT_HEALTH = 0,     /* a sensor changed health state */
-    TOF_EVENT_REINIT = 1,     /* a sensor was re-initialised (err says how it went) */
+    TOF_EVENT_HEALTH = 0,       /* a sensor changed health state */
+    TOF_EVENT_REINIT = 1,       /* a sensor was re-initialised (err says how it went) */
     TOF_EVENT_BUS_RECOVERY = 2, /* the bus was recovered (err says how it went) */
-    TOF_EVENT_OVERRUN = 3,    /* a main-loop iteration exceeded its budget */
+    TOF_EVENT_OVERRUN = 3,      /* a main-loop iteration exceeded its budget */
 };
 
 /* One window's estimates, all estimators side by side (DESIGN.md §6). */
@@ -48,16 +48,16 @@ struct tof_event {
 
 struct tof_app_counters {
     uint32_t iterations;
-    uint32_t overruns;           /* iterations longer than loop_budget_us */
+    uint32_t overruns; /* iterations longer than loop_budget_us */
     uint32_t max_iteration_us;
-    uint32_t readings;           /* good readings fed to the assembler */
+    uint32_t readings; /* good readings fed to the assembler */
     uint32_t read_errors[TOF_SENSORS];
     uint32_t errors_by_code[12]; /* index -err for hal_err codes -1..-11 */
     uint32_t reinits_ok;
     uint32_t reinits_failed;
     uint32_t bus_recoveries;
-    uint32_t samples;            /* samples assembled */
-    uint32_t estimates;          /* estimate records emitted */
+    uint32_t samples;   /* samples assembled */
+    uint32_t estimates; /* estimate records emitted */
 };
 
 struct tof_app {
@@ -70,12 +70,12 @@ struct tof_app {
     bool start_pending[TOF_SENSORS]; /* configured, waiting for the next slot boundary */
     struct tof_assembler_config assembler_cfg;
     struct tof_assembler assembler;
-    struct attitude_state estimator;      /* its cfg is the live estimator configuration */
-    enum attitude_estimator primary;      /* the estimator telemetry and status lead with */
-    bool running;                         /* false: samples are assembled, not estimated */
+    struct attitude_state estimator; /* its cfg is the live estimator configuration */
+    enum attitude_estimator primary; /* the estimator telemetry and status lead with */
+    bool running;                    /* false: samples are assembled, not estimated */
     uint32_t phase_us;      /* offset into its slot of the earliest reading of the last sample */
     uint32_t slot_first_us; /* ... being measured for the current slot (period: none yet) */
-    uint64_t now_us;     /* 64-bit extension of the platform's 32-bit microsecond clock */
+    uint64_t now_us;        /* 64-bit extension of the platform's 32-bit microsecond clock */
     uint32_t last_raw_us;
     bool raw_output;
     struct tof_app_counters counters;

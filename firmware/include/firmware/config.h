@@ -20,7 +20,7 @@ struct tof_app_config {
     uint32_t idle_us;          /* longest sleep of an idle iteration (data-ready latency) */
     struct tof_health_config health;
     struct attitude_config estimator; /* window, mode, estimators, tolerances, Kalman */
-    bool raw_output; /* send every assembled sample to the output too */
+    bool raw_output;                  /* send every assembled sample to the output too */
 };
 
 /* The product's default configuration (firmware/src/config.c). */

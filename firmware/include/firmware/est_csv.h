@@ -17,7 +17,7 @@
 #include "estimator/attitude.h"
 #include "firmware/text.h"
 
-#define TOF_EST_CSV_HEADER "t_ms,alpha_deg,beta_deg,distance_mm,status\n"
+#define TOF_EST_CSV_HEADER  "t_ms,alpha_deg,beta_deg,distance_mm,status\n"
 #define TOF_EST_CSV_ROW_MAX 80u /* longest row including '\n' and the terminator */
 
 /* Append one row (with '\n') for estimate `e` at trace time `t_ms`. */

@@ -24,10 +24,10 @@ struct tof_link {
     struct tof_app *app; /* set by tof_link_bind(), once the app exists */
     struct hal_serial serial;
     struct tlm_decoder decoder;
-    uint8_t seq;          /* sequence number of the next frame sent */
-    uint32_t tx_frames;   /* frames handed to the serial port whole */
-    uint32_t tx_dropped;  /* frames the port did not accept whole */
-    uint32_t commands_ok; /* commands applied */
+    uint8_t seq;               /* sequence number of the next frame sent */
+    uint32_t tx_frames;        /* frames handed to the serial port whole */
+    uint32_t tx_dropped;       /* frames the port did not accept whole */
+    uint32_t commands_ok;      /* commands applied */
     uint32_t commands_refused; /* valid commands refused in the current state */
 };
 
