@@ -21,8 +21,5 @@ uint32_t sim_prng_below(struct sim_prng *prng, uint32_t bound) {
 }
 
 bool sim_prng_chance_ppm(struct sim_prng *prng, uint32_t ppm) {
-    if (ppm == 0u) {
-        return false; /* a kind that is off costs no draw (and the replay no time) */
-    }
     return sim_prng_below(prng, 1000000u) < ppm;
 }
