@@ -180,8 +180,8 @@ void sim_vl53_update(struct sim_vl53 *dev) {
         return;
     }
     const uint64_t first = dev->range_start_us + dev->budget_us;
-    if (t < first) {
-        return;
+    if (t < first + dev->completed * dev->period_us) {
+        return; /* the next measurement is not due: the common case, no division */
     }
     const uint64_t due = (t - first) / dev->period_us + 1u;
     if (due - dev->completed > SIM_VL53_MAX_CATCH_UP) {
