@@ -9,6 +9,7 @@
 #     OUT        logs, corpora and any crash-*/timeout-*/leak-* inputs
 #                (default BUILD_DIR/fuzz-long)
 # Exit status 1 if any target failed (crash, timeout, leak, property violation).
+# FUZZ_REPORT_ONLY=1 prints the table of an earlier run in OUT without fuzzing.
 set -u
 build=${1:?usage: long_run.sh BUILD_DIR [SECONDS] [OUT]}
 seconds=${2:-600}
@@ -28,6 +29,7 @@ fuzz_vl53|tests/fuzz/bin/fuzz_vl53|tests/fuzz/corpus/fuzz_vl53|-max_len=4096
 
 run_one() { # name binary seeds extra
     name=$1
+    [ "${FUZZ_REPORT_ONLY:-0}" = 1 ] && return
     bin=$build/$2
     if [ ! -x "$bin" ]; then
         echo "$name: $bin not built" > "$out/$name.log"
@@ -69,7 +71,7 @@ for t in $targets; do
     log=$out/$name.log
     runs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$')
     speed=$(grep -o 'stat::average_exec_per_sec: *[0-9]*' "$log" | grep -o '[0-9]*$')
-    done_line=$(grep ' DONE ' "$log" | tail -n 1)
+    done_line=$(grep -E '[[:space:]]DONE[[:space:]]' "$log" | tail -n 1)
     cov=$(echo "$done_line" | sed -n 's/.*cov: \([0-9]*\).*/\1/p')
     ft=$(echo "$done_line" | sed -n 's/.*ft: \([0-9]*\).*/\1/p')
     corp=$(echo "$done_line" | sed -n 's/.*corp: \([^ ]*\).*/\1/p')
