@@ -1,6 +1,8 @@
 /* Eq. 1 of the first paper and its β mirror: see estimator/angles.h. */
 #include "estimator/angles.h"
 
+#include "fix_atan.h"
+
 #define A_ ANGLES_BIT(ANGLES_A)
 #define B_ ANGLES_BIT(ANGLES_B)
 #define C_ ANGLES_BIT(ANGLES_C)
@@ -51,8 +53,72 @@ fix_udeg_t angles_pair_udeg(uint16_t x_hi_mm, uint16_t x_lo_mm, int32_t arm_um, 
     return fix_atan2_udeg(diff_um, (int64_t)arm_um * (int64_t)span);
 }
 
+void angles_arm_prepare(struct angles_arm *arm, int32_t arm_um) {
+    arm->arm_um = arm_um;
+    /* shift = ceil(log2(a in mm)), at least 1: 2^(31 + shift) · 1000 / a in [2^31, 2^32]
+     * (2^32 only for a = 1 mm, stored as 2^32 − 1: 2^-32 relative) */
+    uint32_t shift = 1u;
+    while (shift < 10u && ((int64_t)1000 << shift) < (int64_t)arm_um) {
+        ++shift;
+    }
+    const int64_t inv = fix_div_round_s64((int64_t)1000 << (31u + shift), arm_um); /* < 2^52 */
+    arm->inv = inv > (int64_t)UINT32_MAX ? UINT32_MAX : (uint32_t)inv;
+    arm->shift = shift;
+}
+
+/* atan(d / (span·a)): |d| / (span·a) in Q31 from the reciprocal with one 32x32 -> 64
+ * product (|d| <= 65535), the table within 45°, the CORDIC on the exact operands beyond. */
+FIX_INLINE fix_udeg_t pair_angle(uint16_t x_hi_mm, uint16_t x_lo_mm, const struct angles_arm *arm,
+                                 unsigned span) {
+    const bool neg = x_hi_mm < x_lo_mm;
+    const uint32_t m = neg ? (uint32_t)x_lo_mm - x_hi_mm : (uint32_t)x_hi_mm - x_lo_mm;
+    const unsigned sh = arm->shift + (span - 1u); /* 1..11 */
+    const uint64_t p = (uint64_t)m * arm->inv;
+    const uint32_t lo = (uint32_t)p;
+    const uint32_t hi = (uint32_t)(p >> 32);
+    if ((hi >> (sh - 1u)) != 0u) { /* slope >= 1 */
+        return angles_pair_udeg(x_hi_mm, x_lo_mm, arm->arm_um, span);
+    }
+    const fix_udeg_t a = fix_atan_q31_inline((lo >> sh) | (hi << (32u - sh)));
+    return neg ? -a : a;
+}
+
+static fix_udeg_t pair1(uint16_t x_hi_mm, uint16_t x_lo_mm, const struct angles_arm *arm) {
+    return pair_angle(x_hi_mm, x_lo_mm, arm, 1u);
+}
+
+static fix_udeg_t pair2(uint16_t x_hi_mm, uint16_t x_lo_mm, const struct angles_arm *arm) {
+    return pair_angle(x_hi_mm, x_lo_mm, arm, 2u);
+}
+
+fix_udeg_t angles_pair_prepared_udeg(uint16_t x_hi_mm, uint16_t x_lo_mm,
+                                     const struct angles_arm *arm, unsigned span) {
+    return span == 2u ? pair2(x_hi_mm, x_lo_mm, arm) : pair1(x_hi_mm, x_lo_mm, arm);
+}
+
+void angles_compute_all(const uint16_t range_mm[ANGLES_SENSORS], const struct angles_arm *arm,
+                        fix_udeg_t alpha_udeg[ANGLES_PER_AXIS], fix_udeg_t *beta5_udeg) {
+    const uint16_t xa = range_mm[ANGLES_A];
+    const uint16_t xb = range_mm[ANGLES_B];
+    const uint16_t xc = range_mm[ANGLES_C];
+    const uint16_t xd = range_mm[ANGLES_D];
+    alpha_udeg[0] = pair1(xb, xa, arm);
+    alpha_udeg[1] = pair1(xd, xa, arm);
+    alpha_udeg[2] = pair1(xc, xb, arm);
+    alpha_udeg[3] = pair1(xc, xd, arm);
+    alpha_udeg[4] = pair2(xc, xa, arm);
+    *beta5_udeg = pair2(xb, xd, arm);
+}
+
 void angles_compute(const uint16_t range_mm[ANGLES_SENSORS], uint8_t sensor_mask, int32_t arm_um,
                     struct angles_sample *out) {
+    struct angles_arm arm;
+    angles_arm_prepare(&arm, arm_um);
+    angles_compute_prepared(range_mm, sensor_mask, &arm, out);
+}
+
+void angles_compute_prepared(const uint16_t range_mm[ANGLES_SENSORS], uint8_t sensor_mask,
+                             const struct angles_arm *arm, struct angles_sample *out) {
     const uint16_t xa = range_mm[ANGLES_A];
     const uint16_t xb = range_mm[ANGLES_B];
     const uint16_t xc = range_mm[ANGLES_C];
@@ -67,19 +133,19 @@ void angles_compute(const uint16_t range_mm[ANGLES_SENSORS], uint8_t sensor_mask
     const bool cd = (sensor_mask & (C_ | D_)) == (C_ | D_);
     const bool ac = (sensor_mask & (A_ | C_)) == (A_ | C_);
     const bool bd = (sensor_mask & (B_ | D_)) == (B_ | D_);
-    const fix_udeg_t d_ba = ab ? angles_pair_udeg(xb, xa, arm_um, 1u) : 0;
-    const fix_udeg_t d_da = ad ? angles_pair_udeg(xd, xa, arm_um, 1u) : 0;
-    const fix_udeg_t d_cb = bc ? angles_pair_udeg(xc, xb, arm_um, 1u) : 0;
-    const fix_udeg_t d_cd = cd ? angles_pair_udeg(xc, xd, arm_um, 1u) : 0;
-    const fix_udeg_t h_ca = ac ? angles_pair_udeg(xc, xa, arm_um, 2u) : 0;
-    const fix_udeg_t h_bd = bd ? angles_pair_udeg(xb, xd, arm_um, 2u) : 0;
+    const fix_udeg_t d_ba = ab ? pair1(xb, xa, arm) : 0;
+    const fix_udeg_t d_da = ad ? pair1(xd, xa, arm) : 0;
+    const fix_udeg_t d_cb = bc ? pair1(xc, xb, arm) : 0;
+    const fix_udeg_t d_cd = cd ? pair1(xc, xd, arm) : 0;
+    const fix_udeg_t h_ca = ac ? pair2(xc, xa, arm) : 0;
+    const fix_udeg_t h_bd = bd ? pair2(xb, xd, arm) : 0;
 
     out->alpha_udeg[0] = d_ba;
     out->alpha_udeg[1] = d_da;
     out->alpha_udeg[2] = d_cb;
     out->alpha_udeg[3] = d_cd;
     out->alpha_udeg[4] = h_ca;
-    /* atan2 is exactly odd in y, so the mirrored β are exact negations. */
+    /* every angle is exactly odd in the difference, so the mirrored β are exact negations */
     out->beta_udeg[0] = -d_da;
     out->beta_udeg[1] = d_cd;
     out->beta_udeg[2] = d_ba;

@@ -3,6 +3,8 @@
 
 #include <string.h>
 
+#include "fix_inline.h"
+
 /* Kalman outcomes kept per row in window_row.aux: low nibble used, high rejected. */
 #define AUX_USED(m)     ((uint8_t)((m)&0x0Fu))
 #define AUX_REJECTED(m) ((uint8_t)(((m) >> 4) & 0x0Fu))
@@ -224,8 +226,8 @@ static uint8_t sensors_used(const struct attitude_estimate *e) {
 
 /* --- the four estimators ----------------------------------------------------------------- */
 
-static void run_product(struct attitude_state *st, struct consensus_product_result *res,
-                        struct attitude_estimate *e) {
+FIX_NOINLINE void run_product(struct attitude_state *st, struct consensus_product_result *res,
+                              struct attitude_estimate *e) {
     const struct window_stats *w = &st->stats;
     struct consensus_product_input in;
     memset(&in, 0, sizeof in);
@@ -291,8 +293,9 @@ static bool paper_consistent(const struct attitude_config *cfg, int32_t paper_ud
     return (diff < 0 ? -diff : diff) <= limit;
 }
 
-static void run_paper(struct attitude_state *st, const struct consensus_product_result *product,
-                      struct attitude_estimate *e) {
+FIX_NOINLINE void run_paper(struct attitude_state *st,
+                            const struct consensus_product_result *product,
+                            struct attitude_estimate *e) {
     const struct window_stats *w = &st->stats;
     common_fields(w, e);
     const struct consensus_paper_config pcfg = {.tolerance_udeg = st->cfg.consensus_tolerance_udeg,
@@ -350,7 +353,7 @@ static void run_mean(struct attitude_state *st, struct attitude_estimate *e) {
     finish_status(e, alpha_observable(s), beta_observable(s));
 }
 
-static void run_kalman(struct attitude_state *st, struct attitude_estimate *e) {
+FIX_NOINLINE void run_kalman(struct attitude_state *st, struct attitude_estimate *e) {
     const struct window_stats *w = &st->stats;
     common_fields(w, e);
     /* the filter's own outcomes for the rows of this window */
@@ -412,6 +415,57 @@ static void record_kalman_rows(struct attitude_state *st, const struct kalman_ro
     }
 }
 
+/* The window-end work: statistics and the four estimators. Not inlined, so that its
+ * large frame (consensus results, the paper's matrices) does not sit under the per-row
+ * Kalman path's stack. */
+FIX_NOINLINE void window_end(struct attitude_state *st, struct attitude_output *out) {
+    const struct attitude_config *cfg = &st->cfg;
+    const bool kalman_on = (cfg->estimators & ATTITUDE_EST_BIT(ATTITUDE_EST_KALMAN)) != 0u;
+    window_compute(&st->window, &st->stats);
+    const struct window_stats *w = &st->stats;
+    out->last_row = st->rows - 1u;
+    out->first_row = st->rows - cfg->window;
+    out->rows = cfg->window;
+
+    struct consensus_product_result product;
+    memset(&product, 0, sizeof product);
+    const uint8_t want = cfg->estimators;
+    const bool need_product = (want & (ATTITUDE_EST_BIT(ATTITUDE_EST_CONSENSUS) |
+                                       ATTITUDE_EST_BIT(ATTITUDE_EST_PAPER))) != 0u;
+    struct attitude_estimate scratch;
+    memset(&scratch, 0, sizeof scratch);
+    if (need_product) {
+        run_product(st, &product, &scratch);
+    }
+    if ((want & ATTITUDE_EST_BIT(ATTITUDE_EST_CONSENSUS)) != 0u) {
+        out->est[ATTITUDE_EST_CONSENSUS] = scratch;
+    } else {
+        disabled(&out->est[ATTITUDE_EST_CONSENSUS], w);
+    }
+    if ((want & ATTITUDE_EST_BIT(ATTITUDE_EST_PAPER)) != 0u) {
+        run_paper(st, &product, &out->est[ATTITUDE_EST_PAPER]);
+    } else {
+        disabled(&out->est[ATTITUDE_EST_PAPER], w);
+    }
+    if (kalman_on) {
+        run_kalman(st, &out->est[ATTITUDE_EST_KALMAN]);
+    } else {
+        disabled(&out->est[ATTITUDE_EST_KALMAN], w);
+    }
+    if ((want & ATTITUDE_EST_BIT(ATTITUDE_EST_MEAN)) != 0u) {
+        run_mean(st, &out->est[ATTITUDE_EST_MEAN]);
+    } else {
+        disabled(&out->est[ATTITUDE_EST_MEAN], w);
+    }
+
+    /* R follows each sensor's noise: once per block of N rows */
+    if (kalman_on && st->rows % cfg->window == 0u) {
+        for (unsigned k = 0; k < ATTITUDE_SENSORS; ++k) {
+            kalman_track_noise(&st->kalman, k, w->sensor[k].var_mm2, w->sensor[k].used);
+        }
+    }
+}
+
 bool attitude_push_sample(struct attitude_state *st, const uint16_t range_mm[ATTITUDE_SENSORS],
                           const uint8_t range_status[ATTITUDE_SENSORS],
                           const bool present[ATTITUDE_SENSORS], struct attitude_output *out) {
@@ -463,49 +517,7 @@ bool attitude_push_sample(struct attitude_state *st, const uint16_t range_mm[ATT
             note_kalman_restart(st);
         }
     }
-    window_compute(&st->window, &st->stats);
-    const struct window_stats *w = &st->stats;
-    out->last_row = st->rows - 1u;
-    out->first_row = st->rows - cfg->window;
-    out->rows = cfg->window;
-
-    struct consensus_product_result product;
-    memset(&product, 0, sizeof product);
-    const uint8_t want = cfg->estimators;
-    const bool need_product = (want & (ATTITUDE_EST_BIT(ATTITUDE_EST_CONSENSUS) |
-                                       ATTITUDE_EST_BIT(ATTITUDE_EST_PAPER))) != 0u;
-    struct attitude_estimate scratch;
-    memset(&scratch, 0, sizeof scratch);
-    if (need_product) {
-        run_product(st, &product, &scratch);
-    }
-    if ((want & ATTITUDE_EST_BIT(ATTITUDE_EST_CONSENSUS)) != 0u) {
-        out->est[ATTITUDE_EST_CONSENSUS] = scratch;
-    } else {
-        disabled(&out->est[ATTITUDE_EST_CONSENSUS], w);
-    }
-    if ((want & ATTITUDE_EST_BIT(ATTITUDE_EST_PAPER)) != 0u) {
-        run_paper(st, &product, &out->est[ATTITUDE_EST_PAPER]);
-    } else {
-        disabled(&out->est[ATTITUDE_EST_PAPER], w);
-    }
-    if (kalman_on) {
-        run_kalman(st, &out->est[ATTITUDE_EST_KALMAN]);
-    } else {
-        disabled(&out->est[ATTITUDE_EST_KALMAN], w);
-    }
-    if ((want & ATTITUDE_EST_BIT(ATTITUDE_EST_MEAN)) != 0u) {
-        run_mean(st, &out->est[ATTITUDE_EST_MEAN]);
-    } else {
-        disabled(&out->est[ATTITUDE_EST_MEAN], w);
-    }
-
-    /* R follows each sensor's noise: once per block of N rows */
-    if (kalman_on && st->rows % cfg->window == 0u) {
-        for (unsigned k = 0; k < ATTITUDE_SENSORS; ++k) {
-            kalman_track_noise(&st->kalman, k, w->sensor[k].var_mm2, w->sensor[k].used);
-        }
-    }
+    window_end(st, out);
     return true;
 }
 

@@ -3,6 +3,8 @@
 
 #include <string.h>
 
+#include "fix_inline.h"
+
 _Static_assert(WINDOW_MAX_SAMPLES >= 255u, "the issue asks for windows of at least 255 rows");
 _Static_assert(WINDOW_MAX_SAMPLES <= 1024u, "exact 64-bit sums of angle products need N <= 1024");
 
@@ -24,6 +26,7 @@ int window_init(struct window_state *w, const struct window_config *cfg) {
         return WINDOW_ERR_LENGTH;
     }
     w->cfg = *cfg;
+    angles_arm_prepare(&w->arm, cfg->arm_um);
     window_clear(w);
     return WINDOW_OK;
 }
@@ -34,53 +37,99 @@ void window_clear(struct window_state *w) {
     memset(&w->sums, 0, sizeof w->sums);
 }
 
-static void axis_contrib(struct window_axis_sums *s, const fix_udeg_t angle[ANGLES_PER_AXIS],
-                         uint8_t valid, bool complete, int sign) {
+/* A complete row (all four readings used): the six distinct angles, their sums and
+ * the 20 distinct products. sign −1 removes the row: the first factor of every product
+ * is negated, so exactly what was added is subtracted. */
+static void contrib_complete(struct window_sums *s, const uint16_t x[ANGLES_SENSORS],
+                             const struct angles_arm *arm, int32_t sign) {
+    fix_udeg_t al[ANGLES_PER_AXIS];
+    fix_udeg_t b5;
+    angles_compute_all(x, arm, al, &b5);
+    const int32_t a1 = al[0];
+    const int32_t a2 = al[1];
+    const int32_t a3 = al[2];
+    const int32_t a4 = al[3];
+    const int32_t a5 = al[4];
+    /* the first factors, negated to remove the row */
+    const int32_t s1 = sign * a1;
+    const int32_t s2 = sign * a2;
+    const int32_t s3 = sign * a3;
+    const int32_t s4 = sign * a4;
+    const int32_t s5 = sign * a5;
+    const int32_t sb5 = sign * b5;
+    int64_t *p = s->alpha_prod; /* packed i <= j: 11 12 13 14 15 22 23 24 25 33 34 35 44 45 55 */
+    p[0] += (int64_t)s1 * a1;
+    p[1] += (int64_t)s1 * a2;
+    p[2] += (int64_t)s1 * a3;
+    p[3] += (int64_t)s1 * a4;
+    p[4] += (int64_t)s1 * a5;
+    p[5] += (int64_t)s2 * a2;
+    p[6] += (int64_t)s2 * a3;
+    p[7] += (int64_t)s2 * a4;
+    p[8] += (int64_t)s2 * a5;
+    p[9] += (int64_t)s3 * a3;
+    p[10] += (int64_t)s3 * a4;
+    p[11] += (int64_t)s3 * a5;
+    p[12] += (int64_t)s4 * a4;
+    p[13] += (int64_t)s4 * a5;
+    p[14] += (int64_t)s5 * a5;
+    int64_t *q = s->beta5_prod;
+    q[0] += (int64_t)sb5 * a1;
+    q[1] += (int64_t)sb5 * a2;
+    q[2] += (int64_t)sb5 * a3;
+    q[3] += (int64_t)sb5 * a4;
+    q[4] += (int64_t)sb5 * b5;
+    s->alpha_sum[0] += s1;
+    s->alpha_sum[1] += s2;
+    s->alpha_sum[2] += s3;
+    s->alpha_sum[3] += s4;
+    s->alpha_sum[4] += s5;
+    s->beta5_sum += sb5;
+    s->complete = (uint16_t)(s->complete + sign);
+    const int32_t residual =
+        (int32_t)x[ANGLES_A] + (int32_t)x[ANGLES_C] - (int32_t)x[ANGLES_B] - (int32_t)x[ANGLES_D];
+    s->residual_sum_mm += (int64_t)sign * residual;
+}
+
+/* An incomplete row: the valid angles into the per-angle sums only. */
+static void contrib_partial(struct window_sums *s, const uint16_t x[ANGLES_SENSORS], uint8_t mask,
+                            const struct angles_arm *arm, int32_t sign) {
+    struct angles_sample a;
+    angles_compute_prepared(x, mask, arm, &a);
     for (unsigned i = 0; i < ANGLES_PER_AXIS; ++i) {
-        if ((valid & (1u << i)) != 0u) {
-            s->sum[i] += sign * (int64_t)angle[i];
-            s->count[i] = (uint16_t)(s->count[i] + sign);
+        if ((a.alpha_valid & (1u << i)) != 0u) {
+            s->partial_alpha_sum[i] += (int64_t)sign * a.alpha_udeg[i];
+            s->partial_alpha_count[i] = (uint16_t)(s->partial_alpha_count[i] + sign);
         }
     }
-    if (!complete) {
-        return;
-    }
-    for (unsigned i = 0; i < ANGLES_PER_AXIS; ++i) {
-        s->complete_sum[i] += sign * (int64_t)angle[i];
-        for (unsigned j = i; j < ANGLES_PER_AXIS; ++j) {
-            s->complete_prod[window_pair_index(i, j)] +=
-                sign * ((int64_t)angle[i] * (int64_t)angle[j]);
-        }
+    if ((a.beta_valid & 0x10u) != 0u) {
+        s->partial_beta5_sum += (int64_t)sign * a.beta_udeg[4];
+        s->partial_beta5_count = (uint16_t)(s->partial_beta5_count + sign);
     }
 }
 
 /* Adds (sign +1) or removes (sign −1) the readings of row selected by mask. */
 static void contrib(struct window_sums *s, const struct window_row *row, uint8_t mask,
-                    int32_t arm_um, int sign) {
+                    const struct angles_arm *arm, int32_t sign) {
     if (mask == 0u) {
         return;
     }
+    /* per sensor Σx, Σx², n: modulo-2^32/2^64 arithmetic, so adding the negated value
+     * removes exactly what was added */
+    const uint32_t step = sign > 0 ? 1u : UINT32_MAX;
+    const uint64_t step64 = sign > 0 ? 1u : UINT64_MAX;
     for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
         if ((mask & (1u << k)) != 0u) {
             const uint32_t x = row->range_mm[k];
-            if (sign > 0) {
-                s->sum_mm[k] += x;
-                s->sum_sq_mm2[k] += (uint64_t)x * x;
-                s->count[k]++;
-            } else {
-                s->sum_mm[k] -= x;
-                s->sum_sq_mm2[k] -= (uint64_t)x * x;
-                s->count[k]--;
-            }
+            s->sum_mm[k] += x * step;
+            s->sum_sq_mm2[k] += ((uint64_t)x * x) * step64;
+            s->count[k] = (uint16_t)(s->count[k] + step);
         }
     }
-    struct angles_sample a;
-    angles_compute(row->range_mm, mask, arm_um, &a);
-    axis_contrib(&s->alpha, a.alpha_udeg, a.alpha_valid, a.flatness_valid, sign);
-    axis_contrib(&s->beta, a.beta_udeg, a.beta_valid, a.flatness_valid, sign);
-    if (a.flatness_valid) {
-        s->complete = (uint16_t)(s->complete + sign);
-        s->residual_sum_mm += sign * (int64_t)a.flatness_mm;
+    if ((mask & ANGLES_ALL_SENSORS) == ANGLES_ALL_SENSORS) {
+        contrib_complete(s, row->range_mm, arm, sign);
+    } else {
+        contrib_partial(s, row->range_mm, mask, arm, sign);
     }
 }
 
@@ -88,7 +137,7 @@ void window_push(struct window_state *w, const uint16_t range_mm[ANGLES_SENSORS]
                  uint8_t present_mask, uint8_t valid_mask) {
     if (w->fill >= w->cfg.length) {
         const struct window_row *old = &w->ring[w->oldest];
-        contrib(&w->sums, old, old->valid, w->cfg.arm_um, -1);
+        contrib(&w->sums, old, old->valid, &w->arm, -1);
         w->oldest = (uint16_t)((w->oldest + 1u) % w->cfg.length);
         w->fill--;
     }
@@ -99,7 +148,7 @@ void window_push(struct window_state *w, const uint16_t range_mm[ANGLES_SENSORS]
     row->valid = (uint8_t)(valid_mask & row->present);
     row->aux = 0;
     w->fill++;
-    contrib(&w->sums, row, row->valid, w->cfg.arm_um, +1);
+    contrib(&w->sums, row, row->valid, &w->arm, +1);
 }
 
 uint16_t window_fill(const struct window_state *w) {
@@ -137,11 +186,11 @@ static uint16_t count_le(const struct window_state *w, unsigned k, bool use_dev,
     return n;
 }
 
-/* The order statistic of rank `rank` (0-based) by bisection on [0, hi]: the
- * smallest v with more than `rank` values <= v. ceil(log2(hi + 1)) passes. */
+/* The order statistic of rank `rank` (0-based) by bisection on [lo, hi], which must
+ * hold it: the smallest v with more than `rank` values <= v. ceil(log2(hi − lo + 1))
+ * passes (at most 18: hi − lo <= 131071). */
 static int32_t select_rank(const struct window_state *w, unsigned k, bool use_dev,
-                           int32_t centre_x2, uint16_t rank, int32_t hi) {
-    int32_t lo = 0;
+                           int32_t centre_x2, uint16_t rank, int32_t lo, int32_t hi) {
     for (unsigned step = 0; step < 18u && lo < hi; ++step) {
         const int32_t mid = lo + (hi - lo) / 2;
         if (count_le(w, k, use_dev, centre_x2, mid) > rank) {
@@ -153,6 +202,22 @@ static int32_t select_rank(const struct window_state *w, unsigned k, bool use_de
     return lo;
 }
 
+/* Smallest and largest status-valid reading of sensor k (valid_count > 0). */
+static void sensor_range(const struct window_state *w, unsigned k, int32_t *lo, int32_t *hi) {
+    int32_t mn = 65535;
+    int32_t mx = 0;
+    for (uint16_t r = 0; r < w->fill; ++r) {
+        const struct window_row *row = &w->ring[(w->oldest + r) % w->cfg.length];
+        if ((row->valid & (1u << k)) != 0u) {
+            const int32_t x = row->range_mm[k];
+            mn = x < mn ? x : mn;
+            mx = x > mx ? x : mx;
+        }
+    }
+    *lo = mn;
+    *hi = mx;
+}
+
 /* Gate of sensor k: fills median and half-width (both x2 mm). Returns false
  * when the gate is off or there is nothing to gate. */
 static bool gate_sensor(const struct window_state *w, unsigned k, uint16_t valid_count,
@@ -162,13 +227,18 @@ static bool gate_sensor(const struct window_state *w, unsigned k, uint16_t valid
     if (w->cfg.gate_sigmas_q8 == 0u || valid_count == 0u) {
         return false;
     }
+    int32_t x_min;
+    int32_t x_max;
+    sensor_range(w, k, &x_min, &x_max);
     const uint16_t lo_rank = (uint16_t)((valid_count - 1u) / 2u);
     const uint16_t hi_rank = (uint16_t)(valid_count / 2u);
-    const int32_t x_lo = select_rank(w, k, false, 0, lo_rank, 65535);
-    const int32_t x_hi = hi_rank == lo_rank ? x_lo : select_rank(w, k, false, 0, hi_rank, 65535);
+    const int32_t x_lo = select_rank(w, k, false, 0, lo_rank, x_min, x_max);
+    const int32_t x_hi =
+        hi_rank == lo_rank ? x_lo : select_rank(w, k, false, 0, hi_rank, x_lo, x_max);
     *median_x2 = x_lo + x_hi;
-    /* MAD as the lower median of the deviations, in the same x2 units. */
-    const int32_t mad_x2 = select_rank(w, k, true, *median_x2, lo_rank, 131071);
+    /* MAD as the lower median of the deviations, in the same x2 units: every
+     * deviation |2x − median_x2| lies in [0, 2 (x_max − x_min)]. */
+    const int32_t mad_x2 = select_rank(w, k, true, *median_x2, lo_rank, 0, 2 * (x_max - x_min));
     const int64_t scaled = ((int64_t)mad_x2 * MAD_TO_SIGMA_Q16 * w->cfg.gate_sigmas_q8) >> 24;
     const int64_t floor_x2 = 2 * (int64_t)w->cfg.gate_floor_mm;
     *half_width_x2 = (int32_t)(scaled > floor_x2 ? scaled : floor_x2);
@@ -181,7 +251,47 @@ static fix_udeg_q16_t mean_q16(int64_t sum, uint16_t n) {
     return n == 0u ? 0 : fix_div_round_s64(sum * (int64_t)(1 << FIX_UDEG_Q_SHIFT), n);
 }
 
-static void axis_stats(const struct window_axis_sums *s, uint16_t complete,
+/* One axis's sums in the layout of its statistics. */
+struct axis_sums {
+    int64_t sum[ANGLES_PER_AXIS]; /* all rows where the estimate is valid */
+    uint16_t count[ANGLES_PER_AXIS];
+    int64_t complete_sum[ANGLES_PER_AXIS];
+    int64_t complete_prod[WINDOW_PAIRS];
+};
+
+static void alpha_sums(const struct window_sums *g, struct axis_sums *out) {
+    for (unsigned i = 0; i < ANGLES_PER_AXIS; ++i) {
+        out->complete_sum[i] = g->alpha_sum[i];
+        out->sum[i] = g->alpha_sum[i] + g->partial_alpha_sum[i];
+        out->count[i] = (uint16_t)(g->complete + g->partial_alpha_count[i]);
+    }
+    memcpy(out->complete_prod, g->alpha_prod, sizeof out->complete_prod);
+}
+
+/* β1..β4 as ±α (angles.h): β_(i+1) = beta_sign[i] · α_(beta_of[i]+1). */
+static const uint8_t beta_of[4] = {1u, 3u, 0u, 2u};
+static const int8_t beta_sign[4] = {-1, 1, 1, -1};
+
+static void beta_sums(const struct window_sums *g, struct axis_sums *out) {
+    for (unsigned i = 0; i < 4u; ++i) {
+        const unsigned m = beta_of[i];
+        out->complete_sum[i] = beta_sign[i] * g->alpha_sum[m];
+        out->sum[i] = beta_sign[i] * (g->alpha_sum[m] + g->partial_alpha_sum[m]);
+        out->count[i] = (uint16_t)(g->complete + g->partial_alpha_count[m]);
+        for (unsigned j = i; j < 4u; ++j) {
+            out->complete_prod[window_pair_index(i, j)] =
+                (int64_t)(beta_sign[i] * beta_sign[j]) *
+                g->alpha_prod[window_pair_index(m, beta_of[j])];
+        }
+        out->complete_prod[window_pair_index(i, 4u)] = beta_sign[i] * g->beta5_prod[m];
+    }
+    out->complete_sum[4] = g->beta5_sum;
+    out->sum[4] = g->beta5_sum + g->partial_beta5_sum;
+    out->count[4] = (uint16_t)(g->complete + g->partial_beta5_count);
+    out->complete_prod[window_pair_index(4u, 4u)] = g->beta5_prod[4];
+}
+
+static void axis_stats(const struct axis_sums *s, uint16_t complete,
                        struct window_axis_stats *out) {
     for (unsigned i = 0; i < ANGLES_PER_AXIS; ++i) {
         out->mean[i] = mean_q16(s->sum[i], s->count[i]);
@@ -202,6 +312,15 @@ static void axis_stats(const struct window_axis_sums *s, uint16_t complete,
             out->cov[j][i] = c;
         }
     }
+}
+
+/* The α and β statistics (not inlined: its sums stay off the gate's stack). */
+FIX_NOINLINE void both_axes(const struct window_sums *g, struct window_stats *out) {
+    struct axis_sums axis;
+    alpha_sums(g, &axis);
+    axis_stats(&axis, g->complete, &out->alpha);
+    beta_sums(g, &axis);
+    axis_stats(&axis, g->complete, &out->beta);
 }
 
 void window_compute(struct window_state *w, struct window_stats *out) {
@@ -240,8 +359,8 @@ void window_compute(struct window_state *w, struct window_stats *out) {
         }
         if (rejected != 0u) {
             /* exact: remove the row as it was added, add back what survives */
-            contrib(g, row, row->valid, w->cfg.arm_um, -1);
-            contrib(g, row, (uint8_t)(row->valid & ~rejected), w->cfg.arm_um, +1);
+            contrib(g, row, row->valid, &w->arm, -1);
+            contrib(g, row, (uint8_t)(row->valid & ~rejected), &w->arm, +1);
         }
     }
 
@@ -263,8 +382,7 @@ void window_compute(struct window_state *w, struct window_stats *out) {
         }
     }
     out->complete = g->complete;
-    axis_stats(&g->alpha, g->complete, &out->alpha);
-    axis_stats(&g->beta, g->complete, &out->beta);
+    both_axes(g, out);
     if (g->complete > 0u) {
         out->residual_valid = true;
         out->residual_um = fix_sat_s32(fix_div_round_s64(g->residual_sum_mm * 1000, g->complete));

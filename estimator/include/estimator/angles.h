@@ -63,6 +63,18 @@ uint8_t angles_beta_mask(uint8_t sensor_mask);
 /* True if arm_um is inside [ANGLES_ARM_MIN_UM, ANGLES_ARM_MAX_UM]. */
 bool angles_arm_valid(int32_t arm_um);
 
+/* The arm prepared for the per-sample angles: its reciprocal, so that each angle of
+ * Eq. 1 is a multiplication and a table lookup (fix_atan_unit_q31_udeg) instead of a
+ * division and a CORDIC. */
+struct angles_arm {
+    int32_t arm_um;
+    uint32_t inv;   /* round(2^(31 + shift) · 1000 / arm_um), in [2^31, 2^32) */
+    uint32_t shift; /* 1..10: |d| · inv / 2^shift is the slope |d| / a in Q31 */
+};
+
+/* Prepares arm_um (which must satisfy angles_arm_valid()) for angles_compute_prepared(). */
+void angles_arm_prepare(struct angles_arm *arm, int32_t arm_um);
+
 /*
  * The ten angle estimates and the residual of one sample: range_mm[A..D] as the
  * sensors report them (any uint16, 0 and 65535 included), sensor_mask the
@@ -70,6 +82,20 @@ bool angles_arm_valid(int32_t arm_um);
  */
 void angles_compute(const uint16_t range_mm[ANGLES_SENSORS], uint8_t sensor_mask, int32_t arm_um,
                     struct angles_sample *out);
+
+/* angles_compute() with a prepared arm: identical results, no division. */
+void angles_compute_prepared(const uint16_t range_mm[ANGLES_SENSORS], uint8_t sensor_mask,
+                             const struct angles_arm *arm, struct angles_sample *out);
+
+/* α1..α5 and β5 of a sample whose four readings are all valid (β1..β4 are ±α:
+ * β1 = −α2, β2 = α4, β3 = α1, β4 = −α3), as angles_compute_prepared() gives them. */
+void angles_compute_all(const uint16_t range_mm[ANGLES_SENSORS], const struct angles_arm *arm,
+                        fix_udeg_t alpha_udeg[ANGLES_PER_AXIS], fix_udeg_t *beta5_udeg);
+
+/* atan((x_hi − x_lo)/(span·a)) in udeg with a prepared arm, span 1 or 2: the one
+ * primitive of Eq. 1; equal to angles_pair_udeg() up to the atan's rounding. */
+fix_udeg_t angles_pair_prepared_udeg(uint16_t x_hi_mm, uint16_t x_lo_mm,
+                                     const struct angles_arm *arm, unsigned span);
 
 /* atan((x_hi − x_lo)/(span·a)) in udeg for integer mm readings: the one primitive of
  * Eq. 1 (span 1 for α1..α4, 2 for α5). */

@@ -84,6 +84,20 @@ struct kalman_state {
     uint8_t reject_run[ANGLES_SENSORS]; /* consecutive gated-out readings per sensor */
     uint32_t restarts;                  /* lock-outs and definiteness failures */
     uint32_t numeric_restarts;          /* definiteness failures alone */
+    uint64_t gate_s_max;                /* s up to which s·k² fits 64 bits (fast gate) */
+    bool process_noise;                 /* some Q entry is non-zero */
+    /* The steady-state updates' form of P (kalman.c, "the block update"): mantissas
+     * P ≈ bm · 2^be (packed upper triangle) while bvalid, taken from p brows rows ago;
+     * R and the gate's sure-accept threshold in those units while rb_valid (exponent
+     * rb_pe). */
+    bool bvalid;
+    uint8_t brows;
+    int32_t be;
+    int32_t bm[6];
+    bool rb_valid;
+    int32_t rb_pe;
+    int64_t rb[ANGLES_SENSORS];
+    uint64_t gate_accept[ANGLES_SENSORS];
 };
 
 /* Outcome of one kalman_push_row(): the rows it processed, oldest first (a

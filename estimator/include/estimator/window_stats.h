@@ -12,8 +12,9 @@
  *
  * The gate needs the whole window, so it runs in window_compute(): per
  * sensor, the median and the median absolute deviation (MAD) of its valid
- * readings in the window (found by bisection on the integer value: 16-17
- * counting passes, no sorting, no scratch array), and a reading is rejected
+ * readings in the window (found by bisection on the integer value between the
+ * smallest and largest reading: log2(spread) counting passes, no sorting, no
+ * scratch array), and a reading is rejected
  * when |x − median| > max(k·1.4826·MAD, floor). 1.4826·MAD estimates σ for
  * Gaussian noise and ignores up to half the window being outliers. Rejected
  * readings are subtracted from a copy of the sums, again exactly.
@@ -64,25 +65,32 @@ struct window_row {
     uint8_t aux;     /* free for the caller (the facade stores Kalman outcomes here) */
 };
 
-struct window_axis_sums {
-    int64_t sum[ANGLES_PER_AXIS]; /* Σα_i over the rows where α_i is valid */
-    uint16_t count[ANGLES_PER_AXIS];
-    int64_t complete_sum[ANGLES_PER_AXIS]; /* Σα_i over complete rows */
-    int64_t complete_prod[WINDOW_PAIRS];   /* Σα_i·α_j over complete rows, i <= j */
-};
-
+/*
+ * The exact sums of the rows held. β1..β4 are exact negations or copies of α values
+ * (angles.h: β1 = −α2, β2 = α4, β3 = α1, β4 = −α3), so only α1..α5 and β5 are summed;
+ * window_compute() derives the β statistics from them. Sums of products cover the
+ * complete rows (all four readings used); the other rows add to the per-angle sums
+ * only. |α| < 9e7 udeg, so every product sum over <= 1024 rows is below 8.3e18 < 2^63.
+ */
 struct window_sums {
     uint32_t sum_mm[ANGLES_SENSORS];
     uint64_t sum_sq_mm2[ANGLES_SENSORS];
     uint16_t count[ANGLES_SENSORS];
-    struct window_axis_sums alpha;
-    struct window_axis_sums beta;
-    uint16_t complete;       /* rows with all four readings used */
-    int64_t residual_sum_mm; /* Σ(x_A + x_C − x_B − x_D) over complete rows */
+    uint16_t complete;                   /* rows with all four readings used */
+    int64_t residual_sum_mm;             /* Σ(x_A + x_C − x_B − x_D), complete rows */
+    int64_t alpha_sum[ANGLES_PER_AXIS];  /* Σα_i, complete rows */
+    int64_t alpha_prod[WINDOW_PAIRS];    /* Σα_iα_j, complete rows, i <= j packed */
+    int64_t beta5_sum;                   /* Σβ5, complete rows */
+    int64_t beta5_prod[ANGLES_PER_AXIS]; /* Σβ5·α1..Σβ5·α4 and Σβ5², complete rows */
+    int64_t partial_alpha_sum[ANGLES_PER_AXIS]; /* Σα_i over the incomplete rows where valid */
+    uint16_t partial_alpha_count[ANGLES_PER_AXIS];
+    uint16_t partial_beta5_count;
+    int64_t partial_beta5_sum;
 };
 
 struct window_state {
     struct window_config cfg;
+    struct angles_arm arm; /* cfg.arm_um prepared for the per-row angles */
     struct window_row ring[WINDOW_MAX_SAMPLES];
     uint16_t oldest;          /* ring index of the oldest row */
     uint16_t fill;            /* rows held, <= cfg.length */
@@ -136,8 +144,9 @@ uint16_t window_fill(const struct window_state *w);
 /* The row `age` rows back (0 = newest); NULL if age >= window_fill(). */
 struct window_row *window_row_at(struct window_state *w, uint16_t age);
 
-/* Gates the window and computes its statistics into out. O(N) with the gate
- * (about 50 counting passes per sensor), otherwise O(1) plus the divisions. */
+/* Gates the window and computes its statistics into out. O(N) with the gate (per
+ * sensor one min/max pass and about 3·log2(spread) counting passes), otherwise O(1)
+ * plus the divisions. */
 void window_compute(struct window_state *w, struct window_stats *out);
 
 /* Index of (i, j) in the packed upper triangle, any order, i, j < 5. */

@@ -1,0 +1,73 @@
+/*
+ * Small fixed-point helpers the hot paths of the estimator inline (private to
+ * estimator/src). Same rounding conventions as estimator/fixmath.h.
+ */
+#ifndef ESTIMATOR_FIX_INLINE_H
+#define ESTIMATOR_FIX_INLINE_H
+
+#include <stdint.h>
+
+/* Inlined even at -Os (GCC, Clang): the hot helpers below are a few instructions each,
+ * a call would cost more than the body. */
+#if defined(__GNUC__)
+#define FIX_INLINE __attribute__((always_inline)) static inline
+#else
+#define FIX_INLINE static inline
+#endif
+
+/* Never inlined (GCC, Clang): keeps a large frame off the paths that do not need it. */
+#if defined(__GNUC__)
+#define FIX_NOINLINE __attribute__((noinline)) static
+#else
+#define FIX_NOINLINE static
+#endif
+
+/* Number of significant bits of v (0 for 0, 64 for values >= 2^63). GCC and Clang
+ * have a count-leading-zeros builtin (one CLZ instruction on Armv7-M, a libgcc helper
+ * on Armv6-M); any other compiler gets the portable binary search. Both are exact, so
+ * results never depend on the compiler. */
+FIX_INLINE unsigned fix_bitlen_u64(uint64_t v) {
+#if defined(__GNUC__)
+    return v == 0u ? 0u : 64u - (unsigned)__builtin_clzll(v);
+#else
+    unsigned n = 0;
+    uint64_t rest = v;
+    static const unsigned widths[6] = {32u, 16u, 8u, 4u, 2u, 1u};
+    for (unsigned i = 0; i < 6u; ++i) {
+        if ((rest >> widths[i]) != 0u) {
+            rest >>= widths[i];
+            n += widths[i];
+        }
+    }
+    return rest != 0u ? n + 1u : n;
+#endif
+}
+
+/* The bias that makes every |v| < 2^62 non-negative, so that floor(v / 2^s) is an
+ * unsigned shift: ((v + 2^62) >> s) - 2^62 / 2^s, exact for s <= 62. MISRA forbids
+ * shifting negative values; this form is defined C and compiles to the few
+ * instructions of an arithmetic shift. */
+#define FIX_SHIFT_BIAS ((uint64_t)1 << 62)
+
+/* floor(v / 2^shift) for |v| < 2^62, shift 0..62. */
+FIX_INLINE int64_t fix_floor_shr_s64(int64_t v, unsigned shift) {
+    const uint64_t biased = (uint64_t)v + FIX_SHIFT_BIAS; /* in [0, 2^63) */
+    const uint64_t q = biased >> shift;
+    const uint64_t bias_q = FIX_SHIFT_BIAS >> shift;
+    return (int64_t)q - (int64_t)bias_q;
+}
+
+/* round(v / 2^shift), halves up, for |v| < 2^62 - 2^(shift - 1), shift 1..62. */
+FIX_INLINE int64_t fix_round_shr_s64(int64_t v, unsigned shift) {
+    return fix_floor_shr_s64(v + ((int64_t)1 << (shift - 1u)), shift);
+}
+
+/* floor(v / 2^32) for |v| < 2^62: the high word of a 32x32 -> 64 product. */
+FIX_INLINE int32_t fix_hi32(int64_t v) {
+    const uint64_t biased = (uint64_t)v + FIX_SHIFT_BIAS; /* in [0, 2^63) */
+    const uint64_t hi = biased >> 32;
+    const int64_t q = (int64_t)hi - (int64_t)(FIX_SHIFT_BIAS >> 32);
+    return (int32_t)q;
+}
+
+#endif /* ESTIMATOR_FIX_INLINE_H */
