@@ -224,13 +224,24 @@ FIX_INLINE int32_t shr_to_s32(int64_t v, unsigned sh) {
     return (int32_t)r; /* two's complement bits: in range by the precondition */
 }
 
+/* R in block units when it is this large or larger: it does not fit the block's s = hᵀPh + R
+ * below 2^62 (R up to 2^52 scaled by up to 2^30 would overflow int64), so block_update()
+ * leaves such a measurement to the exact update. (Found by tests/fuzz.) */
+#define BLOCK_R_TOO_LARGE ((int64_t)1 << 61)
+
 /* R and the gate's sure-accept threshold in block units, for the current exponent. */
 static void block_refresh_r(struct kalman_state *k, int32_t e) {
     const uint64_t q2 = (uint64_t)k->cfg.gate_sigmas_q8 * k->cfg.gate_sigmas_q8;
     const uint64_t fl = (uint64_t)k->cfg.gate_floor_mm;
     for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
         const int64_t r = k->r[s];
-        k->rb[s] = e >= 0 ? fix_floor_shr_s64(r, (unsigned)e) : r * ((int64_t)1 << (unsigned)(-e));
+        if (e >= 0) {
+            k->rb[s] = fix_floor_shr_s64(r, (unsigned)e);
+        } else if (r >= (BLOCK_R_TOO_LARGE >> (unsigned)(-e))) {
+            k->rb[s] = BLOCK_R_TOO_LARGE;
+        } else {
+            k->rb[s] = r * ((int64_t)1 << (unsigned)(-e));
+        }
         /* |e24|² (Q48) below q²·R (Q32·Q16) or the floor: inside the gate for any s >= R */
         const uint64_t a = (uint64_t)r > UINT64_MAX / (q2 + 1u) ? UINT64_MAX : (uint64_t)r * q2;
         const uint64_t f = fl >= 0x8000u ? UINT64_MAX : (fl * fl) << 48;
@@ -380,8 +391,8 @@ static int block_update(struct kalman_state *k, struct pblock *b, unsigned senso
     }
     const fix_q32_t e = z_mm - pred;
     const int64_t r_b = k->rb[sensor];
-    if (hph < BLOCK_MIN_HPH || (int64_t)hph > 4 * r_b || e >= ((int64_t)1 << 39) ||
-        e <= -((int64_t)1 << 39)) {
+    if (r_b >= BLOCK_R_TOO_LARGE || hph < BLOCK_MIN_HPH || (int64_t)hph > 4 * r_b ||
+        e >= ((int64_t)1 << 39) || e <= -((int64_t)1 << 39)) {
         return BLOCK_NOT_POSSIBLE;
     }
     const int64_t s_b = hph + r_b; /* in [2^21, 2^62) */
@@ -487,7 +498,11 @@ static uint8_t update_row(struct kalman_state *k, const uint16_t range_mm[ANGLES
     if (k->bvalid) {
         k->brows++;
     }
-    *proven = k->bvalid && block_healthy(k);
+    /* The mantissas prove p only while a block unit is at least one LSB of p (be >= 0):
+     * finer units leave p's own rounding (half an LSB per entry) outside the margin, and
+     * a P of a few LSB (sliding windows, Q = 0, long runs) could round to singular
+     * unseen. (Found by tests/fuzz.) */
+    *proven = k->bvalid && k->be >= 0 && block_healthy(k);
     return used;
 }
 
