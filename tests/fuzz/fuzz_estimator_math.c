@@ -222,10 +222,17 @@ static void check_atan(struct fuzz_input *in) {
         }
         break;
     }
-    case 1: { /* atan of a Q32 slope; udeg from Q32 radians */
+    case 1: { /* atan of a Q32 slope (table within ±45°: <= 1 udeg), odd; the Q31 table */
         const fix_udeg_t got = fix_atan_q32_udeg(y);
         const long double want = udeg_of(atanl((long double)y / 4294967296.0L));
-        FUZZ_CHECK(fabsl((long double)got - want) <= 3.0L);
+        const bool table = y > -FIX_Q32_ONE && y < FIX_Q32_ONE;
+        FUZZ_CHECK(fabsl((long double)got - want) <= (table ? 1.0L : 3.0L));
+        if (y != INT64_MIN) {
+            FUZZ_CHECK(fix_atan_q32_udeg(-y) == -got);
+        }
+        const uint32_t t31 = (uint32_t)x & 0x7FFFFFFFu;
+        const long double want31 = udeg_of(atanl((long double)t31 / 2147483648.0L));
+        FUZZ_CHECK(fabsl((long double)fix_atan_unit_q31_udeg(t31) - want31) <= 1.0L);
         const s128 r = shr_round_ref((s128)x * FIX_UDEG_PER_RAD, FIX_Q32_SHIFT);
         FUZZ_CHECK(fix_udeg_from_rad_q32(x) == fix_sat_s32(clamp_s64(r)));
         break;
@@ -273,6 +280,8 @@ static void check_angles(struct fuzz_input *in) {
     struct angles_sample s;
     memset(&s, 0xA5, sizeof s);
     angles_compute(r, mask, arm, &s);
+    struct angles_arm prepared;
+    angles_arm_prepare(&prepared, arm);
     FUZZ_CHECK(s.alpha_valid == angles_alpha_mask(mask) && s.beta_valid == angles_beta_mask(mask));
     /* α_i = atan((x_hi − x_lo)/(span·a)) per Eq. 1, β by the mirror (angles.h). */
     static const unsigned alpha_pairs[ANGLES_PER_AXIS][3] = {{ANGLES_B, ANGLES_A, 1},
@@ -298,9 +307,27 @@ static void check_angles(struct fuzz_input *in) {
             const long double want = udeg_of(
                 atan2l(((long double)r[p[0]] - r[p[1]]) * 1000.0L, (long double)arm * p[2]));
             FUZZ_CHECK(fabsl((long double)got - want) <= 3.0L);
-            FUZZ_CHECK(got == angles_pair_udeg((uint16_t)r[p[0]], (uint16_t)r[p[1]], arm, p[2]) ||
-                       got == -angles_pair_udeg((uint16_t)r[p[1]], (uint16_t)r[p[0]], arm, p[2]));
+            /* the division-free primitive agrees with the reference one up to rounding */
+            const fix_udeg_t pair = angles_pair_udeg(r[p[0]], r[p[1]], arm, p[2]);
+            const fix_udeg_t fast = angles_pair_prepared_udeg(r[p[0]], r[p[1]], &prepared, p[2]);
+            FUZZ_CHECK(fabsl((long double)pair - want) <= 3.0L);
+            FUZZ_CHECK(fabsl((long double)fast - want) <= 3.0L);
         }
+    }
+    /* angles_compute_prepared: "identical results"; angles_compute_all: the same angles
+     * when all four readings are valid (angles.h) */
+    struct angles_sample fast;
+    memset(&fast, 0x5A, sizeof fast);
+    angles_compute_prepared(r, mask, &prepared, &fast);
+    FUZZ_CHECK(memcmp(fast.alpha_udeg, s.alpha_udeg, sizeof s.alpha_udeg) == 0);
+    FUZZ_CHECK(memcmp(fast.beta_udeg, s.beta_udeg, sizeof s.beta_udeg) == 0);
+    FUZZ_CHECK(fast.alpha_valid == s.alpha_valid && fast.beta_valid == s.beta_valid);
+    FUZZ_CHECK(fast.flatness_valid == s.flatness_valid && fast.flatness_mm == s.flatness_mm);
+    if ((mask & ANGLES_ALL_SENSORS) == ANGLES_ALL_SENSORS) {
+        fix_udeg_t all[ANGLES_PER_AXIS];
+        fix_udeg_t beta5 = 0;
+        angles_compute_all(r, &prepared, all, &beta5);
+        FUZZ_CHECK(memcmp(all, s.alpha_udeg, sizeof all) == 0 && beta5 == s.beta_udeg[4]);
     }
     const bool all = (mask & ANGLES_ALL_SENSORS) == ANGLES_ALL_SENSORS;
     FUZZ_CHECK(s.flatness_valid == all);
@@ -571,9 +598,17 @@ static void check_kalman(struct fuzz_input *in) {
         return;
     }
     check_covariance(&kf);
+    /* FUZZ_TRACE=1 fuzz_estimator_math crash-...: each Kalman call and the P it left */
+    const bool trace = getenv("FUZZ_TRACE") != NULL;
     /* A run of filter calls; a repeat count lets few bytes drive long outages. */
     for (unsigned step = 0; step < 64u && !fuzz_input_done(in); ++step) {
         const uint8_t op = fuzz_u8(in);
+        if (trace) {
+            fprintf(stderr, "kalman op %u: P = [%lld %lld %lld; %lld %lld; %lld] started %d\n",
+                    op % 6u, (long long)kf.p[0][0], (long long)kf.p[0][1], (long long)kf.p[0][2],
+                    (long long)kf.p[1][1], (long long)kf.p[1][2], (long long)kf.p[2][2],
+                    (int)kf.started);
+        }
         struct kalman_rows rows;
         switch (op % 6u) {
         case 0:
@@ -587,6 +622,15 @@ static void check_kalman(struct fuzz_input *in) {
             for (unsigned i = 0; i < repeat; ++i) {
                 memset(&rows, 0xA5, sizeof rows);
                 kalman_push_row(&kf, r, valid, &rows);
+                if (trace) {
+                    fprintf(stderr,
+                            "  row [%u %u %u %u] valid %x: used %x rejected %x, P = [%lld %lld "
+                            "%lld; %lld %lld; %lld], restarts %u\n",
+                            r[0], r[1], r[2], r[3], valid, rows.count ? rows.used[0] : 0u,
+                            rows.count ? rows.rejected[0] : 0u, (long long)kf.p[0][0],
+                            (long long)kf.p[0][1], (long long)kf.p[0][2], (long long)kf.p[1][1],
+                            (long long)kf.p[1][2], (long long)kf.p[2][2], kf.restarts);
+                }
                 check_rows(&rows, (uint8_t)(valid & ANGLES_ALL_SENSORS));
                 check_covariance(&kf);
             }
