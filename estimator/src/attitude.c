@@ -69,7 +69,7 @@ int attitude_init(struct attitude_state *st, const struct attitude_config *cfg) 
     if (cfg->mode != ATTITUDE_TUMBLING && cfg->mode != ATTITUDE_SLIDING) {
         return ATTITUDE_ERR_MODE;
     }
-    if (cfg->estimators == 0u || (cfg->estimators & ~ATTITUDE_EST_ALL) != 0u) {
+    if (cfg->estimators == 0u || (cfg->estimators | ATTITUDE_EST_ALL) != ATTITUDE_EST_ALL) {
         return ATTITUDE_ERR_ESTIMATORS;
     }
     if (cfg->consensus_tolerance_udeg < 1 || cfg->consensus_tolerance_udeg > 10000000) {
@@ -78,7 +78,7 @@ int attitude_init(struct attitude_state *st, const struct attitude_config *cfg) 
     if (cfg->paper_max_iterations == 0u) {
         return ATTITUDE_ERR_PAPER_ITERATIONS;
     }
-    memset(st, 0, sizeof *st);
+    (void)memset(st, 0, sizeof *st);
     st->cfg = *cfg;
     st->kalman_rows_since_restart = UINT32_MAX;
     const struct window_config wcfg = {.arm_um = cfg->arm_um,
@@ -89,7 +89,7 @@ int attitude_init(struct attitude_state *st, const struct attitude_config *cfg) 
         return ATTITUDE_ERR_WINDOW; /* unreachable: checked above */
     }
     struct kalman_config kcfg;
-    memset(&kcfg, 0, sizeof kcfg);
+    (void)memset(&kcfg, 0, sizeof kcfg);
     for (unsigned i = 0; i < KALMAN_STATES; ++i) {
         kcfg.process_noise_mm2[i] = um2_to_q32_mm2(cfg->kalman_process_noise_um2[i]);
     }
@@ -203,7 +203,7 @@ static int32_t q32_mm_to_um(fix_q32_t mm) {
 }
 
 static void common_fields(const struct window_stats *w, struct attitude_estimate *e) {
-    memset(e, 0, sizeof *e);
+    (void)memset(e, 0, sizeof *e);
     e->flatness_valid = w->residual_valid;
     e->flatness_residual_um = w->residual_um;
     for (unsigned k = 0; k < ATTITUDE_SENSORS; ++k) {
@@ -230,7 +230,7 @@ FIX_NOINLINE void run_product(struct attitude_state *st, struct consensus_produc
                               struct attitude_estimate *e) {
     const struct window_stats *w = &st->stats;
     struct consensus_product_input in;
-    memset(&in, 0, sizeof in);
+    (void)memset(&in, 0, sizeof in);
     in.arm_um = st->cfg.arm_um;
     in.tolerance_udeg = st->cfg.consensus_tolerance_udeg;
     for (unsigned k = 0; k < ATTITUDE_SENSORS; ++k) {
@@ -315,6 +315,8 @@ FIX_NOINLINE void run_paper(struct attitude_state *st,
         e->reason = paper_reason(ra.status);
     } else if (!beta_ok) {
         e->reason = paper_reason(rb.status);
+    } else {
+        /* both converged: the consistency checks below decide */
     }
     /* A faithful P can converge to a poor value without any numerical sign:
      * check it against the product estimate of the same window. */
@@ -428,12 +430,12 @@ FIX_NOINLINE void window_end(struct attitude_state *st, struct attitude_output *
     out->rows = cfg->window;
 
     struct consensus_product_result product;
-    memset(&product, 0, sizeof product);
+    (void)memset(&product, 0, sizeof product);
     const uint8_t want = cfg->estimators;
     const bool need_product = (want & (ATTITUDE_EST_BIT(ATTITUDE_EST_CONSENSUS) |
                                        ATTITUDE_EST_BIT(ATTITUDE_EST_PAPER))) != 0u;
     struct attitude_estimate scratch;
-    memset(&scratch, 0, sizeof scratch);
+    (void)memset(&scratch, 0, sizeof scratch);
     if (need_product) {
         run_product(st, &product, &scratch);
     }

@@ -34,7 +34,12 @@ int window_init(struct window_state *w, const struct window_config *cfg) {
 void window_clear(struct window_state *w) {
     w->oldest = 0;
     w->fill = 0;
-    memset(&w->sums, 0, sizeof w->sums);
+    (void)memset(&w->sums, 0, sizeof w->sums);
+}
+
+/* A row count moved by sign (+1 adds a row, −1 removes one), in unsigned arithmetic. */
+static uint16_t count_step(uint16_t count, int32_t sign) {
+    return (uint16_t)(sign > 0 ? count + 1u : count - 1u);
 }
 
 /* A complete row (all four readings used): the six distinct angles, their sums and
@@ -85,7 +90,7 @@ static void contrib_complete(struct window_sums *s, const uint16_t x[ANGLES_SENS
     s->alpha_sum[3] += s4;
     s->alpha_sum[4] += s5;
     s->beta5_sum += sb5;
-    s->complete = (uint16_t)(s->complete + sign);
+    s->complete = count_step(s->complete, sign);
     const int32_t residual =
         (int32_t)x[ANGLES_A] + (int32_t)x[ANGLES_C] - (int32_t)x[ANGLES_B] - (int32_t)x[ANGLES_D];
     s->residual_sum_mm += (int64_t)sign * residual;
@@ -99,12 +104,12 @@ static void contrib_partial(struct window_sums *s, const uint16_t x[ANGLES_SENSO
     for (unsigned i = 0; i < ANGLES_PER_AXIS; ++i) {
         if ((a.alpha_valid & (1u << i)) != 0u) {
             s->partial_alpha_sum[i] += (int64_t)sign * a.alpha_udeg[i];
-            s->partial_alpha_count[i] = (uint16_t)(s->partial_alpha_count[i] + sign);
+            s->partial_alpha_count[i] = count_step(s->partial_alpha_count[i], sign);
         }
     }
     if ((a.beta_valid & 0x10u) != 0u) {
         s->partial_beta5_sum += (int64_t)sign * a.beta_udeg[4];
-        s->partial_beta5_count = (uint16_t)(s->partial_beta5_count + sign);
+        s->partial_beta5_count = count_step(s->partial_beta5_count, sign);
     }
 }
 
@@ -143,7 +148,7 @@ void window_push(struct window_state *w, const uint16_t range_mm[ANGLES_SENSORS]
     }
     const uint16_t slot = (uint16_t)((w->oldest + w->fill) % w->cfg.length);
     struct window_row *row = &w->ring[slot];
-    memcpy(row->range_mm, range_mm, sizeof row->range_mm);
+    (void)memcpy(row->range_mm, range_mm, sizeof row->range_mm);
     row->present = (uint8_t)(present_mask & ANGLES_ALL_SENSORS);
     row->valid = (uint8_t)(valid_mask & row->present);
     row->aux = 0;
@@ -190,7 +195,9 @@ static uint16_t count_le(const struct window_state *w, unsigned k, bool use_dev,
  * hold it: the smallest v with more than `rank` values <= v. ceil(log2(hi − lo + 1))
  * passes (at most 18: hi − lo <= 131071). */
 static int32_t select_rank(const struct window_state *w, unsigned k, bool use_dev,
-                           int32_t centre_x2, uint16_t rank, int32_t lo, int32_t hi) {
+                           int32_t centre_x2, uint16_t rank, int32_t lo_start, int32_t hi_start) {
+    int32_t lo = lo_start;
+    int32_t hi = hi_start;
     for (unsigned step = 0; step < 18u && lo < hi; ++step) {
         const int32_t mid = lo + (hi - lo) / 2;
         if (count_le(w, k, use_dev, centre_x2, mid) > rank) {
@@ -265,7 +272,7 @@ static void alpha_sums(const struct window_sums *g, struct axis_sums *out) {
         out->sum[i] = g->alpha_sum[i] + g->partial_alpha_sum[i];
         out->count[i] = (uint16_t)(g->complete + g->partial_alpha_count[i]);
     }
-    memcpy(out->complete_prod, g->alpha_prod, sizeof out->complete_prod);
+    (void)memcpy(out->complete_prod, g->alpha_prod, sizeof out->complete_prod);
 }
 
 /* β1..β4 as ±α (angles.h): β_(i+1) = beta_sign[i] · α_(beta_of[i]+1). */
@@ -306,7 +313,7 @@ static void axis_stats(const struct axis_sums *s, uint16_t complete,
                 const fix_s128 num =
                     fix_s128_sub(fix_s128_mul(complete, s->complete_prod[window_pair_index(i, j)]),
                                  fix_s128_mul(s->complete_sum[i], s->complete_sum[j]));
-                c = fix_s128_div_s64(num, (int64_t)complete * (complete - 1), NULL);
+                c = fix_s128_div_s64(num, (int64_t)complete * ((int64_t)complete - 1), NULL);
             }
             out->cov[i][j] = c;
             out->cov[j][i] = c;
@@ -324,7 +331,7 @@ FIX_NOINLINE void both_axes(const struct window_sums *g, struct window_stats *ou
 }
 
 void window_compute(struct window_state *w, struct window_stats *out) {
-    memset(out, 0, sizeof *out);
+    (void)memset(out, 0, sizeof *out);
     out->rows = w->fill;
     struct window_sums *g = &w->gated;
     *g = w->sums;
@@ -360,7 +367,7 @@ void window_compute(struct window_state *w, struct window_stats *out) {
         if (rejected != 0u) {
             /* exact: remove the row as it was added, add back what survives */
             contrib(g, row, row->valid, &w->arm, -1);
-            contrib(g, row, (uint8_t)(row->valid & ~rejected), &w->arm, +1);
+            contrib(g, row, (uint8_t)(row->valid ^ (row->valid & rejected)), &w->arm, +1);
         }
     }
 
@@ -377,8 +384,8 @@ void window_compute(struct window_state *w, struct window_stats *out) {
             const fix_s128 num =
                 fix_s128_sub(fix_s128_mul(n, (int64_t)g->sum_sq_mm2[k]),
                              fix_s128_mul((int64_t)g->sum_mm[k], (int64_t)g->sum_mm[k]));
-            ss->var_mm2 =
-                fix_s128_div_s64(fix_s128_shl(num, FIX_Q32_SHIFT), (int64_t)n * (n - 1), NULL);
+            ss->var_mm2 = fix_s128_div_s64(fix_s128_shl(num, FIX_Q32_SHIFT),
+                                           (int64_t)n * ((int64_t)n - 1), NULL);
         }
     }
     out->complete = g->complete;

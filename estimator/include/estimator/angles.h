@@ -36,7 +36,7 @@
 
 /* Sensor indices and their bits in a sensor mask. */
 enum angles_sensor { ANGLES_A = 0, ANGLES_B = 1, ANGLES_C = 2, ANGLES_D = 3 };
-#define ANGLES_BIT(sensor) ((uint8_t)(1u << (sensor)))
+#define ANGLES_BIT(sensor) ((uint8_t)(1u << (unsigned)(sensor)))
 #define ANGLES_ALL_SENSORS ((uint8_t)0x0Fu)
 
 /* Arm length a accepted by the estimator, micrometres (1 mm .. 1 m). */

@@ -43,7 +43,7 @@ enum attitude_estimator {
     ATTITUDE_EST_MEAN = 3,      /* "mean" */
     ATTITUDE_EST_COUNT = 4,
 };
-#define ATTITUDE_EST_BIT(e) ((uint8_t)(1u << (e)))
+#define ATTITUDE_EST_BIT(e) ((uint8_t)(1u << (unsigned)(e)))
 #define ATTITUDE_EST_ALL    ((uint8_t)0x0Fu)
 
 enum attitude_window_mode { ATTITUDE_TUMBLING = 0, ATTITUDE_SLIDING = 1 };
