@@ -3,6 +3,8 @@
 
 #include <string.h>
 
+#include "fix_inline.h"
+
 /* 1/12 mm² (uniform 1 mm quantisation, Sheppard) in Q32: the smallest sample
  * variance a sensor reporting integer millimetres can honestly be given. */
 #define QUANT_VAR_Q32 357913941
@@ -46,80 +48,153 @@ struct axis_frame {
 static const struct axis_frame alpha_frame = {ANGLES_A, ANGLES_B, ANGLES_C, ANGLES_D};
 static const struct axis_frame beta_frame = {ANGLES_D, ANGLES_A, ANGLES_B, ANGLES_C};
 
-/* (hi − lo)/(span·a) as a Q32 slope from Q32 mm means. |hi − lo| < 2^48, times
- * 1000 < 2^58: no overflow. */
-static fix_q32_t slope_q32(fix_q32_t hi_mm, fix_q32_t lo_mm, int32_t arm_um, int span) {
-    return fix_div_round_s64((hi_mm - lo_mm) * 1000, (int64_t)arm_um * span);
+/* What both axes and x̄ share: the arm's reciprocal, the variances of the four window
+ * means and the tolerance in slope units. */
+struct product_prep {
+    struct angles_arm arm;
+    fix_q28_t var_mean[ANGLES_SENSORS]; /* Q28 mm², 0 for a sensor not used */
+    fix_q32_t tol_q32;
+};
+
+/* (hi − lo)/(span·a) as a Q32 slope from Q32 mm means (|hi − lo| < 2^48), rounded half
+ * away from zero: |hi − lo| times the Q(31 + shift) reciprocal of a (angles_arm_prepare,
+ * relative error < 2^-31), two 32x32 -> 64 products. */
+static fix_q32_t slope_q32(fix_q32_t hi_mm, fix_q32_t lo_mm, const struct angles_arm *arm,
+                           unsigned span) {
+    const int64_t diff = hi_mm - lo_mm;
+    const uint64_t m = fix_abs_u64(diff);
+    const uint64_t p_lo = (m & 0xFFFFFFFFu) * arm->inv;
+    uint64_t p_hi = (m >> 32) * arm->inv + (p_lo >> 32);               /* product / 2^32, < 2^49 */
+    const unsigned total = arm->shift + span;                          /* >= 2 */
+    const unsigned s2 = (total > 2u && total < 14u) ? total - 2u : 0u; /* 31 + sh + span − 1 − 32 */
+    uint64_t q;
+    if (s2 == 0u) {
+        q = p_hi + ((p_lo >> 31) & 1u);
+    } else {
+        p_hi += (uint64_t)1 << (s2 - 1u);
+        q = p_hi >> s2;
+    }
+    return diff < 0 ? -(int64_t)q : (int64_t)q;
 }
 
-/* Variance of a window mean in Q28 mm²: max(s², 1/12)/n. */
+/* Variance of a window mean in Q28 mm²: max(s², 1/12)/n, rounded (n <= 65535: two
+ * exact divisions, floor(floor(x / 16) / n) = floor(x / 16n)). */
 static fix_q28_t mean_var_q28(const struct consensus_sensor *s) {
     const fix_q32_t v = s->var_mm2 > QUANT_VAR_Q32 ? s->var_mm2 : QUANT_VAR_Q32;
-    return fix_div_round_s64(v, (int64_t)s->count * 16);
+    const uint32_t n = s->count;
+    const uint64_t num = ((uint64_t)v + 8u * (uint64_t)n) >> 4;
+    return (fix_q28_t)fix_div_u64_u16(num, n);
 }
 
-/* v ← ((1 − ε)I + ε1πᵀ)v with ε = 1/2 until spread <= tol. Returns πᵀv. */
+/* num / den as a Q31 fraction for 0 <= num <= den, den > 0 (relative error < 2^-27). */
+static int32_t fraction_q31(int64_t num, int64_t den) {
+    int32_t e;
+    const uint32_t dm = fix_norm31((uint64_t)den, &e);
+    const int32_t rm = fix_recip31(dm);
+    const int64_t nm = e >= 0 ? fix_floor_shr_s64(num, (unsigned)e)
+                              : num * ((int64_t)1 << (unsigned)(-e)); /* <= dm < 2^31 */
+    const int64_t f = fix_floor_shr_s64(nm * rm, 30u);                /* Q31 */
+    return f < INT32_MAX ? (int32_t)f : INT32_MAX;
+}
+
+/* v / 2 rounded half away from zero (|v| < 2^62). */
+static int64_t half_away(int64_t v) {
+    return v >= 0 ? (v + 1) / 2 : -((1 - v) / 2);
+}
+
+/* v ← ((1 − ε)I + ε1πᵀ)v with ε = 1/2 until spread <= tol. P v = (v + c1)/2 with
+ * c = πᵀv, which P leaves unchanged (πᵀP = πᵀ), so c is computed once, exactly: the
+ * weights sum to 2^30, so c = v_ref + round(Σ π_i (v_i − v_ref) / 2^30), in 64 bits when
+ * the spread is below 2^30 (each term then below 2^60), else with 128-bit products.
+ * Returns c, the consensus value. */
 static fix_q32_t iterate_product(struct consensus_axis *ax, fix_q32_t tol_q32) {
-    fix_q32_t v[ANGLES_PER_AXIS];
-    memcpy(v, ax->initial, sizeof v);
-    fix_q32_t c = 0;
-    ax->status = CONSENSUS_NO_CONVERGENCE;
-    for (unsigned it = 0; it <= CONSENSUS_PRODUCT_MAX_ITERATIONS; ++it) {
-        fix_q32_t lo = INT64_MAX;
-        fix_q32_t hi = INT64_MIN;
-        fix_s128 acc = fix_s128_from_s64(0);
-        for (unsigned i = 0; i < ANGLES_PER_AXIS; ++i) {
-            if ((ax->used & (1u << i)) == 0u) {
-                continue;
-            }
+    const fix_q32_t *v = ax->initial;
+    fix_q32_t lo = INT64_MAX;
+    fix_q32_t hi = INT64_MIN;
+    fix_q32_t ref = 0;
+    for (unsigned i = 0; i < ANGLES_PER_AXIS; ++i) {
+        if ((ax->used & (1u << i)) != 0u) {
+            ref = v[i];
             lo = v[i] < lo ? v[i] : lo;
             hi = v[i] > hi ? v[i] : hi;
-            acc = fix_s128_add(acc, fix_s128_mul(ax->weight[i], v[i]));
+        }
+    }
+    fix_q32_t c;
+    if (hi - lo < ((int64_t)1 << 30)) {
+        int64_t acc = 0;
+        for (unsigned i = 0; i < ANGLES_PER_AXIS; ++i) {
+            if ((ax->used & (1u << i)) != 0u) {
+                acc += ax->weight[i] * (v[i] - ref);
+            }
+        }
+        c = ref + fix_shr_round_s64(acc, FIX_Q30_SHIFT);
+    } else {
+        fix_s128 acc = fix_s128_from_s64(0);
+        for (unsigned i = 0; i < ANGLES_PER_AXIS; ++i) {
+            if ((ax->used & (1u << i)) != 0u) {
+                acc = fix_s128_add(acc, fix_s128_mul(ax->weight[i], v[i]));
+            }
         }
         c = fix_s128_to_s64(fix_s128_shr_round(acc, FIX_Q30_SHIFT), NULL);
-        if (hi - lo <= tol_q32) {
+    }
+    /* The iteration on the deviations d = v − c: (P v)_i − c = (v_i − c)/2, rounded half
+     * away from zero. That map is monotone, so the largest and the smallest deviation stay
+     * the largest and the smallest, and the spread after k steps is that of those two
+     * alone: they are all the stopping test needs (the other entries are not output). */
+    ax->status = CONSENSUS_NO_CONVERGENCE;
+    int64_t d_hi = hi - c;
+    int64_t d_lo = lo - c;
+    unsigned it = 0;
+    /* a spread of 2^30 and more (slopes apart by more than 1/4) is above every tolerance
+     * (10^7 udeg is 7.5·10^8 LSB): halve it in 64 bits first (at most 33 steps) */
+    for (; it < CONSENSUS_PRODUCT_MAX_ITERATIONS && d_hi - d_lo >= ((int64_t)1 << 30); ++it) {
+        d_hi = half_away(d_hi);
+        d_lo = half_away(d_lo);
+    }
+    int32_t h32 = (int32_t)d_hi; /* c lies between them: |d| <= spread < 2^30 */
+    int32_t l32 = (int32_t)d_lo;
+    const int32_t tol = tol_q32 < INT32_MAX ? (int32_t)tol_q32 : INT32_MAX;
+    for (; it <= CONSENSUS_PRODUCT_MAX_ITERATIONS; ++it) {
+        if (h32 - l32 <= tol) {
             ax->status = CONSENSUS_OK;
             break;
         }
         if (it == CONSENSUS_PRODUCT_MAX_ITERATIONS) {
             break; /* cannot happen while tol > 4 LSB (header proof); reported if it does */
         }
-        for (unsigned i = 0; i < ANGLES_PER_AXIS; ++i) {
-            if ((ax->used & (1u << i)) != 0u) {
-                v[i] = fix_shr_round_s64(v[i] + c, 1u);
-            }
-        }
-        ax->iterations++;
+        h32 = h32 >= 0 ? (h32 + 1) / 2 : -((1 - h32) / 2);
+        l32 = l32 >= 0 ? (l32 + 1) / 2 : -((1 - l32) / 2);
     }
+    ax->iterations = (uint16_t)it;
     return c;
 }
 
-static void product_axis(const struct consensus_product_input *in, const struct axis_frame *f,
-                         struct consensus_axis *ax) {
+static void product_axis(const struct consensus_product_input *in, const struct product_prep *pp,
+                         const struct axis_frame *f, struct consensus_axis *ax) {
     memset(ax, 0, sizeof *ax);
     const struct consensus_sensor *s = in->sensor;
     const bool has_low = s[f->low].used;
     const bool has_high = s[f->high].used;
     const bool has_refs = s[f->ref1].used && s[f->ref2].used;
-    const int32_t a = in->arm_um;
-    fix_q28_t v_low = has_low ? mean_var_q28(&s[f->low]) : 0;
-    fix_q28_t v_high = has_high ? mean_var_q28(&s[f->high]) : 0;
+    const fix_q28_t v_low = pp->var_mean[f->low];
+    const fix_q28_t v_high = pp->var_mean[f->high];
     /* m = var of the reference midpoint (m_ref1 + m_ref2)/2 */
-    const fix_q28_t m =
-        has_refs ? (mean_var_q28(&s[f->ref1]) + mean_var_q28(&s[f->ref2]) + 2) / 4 : 0;
+    const fix_q28_t m = has_refs ? (pp->var_mean[f->ref1] + pp->var_mean[f->ref2] + 2) / 4 : 0;
 
     fix_q32_t other = 0; /* t̂ of the other axis in this frame: (ref1 − ref2)/2a */
     if (has_refs) {
-        other = slope_q32(s[f->ref1].mean_mm, s[f->ref2].mean_mm, a, 2);
+        other = slope_q32(s[f->ref1].mean_mm, s[f->ref2].mean_mm, &pp->arm, 2u);
     }
     fix_q28_t var_at = 0; /* variance of a·t̂ in Q28 mm² */
-    bool ovf = false;
     if (has_low && has_high && has_refs) {
         ax->used = 0x1F;
-        /* π_low ∝ 2m + V_high, π_high ∝ 2m + V_low; π5 = 2·min, the rest split */
+        /* π_low ∝ 2m + V_high, π_high ∝ 2m + V_low; π5 = 2·min, the rest split. Every
+         * V < 2^59 (a variance below 2^31 mm² over n >= 1), so no sum overflows. */
         const int64_t w_low = 2 * m + v_high;
         const int64_t w_high = 2 * m + v_low;
-        const fix_q30_t pi_low = fix_muldiv_s64(w_low, FIX_Q30_ONE, w_low + w_high, &ovf);
+        /* equal halves exactly (equal noise: π = e5, mean(α5) as a slope) */
+        const fix_q30_t pi_low =
+            w_low == w_high ? FIX_Q30_ONE / 2 : fraction_q31(w_low, w_low + w_high) / 2;
         const fix_q30_t pi_high = FIX_Q30_ONE - pi_low;
         const fix_q30_t common = pi_low < pi_high ? pi_low : pi_high;
         ax->weight[4] = 2 * common;
@@ -127,10 +202,11 @@ static void product_axis(const struct consensus_product_input *in, const struct 
         ax->weight[1] = pi_low - common - ax->weight[0];
         ax->weight[2] = (pi_high - common) / 2;
         ax->weight[3] = pi_high - common - ax->weight[2];
-        /* var(a·t̂) = (V_l V_h + m (V_l + V_h)) / (V_l + V_h + 4m) */
-        const fix_s128 num =
-            fix_s128_add(fix_s128_mul(v_low, v_high), fix_s128_mul(m, v_low + v_high));
-        var_at = fix_s128_div_s64(num, v_low + v_high + 4 * m, &ovf); /* Q56 / Q28 = Q28 */
+        /* var(a·t̂) = (V_l V_h + m (V_l + V_h)) / (V_l + V_h + 4m)
+         *          = V_l · V_h/D + m · (V_l + V_h)/D, both fractions below 1 */
+        const int64_t d = v_low + v_high + 4 * m;
+        var_at = fix_mul_q31(v_low, fraction_q31(v_high, d)) +
+                 fix_mul_q31(m, fraction_q31(v_low + v_high, d));
     } else if (!has_low && has_high && has_refs) {
         ax->used = 0x0C; /* v3, v4: (high − M)/a */
         ax->weight[2] = FIX_Q30_ONE / 2;
@@ -156,52 +232,56 @@ static void product_axis(const struct consensus_product_input *in, const struct 
     const fix_q32_t r1 = s[f->ref1].mean_mm;
     const fix_q32_t r2 = s[f->ref2].mean_mm;
     if ((ax->used & 0x01u) != 0u) {
-        ax->initial[0] = slope_q32(r1, low, a, 1) - other; /* s1 = t + o */
+        ax->initial[0] = slope_q32(r1, low, &pp->arm, 1u) - other; /* s1 = t + o */
     }
     if ((ax->used & 0x02u) != 0u) {
-        ax->initial[1] = slope_q32(r2, low, a, 1) + other; /* s2 = t − o */
+        ax->initial[1] = slope_q32(r2, low, &pp->arm, 1u) + other; /* s2 = t − o */
     }
     if ((ax->used & 0x04u) != 0u) {
-        ax->initial[2] = slope_q32(high, r1, a, 1) + other; /* s3 = t − o */
+        ax->initial[2] = slope_q32(high, r1, &pp->arm, 1u) + other; /* s3 = t − o */
     }
     if ((ax->used & 0x08u) != 0u) {
-        ax->initial[3] = slope_q32(high, r2, a, 1) - other; /* s4 = t + o */
+        ax->initial[3] = slope_q32(high, r2, &pp->arm, 1u) - other; /* s4 = t + o */
     }
     if ((ax->used & 0x10u) != 0u) {
-        ax->initial[4] = slope_q32(high, low, a, 2); /* s5 = t */
+        ax->initial[4] = slope_q32(high, low, &pp->arm, 2u); /* s5 = t */
     }
-    /* tolerance in slope units: |Δatan| <= |Δt|, so a slope spread <= tol_rad
-     * guarantees an angle spread <= tol */
-    const fix_q32_t tol_q32 = (fix_q32_t)in->tolerance_udeg * FIX_Q32_RAD_PER_UDEG_X1000 / 1000;
-    ax->tan_q32 = iterate_product(ax, tol_q32);
+    ax->tan_q32 = iterate_product(ax, pp->tol_q32);
     ax->angle_udeg = fix_atan_q32_udeg(ax->tan_q32);
-    ax->sigma_udeg =
-        ovf ? INT32_MAX : fix_angle_sigma_udeg(fix_sat_mul_s64(var_at, 16), a, ax->tan_q32);
+    ax->sigma_udeg = fix_angle_sigma_udeg(fix_sat_mul_s64(var_at, 16), in->arm_um, ax->tan_q32);
 }
 
 void consensus_product(const struct consensus_product_input *in,
                        struct consensus_product_result *out) {
-    product_axis(in, &alpha_frame, &out->alpha);
-    product_axis(in, &beta_frame, &out->beta);
+    struct product_prep pp;
+    angles_arm_prepare(&pp.arm, in->arm_um);
+    const struct consensus_sensor *s = in->sensor;
+    for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
+        pp.var_mean[k] = s[k].used ? mean_var_q28(&s[k]) : 0;
+    }
+    /* tolerance in slope units: |Δatan| <= |Δt|, so a slope spread <= tol_rad
+     * guarantees an angle spread <= tol */
+    pp.tol_q32 = (fix_q32_t)in->tolerance_udeg * FIX_Q32_RAD_PER_UDEG_X1000 / 1000;
+    product_axis(in, &pp, &alpha_frame, &out->alpha);
+    product_axis(in, &pp, &beta_frame, &out->beta);
 
     /* x̄: each complete opposite pair gives its midpoint, exactly free of the
-     * tilt; both pairs are combined by inverse variance. */
-    const struct consensus_sensor *s = in->sensor;
+     * tilt; both pairs are combined by inverse variance:
+     * mid_ac + (mid_bd − mid_ac) · v_ac / (v_ac + v_bd). */
     const bool ac = s[ANGLES_A].used && s[ANGLES_C].used;
     const bool bd = s[ANGLES_B].used && s[ANGLES_D].used;
     out->distance_valid = ac || bd;
     out->distance_mm = 0;
+    const fix_q32_t mid_ac = (s[ANGLES_A].mean_mm + s[ANGLES_C].mean_mm) / 2;
+    const fix_q32_t mid_bd = (s[ANGLES_B].mean_mm + s[ANGLES_D].mean_mm) / 2;
     if (ac && bd) {
-        const fix_q28_t v_ac = mean_var_q28(&s[ANGLES_A]) + mean_var_q28(&s[ANGLES_C]);
-        const fix_q28_t v_bd = mean_var_q28(&s[ANGLES_B]) + mean_var_q28(&s[ANGLES_D]);
-        const fix_q32_t mid_ac = (s[ANGLES_A].mean_mm + s[ANGLES_C].mean_mm) / 2;
-        const fix_q32_t mid_bd = (s[ANGLES_B].mean_mm + s[ANGLES_D].mean_mm) / 2;
-        const fix_s128 num = fix_s128_add(fix_s128_mul(mid_ac, v_bd), fix_s128_mul(mid_bd, v_ac));
-        out->distance_mm = fix_s128_div_s64(num, v_ac + v_bd, NULL);
+        const fix_q28_t v_ac = pp.var_mean[ANGLES_A] + pp.var_mean[ANGLES_C];
+        const fix_q28_t v_bd = pp.var_mean[ANGLES_B] + pp.var_mean[ANGLES_D];
+        out->distance_mm = mid_ac + fix_mul_q31(mid_bd - mid_ac, fraction_q31(v_ac, v_ac + v_bd));
     } else if (ac) {
-        out->distance_mm = (s[ANGLES_A].mean_mm + s[ANGLES_C].mean_mm) / 2;
+        out->distance_mm = mid_ac;
     } else if (bd) {
-        out->distance_mm = (s[ANGLES_B].mean_mm + s[ANGLES_D].mean_mm) / 2;
+        out->distance_mm = mid_bd;
     }
 }
 

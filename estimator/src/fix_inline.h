@@ -70,4 +70,52 @@ FIX_INLINE int32_t fix_hi32(int64_t v) {
     return (int32_t)q;
 }
 
+/* v = m · 2^e with m in [2^30, 2^31) (v > 0, truncated): the mantissa, *e the exponent. */
+FIX_INLINE uint32_t fix_norm31(uint64_t v, int32_t *e) {
+    const int32_t ex = (int32_t)fix_bitlen_u64(v) - 31;
+    *e = ex;
+    if (ex >= 0) {
+        const uint64_t m = v >> (unsigned)ex;
+        return (uint32_t)m;
+    }
+    const uint32_t small = (uint32_t)v; /* v < 2^30 here */
+    return small << (unsigned)(-ex);
+}
+
+/* ≈ 2^61 / m for m in [2^30, 2^31), in (2^30, 2^31), relative error < 2^-28: a 16-bit
+ * quotient of one 32-bit division refined by one Newton step, rm (2 − m rm / 2^61). */
+FIX_INLINE int32_t fix_recip31(uint32_t m) {
+    const uint32_t d = m >> 15; /* >= 2^15 */
+    const uint32_t q16 = 0xFFFFFFFFu / (d != 0u ? d : 1u);
+    const int32_t y0 = (int32_t)(q16 << 14);                   /* < 2^31 */
+    const uint64_t prod = (uint64_t)m * (uint32_t)y0;          /* 2^61 (1 ± 2^-15) */
+    const int64_t err = (int64_t)(((uint64_t)1 << 61) - prod); /* |err| < 2^48 */
+    const int64_t err29 = fix_floor_shr_s64(err, 29u);         /* < 2^19 */
+    const int64_t r = (int64_t)y0 + fix_hi32((int64_t)y0 * err29);
+    return r < INT32_MAX ? (int32_t)r : INT32_MAX;
+}
+
+/* floor(v · r / 2^31) for |v| < 2^62 and 0 <= r < 2^31 (v times a Q31 fraction), exact:
+ * v = vh · 2^31 + vl with 0 <= vl < 2^31, two 32x32 -> 64 products. */
+FIX_INLINE int64_t fix_mul_q31(int64_t v, int32_t r) {
+    const int64_t vh = fix_floor_shr_s64(v, 31u);
+    const uint64_t vl = (uint64_t)(v - vh * ((int64_t)1 << 31)); /* in [0, 2^31) */
+    const uint64_t low = (vl * (uint32_t)r) >> 31;
+    return vh * r + (int64_t)low;
+}
+
+/* floor(num / den) for den in [1, 65535]: four 32-by-16-bit division steps, exact. */
+FIX_INLINE uint64_t fix_div_u64_u16(uint64_t num, uint32_t den) {
+    uint64_t q = 0;
+    uint32_t rem = 0;
+    for (unsigned i = 4u; i > 0u; --i) {
+        const uint32_t chunk = (uint32_t)(num >> (16u * (i - 1u))) & 0xFFFFu;
+        const uint32_t cur = (rem << 16) | chunk; /* < den · 2^16 <= 2^32 */
+        const uint32_t qd = cur / den;
+        rem = cur - qd * den;
+        q = (q << 16) | qd;
+    }
+    return q;
+}
+
 #endif /* ESTIMATOR_FIX_INLINE_H */

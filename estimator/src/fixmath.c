@@ -431,25 +431,81 @@ fix_udeg_t fix_udeg_from_rad_q32(fix_q32_t rad) {
     return fix_sat_s32(fix_mul_shr_s64(rad, FIX_UDEG_PER_RAD, FIX_Q32_SHIFT, NULL));
 }
 
+/* sqrt(v) for v in [2^62, 2^64), in [2^31, 2^32), relative error < 2^-27: the 16-bit
+ * integer root of the top word (16 exact steps), then one Newton step y + v/y with the
+ * quotient from the reciprocal of y (fix_recip31), multiplications only. */
+static uint32_t sqrt_top(uint64_t v) {
+    const uint32_t top = (uint32_t)(v >> 32); /* >= 2^30 */
+    uint32_t rem = top;
+    uint32_t root = 0;
+    uint32_t bit = (uint32_t)1 << 30;
+    for (unsigned i = 0; i < 16u; ++i) {
+        if (rem >= root + bit) {
+            rem -= root + bit;
+            root = (root >> 1) + bit;
+        } else {
+            root >>= 1;
+        }
+        bit >>= 2;
+    }
+    /* y = root · 2^16 in [2^31, 2^32), y <= sqrt(v) < y + 2^17; with rm = 2^61 / (y / 2)
+     * = 2^46 / root: v / y ≈ (v / 2^32) · 2^16 / root = top · rm / 2^30 (the low word of v
+     * is below 2^-30 of it) */
+    const uint32_t y_half = root << 15; /* y / 2 in [2^30, 2^31) */
+    const int32_t rm = fix_recip31(y_half);
+    const uint64_t q = ((uint64_t)top * (uint32_t)rm) >> 30; /* ≈ v / y, < 2^33 */
+    const uint64_t y2 = ((uint64_t)root << 16) + q;          /* y + v/y */
+    const uint64_t r = y2 >> 1;
+    return r > UINT32_MAX ? UINT32_MAX : (uint32_t)r;
+}
+
 fix_udeg_t fix_angle_sigma_udeg(fix_q32_t var_mm2, int32_t arm_um, fix_q32_t tan_q32) {
-    bool ovf = false;
     if (var_mm2 <= 0 || arm_um <= 0) {
         return var_mm2 == 0 ? 0 : INT32_MAX;
     }
-    /* var(t) = var(y)/a² with a in mm = a_um/1000, in Q56 for precision */
-    const int64_t var_t_q56 =
-        fix_muldiv_s64(var_mm2, (int64_t)1000000 << 24, (int64_t)arm_um * arm_um, &ovf);
-    if (ovf) {
-        return INT32_MAX;
-    }
+    /* σ(a·t) in mm: var = v · 4^-h with v in [2^62, 2^64), sqrt(var) = sqrt(v) · 2^-h, Q16 */
+    const unsigned h = (64u - fix_bitlen_u64((uint64_t)var_mm2)) / 2u;
+    const uint64_t root = sqrt_top((uint64_t)var_mm2 << (2u * h)); /* σ mm · 2^(16 + h) */
+    /* σ(t) in Q32 = σ mm · 1000 / a_um: root · 1000 · 2^(16 − h) / a_um */
+    const uint64_t num = root * 1000u; /* < 2^42 */
     uint64_t sd_t_q32;
-    if (var_t_q56 < ((int64_t)1 << 56)) {
-        sd_t_q32 = fix_isqrt_u64((uint64_t)var_t_q56 << 8); /* sqrt(v·2^64) */
+    if (h <= 16u) {
+        sd_t_q32 = (num << (16u - h)) / (uint64_t)arm_um; /* < 2^58 / 1000 */
     } else {
-        sd_t_q32 = (uint64_t)fix_isqrt_u64((uint64_t)var_t_q56 >> 8) << 8;
+        sd_t_q32 = num / ((uint64_t)arm_um << (h - 16u)); /* divisor < 2^36 */
     }
-    const int64_t t2_q32 = fix_mul_shr_s64(tan_q32, tan_q32, FIX_Q32_SHIFT, &ovf);
-    const int64_t den = fix_sat_add_s64(FIX_Q32_ONE, t2_q32);
-    const int64_t sd_rad_q32 = fix_muldiv_s64((int64_t)sd_t_q32, FIX_Q32_ONE, den, &ovf);
-    return ovf ? INT32_MAX : fix_udeg_from_rad_q32(sd_rad_q32);
+    /* dα = dt / (1 + t²): den = (1 + t²) · 2^32 = dm · 2^es with dm in [2^30, 2^31).
+     * |t| = am · 2^ea (am < 2^31): t² · 2^32 = am² · 2^(2 ea − 32), plus 2^32. */
+    const uint64_t at = fix_abs_u64(tan_q32);
+    int32_t ea = 0;
+    const uint64_t am = at == 0u ? 0u : (uint64_t)fix_norm31(at, &ea);
+    const int32_t e2 = 2 * ea - 32; /* exponent of am² (< 2^62) */
+    const uint64_t sq = am * am;
+    uint64_t den_m;
+    int32_t den_e;
+    if (e2 > 32) {
+        den_m = sq; /* the 1 is below 2^-60 of t² */
+        den_e = e2;
+    } else if (e2 >= 0) {
+        den_m = sq + ((uint64_t)1 << (unsigned)(32 - e2)); /* < 2^63 */
+        den_e = e2;
+    } else if (e2 > -62) {
+        den_m = (sq >> (unsigned)(-e2)) + ((uint64_t)1 << 32); /* t² to 2^-32 */
+        den_e = 0;
+    } else {
+        den_m = (uint64_t)1 << 32;
+        den_e = 0;
+    }
+    int32_t es;
+    const uint32_t dm = fix_norm31(den_m, &es);
+    es += den_e; /* den >= 2^32, so es >= 2 */
+    const int32_t rm = fix_recip31(dm);
+    /* σ(α) in Q32 rad = σ(t) · 2^32 / den = σ(t) · rm / 2^(29 + es) */
+    const int64_t part = fix_mul_q31((int64_t)sd_t_q32, rm);
+    const int64_t sd_rad_q32 =
+        es - 2 >= 62 ? 0 : (es < 2 ? part : fix_floor_shr_s64(part, (unsigned)(es - 2)));
+    /* udeg · 2^6 = rad (Q32) · 57295779.513 / 2^26: times 57295779.513 · 2^5 in Q31 */
+    const int64_t udeg_x64 = fix_mul_q31(sd_rad_q32, 1833464944);
+    const int64_t udeg = fix_floor_shr_s64(udeg_x64 + 32, 6u);
+    return udeg > INT32_MAX ? INT32_MAX : (fix_udeg_t)udeg;
 }

@@ -417,21 +417,13 @@ static int block_update(struct kalman_state *k, struct pblock *b, unsigned senso
             return 0;
         }
     }
-    /* s_b = sm · 2^es, sm in [2^30, 2^31); rm ≈ 2^61 / sm from a 16-bit quotient and one
-     * Newton step (relative error < 2^-28) */
-    const int32_t es = (int32_t)fix_bitlen_u64((uint64_t)s_b) - 31;
-    const uint32_t sm =
-        es >= 0 ? (uint32_t)((uint64_t)s_b >> (unsigned)es) : (uint32_t)s_b << (unsigned)(-es);
-    if (sm < ((uint32_t)1 << 30)) {
-        return BLOCK_NOT_POSSIBLE; /* unreachable: s_b was normalised */
+    /* s_b = sm · 2^es, sm in [2^30, 2^31); rm ≈ 2^61 / sm (relative error < 2^-28) */
+    int32_t es;
+    const uint32_t sm = fix_norm31((uint64_t)s_b, &es);
+    if (es < -9 || es > 31) {
+        return BLOCK_NOT_POSSIBLE; /* unreachable: 2^21 <= s_b < 2^62 */
     }
-    const uint32_t q16 = 0xFFFFFFFFu / (sm >> 15);
-    const int32_t y0 = (int32_t)(q16 << 14); /* < 2^31 */
-    const uint64_t prod = (uint64_t)sm * (uint32_t)y0;
-    const int64_t err = (int64_t)(((uint64_t)1 << 61) - prod);
-    const int64_t r64 =
-        (int64_t)y0 + fix_hi32((int64_t)y0 * shr_to_s32(err, 29u)); /* |err| < 2^48 */
-    const int32_t rm = r64 < INT32_MAX ? (int32_t)r64 : INT32_MAX;
+    const int32_t rm = fix_recip31(sm);
     /* gains in Q31: k = g · 2^31 / s_b = g · rm / 2^(30 + es), |k| < 1 */
     const unsigned gain_shift = (unsigned)(30 + es); /* in [20, 61] */
     const int32_t k0 = shr_to_s32((int64_t)g[0] * rm, gain_shift);
