@@ -31,7 +31,8 @@ const struct tof_app_config tof_app_default_config = {
                .good_to_healthy = 2,
                .silence_to_lost_ms = 3u * TOF_PERIOD_MS,
                .reinit_backoff_ms = 50,
-               .recovery_timeout_ms = 5u * TOF_PERIOD_MS},
+               .recovery_timeout_ms = 5u * TOF_PERIOD_MS,
+               .suspect_timeout_ms = 10u * TOF_PERIOD_MS},
     .estimator = ATTITUDE_CONFIG_DEFAULT, /* the estimator's own defaults (attitude.h) */
     .raw_output = false,
 };
@@ -90,6 +91,7 @@ int tof_app_config_for_replay(struct tof_app_config *cfg, int32_t arm_um, uint32
     cfg->idle_us = period_us / 20u < TOF_IDLE_US ? period_us / 20u : TOF_IDLE_US;
     cfg->health.silence_to_lost_ms = 3u * period_ms;
     cfg->health.recovery_timeout_ms = 5u * period_ms;
+    cfg->health.suspect_timeout_ms = 10u * period_ms;
     cfg->estimator.arm_um = arm_um;
     cfg->estimator.window = window;
     cfg->estimator.mode = sliding ? ATTITUDE_SLIDING : ATTITUDE_TUMBLING;

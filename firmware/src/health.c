@@ -84,7 +84,8 @@ enum tof_health_action tof_health_poll(struct tof_health *h, const struct tof_he
     switch (h->state) {
     case TOF_HEALTH_HEALTHY:
     case TOF_HEALTH_SUSPECT:
-        if (silent_ms > cfg->silence_to_lost_ms) {
+        if (silent_ms > cfg->silence_to_lost_ms ||
+            (h->state == TOF_HEALTH_SUSPECT && in_state_ms > cfg->suspect_timeout_ms)) {
             enter(h, TOF_HEALTH_LOST, now_ms);
             return TOF_HEALTH_ACT_REINIT;
         }
@@ -126,5 +127,5 @@ const char *tof_health_name(enum tof_health_state state) {
 bool tof_health_config_valid(const struct tof_health_config *cfg) {
     return cfg->errors_to_lost >= 1u && cfg->good_to_healthy >= 1u &&
            cfg->silence_to_lost_ms > 0u && cfg->reinit_backoff_ms > 0u &&
-           cfg->recovery_timeout_ms > 0u;
+           cfg->recovery_timeout_ms > 0u && cfg->suspect_timeout_ms > 0u;
 }

@@ -13,6 +13,7 @@ static const struct tof_health_config cfg = {
     .silence_to_lost_ms = 100,
     .reinit_backoff_ms = 50,
     .recovery_timeout_ms = 200,
+    .suspect_timeout_ms = 300,
 };
 
 static void test_single_error_makes_suspect_then_good_reads_heal(void **state) {
@@ -90,6 +91,22 @@ static void test_recovery_without_data_times_out(void **state) {
     assert_int_equal(h.losses, 2);
 }
 
+static void test_suspect_for_too_long_is_lost(void **state) {
+    (void)state;
+    struct tof_health h;
+    tof_health_init(&h, 0);
+    /* errors keep interleaving with good readings: never two good in a row */
+    for (uint32_t t = 10; t <= 300; t += 20) {
+        tof_health_on_error(&h, &cfg, t);
+        tof_health_on_good(&h, &cfg, t + 10u);
+        assert_int_equal(tof_health_poll(&h, &cfg, t + 10u), TOF_HEALTH_ACT_NONE);
+    }
+    assert_int_equal(h.state, TOF_HEALTH_SUSPECT);
+    tof_health_on_error(&h, &cfg, 310);
+    assert_int_equal(tof_health_poll(&h, &cfg, 311), TOF_HEALTH_ACT_REINIT);
+    assert_int_equal(h.state, TOF_HEALTH_LOST);
+}
+
 static void test_timestamps_wrap(void **state) {
     (void)state;
     struct tof_health h;
@@ -118,6 +135,7 @@ int main(void) {
         cmocka_unit_test(test_silence_loses_sensor),
         cmocka_unit_test(test_failed_reinit_backs_off_then_retries),
         cmocka_unit_test(test_recovery_without_data_times_out),
+        cmocka_unit_test(test_suspect_for_too_long_is_lost),
         cmocka_unit_test(test_timestamps_wrap),
         cmocka_unit_test(test_config_validation),
     };

@@ -1,7 +1,7 @@
 /*
  * Per-sensor health state machine of the fault manager.
  *
- *   HEALTHY --error--> SUSPECT --errors/silence--> LOST --reinit started--> RECOVERING
+ *   HEALTHY --error--> SUSPECT --errors/silence/too long--> LOST --reinit--> RECOVERING
  *      ^                  |                                                    |
  *      +---- good --------+  <---------------- first good reading -------------+
  *                                    (a failed re-init goes back to LOST and waits a back-off)
@@ -29,6 +29,9 @@ struct tof_health_config {
     uint32_t silence_to_lost_ms;  /* no reading for this long: LOST (> one measurement period) */
     uint32_t reinit_backoff_ms;   /* wait after a failed re-init before the next attempt */
     uint32_t recovery_timeout_ms; /* RECOVERING without a good reading this long: LOST again */
+    uint32_t suspect_timeout_ms;  /* SUSPECT this long (errors keep interleaving with good
+                                     readings, e.g. a data-ready line stuck high): LOST, so an
+                                     XSHUT re-init clears what the sensor cannot */
 };
 
 struct tof_health {
