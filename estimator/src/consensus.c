@@ -338,6 +338,48 @@ static enum consensus_status paper_matrix(const int64_t cov[ANGLES_PER_AXIS][ANG
     return CONSENSUS_OK;
 }
 
+/* x = hi · 2^23 + lo with 0 <= lo < 2^23, for |x| <= 2^46 (|hi| <= 2^23). */
+static void split23(int64_t x, int32_t *hi, int32_t *lo) {
+    const int64_t h = fix_floor_shr_s64(x, 23u);
+    *hi = (int32_t)h;
+    *lo = (int32_t)(x - h * ((int64_t)1 << 23));
+}
+
+/* One entry of P·v / 2^30 rounded half away from zero, exact, from the 2^23 splits of a
+ * row of P (|P| <= 2^46: |hi| <= 2^23) and of v (|v| < 2^45: |hi| < 2^22): with
+ * A = Σ Ph vh, B = Σ (Ph vl + Pl vh), C = Σ Pl vl (each below 2^50),
+ * P·v = A 2^46 + B 2^23 + C and floor((P·v + 2^29) / 2^30)
+ *     = A 2^16 + floor((B + floor((C + 2^29) / 2^23)) / 2^7).
+ * |A| >= 2^29 means |P·v / 2^30| > 2^44.8, beyond the divergence bound: *diverged. */
+static int64_t paper_row(const fix_q30_t p[ANGLES_PER_AXIS], const int32_t vh[ANGLES_PER_AXIS],
+                         const int32_t vl[ANGLES_PER_AXIS], bool *diverged) {
+    int64_t a = 0;
+    int64_t b = 0;
+    int64_t c = 0;
+    for (unsigned k = 0; k < ANGLES_PER_AXIS; ++k) {
+        int32_t ph;
+        int32_t pl;
+        split23(p[k], &ph, &pl);
+        a += (int64_t)ph * vh[k];
+        b += (int64_t)ph * vl[k] + (int64_t)pl * vh[k];
+        c += (int64_t)pl * vl[k];
+    }
+    if (a >= ((int64_t)1 << 29) || a <= -((int64_t)1 << 29)) {
+        *diverged = true;
+        return 0;
+    }
+    const int64_t c1 = c + ((int64_t)1 << 29);
+    const int64_t q1 = fix_floor_shr_s64(c1, 23u);
+    const int64_t r1 = c1 - q1 * ((int64_t)1 << 23);
+    const int64_t b1 = b + q1;
+    int64_t next = a * ((int64_t)1 << 16) + fix_floor_shr_s64(b1, 7u);
+    /* that rounded halves up; a negative half goes away from zero instead */
+    if (r1 == 0 && fix_floor_shr_s64(b1, 7u) * 128 == b1 && next <= 0) {
+        next -= 1;
+    }
+    return next;
+}
+
 void consensus_paper(const fix_udeg_q16_t mean[ANGLES_PER_AXIS],
                      const int64_t cov[ANGLES_PER_AXIS][ANGLES_PER_AXIS], uint16_t complete,
                      const struct consensus_paper_config *cfg, struct consensus_paper_result *out) {
@@ -375,16 +417,17 @@ void consensus_paper(const fix_udeg_q16_t mean[ANGLES_PER_AXIS],
         if (it == cfg->max_iterations) {
             break;
         }
-        /* Alg. 1: α(k) = P·α(k − 1); |P| <= 2^46, |v| <= 2^45: exact in 128 bits */
+        /* Alg. 1: α(k) = P·α(k − 1), exactly: |P| <= 2^46 and |v| < 2^45 */
         fix_udeg_q16_t next[ANGLES_PER_AXIS];
+        int32_t vh[ANGLES_PER_AXIS];
+        int32_t vl[ANGLES_PER_AXIS];
+        for (unsigned k = 0; k < ANGLES_PER_AXIS; ++k) {
+            split23(v[k], &vh[k], &vl[k]);
+        }
         for (unsigned i = 0; i < ANGLES_PER_AXIS; ++i) {
-            fix_s128 acc = fix_s128_from_s64(0);
-            for (unsigned k = 0; k < ANGLES_PER_AXIS; ++k) {
-                acc = fix_s128_add(acc, fix_s128_mul(out->matrix[i][k], v[k]));
-            }
-            bool ovf = false;
-            next[i] = fix_s128_to_s64(fix_s128_shr_round(acc, FIX_Q30_SHIFT), &ovf);
-            if (ovf || next[i] > diverged_q16 || next[i] < -diverged_q16) {
+            bool diverged = false;
+            next[i] = paper_row(out->matrix[i], vh, vl, &diverged);
+            if (diverged || next[i] > diverged_q16 || next[i] < -diverged_q16) {
                 out->status = CONSENSUS_DIVERGED;
                 out->iterations = (uint16_t)(it + 1u);
                 return;

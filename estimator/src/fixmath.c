@@ -271,11 +271,26 @@ int64_t fix_s128_div_s64(fix_s128 a, int64_t den, bool *overflow) {
             *overflow = true; /* quotient >= 2^64 */
         }
         return neg ? INT64_MIN : INT64_MAX;
+    } else if (d <= UINT32_MAX) {
+        /* A 32-bit divisor: schoolbook on 32-bit digits (m < 2^96 since m.hi < d), each
+         * a 64-by-32 step whose quotient digit fits 32 bits (the remainder stays < d). */
+        const uint64_t c2 = (m.hi << 32) | (m.lo >> 32);
+        const uint64_t q2 = c2 / d;
+        const uint64_t c1 = ((c2 - q2 * d) << 32) | (m.lo & 0xFFFFFFFFu);
+        const uint64_t q1 = c1 / d;
+        r = c1 - q1 * d;
+        q = (q2 << 32) | q1;
     } else {
-        /* Restoring long division, one quotient bit per step: r < d throughout. */
-        r = m.hi;
+        /* Restoring long division, one quotient bit per step, r < d throughout. The
+         * quotient has at most bitlen(m) − bitlen(d) + 1 bits: the bits of m.lo above
+         * them go into r at once (their quotient bits are 0), the rest one per step. */
+        const unsigned mbits = 64u + fix_bitlen_u64(m.hi);
+        const unsigned bound = mbits - fix_bitlen_u64(d) + 1u; /* q < 2^bound, q < 2^64 */
+        const unsigned qbits = bound >= 64u ? 64u : (bound < 2u ? 2u : bound); /* >= 2 anyway */
+        const unsigned skip = 64u - qbits;                                     /* 0..62 */
+        r = skip == 0u ? m.hi : (m.hi << skip) | (m.lo >> (64u - skip));
         q = 0u;
-        for (unsigned i = 64u; i-- > 0u;) {
+        for (unsigned i = qbits; i-- > 0u;) {
             const uint64_t top = r >> 63;
             r = (r << 1) | ((m.lo >> i) & 1u);
             q <<= 1;

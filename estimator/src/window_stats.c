@@ -169,87 +169,222 @@ struct window_row *window_row_at(struct window_state *w, uint16_t age) {
 
 /* --- the gate ------------------------------------------------------------------ */
 
-/* Rows whose valid reading of sensor k, as 2x - centre_x2 in absolute value when
- * use_dev, else as x, is <= v. */
-static uint16_t count_le(const struct window_state *w, unsigned k, bool use_dev, int32_t centre_x2,
-                         int32_t v) {
-    uint16_t n = 0;
+/* Four bisections at once, one counting pass over the ring per step for all of them:
+ * sensor k (a bit of `active`) searches [lo[k], hi[k]], which must hold it, for the
+ * order statistic of rank rank[k] (0-based) of its valid readings, x or |2x − centre[k]|
+ * when use_dev: the smallest v with more than rank[k] values <= v. ceil(log2(range + 1))
+ * steps (at most 18: every range is below 2^17). lo[] receives the answers. */
+static void select_ranks(const struct window_state *w, uint8_t active, bool use_dev,
+                         const int32_t centre[ANGLES_SENSORS], const uint16_t rank[ANGLES_SENSORS],
+                         int32_t lo[ANGLES_SENSORS], int32_t hi[ANGLES_SENSORS]) {
+    for (unsigned step = 0; step < 18u; ++step) {
+        uint8_t todo = 0;
+        int32_t mid[ANGLES_SENSORS] = {0, 0, 0, 0};
+        uint16_t n[ANGLES_SENSORS] = {0, 0, 0, 0};
+        for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
+            if ((active & (1u << k)) != 0u && lo[k] < hi[k]) {
+                todo = (uint8_t)(todo | (1u << k));
+                mid[k] = lo[k] + (hi[k] - lo[k]) / 2;
+            }
+        }
+        if (todo == 0u) {
+            break;
+        }
+        uint16_t idx = w->oldest;
+        for (uint16_t r = 0; r < w->fill; ++r) {
+            const struct window_row *row = &w->ring[idx];
+            idx = (uint16_t)(idx + 1u == w->cfg.length ? 0u : idx + 1u);
+            const uint8_t m = (uint8_t)(row->valid & todo);
+            for (unsigned k = 0; k < ANGLES_SENSORS && m != 0u; ++k) {
+                if ((m & (1u << k)) != 0u) {
+                    int32_t x = row->range_mm[k];
+                    if (use_dev) {
+                        x = 2 * x - centre[k];
+                        x = x < 0 ? -x : x;
+                    }
+                    n[k] = (uint16_t)(n[k] + (x <= mid[k] ? 1u : 0u));
+                }
+            }
+        }
+        for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
+            if ((todo & (1u << k)) != 0u) {
+                if (n[k] > rank[k]) {
+                    hi[k] = mid[k];
+                } else {
+                    lo[k] = mid[k] + 1;
+                }
+            }
+        }
+    }
+}
+
+/* Histogram orders: readings of one sensor spanning at most HIST_BINS values and at most
+ * 255 of them (uint8 counts) are counted once into bins and the medians and the MAD read
+ * off; wider or more readings go to the bisections (the same answers, more passes). */
+#ifndef HIST_BINS
+#define HIST_BINS 256u
+#endif
+
+/* Median (lower, upper) and MAD (x2 mm) of sensor k from a histogram of its valid
+ * readings in [x_min, x_min + HIST_BINS). Same definitions as select_ranks(). */
+FIX_NOINLINE void hist_gate(const struct window_state *w, unsigned k, int32_t x_min, int32_t x_max,
+                            uint16_t lo_rank, uint16_t hi_rank, int32_t *median_x2,
+                            int32_t *mad_x2) {
+    uint8_t hist[HIST_BINS];
+    (void)memset(hist, 0, sizeof hist);
+    uint16_t idx = w->oldest;
     for (uint16_t r = 0; r < w->fill; ++r) {
-        const struct window_row *row = &w->ring[(w->oldest + r) % w->cfg.length];
-        if ((row->valid & (1u << k)) == 0u) {
+        const struct window_row *row = &w->ring[idx];
+        idx = (uint16_t)(idx + 1u == w->cfg.length ? 0u : idx + 1u);
+        if ((row->valid & (1u << k)) != 0u) {
+            const uint32_t bin = (uint32_t)((int32_t)row->range_mm[k] - x_min);
+            hist[bin] = (uint8_t)(hist[bin] + 1u);
+        }
+    }
+    const uint32_t span = (uint32_t)(x_max - x_min); /* < HIST_BINS */
+    /* the medians: the smallest values with more than rank readings at or below */
+    uint32_t cum = 0;
+    int32_t x_lo = x_max;
+    int32_t x_hi = x_max;
+    bool lo_found = false;
+    for (uint32_t b = 0; b <= span; ++b) {
+        cum += hist[b];
+        if (!lo_found && cum > lo_rank) {
+            x_lo = x_min + (int32_t)b;
+            lo_found = true;
+        }
+        if (cum > hi_rank) {
+            x_hi = x_min + (int32_t)b;
+            break;
+        }
+    }
+    const int32_t m2 = x_lo + x_hi;
+    *median_x2 = m2;
+    /* the MAD: deviations |2x − m2| in increasing order, x walking away from m2/2 on both
+     * sides (each step 2); the first deviation with more than lo_rank readings within */
+    int32_t xl = m2 / 2 - ((m2 % 2 == 0) ? 1 : 0); /* left: deviation m2 − 2 xl */
+    int32_t xr = m2 - m2 / 2;                      /* right: deviation 2 xr − m2 */
+    cum = 0;
+    int32_t mad = 0;
+    for (uint32_t step = 0; step <= 2u * HIST_BINS; ++step) {
+        const bool l_in = xl >= x_min;
+        const bool r_in = xr <= x_max;
+        if (!l_in && !r_in) {
+            break; /* unreachable: the readings number more than lo_rank */
+        }
+        const int32_t dl = m2 - 2 * xl;
+        const int32_t dr = 2 * xr - m2;
+        const bool take_l = l_in && (!r_in || dl <= dr);
+        const bool take_r = r_in && (!l_in || dr <= dl);
+        const int32_t d = take_l ? dl : dr;
+        if (take_l) {
+            cum += hist[(uint32_t)(xl - x_min)];
+            --xl;
+        }
+        if (take_r) {
+            cum += hist[(uint32_t)(xr - x_min)];
+            ++xr;
+        }
+        if (cum > lo_rank) {
+            mad = d;
+            break;
+        }
+    }
+    *mad_x2 = mad;
+}
+
+/* The gate of every sensor with valid readings: median and half-width (both x2 mm) and
+ * whether the gate applies (off, or nothing to gate: false). */
+static void gate_sensors(const struct window_state *w, const uint16_t count[ANGLES_SENSORS],
+                         int32_t median_x2[ANGLES_SENSORS], int32_t half_width_x2[ANGLES_SENSORS],
+                         bool gate_on[ANGLES_SENSORS]) {
+    uint8_t active = 0;
+    int32_t x_min[ANGLES_SENSORS] = {65535, 65535, 65535, 65535};
+    int32_t x_max[ANGLES_SENSORS] = {0, 0, 0, 0};
+    uint16_t lo_rank[ANGLES_SENSORS] = {0, 0, 0, 0};
+    uint16_t hi_rank[ANGLES_SENSORS] = {0, 0, 0, 0};
+    for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
+        median_x2[k] = 0;
+        half_width_x2[k] = 0;
+        gate_on[k] = w->cfg.gate_sigmas_q8 != 0u && count[k] != 0u;
+        if (gate_on[k]) {
+            active = (uint8_t)(active | (1u << k));
+            lo_rank[k] = (uint16_t)((count[k] - 1u) / 2u);
+            hi_rank[k] = (uint16_t)(count[k] / 2u);
+        }
+    }
+    if (active == 0u) {
+        return;
+    }
+    /* smallest and largest valid reading of each sensor: the medians lie between */
+    uint16_t idx = w->oldest;
+    for (uint16_t r = 0; r < w->fill; ++r) {
+        const struct window_row *row = &w->ring[idx];
+        idx = (uint16_t)(idx + 1u == w->cfg.length ? 0u : idx + 1u);
+        for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
+            if ((row->valid & active & (1u << k)) != 0u) {
+                const int32_t x = row->range_mm[k];
+                x_min[k] = x < x_min[k] ? x : x_min[k];
+                x_max[k] = x > x_max[k] ? x : x_max[k];
+            }
+        }
+    }
+    int32_t mad_x2[ANGLES_SENSORS] = {0, 0, 0, 0};
+    uint8_t bisect = 0;
+    uint8_t even = 0;
+    for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
+        if ((active & (1u << k)) == 0u) {
             continue;
         }
-        int32_t x = row->range_mm[k];
-        if (use_dev) {
-            x = 2 * x - centre_x2;
-            x = x < 0 ? -x : x;
-        }
-        if (x <= v) {
-            n++;
-        }
-    }
-    return n;
-}
-
-/* The order statistic of rank `rank` (0-based) by bisection on [lo, hi], which must
- * hold it: the smallest v with more than `rank` values <= v. ceil(log2(hi − lo + 1))
- * passes (at most 18: hi − lo <= 131071). */
-static int32_t select_rank(const struct window_state *w, unsigned k, bool use_dev,
-                           int32_t centre_x2, uint16_t rank, int32_t lo_start, int32_t hi_start) {
-    int32_t lo = lo_start;
-    int32_t hi = hi_start;
-    for (unsigned step = 0; step < 18u && lo < hi; ++step) {
-        const int32_t mid = lo + (hi - lo) / 2;
-        if (count_le(w, k, use_dev, centre_x2, mid) > rank) {
-            hi = mid;
+        if (x_max[k] - x_min[k] < (int32_t)HIST_BINS && count[k] <= 255u) {
+            hist_gate(w, k, x_min[k], x_max[k], lo_rank[k], hi_rank[k], &median_x2[k], &mad_x2[k]);
         } else {
-            lo = mid + 1;
+            bisect = (uint8_t)(bisect | (1u << k));
+            if (hi_rank[k] != lo_rank[k]) {
+                even = (uint8_t)(even | (1u << k));
+            }
         }
     }
-    return lo;
-}
-
-/* Smallest and largest status-valid reading of sensor k (valid_count > 0). */
-static void sensor_range(const struct window_state *w, unsigned k, int32_t *lo, int32_t *hi) {
-    int32_t mn = 65535;
-    int32_t mx = 0;
-    for (uint16_t r = 0; r < w->fill; ++r) {
-        const struct window_row *row = &w->ring[(w->oldest + r) % w->cfg.length];
-        if ((row->valid & (1u << k)) != 0u) {
-            const int32_t x = row->range_mm[k];
-            mn = x < mn ? x : mn;
-            mx = x > mx ? x : mx;
+    if (bisect != 0u) {
+        const int32_t none[ANGLES_SENSORS] = {0, 0, 0, 0};
+        int32_t x_lo[ANGLES_SENSORS];
+        int32_t x_hi[ANGLES_SENSORS];
+        int32_t top[ANGLES_SENSORS];
+        for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
+            x_lo[k] = x_min[k];
+            top[k] = x_max[k];
+        }
+        select_ranks(w, bisect, false, none, lo_rank, x_lo, top); /* lower medians */
+        for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
+            x_hi[k] = x_lo[k];
+            top[k] = x_max[k];
+        }
+        select_ranks(w, even, false, none, hi_rank, x_hi, top); /* upper medians (even n) */
+        /* MAD as the lower median of the deviations, in the same x2 units: every
+         * deviation |2x − median_x2| lies in [0, 2 (x_max − x_min)] */
+        int32_t centre[ANGLES_SENSORS];
+        int32_t mad[ANGLES_SENSORS];
+        for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
+            centre[k] = x_lo[k] + x_hi[k];
+            mad[k] = 0;
+            top[k] = 2 * (x_max[k] - x_min[k]);
+        }
+        select_ranks(w, bisect, true, centre, lo_rank, mad, top);
+        for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
+            if ((bisect & (1u << k)) != 0u) {
+                median_x2[k] = centre[k];
+                mad_x2[k] = mad[k];
+            }
         }
     }
-    *lo = mn;
-    *hi = mx;
-}
-
-/* Gate of sensor k: fills median and half-width (both x2 mm). Returns false
- * when the gate is off or there is nothing to gate. */
-static bool gate_sensor(const struct window_state *w, unsigned k, uint16_t valid_count,
-                        int32_t *median_x2, int32_t *half_width_x2) {
-    *median_x2 = 0;
-    *half_width_x2 = 0;
-    if (w->cfg.gate_sigmas_q8 == 0u || valid_count == 0u) {
-        return false;
+    for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
+        if (gate_on[k]) {
+            const int64_t scaled =
+                ((int64_t)mad_x2[k] * MAD_TO_SIGMA_Q16 * w->cfg.gate_sigmas_q8) >> 24;
+            const int64_t floor_x2 = 2 * (int64_t)w->cfg.gate_floor_mm;
+            half_width_x2[k] = (int32_t)(scaled > floor_x2 ? scaled : floor_x2);
+        }
     }
-    int32_t x_min;
-    int32_t x_max;
-    sensor_range(w, k, &x_min, &x_max);
-    const uint16_t lo_rank = (uint16_t)((valid_count - 1u) / 2u);
-    const uint16_t hi_rank = (uint16_t)(valid_count / 2u);
-    const int32_t x_lo = select_rank(w, k, false, 0, lo_rank, x_min, x_max);
-    const int32_t x_hi =
-        hi_rank == lo_rank ? x_lo : select_rank(w, k, false, 0, hi_rank, x_lo, x_max);
-    *median_x2 = x_lo + x_hi;
-    /* MAD as the lower median of the deviations, in the same x2 units: every
-     * deviation |2x − median_x2| lies in [0, 2 (x_max − x_min)]. */
-    const int32_t mad_x2 = select_rank(w, k, true, *median_x2, lo_rank, 0, 2 * (x_max - x_min));
-    const int64_t scaled = ((int64_t)mad_x2 * MAD_TO_SIGMA_Q16 * w->cfg.gate_sigmas_q8) >> 24;
-    const int64_t floor_x2 = 2 * (int64_t)w->cfg.gate_floor_mm;
-    *half_width_x2 = (int32_t)(scaled > floor_x2 ? scaled : floor_x2);
-    return true;
 }
 
 /* --- statistics from sums ---------------------------------------------------------- */
@@ -339,14 +474,16 @@ void window_compute(struct window_state *w, struct window_stats *out) {
     int32_t median_x2[ANGLES_SENSORS];
     int32_t half_x2[ANGLES_SENSORS];
     bool gate_on[ANGLES_SENSORS];
+    gate_sensors(w, w->sums.count, median_x2, half_x2, gate_on);
     for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
-        gate_on[k] = gate_sensor(w, k, w->sums.count[k], &median_x2[k], &half_x2[k]);
         out->sensor[k].median_x2_mm = median_x2[k];
         out->sensor[k].gate_x2_mm = half_x2[k];
     }
 
+    uint16_t idx = w->oldest;
     for (uint16_t r = 0; r < w->fill; ++r) {
-        const struct window_row *row = &w->ring[(w->oldest + r) % w->cfg.length];
+        const struct window_row *row = &w->ring[idx];
+        idx = (uint16_t)(idx + 1u == w->cfg.length ? 0u : idx + 1u);
         uint8_t rejected = 0;
         for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
             const uint8_t bit = (uint8_t)(1u << k);
