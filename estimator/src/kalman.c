@@ -9,6 +9,9 @@
 #define QUANT_VAR_Q32 357913941
 /* Largest accepted initial R: 2^20 mm² (σ = 1024 mm). */
 #define R_MAX_Q32 ((int64_t)1 << 52)
+/* Bound of every state, 2^24 mm (16.8 km): far beyond any 16-bit reading, and small
+ * enough that a prediction h·x and an innovation z − h·x stay far inside int64. */
+#define X_LIMIT_Q32 ((int64_t)1 << 56)
 /* Cap of each P_ii under process noise: 16 x the diffuse prior, far above any state worth
  * estimating, and low enough that hᵀPh + R (at most 4 x 2^60 + 2^52) stays inside int64. */
 #define P_MAX_Q32 (KALMAN_P0_MM2_Q32 << 4)
@@ -109,7 +112,16 @@ static void joseph_update(struct kalman_state *k, const fix_q32_t g[KALMAN_STATE
         gain[i] = fix_muldiv_s64(g[i], FIX_Q30_ONE, s, ovf);
     }
     for (unsigned i = 0; i < KALMAN_STATES; ++i) {
-        k->x[i] += fix_mul_shr_s64(gain[i], e, FIX_Q30_SHIFT, ovf);
+        /* A gain far above 1 (a direction an ill-conditioned P barely resolves) times a
+         * large innovation can throw the state out of any physical range, and then the
+         * predictions h·x out of int64: flagged (the covariance restarts), the state kept
+         * within ±X_LIMIT_Q32. (Found by tests/fuzz.) */
+        const int64_t dx = fix_mul_shr_s64(gain[i], e, FIX_Q30_SHIFT, ovf);
+        if (dx > 0 ? k->x[i] > X_LIMIT_Q32 - dx : k->x[i] < -X_LIMIT_Q32 - dx) {
+            *ovf = true;
+        } else {
+            k->x[i] += dx;
+        }
     }
     for (unsigned i = 0; i < KALMAN_STATES; ++i) {
         const fix_q32_t sk_i = fix_mul_shr_s64(s, gain[i], FIX_Q30_SHIFT, ovf);
