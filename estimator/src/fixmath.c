@@ -320,6 +320,50 @@ int64_t fix_mul_shr_s64(int64_t a, int64_t b, unsigned shift, bool *overflow) {
     return fix_s128_to_s64(fix_s128_shr_round(fix_s128_mul(a, b), shift), overflow);
 }
 
+/* --- normalised 32-bit helpers (contracts in fixmath.h) -------------------------- */
+
+uint32_t fix_norm31(uint64_t v, int32_t *e) {
+    const int32_t ex = (int32_t)fix_bitlen_u64(v) - 31;
+    *e = ex;
+    if (ex >= 0) {
+        const uint64_t m = v >> (unsigned)ex;
+        return (uint32_t)m;
+    }
+    const uint32_t small = (uint32_t)v;
+    return small << (unsigned)(-ex);
+}
+
+int32_t fix_recip31(uint32_t m) {
+    const uint32_t d = m >> 15;
+    const uint32_t q16 = 0xFFFFFFFFu / (d != 0u ? d : 1u);
+    const int32_t y0 = (int32_t)(q16 << 14);
+    const uint64_t prod = (uint64_t)m * (uint32_t)y0;
+    const int64_t err = (int64_t)(((uint64_t)1 << 61) - prod);
+    const int64_t err29 = fix_floor_shr_s64(err, 29u);
+    const int64_t r = (int64_t)y0 + fix_hi32((int64_t)y0 * err29);
+    return r < INT32_MAX ? (int32_t)r : INT32_MAX;
+}
+
+int64_t fix_mul_q31(int64_t v, int32_t r) {
+    const int64_t vh = fix_floor_shr_s64(v, 31u);
+    const uint64_t vl = (uint64_t)(v - vh * ((int64_t)1 << 31));
+    const uint64_t low = (vl * (uint32_t)r) >> 31;
+    return vh * r + (int64_t)low;
+}
+
+uint64_t fix_div_u64_u16(uint64_t num, uint32_t den) {
+    uint64_t q = 0;
+    uint32_t rem = 0;
+    for (unsigned i = 4u; i > 0u; --i) {
+        const uint32_t chunk = (uint32_t)(num >> (16u * (i - 1u))) & 0xFFFFu;
+        const uint32_t cur = (rem << 16) | chunk;
+        const uint32_t qd = cur / den;
+        rem = cur - qd * den;
+        q = (q << 16) | qd;
+    }
+    return q;
+}
+
 /* --- atan2: vectoring CORDIC -------------------------------------------------- */
 
 /* atan(2^-i) for i = 1..30 in micro-degrees x 32 (Q5), rounded. */
@@ -489,36 +533,28 @@ fix_udeg_t fix_angle_sigma_udeg(fix_q32_t var_mm2, int32_t arm_um, fix_q32_t tan
     } else {
         sd_t_q32 = num / ((uint64_t)arm_um << (h - 16u)); /* divisor < 2^36 */
     }
-    /* dα = dt / (1 + t²): den = (1 + t²) · 2^32 = dm · 2^es with dm in [2^30, 2^31).
-     * |t| = am · 2^ea (am < 2^31): t² · 2^32 = am² · 2^(2 ea − 32), plus 2^32. */
+    /* dα = dt / (1 + t²): den = (1 + t²) · 2^32; within 89.1° (|t| < 64) t² from |t| in
+     * Q24 (to 2^-32 of den), den = dm · 2^es with dm in [2^30, 2^31) (es >= 2);
+     * beyond, the exact 128-bit quotient */
     const uint64_t at = fix_abs_u64(tan_q32);
-    int32_t ea = 0;
-    const uint64_t am = at == 0u ? 0u : (uint64_t)fix_norm31(at, &ea);
-    const int32_t e2 = 2 * ea - 32; /* exponent of am² (< 2^62) */
-    const uint64_t sq = am * am;
-    uint64_t den_m;
-    int32_t den_e;
-    if (e2 > 32) {
-        den_m = sq; /* the 1 is below 2^-60 of t² */
-        den_e = e2;
-    } else if (e2 >= 0) {
-        den_m = sq + ((uint64_t)1 << (unsigned)(32 - e2)); /* < 2^63 */
-        den_e = e2;
-    } else if (e2 > -62) {
-        den_m = (sq >> (unsigned)(-e2)) + ((uint64_t)1 << 32); /* t² to 2^-32 */
-        den_e = 0;
+    int64_t sd_rad_q32;
+    if (at < ((uint64_t)1 << 38)) {
+        const uint64_t t24 = at >> 8;
+        const uint64_t den = ((uint64_t)1 << 32) + ((t24 * t24) >> 16);
+        int32_t es;
+        const uint32_t dm = fix_norm31(den, &es);
+        /* σ(α) in Q32 rad = σ(t) · 2^32 / den = σ(t) · rm / 2^(29 + es) */
+        const int64_t part = fix_mul_q31((int64_t)sd_t_q32, fix_recip31(dm));
+        sd_rad_q32 = fix_floor_shr_s64(part, (unsigned)(es >= 2 ? es - 2 : 0));
     } else {
-        den_m = (uint64_t)1 << 32;
-        den_e = 0;
+        bool ovf = false;
+        const int64_t den =
+            fix_sat_add_s64(FIX_Q32_ONE, fix_mul_shr_s64(tan_q32, tan_q32, FIX_Q32_SHIFT, &ovf));
+        sd_rad_q32 = fix_muldiv_s64((int64_t)sd_t_q32, FIX_Q32_ONE, den, &ovf);
+        if (ovf) {
+            return INT32_MAX; /* t² beyond 2^31 (89.998°): as before, no meaningful value */
+        }
     }
-    int32_t es;
-    const uint32_t dm = fix_norm31(den_m, &es);
-    es += den_e; /* den >= 2^32, so es >= 2 */
-    const int32_t rm = fix_recip31(dm);
-    /* σ(α) in Q32 rad = σ(t) · 2^32 / den = σ(t) · rm / 2^(29 + es) */
-    const int64_t part = fix_mul_q31((int64_t)sd_t_q32, rm);
-    const int64_t sd_rad_q32 =
-        es - 2 >= 62 ? 0 : (es < 2 ? part : fix_floor_shr_s64(part, (unsigned)(es - 2)));
     /* udeg · 2^6 = rad (Q32) · 57295779.513 / 2^26: times 57295779.513 · 2^5 in Q31 */
     const int64_t udeg_x64 = fix_mul_q31(sd_rad_q32, 1833464944);
     const int64_t udeg = fix_floor_shr_s64(udeg_x64 + 32, 6u);

@@ -7,6 +7,7 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <cmocka.h>
 
@@ -110,6 +111,62 @@ static void test_symmetry_alpha_beta(void **state) {
     }
 }
 
+/* The operating range: readings within an arm of each other (every slope within ±45°),
+ * where the prepared arm and the atan table work: within 1 udeg of double for every arm,
+ * angles_compute_all() equal to angles_compute_prepared(), angles_compute() equal to both,
+ * and exactly 45° and beyond handled by the CORDIC on the exact operands. */
+static void test_prepared_table_range(void **state) {
+    (void)state;
+    srand(4242);
+    double worst = 0.0;
+    for (int i = 0; i < 200000; ++i) {
+        const int32_t arm = ANGLES_ARM_MIN_UM + rand() % (ANGLES_ARM_MAX_UM - ANGLES_ARM_MIN_UM);
+        const int32_t a_mm = arm / 1000;
+        uint16_t r[4];
+        const int32_t base = 1000 + rand() % 30000;
+        for (unsigned k = 0; k < 4; ++k) {
+            r[k] = (uint16_t)(base + (a_mm > 0 ? rand() % (a_mm + 1) : 0) - a_mm / 2);
+        }
+        struct angles_arm prep;
+        angles_arm_prepare(&prep, arm);
+        struct angles_sample s;
+        struct angles_sample t;
+        angles_compute_prepared(r, ANGLES_ALL_SENSORS, &prep, &s);
+        angles_compute(r, ANGLES_ALL_SENSORS, arm, &t);
+        fix_udeg_t al[5];
+        fix_udeg_t b5;
+        angles_compute_all(r, &prep, al, &b5);
+        for (unsigned k = 0; k < 5; ++k) {
+            assert_int_equal(s.alpha_udeg[k], t.alpha_udeg[k]);
+            assert_int_equal(s.beta_udeg[k], t.beta_udeg[k]);
+            assert_int_equal(al[k], s.alpha_udeg[k]);
+        }
+        assert_int_equal(b5, s.beta_udeg[4]);
+        const double a = arm / 1000.0;
+        const double want[5] = {atan((r[1] - r[0]) / a), atan((r[3] - r[0]) / a),
+                                atan((r[2] - r[1]) / a), atan((r[2] - r[3]) / a),
+                                atan((r[2] - r[0]) / (2 * a))};
+        for (unsigned k = 0; k < 5; ++k) {
+            const double err = fabs(s.alpha_udeg[k] - want[k] * 180e6 / TEST_PI);
+            worst = err > worst ? err : worst;
+        }
+    }
+    printf("prepared angles within ±45°: worst |fixed − double| %.3f udeg\n", worst);
+    assert_true(worst <= 1.0);
+    /* exactly 45° (d = a) and just around it, both spans */
+    struct angles_arm prep;
+    angles_arm_prepare(&prep, 30000);
+    for (int d = 28; d <= 62; ++d) {
+        for (unsigned span = 1; span <= 2; ++span) {
+            const uint16_t hi = (uint16_t)(1000 + d);
+            const double want = atan(d / (30.0 * span)) * 180e6 / TEST_PI;
+            const fix_udeg_t got = angles_pair_prepared_udeg(hi, 1000, &prep, span);
+            assert_true(fabs(got - want) <= 1.1);
+            assert_int_equal(angles_pair_prepared_udeg(1000, hi, &prep, span), -got);
+        }
+    }
+}
+
 static void test_masks_and_missing_sensors(void **state) {
     (void)state;
     assert_int_equal(angles_alpha_mask(ANGLES_ALL_SENSORS), 0x1F);
@@ -149,6 +206,7 @@ int main(void) {
         cmocka_unit_test(test_random_samples_against_double),
         cmocka_unit_test(test_extreme_ranges),
         cmocka_unit_test(test_symmetry_alpha_beta),
+        cmocka_unit_test(test_prepared_table_range),
         cmocka_unit_test(test_masks_and_missing_sensors),
         cmocka_unit_test(test_arm_validation),
     };

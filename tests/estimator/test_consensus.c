@@ -438,6 +438,112 @@ static void test_paper_no_convergence_is_a_status(void **state) {
     assert_int_equal(out.angle_udeg, 0);
 }
 
+/* round(a / 2^30), halves away from zero, of an exact 128-bit value. */
+static int64_t round_q30(__int128 a) {
+    const unsigned __int128 m = a < 0 ? -(unsigned __int128)a : (unsigned __int128)a;
+    const unsigned __int128 r = (m + ((unsigned __int128)1 << 29)) >> 30;
+    return a < 0 ? -(int64_t)r : (int64_t)r;
+}
+
+/* The paper's iteration is exact: replayed here with __int128 products from the P the
+ * rule built (Alg. 1 as consensus.c states it: spread test, P·v rounded half away from
+ * zero in Q30, divergence beyond ±360°), status, iteration count and value agree
+ * exactly over random covariances and means, every outcome included. */
+static void test_paper_iteration_exact(void **state) {
+    (void)state;
+    int outcomes[4] = {0, 0, 0, 0}; /* ok, diverged, no convergence, other */
+    for (int trial = 0; trial < 20000; ++trial) {
+        double mean[5];
+        int64_t cov[5][5];
+        for (int i = 0; i < 5; ++i) {
+            mean[i] = (urand() - 0.5) * 2e7;
+        }
+        for (int i = 0; i < 5; ++i) {
+            for (int j = i; j < 5; ++j) {
+                double v = (i == j) ? (0.5 + urand()) * 1e12 : (urand() - 0.3) * 2e12;
+                if (fabs(v) < 1e9) {
+                    v = 1e9;
+                }
+                cov[i][j] = cov[j][i] = (int64_t)llround(v);
+            }
+        }
+        struct consensus_paper_result out;
+        run_paper(mean, cov, 300, &out);
+        if (out.status != CONSENSUS_OK && out.status != CONSENSUS_DIVERGED &&
+            out.status != CONSENSUS_NO_CONVERGENCE && out.status != CONSENSUS_OUTSIDE_HULL) {
+            outcomes[3]++;
+            continue; /* P was not built */
+        }
+        int64_t v[5];
+        int64_t lo0 = INT64_MAX;
+        int64_t hi0 = INT64_MIN;
+        for (int i = 0; i < 5; ++i) {
+            v[i] = (int64_t)llround(mean[i] * 65536.0);
+            lo0 = v[i] < lo0 ? v[i] : lo0;
+            hi0 = v[i] > hi0 ? v[i] : hi0;
+        }
+        const int64_t tol = (int64_t)1000 << 16;
+        const int64_t bound = (int64_t)CONSENSUS_PAPER_DIVERGED_UDEG << 16;
+        enum consensus_status status = CONSENSUS_NO_CONVERGENCE;
+        int iterations = 0;
+        for (int it = 0; it <= 300; ++it) {
+            int64_t lo = INT64_MAX;
+            int64_t hi = INT64_MIN;
+            for (int i = 0; i < 5; ++i) {
+                lo = v[i] < lo ? v[i] : lo;
+                hi = v[i] > hi ? v[i] : hi;
+            }
+            if (hi - lo <= tol) {
+                status = CONSENSUS_OK;
+                break;
+            }
+            if (it == 300) {
+                break;
+            }
+            int64_t next[5];
+            bool diverged = false;
+            for (int i = 0; i < 5 && !diverged; ++i) {
+                __int128 acc = 0;
+                for (int k = 0; k < 5; ++k) {
+                    acc += (__int128)out.matrix[i][k] * v[k];
+                }
+                const __int128 lim = (__int128)bound << 30;
+                if (acc > lim + ((__int128)1 << 29) || acc < -lim - ((__int128)1 << 29)) {
+                    diverged = true;
+                } else {
+                    next[i] = round_q30(acc);
+                    diverged = next[i] > bound || next[i] < -bound;
+                }
+            }
+            iterations = it + 1;
+            if (diverged) {
+                status = CONSENSUS_DIVERGED;
+                break;
+            }
+            memcpy(v, next, sizeof v);
+        }
+        if (status == CONSENSUS_OK) {
+            int64_t sum = 0;
+            for (int i = 0; i < 5; ++i) {
+                sum += v[i];
+            }
+            const int64_t r = sum >= 0 ? (sum + 2) / 5 : -((-sum + 2) / 5);
+            if (r < lo0 - tol || r > hi0 + tol) {
+                status = CONSENSUS_OUTSIDE_HULL;
+            } else {
+                const int64_t deg = r >= 0 ? (r + 32768) >> 16 : -((-r + 32768) >> 16);
+                assert_int_equal(out.angle_udeg, (int32_t)deg);
+            }
+        }
+        assert_int_equal(out.status, status);
+        assert_int_equal(out.iterations, iterations);
+        outcomes[status == CONSENSUS_OK ? 0 : status == CONSENSUS_DIVERGED ? 1 : 2]++;
+    }
+    print_message("paper iteration vs __int128: ok %d, diverged %d, no-conv %d, no P %d\n",
+                  outcomes[0], outcomes[1], outcomes[2], outcomes[3]);
+    assert_true(outcomes[0] > 0 && outcomes[1] > 0 && outcomes[2] > 0);
+}
+
 static void test_paper_against_double_random(void **state) {
     (void)state;
     int seen[5] = {0};
@@ -514,6 +620,7 @@ int main(void) {
         cmocka_unit_test(test_paper_divergence_is_a_status),
         cmocka_unit_test(test_paper_no_convergence_is_a_status),
         cmocka_unit_test(test_paper_against_double_random),
+        cmocka_unit_test(test_paper_iteration_exact),
         cmocka_unit_test(test_status_names),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

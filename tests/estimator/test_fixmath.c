@@ -1,6 +1,7 @@
 /*
  * estimator/fixmath: saturation, rounding, 128-bit intermediates, division,
- * isqrt and the CORDIC atan2 against libm over dense sweeps.
+ * isqrt, the CORDIC atan2 and the atan table against libm over dense sweeps, the
+ * normalised 32-bit helpers against __int128 and double, the angle sigma.
  */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -307,6 +308,124 @@ static void test_angle_sigma(void **state) {
     assert_int_equal(fix_angle_sigma_udeg(INT64_MAX, 1000, 0), INT32_MAX);
 }
 
+/* The atan table: every node recomputed in double (estimator/tools/gen_atan_table.py's
+ * recipe), the interpolation between them within 1 udeg over random slopes, and
+ * fix_atan_q32_udeg odd. */
+static void test_atan_table_and_interpolation(void **state) {
+    (void)state;
+    const double udeg_per_rad = 180e6 / TEST_PI;
+    for (unsigned k = 0; k < 64u; ++k) {
+        /* a node itself: t31 = k · 2^25 */
+        const double want = atan(k / 64.0) * udeg_per_rad;
+        /* the node value rounded to 1/16 udeg, then to 1 udeg */
+        assert_true(fabs(fix_atan_unit_q31_udeg(k << 25) - want) <= 0.5 + 1.0 / 32.0);
+    }
+    double worst = 0.0;
+    for (int i = 0; i < 2000000; ++i) {
+        const uint32_t t31 = (uint32_t)(next_u64() >> 33); /* [0, 2^31) */
+        const double want = atan((double)t31 / 2147483648.0) * udeg_per_rad;
+        const double err = fabs(fix_atan_unit_q31_udeg(t31) - want);
+        worst = err > worst ? err : worst;
+    }
+    printf("atan table over 2,000,000 random slopes in [0, 1): worst error %.3f udeg\n", worst);
+    assert_true(worst <= 1.0);
+    for (int i = 0; i < 100000; ++i) {
+        const int64_t t = next_s64_bits(34); /* within and beyond ±1 */
+        assert_int_equal(fix_atan_q32_udeg(-t), -fix_atan_q32_udeg(t));
+        const double want = atan((double)t / 4294967296.0) * udeg_per_rad;
+        assert_true(fabs(fix_atan_q32_udeg(t) - want) <= 1.1);
+    }
+}
+
+/* The normalised 32-bit helpers against exact references. */
+static void test_norm_recip_mul_div(void **state) {
+    (void)state;
+    for (int i = 0; i < 200000; ++i) {
+        const uint64_t v = (next_u64() >> (next_u64() % 64u)) | 1u;
+        int32_t e;
+        const uint32_t m = fix_norm31(v, &e);
+        assert_true(m >= (1u << 30) && m < (1u << 31));
+        /* m · 2^e is v truncated to 31 bits */
+        if (e >= 0) {
+            assert_true((uint64_t)m == v >> e);
+        } else {
+            assert_true((uint64_t)m == v << -e);
+        }
+        const int32_t r = fix_recip31(m);
+        const double want = 2305843009213693952.0 / (double)m; /* 2^61 / m */
+        assert_true(fabs(r - want) <= want * 4e-9);            /* < 2^-27 */
+        const int64_t a = next_s64_bits(62);
+        const int32_t q = (int32_t)(next_u64() >> 33);
+        const i128 exact = (i128)a * q;
+        /* floor(a q / 2^31) */
+        const i128 fl = exact >= 0 ? exact / ((i128)1 << 31)
+                                   : -((-exact + ((i128)1 << 31) - 1) / ((i128)1 << 31));
+        assert_true((i128)fix_mul_q31(a, q) == fl);
+        const uint32_t den = (uint32_t)(next_u64() % 65535u) + 1u;
+        assert_true(fix_div_u64_u16(v, den) == v / den);
+    }
+    assert_true(fix_div_u64_u16(UINT64_MAX, 1u) == UINT64_MAX);
+    assert_true(fix_div_u64_u16(UINT64_MAX, 65535u) == UINT64_MAX / 65535u);
+}
+
+/* 128/64 division: the 32-bit-divisor path and the restoring loop with the quotient's bits
+ * only, against __int128, rounding half away from zero, overflow flagged. */
+static void test_s128_division_paths(void **state) {
+    (void)state;
+    for (int i = 0; i < 300000; ++i) {
+        const unsigned dbits = 1u + (unsigned)(next_u64() % 63u);
+        int64_t d = next_s64_bits(dbits + 1u);
+        if (d == 0) {
+            d = 3;
+        }
+        const i128 hi = (i128)next_s64_bits(1u + (unsigned)(next_u64() % 63u));
+        const i128 a = hi * ((i128)1 << (next_u64() % 64u)) + (i128)next_s64_bits(64);
+        fix_s128 x;
+        x.hi = (uint64_t)((unsigned __int128)a >> 64);
+        x.lo = (uint64_t)a;
+        bool ovf = false;
+        const int64_t got = fix_s128_div_s64(x, d, &ovf);
+        const unsigned __int128 ma = a < 0 ? -(unsigned __int128)a : (unsigned __int128)a;
+        const unsigned __int128 md =
+            d < 0 ? -(unsigned __int128)(i128)d : (unsigned __int128)(i128)d;
+        unsigned __int128 q = ma / md;
+        const unsigned __int128 r = ma % md;
+        q += r >= md - r ? 1u : 0u;
+        const bool neg = (a < 0) != (d < 0);
+        if (q > (unsigned __int128)INT64_MAX + (neg ? 1u : 0u)) {
+            assert_true(ovf);
+        } else {
+            assert_false(ovf);
+            assert_true((i128)got == (neg ? -(i128)q : (i128)q));
+        }
+    }
+}
+
+/* The angle sigma against long double: within 1e-6 relative + 2 udeg where it does not
+ * saturate, over variances, arms and slopes of every size. */
+static void test_angle_sigma_random(void **state) {
+    (void)state;
+    for (int i = 0; i < 300000; ++i) {
+        const int64_t var = (int64_t)(next_u64() >> 1) >> (next_u64() % 63u);
+        const int32_t arm = 1000 + (int32_t)(next_u64() % 999001u);
+        const int64_t tan = next_s64_bits(1u + (unsigned)(next_u64() % 50u));
+        if (var <= 0) {
+            continue;
+        }
+        const fix_udeg_t got = fix_angle_sigma_udeg(var, arm, tan);
+        const long double t = (long double)tan / 4294967296.0L;
+        const long double sd_t =
+            sqrtl((long double)var / 4294967296.0L) / ((long double)arm / 1000.0L);
+        const long double want = sd_t / (1.0L + t * t) * 180000000.0L / (long double)TEST_PI;
+        if (want >= (long double)INT32_MAX) {
+            assert_int_equal(got, INT32_MAX);
+            continue;
+        }
+        assert_true((long double)got >= want * (1.0L - 1e-6L) - 2.0L);
+        assert_true(got == INT32_MAX || (long double)got <= want * (1.0L + 1e-6L) + 2.0L);
+    }
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_saturation),
@@ -319,6 +438,10 @@ int main(void) {
         cmocka_unit_test(test_atan2_exact_points_and_symmetry),
         cmocka_unit_test(test_udeg_from_rad),
         cmocka_unit_test(test_angle_sigma),
+        cmocka_unit_test(test_atan_table_and_interpolation),
+        cmocka_unit_test(test_norm_recip_mul_div),
+        cmocka_unit_test(test_s128_division_paths),
+        cmocka_unit_test(test_angle_sigma_random),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -182,6 +182,58 @@ static void test_matches_batch_least_squares(void **state) {
     }
 }
 
+static struct kalman_state kf_exact;
+
+/* The steady-state block updates against the exact Joseph form, reading for reading:
+ * an integer reading takes the block path when it applies, the same reading plus 2^-32 mm
+ * always the exact one (P does not depend on the readings). Unequal noise, readings
+ * dropped at random and a sensor pair missing for a stretch (the paths switch) keep the
+ * two covariances within 1e-6 relative + 8 LSB of Q32 and the states within 1e-6 mm. */
+static void test_block_updates_match_exact(void **state) {
+    (void)state;
+    for (int trial = 0; trial < 40; ++trial) {
+        struct kalman_config c = default_config();
+        c.gate_sigmas_q8 = 0;
+        c.warmup_rows = 1;
+        for (unsigned s = 0; s < 4; ++s) {
+            const double sd = 0.3 + 6 * urand();
+            c.initial_noise_mm2[s] = (int64_t)llround(sd * sd * Q32);
+        }
+        assert_int_equal(kalman_init(&kf, &c), KALMAN_OK);
+        assert_int_equal(kalman_init(&kf_exact, &c), KALMAN_OK);
+        kf.started = true; /* both straight into online updates from the diffuse prior */
+        kf_exact.started = true;
+        double x0[4];
+        ideal(30, 100 + 300 * urand(), (urand() - 0.5) * 10, (urand() - 0.5) * 10, x0);
+        for (int row = 0; row < 400; ++row) {
+            const bool pair_gone = row >= 100 && row < 160; /* B and D missing */
+            for (unsigned s = 0; s < 4; ++s) {
+                if ((pair_gone && (s == 1 || s == 3)) || urand() < 0.05) {
+                    continue;
+                }
+                const double v = round(x0[s] + 2 * gauss());
+                const fix_q32_t z = (fix_q32_t)(v < 0 ? 0 : v) << 32;
+                assert_true(kalman_update(&kf, s, z, false));
+                assert_true(kalman_update(&kf_exact, s, z + 1, false));
+            }
+            for (unsigned a = 0; a < 3; ++a) {
+                for (unsigned b = 0; b < 3; ++b) {
+                    const double pa = (double)kf.p[a][b];
+                    const double pb = (double)kf_exact.p[a][b];
+                    const double scale = sqrt((double)kf_exact.p[a][a] * (double)kf_exact.p[b][b]);
+                    if (fabs(pa - pb) > 1e-6 * scale + 8.0) {
+                        fail_msg("trial %d row %d P[%u][%u]: block %.0f exact %.0f", trial, row, a,
+                                 b, pa, pb);
+                    }
+                }
+                assert_true(fabs((double)(kf.x[a] - kf_exact.x[a])) / Q32 < 1e-6);
+            }
+        }
+        assert_int_equal(kf.numeric_restarts, 0);
+        assert_int_equal(kf_exact.numeric_restarts, 0);
+    }
+}
+
 static void test_long_run_stays_positive_definite(void **state) {
     (void)state;
     struct kalman_config c = default_config();
@@ -444,6 +496,7 @@ int main(void) {
         cmocka_unit_test(test_config_errors),
         cmocka_unit_test(test_noise_free_plate_is_exact),
         cmocka_unit_test(test_matches_batch_least_squares),
+        cmocka_unit_test(test_block_updates_match_exact),
         cmocka_unit_test(test_long_run_stays_positive_definite),
         cmocka_unit_test(test_flagged_skipped_and_outliers_gated),
         cmocka_unit_test(test_warmup_outlier_in_first_rows),

@@ -218,6 +218,59 @@ static void test_gate_rejects_gross_outliers_only(void **state) {
     check_against_direct(&other, &st2); /* the flagged twin, checked directly */
 }
 
+static int cmp_int(const void *a, const void *b) {
+    const int x = *(const int *)a;
+    const int y = *(const int *)b;
+    return (x > y) - (x < y);
+}
+
+/* The gate's median and MAD against sorting, in both of its forms: readings spanning fewer
+ * than 256 values (counted into a histogram) and wider ones or more than 255 (bisection),
+ * over sliding windows of random lengths with flagged readings. */
+static void test_gate_median_mad_against_sorting(void **state) {
+    (void)state;
+    static int vals[WINDOW_MAX_SAMPLES];
+    static int devs[WINDOW_MAX_SAMPLES];
+    const uint32_t saved_rng = rng; /* the later tests' data stay as they were */
+    for (int trial = 0; trial < 3000; ++trial) {
+        const uint16_t n = (uint16_t)(2 + rnd(WINDOW_MAX_SAMPLES - 1));
+        init(&win, n, (uint16_t)(256 + rnd(2000)));
+        const int spread = trial % 3 == 0 ? 1 + rnd(40) : (trial % 3 == 1 ? 200 + rnd(100) : 2000);
+        const int rows = n + rnd(60);
+        for (int r = 0; r < rows; ++r) {
+            const uint8_t valid = (uint8_t)(rnd(12) == 0 ? rnd(16) : 0x0F);
+            push_plate(&win, 5000 + rnd(spread), 5000 + rnd(spread), 5000 + rnd(spread),
+                       60000 + rnd(spread), 0x0F, valid);
+        }
+        window_compute(&win, &st);
+        for (unsigned k = 0; k < 4; ++k) {
+            int m = 0;
+            for (uint16_t age = 0; age < window_fill(&win); ++age) {
+                const struct window_row *row = window_row_at(&win, age);
+                if (row->valid & (1u << k)) {
+                    vals[m++] = row->range_mm[k];
+                }
+            }
+            if (m == 0) {
+                assert_int_equal(st.sensor[k].gate_x2_mm, 0);
+                continue;
+            }
+            qsort(vals, (size_t)m, sizeof vals[0], cmp_int);
+            const int med2 = vals[(m - 1) / 2] + vals[m / 2];
+            assert_int_equal(st.sensor[k].median_x2_mm, med2);
+            for (int i = 0; i < m; ++i) {
+                devs[i] = abs(2 * vals[i] - med2);
+            }
+            qsort(devs, (size_t)m, sizeof devs[0], cmp_int);
+            const int64_t mad2 = devs[(m - 1) / 2];
+            const int64_t scaled = (mad2 * 97163 * win.cfg.gate_sigmas_q8) >> 24;
+            const int64_t floor2 = 2 * (int64_t)win.cfg.gate_floor_mm;
+            assert_int_equal(st.sensor[k].gate_x2_mm, scaled > floor2 ? scaled : floor2);
+        }
+    }
+    rng = saved_rng;
+}
+
 static void test_all_equal_readings_zero_variance(void **state) {
     (void)state;
     init(&win, 50, 5 * 256);
@@ -333,6 +386,7 @@ int main(void) {
         cmocka_unit_test(test_tumbling_stats_match_direct),
         cmocka_unit_test(test_sliding_never_drifts),
         cmocka_unit_test(test_gate_rejects_gross_outliers_only),
+        cmocka_unit_test(test_gate_median_mad_against_sorting),
         cmocka_unit_test(test_all_equal_readings_zero_variance),
         cmocka_unit_test(test_negative_and_zero_covariances),
         cmocka_unit_test(test_missing_and_flagged_sensors),

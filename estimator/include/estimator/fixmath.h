@@ -106,6 +106,19 @@ int64_t fix_muldiv_s64(int64_t a, int64_t b, int64_t den, bool *overflow);
 /* (a * b) / 2^shift rounded (shift 0..126), saturated with *overflow. */
 int64_t fix_mul_shr_s64(int64_t a, int64_t b, unsigned shift, bool *overflow);
 
+/* --- normalised 32-bit arithmetic (the estimator's fast paths) ------------------- */
+
+/* v = m · 2^e with m in [2^30, 2^31) for v > 0 (truncated): returns m, stores e. */
+uint32_t fix_norm31(uint64_t v, int32_t *e);
+/* ≈ 2^61 / m for m in [2^30, 2^31), in (2^30, 2^31), relative error < 2^-28: a 16-bit
+ * quotient of one 32-bit division refined by one Newton step. */
+int32_t fix_recip31(uint32_t m);
+/* floor(v · r / 2^31) for |v| < 2^62 and 0 <= r < 2^31 (v times a Q31 fraction), exact,
+ * from two 32x32 -> 64 products. */
+int64_t fix_mul_q31(int64_t v, int32_t r);
+/* floor(num / den) for den in [1, 65535]: four 32-by-16-bit division steps, exact. */
+uint64_t fix_div_u64_u16(uint64_t num, uint32_t den);
+
 /* --- angles ------------------------------------------------------------------- */
 
 /*
