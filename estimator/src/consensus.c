@@ -43,7 +43,10 @@ const char *consensus_status_name(enum consensus_status status) {
 /* Sensors of one axis in the generic frame: low = x̄ − a·t, high = x̄ + a·t,
  * ref1 = x̄ + a·o, ref2 = x̄ − a·o (o: the other axis, sign per frame). */
 struct axis_frame {
-    unsigned low, ref1, high, ref2;
+    unsigned low;
+    unsigned ref1;
+    unsigned high;
+    unsigned ref2;
 };
 static const struct axis_frame alpha_frame = {ANGLES_A, ANGLES_B, ANGLES_C, ANGLES_D};
 static const struct axis_frame beta_frame = {ANGLES_D, ANGLES_A, ANGLES_B, ANGLES_C};
@@ -154,16 +157,19 @@ static fix_q32_t iterate_product(struct consensus_axis *ax, fix_q32_t tol_q32) {
     int32_t h32 = (int32_t)d_hi; /* c lies between them: |d| <= spread < 2^30 */
     int32_t l32 = (int32_t)d_lo;
     const int32_t tol = tol_q32 < INT32_MAX ? (int32_t)tol_q32 : INT32_MAX;
-    for (; it <= CONSENSUS_PRODUCT_MAX_ITERATIONS; ++it) {
+    /* Each pass ends the loop or advances `it`, which ends it at the cap. */
+    bool done = false;
+    while (!done) {
         if (h32 - l32 <= tol) {
             ax->status = CONSENSUS_OK;
-            break;
+            done = true;
+        } else if (it >= CONSENSUS_PRODUCT_MAX_ITERATIONS) {
+            done = true; /* cannot happen while tol > 4 LSB (header proof); reported if it does */
+        } else {
+            h32 = h32 >= 0 ? (h32 + 1) / 2 : -((1 - h32) / 2);
+            l32 = l32 >= 0 ? (l32 + 1) / 2 : -((1 - l32) / 2);
+            ++it;
         }
-        if (it == CONSENSUS_PRODUCT_MAX_ITERATIONS) {
-            break; /* cannot happen while tol > 4 LSB (header proof); reported if it does */
-        }
-        h32 = h32 >= 0 ? (h32 + 1) / 2 : -((1 - h32) / 2);
-        l32 = l32 >= 0 ? (l32 + 1) / 2 : -((1 - l32) / 2);
     }
     ax->iterations = (uint16_t)it;
     return c;
@@ -171,7 +177,7 @@ static fix_q32_t iterate_product(struct consensus_axis *ax, fix_q32_t tol_q32) {
 
 static void product_axis(const struct consensus_product_input *in, const struct product_prep *pp,
                          const struct axis_frame *f, struct consensus_axis *ax) {
-    memset(ax, 0, sizeof *ax);
+    (void)memset(ax, 0, sizeof *ax);
     const struct consensus_sensor *s = in->sensor;
     const bool has_low = s[f->low].used;
     const bool has_high = s[f->high].used;
@@ -282,6 +288,8 @@ void consensus_product(const struct consensus_product_input *in,
         out->distance_mm = mid_ac;
     } else if (bd) {
         out->distance_mm = mid_bd;
+    } else {
+        /* no complete pair: distance_valid is false and distance_mm stays 0 */
     }
 }
 
@@ -383,7 +391,7 @@ static int64_t paper_row(const fix_q30_t p[ANGLES_PER_AXIS], const int32_t vh[AN
 void consensus_paper(const fix_udeg_q16_t mean[ANGLES_PER_AXIS],
                      const int64_t cov[ANGLES_PER_AXIS][ANGLES_PER_AXIS], uint16_t complete,
                      const struct consensus_paper_config *cfg, struct consensus_paper_result *out) {
-    memset(out, 0, sizeof *out);
+    (void)memset(out, 0, sizeof *out);
     if (complete < 2u) {
         out->status = CONSENSUS_TOO_FEW_ROWS;
         return;
@@ -403,7 +411,8 @@ void consensus_paper(const fix_udeg_q16_t mean[ANGLES_PER_AXIS],
         hi0 = v[i] > hi0 ? v[i] : hi0;
     }
     out->status = CONSENSUS_NO_CONVERGENCE;
-    for (uint32_t it = 0; it <= cfg->max_iterations; ++it) {
+    bool done = false;
+    for (uint32_t it = 0; it <= cfg->max_iterations && !done; ++it) {
         fix_udeg_q16_t lo = INT64_MAX;
         fix_udeg_q16_t hi = INT64_MIN;
         for (unsigned i = 0; i < ANGLES_PER_AXIS; ++i) {
@@ -412,10 +421,12 @@ void consensus_paper(const fix_udeg_q16_t mean[ANGLES_PER_AXIS],
         }
         if (hi - lo <= tol_q16) {
             out->status = CONSENSUS_OK;
-            break;
+            done = true;
+            continue;
         }
         if (it == cfg->max_iterations) {
-            break;
+            done = true;
+            continue;
         }
         /* Alg. 1: α(k) = P·α(k − 1), exactly: |P| <= 2^46 and |v| < 2^45 */
         fix_udeg_q16_t next[ANGLES_PER_AXIS];
@@ -433,7 +444,7 @@ void consensus_paper(const fix_udeg_q16_t mean[ANGLES_PER_AXIS],
                 return;
             }
         }
-        memcpy(v, next, sizeof v);
+        (void)memcpy(v, next, sizeof v);
         out->iterations = (uint16_t)(it + 1u);
     }
     if (out->status != CONSENSUS_OK) {

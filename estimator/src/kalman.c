@@ -36,7 +36,7 @@ int kalman_init(struct kalman_state *k, const struct kalman_config *cfg) {
     if (cfg->noise_shift > 8u) {
         return KALMAN_ERR_NOISE_SHIFT;
     }
-    memset(k, 0, sizeof *k);
+    (void)memset(k, 0, sizeof *k);
     k->cfg = *cfg;
     const uint64_t q2 = (uint64_t)cfg->gate_sigmas_q8 * cfg->gate_sigmas_q8;
     k->gate_s_max = q2 == 0u ? 0u : UINT64_MAX / q2;
@@ -51,18 +51,18 @@ int kalman_init(struct kalman_state *k, const struct kalman_config *cfg) {
 
 static void diffuse_covariance(struct kalman_state *k) {
     k->bvalid = false;
-    memset(k->p, 0, sizeof k->p);
+    (void)memset(k->p, 0, sizeof k->p);
     for (unsigned i = 0; i < KALMAN_STATES; ++i) {
         k->p[i][i] = KALMAN_P0_MM2_Q32;
     }
 }
 
 void kalman_reset(struct kalman_state *k) {
-    memset(k->x, 0, sizeof k->x);
+    (void)memset(k->x, 0, sizeof k->x);
     diffuse_covariance(k);
     k->started = false;
     k->warm_rows = 0;
-    memset(k->reject_run, 0, sizeof k->reject_run);
+    (void)memset(k->reject_run, 0, sizeof k->reject_run);
 }
 
 /* Necessary conditions for positive definiteness that fixed-point failures
@@ -339,7 +339,8 @@ static bool block_healthy(const struct kalman_state *k) {
 
 /* P −= dec · 2^(e − 31), one rounding per entry; dec starts again from 0. */
 static void block_apply(struct kalman_state *k, struct pblock *b) {
-    const unsigned sh = (unsigned)(31 - k->be); /* in [1, 61] */
+    const int32_t sh_signed = 31 - k->be;
+    const unsigned sh = (unsigned)sh_signed; /* in [1, 61] */
     k->p[0][0] -= fix_round_shr_s64(b->dec[0], sh);
     k->p[0][1] -= fix_round_shr_s64(b->dec[1], sh);
     k->p[0][2] -= fix_round_shr_s64(b->dec[2], sh);
@@ -419,8 +420,8 @@ static int block_update(struct kalman_state *k, struct pblock *b, unsigned senso
         }
     }
     const int32_t e24 = shr_to_s32(e + 128, 8u); /* innovation in Q24, rounded */
-    if (gate && k->cfg.gate_sigmas_q8 != 0u &&
-        (uint64_t)((int64_t)e24 * e24) > k->gate_accept[sensor]) {
+    const int64_t e24_sq = (int64_t)e24 * e24;
+    if (gate && k->cfg.gate_sigmas_q8 != 0u && (uint64_t)e24_sq > k->gate_accept[sensor]) {
         /* not surely inside: the gate on the exact s */
         const fix_q32_t s = (k->be >= 0 ? (int64_t)hph * ((int64_t)1 << (unsigned)k->be)
                                         : fix_floor_shr_s64(hph, (unsigned)(-k->be))) +
@@ -437,7 +438,8 @@ static int block_update(struct kalman_state *k, struct pblock *b, unsigned senso
     }
     const int32_t rm = fix_recip31(sm);
     /* gains in Q31: k = g · 2^31 / s_b = g · rm / 2^(30 + es), |k| < 1 */
-    const unsigned gain_shift = (unsigned)(30 + es); /* in [20, 61] */
+    const int32_t gain_shift_signed = 30 + es;
+    const unsigned gain_shift = (unsigned)gain_shift_signed; /* in [20, 61] */
     const int32_t k0 = shr_to_s32((int64_t)g[0] * rm, gain_shift);
     const int32_t k1 = shr_to_s32((int64_t)g[1] * rm, gain_shift);
     const int32_t k2 = shr_to_s32((int64_t)g[2] * rm, gain_shift);
@@ -558,7 +560,7 @@ static void predict(struct kalman_state *k) {
 /* The warm-up: per-sensor median of the buffered rows, gate, then updates. */
 static void flush_warmup(struct kalman_state *k, struct kalman_rows *out) {
     int32_t median_x2[ANGLES_SENSORS] = {0};
-    bool has[ANGLES_SENSORS] = {false};
+    bool has[ANGLES_SENSORS] = {false, false, false, false};
     int64_t start_sum = 0;
     int64_t start_n = 0;
     for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
@@ -630,15 +632,15 @@ static void flush_warmup(struct kalman_state *k, struct kalman_rows *out) {
     }
     k->warm_rows = 0;
     k->started = true;
-    memset(k->reject_run, 0, sizeof k->reject_run);
+    (void)memset(k->reject_run, 0, sizeof k->reject_run);
 }
 
 void kalman_push_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENSORS],
-                     uint8_t valid_mask, struct kalman_rows *out) {
+                     uint8_t valid_in, struct kalman_rows *out) {
     out->count = 0;
-    valid_mask = (uint8_t)(valid_mask & ANGLES_ALL_SENSORS);
+    const uint8_t valid_mask = (uint8_t)(valid_in & ANGLES_ALL_SENSORS);
     if (!k->started) {
-        memcpy(k->warm_range[k->warm_rows], range_mm, sizeof k->warm_range[0]);
+        (void)memcpy(k->warm_range[k->warm_rows], range_mm, sizeof k->warm_range[0]);
         k->warm_valid[k->warm_rows] = valid_mask;
         k->warm_rows++;
         if (k->warm_rows >= k->cfg.warmup_rows) {
@@ -665,6 +667,8 @@ void kalman_push_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENS
             locked_out = locked_out || k->reject_run[s] >= KALMAN_LOCKOUT_ROWS;
         } else if ((used & (1u << s)) != 0u) {
             k->reject_run[s] = 0;
+        } else {
+            /* not read this row: its run neither grows nor ends */
         }
     }
     if (locked_out) {
@@ -709,7 +713,7 @@ void kalman_track_noise(struct kalman_state *k, unsigned sensor, fix_q32_t var_m
 }
 
 void kalman_estimate(const struct kalman_state *k, int32_t arm_um, struct kalman_result *out) {
-    memcpy(out->p_mm2, k->p, sizeof out->p_mm2);
+    (void)memcpy(out->p_mm2, k->p, sizeof out->p_mm2);
     const int64_t observable_below = KALMAN_P0_MM2_Q32 >> 6;
     out->alpha_observable = k->started && k->p[1][1] < observable_below;
     out->beta_observable = k->started && k->p[2][2] < observable_below;

@@ -237,11 +237,13 @@ FIX_NOINLINE void hist_gate(const struct window_state *w, unsigned k, int32_t x_
         const struct window_row *row = &w->ring[idx];
         idx = (uint16_t)(idx + 1u == w->cfg.length ? 0u : idx + 1u);
         if ((row->valid & (1u << k)) != 0u) {
-            const uint32_t bin = (uint32_t)((int32_t)row->range_mm[k] - x_min);
+            const int32_t offset = (int32_t)row->range_mm[k] - x_min; /* >= 0 */
+            const uint32_t bin = (uint32_t)offset;
             hist[bin] = (uint8_t)(hist[bin] + 1u);
         }
     }
-    const uint32_t span = (uint32_t)(x_max - x_min); /* < HIST_BINS */
+    const int32_t span_signed = x_max - x_min;
+    const uint32_t span = (uint32_t)span_signed; /* < HIST_BINS */
     /* the medians: the smallest values with more than rank readings at or below */
     uint32_t cum = 0;
     int32_t x_lo = x_max;
@@ -278,11 +280,13 @@ FIX_NOINLINE void hist_gate(const struct window_state *w, unsigned k, int32_t x_
         const bool take_r = r_in && (!l_in || dr <= dl);
         const int32_t d = take_l ? dl : dr;
         if (take_l) {
-            cum += hist[(uint32_t)(xl - x_min)];
+            const int32_t bin_l = xl - x_min;
+            cum += hist[(uint32_t)bin_l];
             --xl;
         }
         if (take_r) {
-            cum += hist[(uint32_t)(xr - x_min)];
+            const int32_t bin_r = xr - x_min;
+            cum += hist[(uint32_t)bin_r];
             ++xr;
         }
         if (cum > lo_rank) {
