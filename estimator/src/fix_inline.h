@@ -70,4 +70,27 @@ FIX_INLINE int32_t fix_hi32(int64_t v) {
     return (int32_t)q;
 }
 
+/* fix_norm31() and fix_recip31() (estimator/fixmath.h) for the hot path that inlines them. */
+FIX_INLINE uint32_t fix_norm31_inline(uint64_t v, int32_t *e) {
+    const int32_t ex = (int32_t)fix_bitlen_u64(v) - 31;
+    *e = ex;
+    if (ex >= 0) {
+        const uint64_t m = v >> (unsigned)ex;
+        return (uint32_t)m;
+    }
+    const uint32_t small = (uint32_t)v; /* v < 2^30 here */
+    return small << (unsigned)(-ex);
+}
+
+FIX_INLINE int32_t fix_recip31_inline(uint32_t m) {
+    const uint32_t d = m >> 15; /* >= 2^15 */
+    const uint32_t q16 = 0xFFFFFFFFu / (d != 0u ? d : 1u);
+    const int32_t y0 = (int32_t)(q16 << 14);                   /* < 2^31 */
+    const uint64_t prod = (uint64_t)m * (uint32_t)y0;          /* 2^61 (1 ± 2^-15) */
+    const int64_t err = (int64_t)(((uint64_t)1 << 61) - prod); /* |err| < 2^48 */
+    const int64_t err29 = fix_floor_shr_s64(err, 29u);         /* < 2^19 */
+    const int64_t r = (int64_t)y0 + fix_hi32((int64_t)y0 * err29);
+    return r < INT32_MAX ? (int32_t)r : INT32_MAX;
+}
+
 #endif /* ESTIMATOR_FIX_INLINE_H */

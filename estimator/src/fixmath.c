@@ -323,25 +323,11 @@ int64_t fix_mul_shr_s64(int64_t a, int64_t b, unsigned shift, bool *overflow) {
 /* --- normalised 32-bit helpers (contracts in fixmath.h) -------------------------- */
 
 uint32_t fix_norm31(uint64_t v, int32_t *e) {
-    const int32_t ex = (int32_t)fix_bitlen_u64(v) - 31;
-    *e = ex;
-    if (ex >= 0) {
-        const uint64_t m = v >> (unsigned)ex;
-        return (uint32_t)m;
-    }
-    const uint32_t small = (uint32_t)v;
-    return small << (unsigned)(-ex);
+    return fix_norm31_inline(v, e);
 }
 
 int32_t fix_recip31(uint32_t m) {
-    const uint32_t d = m >> 15;
-    const uint32_t q16 = 0xFFFFFFFFu / (d != 0u ? d : 1u);
-    const int32_t y0 = (int32_t)(q16 << 14);
-    const uint64_t prod = (uint64_t)m * (uint32_t)y0;
-    const int64_t err = (int64_t)(((uint64_t)1 << 61) - prod);
-    const int64_t err29 = fix_floor_shr_s64(err, 29u);
-    const int64_t r = (int64_t)y0 + fix_hi32((int64_t)y0 * err29);
-    return r < INT32_MAX ? (int32_t)r : INT32_MAX;
+    return fix_recip31_inline(m);
 }
 
 int64_t fix_mul_q31(int64_t v, int32_t r) {

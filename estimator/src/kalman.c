@@ -361,7 +361,13 @@ static void block_apply(struct kalman_state *k, struct pblock *b) {
 /* The decrease t = g_i k_j of one entry: exactly into dec, rounded into the mantissa. */
 FIX_INLINE void block_sub(struct kalman_state *k, struct pblock *b, unsigned idx, int64_t t) {
     b->dec[idx] += t;
-    k->bm[idx] -= (int32_t)fix_round_shr_s64(t, 31u);
+    /* round(t / 2^31), |t| < 2^62: the floor is the two's complement bits (hi << 1) |
+     * (lo >> 31), the rounding bit is bit 30 */
+    const uint64_t u = (uint64_t)t;
+    const uint32_t lo = (uint32_t)u;
+    const uint32_t hi = (uint32_t)(u >> 32);
+    const uint32_t q = ((hi << 1) | (lo >> 31)) + ((lo >> 30) & 1u);
+    k->bm[idx] = (int32_t)((uint32_t)k->bm[idx] - q);
 }
 
 /* One scalar update on the block: 1 accepted, 0 gated out, BLOCK_NOT_POSSIBLE when the
@@ -432,11 +438,11 @@ static int block_update(struct kalman_state *k, struct pblock *b, unsigned senso
     }
     /* s_b = sm · 2^es, sm in [2^30, 2^31); rm ≈ 2^61 / sm (relative error < 2^-28) */
     int32_t es;
-    const uint32_t sm = fix_norm31((uint64_t)s_b, &es);
+    const uint32_t sm = fix_norm31_inline((uint64_t)s_b, &es);
     if (es < -9 || es > 31) {
         return BLOCK_NOT_POSSIBLE; /* unreachable: 2^21 <= s_b < 2^62 */
     }
-    const int32_t rm = fix_recip31(sm);
+    const int32_t rm = fix_recip31_inline(sm);
     /* gains in Q31: k = g · 2^31 / s_b = g · rm / 2^(30 + es), |k| < 1 */
     const int32_t gain_shift_signed = 30 + es;
     const unsigned gain_shift = (unsigned)gain_shift_signed; /* in [20, 61] */

@@ -62,6 +62,9 @@ static float axis(const float mean[4], const float var_mean[4], unsigned lo, uns
     for (unsigned i = 0; i < 5; ++i) {
         pi[i] /= total;
     }
+    /* the stopping test of the fixed-point rule (estimator/consensus.c): the spread of the
+     * slopes against the tolerance in radians, |Δatan| <= |Δt| */
+    const float tol_slope = tol_deg / RAD_TO_DEG;
     unsigned k = 0;
     for (; k < 64u; ++k) {
         float lo_v = v[0], hi_v = v[0];
@@ -69,7 +72,7 @@ static float axis(const float mean[4], const float var_mean[4], unsigned lo, uns
             lo_v = fminf(lo_v, v[i]);
             hi_v = fmaxf(hi_v, v[i]);
         }
-        if ((atan2f(hi_v, 1.0f) - atan2f(lo_v, 1.0f)) * RAD_TO_DEG <= tol_deg) {
+        if (hi_v - lo_v <= tol_slope) {
             break;
         }
         float c = 0.0f;
