@@ -85,10 +85,11 @@ FIX_INLINE uint32_t fix_norm31_inline(uint64_t v, int32_t *e) {
 FIX_INLINE int32_t fix_recip31_inline(uint32_t m) {
     const uint32_t d = m >> 15; /* >= 2^15 */
     const uint32_t q16 = 0xFFFFFFFFu / (d != 0u ? d : 1u);
-    const int32_t y0 = (int32_t)(q16 << 14);                   /* < 2^31 */
-    const uint64_t prod = (uint64_t)m * (uint32_t)y0;          /* 2^61 (1 ± 2^-15) */
-    const int64_t err = (int64_t)(((uint64_t)1 << 61) - prod); /* |err| < 2^48 */
-    const int64_t err29 = fix_floor_shr_s64(err, 29u);         /* < 2^19 */
+    const int32_t y0 = (int32_t)(q16 << 14);              /* < 2^31 */
+    const uint64_t prod = (uint64_t)m * (uint32_t)y0;     /* 2^61 (1 ± 2^-15) */
+    const uint64_t err_bits = ((uint64_t)1 << 61) - prod; /* two's complement */
+    const int64_t err = (int64_t)err_bits;                /* |err| < 2^48 */
+    const int64_t err29 = fix_floor_shr_s64(err, 29u);    /* < 2^19 */
     const int64_t r = (int64_t)y0 + fix_hi32((int64_t)y0 * err29);
     return r < INT32_MAX ? (int32_t)r : INT32_MAX;
 }

@@ -82,10 +82,13 @@ int64_t fix_asr_s64(int64_t v, unsigned shift) {
         return v;
     }
     if (v >= 0) {
-        return (int64_t)((uint64_t)v >> shift);
+        const uint64_t q = (uint64_t)v >> shift;
+        return (int64_t)q;
     }
     /* floor(v / 2^s) = -(((-v - 1) >> s)) - 1 for v < 0. */
-    return -(int64_t)((uint64_t)(-(v + 1)) >> shift) - 1;
+    const int64_t m = -(v + 1);
+    const uint64_t q = (uint64_t)m >> shift;
+    return -(int64_t)q - 1;
 }
 
 int64_t fix_shr_round_s64(int64_t v, unsigned shift) {
@@ -290,7 +293,8 @@ int64_t fix_s128_div_s64(fix_s128 a, int64_t den, bool *overflow) {
         const unsigned skip = 64u - qbits;                                     /* 0..62 */
         r = skip == 0u ? m.hi : (m.hi << skip) | (m.lo >> (64u - skip));
         q = 0u;
-        for (unsigned i = qbits; i-- > 0u;) {
+        for (unsigned step = 0u; step < qbits; ++step) {
+            const unsigned i = qbits - 1u - step; /* the bit of m.lo brought down */
             const uint64_t top = r >> 63;
             r = (r << 1) | ((m.lo >> i) & 1u);
             q <<= 1;
@@ -360,7 +364,8 @@ static const int32_t cordic_atan_udeg_q5[30] = {
     55,        27,        14,        7,         3,        2};
 
 /* Index of the most significant set bit of v != 0 (binary search, 6 steps). */
-static unsigned msb_u64(uint64_t v) {
+static unsigned msb_u64(uint64_t value) {
+    uint64_t v = value;
     unsigned n = 0;
     static const unsigned widths[6] = {32u, 16u, 8u, 4u, 2u, 1u};
     for (unsigned i = 0; i < 6u; ++i) {
@@ -376,9 +381,12 @@ static unsigned msb_u64(uint64_t v) {
 static int32_t shr_round_s32(int32_t v, unsigned shift) {
     const uint32_t half = (uint32_t)1 << (shift - 1u);
     if (v >= 0) {
-        return (int32_t)(((uint32_t)v + half) >> shift);
+        const uint32_t q = ((uint32_t)v + half) >> shift;
+        return (int32_t)q;
     }
-    return -(int32_t)(((uint32_t)(-v) + half) >> shift);
+    const int32_t m = -v;
+    const uint32_t q = ((uint32_t)m + half) >> shift;
+    return -(int32_t)q;
 }
 
 /* u / 2^shift rounded (shift 1..63). */
@@ -405,6 +413,8 @@ fix_udeg_t fix_atan2_udeg(int64_t y, int64_t x) {
     } else if (msb > 29u) {
         big = shr_round_u64(big, msb - 29u);
         small = shr_round_u64(small, msb - 29u);
+    } else {
+        /* already normalised */
     }
 
     int32_t xs = (int32_t)big;
