@@ -231,9 +231,7 @@ FIX_INLINE int32_t shr_to_s32(int64_t v, unsigned sh) {
     if (sh < 32u) {
         r = (lo >> sh) | (hi << (32u - sh));
     } else {
-        /* the high word alone, shifted arithmetically (bias 2^30 keeps it unsigned) */
-        const unsigned s2 = sh - 32u;
-        r = ((hi + 0x40000000u) >> s2) - (0x40000000u >> s2);
+        r = (uint32_t)((uint64_t)fix_floor_shr_s64(v, sh) & 0xFFFFFFFFu);
     }
     return (int32_t)r; /* two's complement bits: in range by the precondition */
 }
@@ -260,11 +258,6 @@ static void block_refresh_r(struct kalman_state *k, int32_t e) {
         const uint64_t a = (uint64_t)r > UINT64_MAX / (q2 + 1u) ? UINT64_MAX : (uint64_t)r * q2;
         const uint64_t f = fl >= 0x8000u ? UINT64_MAX : (fl * fl) << 48;
         k->gate_accept[s] = a > f ? a : f;
-        /* the block path's bound hᵀPh <= 4 R in block units, as an int32 (an R too large
-         * for the block: −1, never) */
-        const int64_t rb = k->rb[s];
-        k->hph_max[s] =
-            rb >= BLOCK_R_TOO_LARGE ? -1 : (rb >= (INT32_MAX / 4) ? INT32_MAX : (int32_t)(4 * rb));
     }
     k->rb_pe = e;
     k->rb_valid = true;
@@ -417,12 +410,11 @@ static int block_update(struct kalman_state *k, struct pblock *b, unsigned senso
         break;
     }
     const fix_q32_t e = z_mm - pred;
-    /* |e| < 2^39 (128 mm) exactly when the high word of e is in [−128, 127] */
-    const uint32_t e_hi = (uint32_t)((uint64_t)e >> 32) + 128u;
-    if (hph < BLOCK_MIN_HPH || hph > k->hph_max[sensor] || e_hi > 255u) {
+    const int64_t r_b = k->rb[sensor];
+    if (r_b >= BLOCK_R_TOO_LARGE || hph < BLOCK_MIN_HPH || (int64_t)hph > 4 * r_b ||
+        e >= ((int64_t)1 << 39) || e <= -((int64_t)1 << 39)) {
         return BLOCK_NOT_POSSIBLE;
     }
-    const int64_t r_b = k->rb[sensor];
     const int64_t s_b = hph + r_b; /* in [2^21, 2^62) */
     if (s_b < ((int64_t)1 << 30)) {
         /* small s: check |g_i| < s (1 − 2^-8), so every gain is below 1 (for s >= 2^30
