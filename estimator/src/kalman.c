@@ -221,8 +221,9 @@ struct pblock {
  * that drift (4 updates x 16 rows x 1/2) plus the rounding of taking the block. */
 #define BLOCK_CHECK_MARGIN ((int32_t)1 << 10)
 
-/* floor(v / 2^sh) as int32 for sh in [1, 62] when the result fits int32: from the two
- * 32-bit halves (the low word of the floor is the same bits for either sign). */
+/* floor(v / 2^sh) as int32 for sh in [1, 62] when the result fits int32 and, for
+ * sh >= 32, |v| < 2^62: from the two 32-bit halves (the low word of the floor is the same
+ * bits for either sign). */
 FIX_INLINE int32_t shr_to_s32(int64_t v, unsigned sh) {
     const uint64_t u = (uint64_t)v;
     const uint32_t lo = (uint32_t)u;
@@ -231,7 +232,10 @@ FIX_INLINE int32_t shr_to_s32(int64_t v, unsigned sh) {
     if (sh < 32u) {
         r = (lo >> sh) | (hi << (32u - sh));
     } else {
-        r = (uint32_t)((uint64_t)fix_floor_shr_s64(v, sh) & 0xFFFFFFFFu);
+        /* the high word alone, in [−2^30, 2^30): shifted with the bias 2^30 (which 2^s2
+         * divides) it stays unsigned */
+        const unsigned s2 = sh - 32u;
+        r = ((hi + 0x40000000u) >> s2) - (0x40000000u >> s2);
     }
     return (int32_t)r; /* two's complement bits: in range by the precondition */
 }
@@ -258,6 +262,11 @@ static void block_refresh_r(struct kalman_state *k, int32_t e) {
         const uint64_t a = (uint64_t)r > UINT64_MAX / (q2 + 1u) ? UINT64_MAX : (uint64_t)r * q2;
         const uint64_t f = fl >= 0x8000u ? UINT64_MAX : (fl * fl) << 48;
         k->gate_accept[s] = a > f ? a : f;
+        /* the block path's bound hᵀPh <= 4 R in block units, as an int32 (an R too large
+         * for the block: −1, never) */
+        const int64_t rb = k->rb[s];
+        k->hph_max[s] =
+            rb >= BLOCK_R_TOO_LARGE ? -1 : (rb >= (INT32_MAX / 4) ? INT32_MAX : (int32_t)(4 * rb));
     }
     k->rb_pe = e;
     k->rb_valid = true;
@@ -410,11 +419,13 @@ static int block_update(struct kalman_state *k, struct pblock *b, unsigned senso
         break;
     }
     const fix_q32_t e = z_mm - pred;
-    const int64_t r_b = k->rb[sensor];
-    if (r_b >= BLOCK_R_TOO_LARGE || hph < BLOCK_MIN_HPH || (int64_t)hph > 4 * r_b ||
-        e >= ((int64_t)1 << 39) || e <= -((int64_t)1 << 39)) {
+    /* e in [−2^39, 2^39) (128 mm) exactly when its high word is in [−128, 127]; then e24
+     * below fits int32 and |k e24| < 2^62 */
+    const uint32_t e_hi = (uint32_t)((uint64_t)e >> 32) + 128u;
+    if (hph < BLOCK_MIN_HPH || hph > k->hph_max[sensor] || e_hi > 255u) {
         return BLOCK_NOT_POSSIBLE;
     }
+    const int64_t r_b = k->rb[sensor];
     const int64_t s_b = hph + r_b; /* in [2^21, 2^62) */
     if (s_b < ((int64_t)1 << 30)) {
         /* small s: check |g_i| < s (1 − 2^-8), so every gain is below 1 (for s >= 2^30

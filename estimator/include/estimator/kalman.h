@@ -98,6 +98,7 @@ struct kalman_state {
     int32_t rb_pe;
     int64_t rb[ANGLES_SENSORS];
     uint64_t gate_accept[ANGLES_SENSORS];
+    int32_t hph_max[ANGLES_SENSORS]; /* 4 R in those units (−1: R too large for them) */
 };
 
 /* Outcome of one kalman_push_row(): the rows it processed, oldest first (a
