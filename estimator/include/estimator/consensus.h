@@ -86,7 +86,7 @@ enum consensus_status {
     CONSENSUS_OVERFLOW,             /* paper: |P_ij| > 2^16, or an intermediate overflowed */
     CONSENSUS_DIVERGED,             /* paper: an iterate left ±360° */
     CONSENSUS_NO_CONVERGENCE,       /* iteration cap reached above tolerance */
-    CONSENSUS_OUTSIDE_HULL,         /* paper: result outside [min, max] of v(0) ± tol */
+    CONSENSUS_OUTSIDE_HULL,         /* paper: result outside [min, max] of v(0) ± tol, or ±90° */
 };
 
 /* Short stable name of a status ("ok", "diverged", ...). */
