@@ -14,7 +14,7 @@
  * s128 shifts and rounding on magnitudes below 2^126; angles with valid arms;
  * consensus_product with per-sensor means of 16-bit readings (0..65535 mm),
  * any non-negative variance and count >= 1; consensus_paper with means within
- * ±180° and any covariances; Kalman readings of 0..65535 mm (kalman_update:
+ * ±90° (means of angles) and any covariances; Kalman readings of 0..65535 mm (kalman_update:
  * |z| below 2^49, so a bit beyond) and any variance for noise tracking.
  *
  * Long run: docs/reliability.md, "Fuzzing".
@@ -453,7 +453,7 @@ static void check_product(struct fuzz_input *in) {
 static void check_paper(struct fuzz_input *in) {
     fix_udeg_q16_t mean[ANGLES_PER_AXIS];
     int64_t cov[ANGLES_PER_AXIS][ANGLES_PER_AXIS];
-    const int64_t limit = (int64_t)FIX_UDEG_180 << FIX_UDEG_Q_SHIFT;
+    const int64_t limit = (int64_t)FIX_UDEG_90 << FIX_UDEG_Q_SHIFT; /* means of angles */
     for (unsigned i = 0; i < ANGLES_PER_AXIS; ++i) {
         mean[i] = (int64_t)(fuzz_u64(in) % (uint64_t)(2 * limit + 1)) - limit;
     }
@@ -499,6 +499,7 @@ static void check_paper(struct fuzz_input *in) {
         const int64_t got = (int64_t)out.angle_udeg * (1 << FIX_UDEG_Q_SHIFT);
         const int64_t half = (int64_t)1 << (FIX_UDEG_Q_SHIFT - 1u); /* output rounding */
         FUZZ_CHECK(got >= lo - tol - half && got <= hi + tol + half);
+        FUZZ_CHECK(out.angle_udeg >= -FIX_UDEG_90 && out.angle_udeg <= FIX_UDEG_90);
         /* rows of P sum to one (Eq. 4), up to one rounding per entry */
         for (unsigned i = 0; i < ANGLES_PER_AXIS; ++i) {
             int64_t row = 0;
