@@ -385,6 +385,16 @@ FIX_INLINE void block_sub(struct kalman_state *k, struct pblock *b, unsigned idx
 static int block_update(struct kalman_state *k, struct pblock *b, unsigned sensor, fix_q32_t z_mm,
                         bool gate) {
     int32_t *m = k->bm;
+    /* The int32 sums below rely on |m| <= max P_ii < 2^28, true of a block when it is
+     * taken; a nearly singular P can lose it inside a row (the updates overshoot and a
+     * diagonal turns negative: found by tests/fuzz). Such a row goes on exactly, and the
+     * definiteness check at its end sees what happened. */
+    for (unsigned i = 0; i < 6u; ++i) {
+        const uint32_t biased = (uint32_t)m[i] + ((uint32_t)1 << BLOCK_TOP_BITS);
+        if (biased >= ((uint32_t)1 << (BLOCK_TOP_BITS + 1))) {
+            return BLOCK_NOT_POSSIBLE;
+        }
+    }
     int32_t g[KALMAN_STATES]; /* |g_i| <= 2 max P_ii < 2^29 */
     int32_t hph;
     fix_q32_t pred;
