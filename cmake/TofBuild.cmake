@@ -10,6 +10,11 @@ target_compile_options(tof_warnings INTERFACE
 
 # --- cores (cross builds): one interface target of flags per core ----------
 if(CMAKE_CROSSCOMPILING)
+  # A board's capacity choices (estimators built, window rows), the same for every
+  # component of its preset: set by the board layer of the toolchain.
+  if(TOF_BOARD_DEFINITIONS)
+    add_compile_definitions(${TOF_BOARD_DEFINITIONS})
+  endif()
   list(REMOVE_DUPLICATES TOF_CORES)
   foreach(core IN LISTS TOF_CORES)
     add_library(tof_core_${core} INTERFACE)
@@ -84,17 +89,20 @@ function(tof_image name)
   endif()
   # The stack the linker script reserves, for the worst-case stack check.
   file(READ ${ARG_LINKER_SCRIPT} ld_text)
-  if(NOT ld_text MATCHES "STACK_SIZE = ([0-9]+)K;")
-    message(FATAL_ERROR "${ARG_LINKER_SCRIPT}: no 'STACK_SIZE = <n>K;' line")
+  if(ld_text MATCHES "STACK_SIZE = ([0-9]+)K;")
+    math(EXPR stack_limit "${CMAKE_MATCH_1} * 1024")
+  elseif(ld_text MATCHES "STACK_SIZE = ([0-9]+);")
+    set(stack_limit ${CMAKE_MATCH_1})
+  else()
+    message(FATAL_ERROR "${ARG_LINKER_SCRIPT}: no 'STACK_SIZE = <n>K;' or '<bytes>;' line")
   endif()
-  math(EXPR stack_limit "${CMAKE_MATCH_1} * 1024")
   add_custom_command(TARGET ${name} POST_BUILD
     COMMAND ${CMAKE_COMMAND} -DNM=${CMAKE_NM} -DELF=$<TARGET_FILE:${name}> ${float_flag}
             -P ${PROJECT_SOURCE_DIR}/cmake/check_image.cmake
     COMMAND /usr/bin/python3 ${PROJECT_SOURCE_DIR}/tools/stack_check.py
             --root ${CMAKE_BINARY_DIR} --match _${ARG_CORE}.dir --match /${name}.dir/
             --map $<TARGET_FILE_DIR:${name}>/${name}.map --elf $<TARGET_FILE:${name}>
-            --limit ${stack_limit} --name ${name}
+            --limit ${stack_limit} --name ${name} --narrow
             --json $<TARGET_FILE_DIR:${name}>/${name}.stack.json
     COMMAND ${CMAKE_OBJCOPY} -O binary $<TARGET_FILE:${name}> $<TARGET_FILE_DIR:${name}>/${name}.bin
     VERBATIM)

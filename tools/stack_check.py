@@ -14,6 +14,12 @@ Rules (an upper bound under the project's rules, not a proof):
   address is taken: with --elf, the functions whose (Thumb) address appears as a
   word anywhere in the image (ops tables, literal pools); without it, any function
   no one calls directly. A function already on the path is skipped there;
+- ... narrowed by the member it goes through (DESIGN.md §4: every function pointer is an
+  ops-struct member, `x->ops->now_us(...)`): with --narrow, a call through member `m`
+  reaches the functions the image's sources (the files of its linked functions) store into
+  a member named `m` (`.m = f` or `->m = f`) plus every address-taken function stored nowhere under a name. It stays
+  "any address-taken function" when the call site names no member, when `m` is ever
+  assigned something other than a function name, or when its line cannot be read;
 - functions without a .ci (newlib, libgcc) are charged LIB_FRAME bytes each;
 - interrupts: the deepest handler plus the exception frame (EXC_FRAME bytes, the
   extended frame with FP state) is added on top of the deepest thread path.
@@ -30,13 +36,17 @@ import sys
 LIB_FRAME = 64
 EXC_FRAME = 104  # 8 core words + 18 FP words (ARMv7-M ARM B1.5.7), rounded to 8
 
+MEMBER_CALL_RE = re.compile(r"(?:->|\.)\s*([A-Za-z_]\w*)\s*\(")
+MEMBER_STORE_RE = re.compile(r"(?:->|\.)\s*([A-Za-z_]\w*)\s*=(?!=)\s*([^,;}]*)")
+FUNC_NAME_RE = re.compile(r"&?\s*([A-Za-z_]\w*)\s*$")
+NODE_FILE_RE = re.compile(r"\\n([^\\]+\.[ch]):\d+:\d+")
 NODE_RE = re.compile(r'node: \{ title: "([^"]+)" label: "([^"]*)"')
-EDGE_RE = re.compile(r'edge: \{ sourcename: "([^"]+)" targetname: "([^"]+)"')
+EDGE_RE = re.compile(r'edge: \{ sourcename: "([^"]+)" targetname: "([^"]+)" label: "([^"]*)"')
 FRAME_RE = re.compile(r"\\n(\d+) bytes \(([^)]*)\)")
 
 
 def load(root, matches):
-    frames, calls, errors = {}, {}, []
+    frames, calls, errors, sources = {}, {}, [], {}
     for dirpath, _, files in os.walk(root):
         for name in files:
             if not name.endswith(".ci"):
@@ -48,6 +58,9 @@ def load(root, matches):
                 for line in f:
                     m = NODE_RE.search(line)
                     if m:
+                        where = NODE_FILE_RE.search(m.group(2))
+                        if where:
+                            sources[m.group(1)] = where.group(1)
                         fm = FRAME_RE.search(m.group(2))
                         if fm:
                             size, kind = int(fm.group(1)), fm.group(2)
@@ -57,8 +70,8 @@ def load(root, matches):
                         continue
                     m = EDGE_RE.search(line)
                     if m:
-                        calls.setdefault(m.group(1), []).append(m.group(2))
-    return frames, calls, errors
+                        calls.setdefault(m.group(1), []).append((m.group(2), m.group(3)))
+    return frames, calls, errors, sources
 
 
 def linked_functions(map_path):
@@ -98,8 +111,37 @@ def address_taken(elf):
     return taken
 
 
-def analyse(frames, calls, entries, handlers, taken=None):
-    called = {t for ts in calls.values() for t in ts}
+def member_stores(sources):
+    """member name -> what the image's sources (the files of its linked functions) store
+    into it: a function name, or the whole expression when it is not a bare name."""
+    stores = {}
+    for path in sources:
+        try:
+            with open(path, encoding="utf-8", errors="replace") as f:
+                text = f.read()
+        except OSError:
+            return None  # a source we cannot read: no narrowing at all
+        for m in MEMBER_STORE_RE.finditer(text):
+            value = m.group(2).strip()
+            name = FUNC_NAME_RE.fullmatch(value)
+            stores.setdefault(m.group(1), set()).add(name.group(1) if name else value)
+    return stores
+
+
+def call_members(label):
+    """Member names called on the source line of an indirect call (label file:line:col,
+    the column of the enclosing expression), or None when the line cannot be read."""
+    try:
+        path, line, col = label.rsplit(":", 2)
+        with open(path, encoding="utf-8", errors="replace") as f:
+            text = f.read().splitlines()[int(line) - 1][int(col) - 1:]
+    except (OSError, ValueError, IndexError):
+        return None
+    return set(MEMBER_CALL_RE.findall(text)) or None
+
+
+def analyse(frames, calls, entries, handlers, taken=None, stores=None):
+    called = {t for ts in calls.values() for t, _ in ts}
 
     def resolve(name):
         if name in frames:
@@ -115,6 +157,29 @@ def analyse(frames, calls, entries, handlers, taken=None):
         callbacks = [f for f in frames
                      if f not in called and f.split(":")[-1] not in called
                      and f not in entries and f not in handlers]
+    def bare(f):
+        return f.split(":")[-1].split(".")[0]
+
+    names = {bare(f) for f in frames}
+    stored = set()
+    unresolvable = set()  # members given something other than a function name
+    for member, values in (stores or {}).items():
+        for v in values:
+            if v in names:
+                stored.add(v)
+            elif v not in ("NULL", "0"):
+                unresolvable.add(member)
+    unnamed = [cb for cb in callbacks if bare(cb) not in stored]
+
+    def targets_of(label):
+        members = call_members(label) if stores is not None else None
+        if members is None or members & unresolvable:
+            return callbacks
+        wanted = set()
+        for member in members:
+            wanted |= stores.get(member, set())
+        return [cb for cb in callbacks if bare(cb) in wanted] + unnamed
+
     memo, libs, errors = {}, set(), []
 
     def worst(fn, path, direct):
@@ -126,9 +191,9 @@ def analyse(frames, calls, entries, handlers, taken=None):
         best, best_path = 0, []
         path = path | {fn}
         direct = direct | {fn}
-        for target in calls.get(fn, []):
+        for target, label in calls.get(fn, []):
             if target == "__indirect_call":
-                for cb in callbacks:
+                for cb in targets_of(label):
                     if cb in path:
                         continue
                     d, p = worst(cb, path, frozenset())
@@ -163,12 +228,14 @@ def main():
     ap.add_argument("--handler", action="append", default=[])
     ap.add_argument("--map", help="link map: only functions the linker kept are analysed")
     ap.add_argument("--elf", help="linked image: indirect calls reach address-taken functions")
+    ap.add_argument("--narrow", action="store_true",
+                    help="resolve indirect calls by the ops member they go through")
     ap.add_argument("--json")
     ap.add_argument("--name", default="image")
     a = ap.parse_args()
     entries = a.entry or ["Reset_Handler"]
     handlers = a.handler or ["HardFault_Handler", "Default_Handler", "SysTick_Handler"]
-    frames, calls, errors = load(a.root, a.match)
+    frames, calls, errors, sources = load(a.root, a.match)
     if not frames:
         print(f"stack_check: no .ci call-graph files under {a.root} matching {a.match}",
               file=sys.stderr)
@@ -177,7 +244,8 @@ def main():
         kept = linked_functions(a.map)
         frames = {f: v for f, v in frames.items() if f.split(":")[-1].split(".")[0] in kept}
     taken = address_taken(a.elf) if a.elf else None
-    thread, irq, libs, more = analyse(frames, calls, entries, handlers, taken)
+    stores = member_stores({sources[f] for f in frames if f in sources}) if a.narrow else None
+    thread, irq, libs, more = analyse(frames, calls, entries, handlers, taken, stores)
     errors += more
     t_worst = max((d for d, _ in thread.values()), default=0)
     i_worst = max((d for d, _ in irq.values()), default=0)
@@ -185,7 +253,7 @@ def main():
     print(f"stack_check {a.name}: worst case {total} bytes of {a.limit} reserved "
           f"(thread {t_worst}, deepest handler {i_worst} + {EXC_FRAME} exception frame)")
     for e, (d, p) in thread.items():
-        print(f"  {e}: {d} bytes via " + " -> ".join(x.split(":")[-1] for x in p[:12]))
+        print(f"  {e}: {d} bytes via " + " -> ".join(x.split(":")[-1] for x in p))
     for h, (d, p) in irq.items():
         print(f"  {h}: {d} bytes")
     if libs:

@@ -31,7 +31,7 @@ const char *attitude_error_message(int err) {
     case ATTITUDE_ERR_MODE:
         return "mode is neither tumbling nor sliding";
     case ATTITUDE_ERR_ESTIMATORS:
-        return "estimators selects none or has unknown bits";
+        return "estimators selects none, or one unknown or not built into this image";
     case ATTITUDE_ERR_TOLERANCE:
         return "consensus_tolerance_udeg outside [1, 10000000]";
     case ATTITUDE_ERR_PAPER_ITERATIONS:
@@ -69,7 +69,7 @@ int attitude_init(struct attitude_state *st, const struct attitude_config *cfg) 
     if (cfg->mode != ATTITUDE_TUMBLING && cfg->mode != ATTITUDE_SLIDING) {
         return ATTITUDE_ERR_MODE;
     }
-    if (cfg->estimators == 0u || (cfg->estimators | ATTITUDE_EST_ALL) != ATTITUDE_EST_ALL) {
+    if (cfg->estimators == 0u || (cfg->estimators | ATTITUDE_EST_BUILT) != ATTITUDE_EST_BUILT) {
         return ATTITUDE_ERR_ESTIMATORS;
     }
     if (cfg->consensus_tolerance_udeg < 1 || cfg->consensus_tolerance_udeg > 10000000) {
@@ -422,7 +422,8 @@ static void record_kalman_rows(struct attitude_state *st, const struct kalman_ro
  * Kalman path's stack. */
 FIX_NOINLINE void window_end(struct attitude_state *st, struct attitude_output *out) {
     const struct attitude_config *cfg = &st->cfg;
-    const bool kalman_on = (cfg->estimators & ATTITUDE_EST_BIT(ATTITUDE_EST_KALMAN)) != 0u;
+    const bool kalman_on =
+        (cfg->estimators & ATTITUDE_EST_BUILT & ATTITUDE_EST_BIT(ATTITUDE_EST_KALMAN)) != 0u;
     window_compute(&st->window, &st->stats);
     const struct window_stats *w = &st->stats;
     out->last_row = st->rows - 1u;
@@ -431,7 +432,8 @@ FIX_NOINLINE void window_end(struct attitude_state *st, struct attitude_output *
 
     struct consensus_product_result product;
     (void)memset(&product, 0, sizeof product);
-    const uint8_t want = cfg->estimators;
+    /* masked with the build's set, so the compiler drops what is not built */
+    const uint8_t want = cfg->estimators & ATTITUDE_EST_BUILT;
     const bool need_product = (want & (ATTITUDE_EST_BIT(ATTITUDE_EST_CONSENSUS) |
                                        ATTITUDE_EST_BIT(ATTITUDE_EST_PAPER))) != 0u;
     struct attitude_estimate scratch;

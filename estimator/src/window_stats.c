@@ -142,18 +142,19 @@ void window_push(struct window_state *w, const uint16_t range_mm[ANGLES_SENSORS]
                  uint8_t present_mask, uint8_t valid_mask) {
     if (w->fill >= w->cfg.length) {
         const struct window_row *old = &w->ring[w->oldest];
-        contrib(&w->sums, old, old->valid, &w->arm, -1);
+        contrib(&w->sums, old, window_row_valid(old), &w->arm, -1);
         w->oldest = (uint16_t)((w->oldest + 1u) % w->cfg.length);
         w->fill--;
     }
     const uint16_t slot = (uint16_t)((w->oldest + w->fill) % w->cfg.length);
     struct window_row *row = &w->ring[slot];
     (void)memcpy(row->range_mm, range_mm, sizeof row->range_mm);
-    row->present = (uint8_t)(present_mask & ANGLES_ALL_SENSORS);
-    row->valid = (uint8_t)(valid_mask & row->present);
+    const uint8_t present = (uint8_t)(present_mask & ANGLES_ALL_SENSORS);
+    const uint8_t valid = (uint8_t)(valid_mask & present);
+    row->masks = (uint8_t)(present | (uint8_t)(valid << 4));
     row->aux = 0;
     w->fill++;
-    contrib(&w->sums, row, row->valid, &w->arm, +1);
+    contrib(&w->sums, row, valid, &w->arm, +1);
 }
 
 uint16_t window_fill(const struct window_state *w) {
@@ -194,7 +195,7 @@ static void select_ranks(const struct window_state *w, uint8_t active, bool use_
         for (uint16_t r = 0; r < w->fill; ++r) {
             const struct window_row *row = &w->ring[idx];
             idx = (uint16_t)(idx + 1u == w->cfg.length ? 0u : idx + 1u);
-            const uint8_t m = (uint8_t)(row->valid & todo);
+            const uint8_t m = (uint8_t)(window_row_valid(row) & todo);
             for (unsigned k = 0; k < ANGLES_SENSORS && m != 0u; ++k) {
                 if ((m & (1u << k)) != 0u) {
                     int32_t x = row->range_mm[k];
@@ -236,7 +237,7 @@ FIX_NOINLINE void hist_gate(const struct window_state *w, unsigned k, int32_t x_
     for (uint16_t r = 0; r < w->fill; ++r) {
         const struct window_row *row = &w->ring[idx];
         idx = (uint16_t)(idx + 1u == w->cfg.length ? 0u : idx + 1u);
-        if ((row->valid & (1u << k)) != 0u) {
+        if ((window_row_valid(row) & (1u << k)) != 0u) {
             const int32_t offset = (int32_t)row->range_mm[k] - x_min; /* >= 0 */
             const uint32_t bin = (uint32_t)offset;
             hist[bin] = (uint8_t)(hist[bin] + 1u);
@@ -326,7 +327,7 @@ static void gate_sensors(const struct window_state *w, const uint16_t count[ANGL
         const struct window_row *row = &w->ring[idx];
         idx = (uint16_t)(idx + 1u == w->cfg.length ? 0u : idx + 1u);
         for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
-            if ((row->valid & active & (1u << k)) != 0u) {
+            if ((window_row_valid(row) & active & (1u << k)) != 0u) {
                 const int32_t x = row->range_mm[k];
                 x_min[k] = x < x_min[k] ? x : x_min[k];
                 x_max[k] = x > x_max[k] ? x : x_max[k];
@@ -492,9 +493,9 @@ void window_compute(struct window_state *w, struct window_stats *out) {
         for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
             const uint8_t bit = (uint8_t)(1u << k);
             struct window_sensor_stats *ss = &out->sensor[k];
-            if ((row->present & bit) == 0u) {
+            if ((window_row_present(row) & bit) == 0u) {
                 ss->missing++;
-            } else if ((row->valid & bit) == 0u) {
+            } else if ((window_row_valid(row) & bit) == 0u) {
                 ss->flagged++;
             } else {
                 int32_t dev = 2 * (int32_t)row->range_mm[k] - median_x2[k];
@@ -507,8 +508,9 @@ void window_compute(struct window_state *w, struct window_stats *out) {
         }
         if (rejected != 0u) {
             /* exact: remove the row as it was added, add back what survives */
-            contrib(g, row, row->valid, &w->arm, -1);
-            contrib(g, row, (uint8_t)(row->valid ^ (row->valid & rejected)), &w->arm, +1);
+            const uint8_t valid = window_row_valid(row);
+            contrib(g, row, valid, &w->arm, -1);
+            contrib(g, row, (uint8_t)(valid ^ (valid & rejected)), &w->arm, +1);
         }
     }
 

@@ -22,9 +22,9 @@ void tof_log_line(const struct tof_platform *platform, const char *text) {
 uint64_t tof_app_now_us(struct tof_app *app) {
     const struct hal_time *t = &app->platform->time;
     const uint32_t raw = t->ops->now_us(t->ctx);
-    app->now_us += hal_time_elapsed_us(raw, app->last_raw_us); /* wrap-safe extension */
+    app->uptime_us += hal_time_elapsed_us(raw, app->last_raw_us); /* wrap-safe extension */
     app->last_raw_us = raw;
-    return app->now_us;
+    return app->uptime_us;
 }
 
 static void emit_event(struct tof_app *app, enum tof_event_kind kind, unsigned sensor,
@@ -34,7 +34,7 @@ static void emit_event(struct tof_app *app, enum tof_event_kind kind, unsigned s
         return;
     }
     const struct tof_event ev = {.kind = kind,
-                                 .t_us = app->now_us,
+                                 .t_us = app->uptime_us,
                                  .sensor = (uint8_t)sensor,
                                  .from = from,
                                  .to = to,
@@ -95,7 +95,8 @@ static void note_error(struct tof_app *app, unsigned sensor, int err) {
     ++app->counters.read_errors[sensor];
     ++app->counters.errors_by_code[error_slot(err)];
     const enum tof_health_state before = app->health[sensor].state;
-    tof_health_on_error(&app->health[sensor], &app->cfg->health, (uint32_t)(app->now_us / 1000u));
+    tof_health_on_error(&app->health[sensor], &app->cfg->health,
+                        (uint32_t)(app->uptime_us / 1000u));
     if (app->health[sensor].state != before) {
         emit_event(app, TOF_EVENT_HEALTH, sensor, before, app->health[sensor].state, err);
     }
@@ -108,7 +109,7 @@ static void note_error(struct tof_app *app, unsigned sensor, int err) {
 
 static void note_good(struct tof_app *app, unsigned sensor) {
     const enum tof_health_state before = app->health[sensor].state;
-    tof_health_on_good(&app->health[sensor], &app->cfg->health, (uint32_t)(app->now_us / 1000u));
+    tof_health_on_good(&app->health[sensor], &app->cfg->health, (uint32_t)(app->uptime_us / 1000u));
     if (app->health[sensor].state != before) {
         emit_event(app, TOF_EVENT_HEALTH, sensor, before, app->health[sensor].state, HAL_OK);
     }
@@ -132,7 +133,7 @@ static void poll_sensor(struct tof_app *app, unsigned sensor) {
     /* The reading's time on the 64-bit timeline: now minus how long ago it was read. */
     (void)tof_app_now_us(app);
     const uint32_t age_us = hal_time_elapsed_us(app->last_raw_us, result.time_us);
-    const uint64_t t_us = app->now_us >= age_us ? app->now_us - age_us : 0u;
+    const uint64_t t_us = app->uptime_us >= age_us ? app->uptime_us - age_us : 0u;
     if (t_us >= app->assembler.origin_us) {
         const uint32_t offset =
             (uint32_t)((t_us - app->assembler.origin_us) % app->assembler_cfg.period_us);
@@ -146,7 +147,7 @@ static void poll_sensor(struct tof_app *app, unsigned sensor) {
 
 /* Carry out the fault manager's decision for one sensor; returns true if it re-initialised. */
 static bool manage_sensor(struct tof_app *app, unsigned sensor) {
-    const uint32_t now_ms = (uint32_t)(app->now_us / 1000u);
+    const uint32_t now_ms = (uint32_t)(app->uptime_us / 1000u);
     const enum tof_health_state before = app->health[sensor].state;
     const enum tof_health_action action =
         tof_health_poll(&app->health[sensor], &app->cfg->health, now_ms);
@@ -175,7 +176,7 @@ static bool manage_sensor(struct tof_app *app, unsigned sensor) {
     }
     const enum tof_health_state lost = app->health[sensor].state;
     tof_health_on_reinit_done(&app->health[sensor], &app->cfg->health,
-                              (uint32_t)(app->now_us / 1000u), rc == HAL_OK);
+                              (uint32_t)(app->uptime_us / 1000u), rc == HAL_OK);
     emit_event(app, TOF_EVENT_REINIT, sensor, lost, app->health[sensor].state, rc);
     return true;
 }
@@ -184,7 +185,7 @@ static void start_pending_sensors(struct tof_app *app) {
     const uint32_t period_us = app->assembler_cfg.period_us;
     /* Start only in the first part of a slot, so the first measurement ends in this slot's
      * successor as every other sensor's does. */
-    if (app->now_us % period_us > app->cfg->idle_us) {
+    if (app->uptime_us % period_us > app->cfg->idle_us) {
         return;
     }
     for (unsigned i = 0; i < TOF_SENSORS; ++i) {
@@ -232,7 +233,7 @@ int tof_app_init(struct tof_app *app, const struct tof_platform *platform,
         return HAL_ERR_INVALID;
     }
     app->last_raw_us = platform->time.ops->now_us(platform->time.ctx);
-    app->now_us = app->last_raw_us; /* the timeline starts at the platform clock's value */
+    app->uptime_us = app->last_raw_us; /* the timeline starts at the platform clock's value */
     app->raw_output = cfg->raw_output;
     for (unsigned i = 0; i < TOF_SENSORS; ++i) {
         app->sensor_cfg[i] = (struct vl53_config){
@@ -331,7 +332,9 @@ int tof_app_set_window(struct tof_app *app, uint16_t window, bool sliding) {
 }
 
 int tof_app_set_primary(struct tof_app *app, enum attitude_estimator primary) {
-    if ((unsigned)primary >= (unsigned)ATTITUDE_EST_COUNT) {
+    /* only an estimator that runs (selected in the configuration, built into the image) */
+    if ((unsigned)primary >= (unsigned)ATTITUDE_EST_COUNT ||
+        (app->estimator.cfg.estimators & ATTITUDE_EST_BIT(primary)) == 0u) {
         return HAL_ERR_INVALID;
     }
     app->primary = primary;

@@ -95,7 +95,7 @@ static void send_health(struct tof_link *link) {
     const struct tof_app_counters *c = &app->counters;
     struct tlm_health msg;
     memset(&msg, 0, sizeof msg);
-    msg.uptime_ms = (uint32_t)(app->now_us / 1000u);
+    msg.uptime_ms = (uint32_t)(app->uptime_us / 1000u);
     for (unsigned i = 0; i < TOF_SENSORS; ++i) {
         msg.sensor_state[i] = (uint8_t)app->health[i].state; /* same order as tlm_sensor_health */
         msg.sensor[i].comm_errors = c->read_errors[i];
@@ -152,7 +152,7 @@ void tof_link_send_status(struct tof_link *link) {
         .fw_major = FW_MAJOR,
         .fw_minor = FW_MINOR,
         .fw_patch = FW_PATCH,
-        .uptime_ms = (uint32_t)(app->now_us / 1000u),
+        .uptime_ms = (uint32_t)(app->uptime_us / 1000u),
         .window_n = app->estimator.cfg.window,
         .mode =
             app->estimator.cfg.mode == ATTITUDE_SLIDING ? TLM_WINDOW_SLIDING : TLM_WINDOW_TUMBLING,

@@ -56,17 +56,17 @@ static void check_against_direct(struct window_state *w, const struct window_sta
     for (uint16_t age = 0; age < window_fill(w); ++age) {
         const struct window_row *row = window_row_at(w, age);
         for (unsigned k = 0; k < 4; ++k) {
-            if (row->valid & (1u << k)) {
+            if (window_row_valid(row) & (1u << k)) {
                 sensor_sum[k] += row->range_mm[k];
                 sensor_sq[k] += (double)row->range_mm[k] * row->range_mm[k];
                 sensor_n[k]++;
             }
         }
-        if (row->valid != 0x0F) {
+        if (window_row_valid(row) != 0x0F) {
             continue;
         }
         struct angles_sample a;
-        angles_compute(row->range_mm, row->valid, w->cfg.arm_um, &a);
+        angles_compute(row->range_mm, window_row_valid(row), w->cfg.arm_um, &a);
         for (unsigned i = 0; i < 5; ++i) {
             sum[0][i] += a.alpha_udeg[i];
             sum[1][i] += a.beta_udeg[i];
@@ -179,7 +179,7 @@ static void test_sliding_never_drifts(void **state) {
     init(&other, 37, 0);
     for (uint16_t age = 37; age-- > 0;) {
         const struct window_row *row = window_row_at(&win, age);
-        window_push(&other, row->range_mm, row->present, row->valid);
+        window_push(&other, row->range_mm, window_row_present(row), window_row_valid(row));
     }
     assert_memory_equal(&win.sums, &other.sums, sizeof win.sums);
     window_compute(&win, &st);
@@ -247,7 +247,7 @@ static void test_gate_median_mad_against_sorting(void **state) {
             int m = 0;
             for (uint16_t age = 0; age < window_fill(&win); ++age) {
                 const struct window_row *row = window_row_at(&win, age);
-                if (row->valid & (1u << k)) {
+                if (window_row_valid(row) & (1u << k)) {
                     vals[m++] = row->range_mm[k];
                 }
             }

@@ -178,6 +178,28 @@ static void test_commands_are_applied_and_acknowledged(void **state) {
     assert_int_equal(t.app.estimator.cfg.window, 10);
 }
 
+/* The flight image runs consensus and kalman only (ATTITUDE_EST_BUILT): making a
+ * stopped estimator primary is refused and changes nothing. */
+static void test_selecting_an_estimator_that_does_not_run_is_refused(void **state) {
+    (void)state;
+    t.app.estimator.cfg.estimators =
+        (uint8_t)(ATTITUDE_EST_BIT(ATTITUDE_EST_CONSENSUS) | ATTITUDE_EST_BIT(ATTITUDE_EST_KALMAN));
+    struct tlm_command cmd = {.type = TLM_TYPE_SELECT_ESTIMATOR};
+    cmd.u.estimator = TLM_ESTIMATOR_CONSENSUS_PAPER;
+    push_command(&cmd, 1);
+    cmd.u.estimator = TLM_ESTIMATOR_MEAN;
+    push_command(&cmd, 2);
+    cmd.u.estimator = TLM_ESTIMATOR_KALMAN;
+    push_command(&cmd, 3);
+    cmd = (struct tlm_command){.type = TLM_TYPE_STATUS_REQUEST};
+    push_command(&cmd, 4);
+    run_ms(100);
+    decode_output();
+    assert_int_equal(t.nacks, 2);
+    assert_int_equal(t.acks, 2);
+    assert_int_equal(t.last_status.estimator, TLM_ESTIMATOR_KALMAN);
+}
+
 static void test_stop_silences_estimates_and_raw_stream_sends_samples(void **state) {
     (void)state;
     struct tlm_command cmd = {.type = TLM_TYPE_STOP};
@@ -226,6 +248,7 @@ int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup(test_default_windows_report_a_parallel_plate, setup),
         cmocka_unit_test_setup(test_commands_are_applied_and_acknowledged, setup),
+        cmocka_unit_test_setup(test_selecting_an_estimator_that_does_not_run_is_refused, setup),
         cmocka_unit_test_setup(test_stop_silences_estimates_and_raw_stream_sends_samples, setup),
         cmocka_unit_test_setup(test_malformed_frames_are_counted_and_refused, setup),
     };

@@ -45,6 +45,13 @@ enum attitude_estimator {
 };
 #define ATTITUDE_EST_BIT(e) ((uint8_t)(1u << (unsigned)(e)))
 #define ATTITUDE_EST_ALL    ((uint8_t)0x0Fu)
+/* The estimators compiled into this image (a mask of ATTITUDE_EST_BIT; default all
+ * four). A flight image built with fewer (the NUCLEO-L476RG: consensus and kalman,
+ * cmake/toolchain/board-nucleo-l476rg.cmake) links none of the others' code;
+ * attitude_init() rejects a configuration selecting one of them. */
+#ifndef ATTITUDE_EST_BUILT
+#define ATTITUDE_EST_BUILT ATTITUDE_EST_ALL
+#endif
 
 enum attitude_window_mode { ATTITUDE_TUMBLING = 0, ATTITUDE_SLIDING = 1 };
 
@@ -80,13 +87,13 @@ enum attitude_reason {
 /* Errors of attitude_init, one per configuration field (negative). */
 enum attitude_error {
     ATTITUDE_ERR_NONE = 0,
-    ATTITUDE_ERR_ARM = -1,                      /* arm_um outside [1000, 1000000] */
-    ATTITUDE_ERR_WINDOW = -2,                   /* window outside [2, ATTITUDE_WINDOW_MAX] */
-    ATTITUDE_ERR_MODE = -3,                     /* mode neither tumbling nor sliding */
-    ATTITUDE_ERR_ESTIMATORS = -4,               /* estimators empty or with unknown bits */
-    ATTITUDE_ERR_TOLERANCE = -5,                /* consensus_tolerance_udeg outside [1, 10000000] */
-    ATTITUDE_ERR_PAPER_ITERATIONS = -6,         /* paper_max_iterations is 0 */
-    ATTITUDE_ERR_KALMAN_PROCESS_NOISE = -7,     /* kalman_process_noise_um2 above 2^32 */
+    ATTITUDE_ERR_ARM = -1,                  /* arm_um outside [1000, 1000000] */
+    ATTITUDE_ERR_WINDOW = -2,               /* window outside [2, ATTITUDE_WINDOW_MAX] */
+    ATTITUDE_ERR_MODE = -3,                 /* mode neither tumbling nor sliding */
+    ATTITUDE_ERR_ESTIMATORS = -4,           /* estimators empty, with unknown bits or not built */
+    ATTITUDE_ERR_TOLERANCE = -5,            /* consensus_tolerance_udeg outside [1, 10000000] */
+    ATTITUDE_ERR_PAPER_ITERATIONS = -6,     /* paper_max_iterations is 0 */
+    ATTITUDE_ERR_KALMAN_PROCESS_NOISE = -7, /* kalman_process_noise_um2 above 2^32 */
     ATTITUDE_ERR_KALMAN_MEASUREMENT_NOISE = -8, /* a kalman_initial_noise_um2 is 0 */
     ATTITUDE_ERR_KALMAN_WARMUP = -9,            /* kalman_warmup_rows outside 1..8 */
     ATTITUDE_ERR_KALMAN_NOISE_SHIFT = -10,      /* kalman_noise_shift above 8 */
@@ -155,7 +162,7 @@ struct attitude_state {
 
 /*
  * The default configuration as an initializer, so a const configuration (the
- * firmware's) can embed it: a = 30 mm, N = 100, tumbling, every estimator,
+ * firmware's) can embed it: a = 30 mm, N = 100, tumbling, every estimator built,
  * tolerance 1000 udeg (the paper's 1e-3 deg), 200 paper iterations, paper
  * consistency 1.5σ (a paper value merely noisier than the efficient product differs
  * from it by sqrt(var_paper − var_product) ≈ 0.3σ (Hausman), so 1.5σ + tol flags only
@@ -164,10 +171,10 @@ struct attitude_state {
  */
 #define ATTITUDE_CONFIG_DEFAULT                                                                    \
     {                                                                                              \
-        .arm_um = 30000, .window = 100, .mode = ATTITUDE_TUMBLING, .estimators = ATTITUDE_EST_ALL, \
-        .consensus_tolerance_udeg = 1000, .paper_max_iterations = 200,                             \
-        .paper_consistency_sigmas_q8 = 384u, .gate_sigmas_q8 = 5u * 256u, .gate_floor_mm = 3,      \
-        .kalman_process_noise_um2 = {0, 0, 0},                                                     \
+        .arm_um = 30000, .window = 100, .mode = ATTITUDE_TUMBLING,                                 \
+        .estimators = ATTITUDE_EST_BUILT, .consensus_tolerance_udeg = 1000,                        \
+        .paper_max_iterations = 200, .paper_consistency_sigmas_q8 = 384u,                          \
+        .gate_sigmas_q8 = 5u * 256u, .gate_floor_mm = 3, .kalman_process_noise_um2 = {0, 0, 0},    \
         .kalman_initial_noise_um2 = {4000000u, 4000000u, 4000000u, 4000000u},                      \
         .kalman_gate_sigmas_q8 = 5u * 256u, .kalman_warmup_rows = 5, .kalman_noise_shift = 2,      \
     }

@@ -57,13 +57,24 @@ struct window_config {
     uint16_t gate_floor_mm;  /* the gate never rejects |x − median| <= this */
 };
 
-/* One stored row. */
+/* One stored row: 10 bytes, so the ring of WINDOW_MAX_SAMPLES rows stays within the
+ * interface MCU's RAM budget (docs/firmware.md). */
 struct window_row {
     uint16_t range_mm[ANGLES_SENSORS];
-    uint8_t present; /* sensor mask: a reading arrived */
-    uint8_t valid;   /* sensor mask: present with status 0 */
-    uint8_t aux;     /* free for the caller (the facade stores Kalman outcomes here) */
+    uint8_t masks; /* sensor masks: low nibble present (a reading arrived), high nibble
+                      valid (present with status 0); read them with the two functions below */
+    uint8_t aux;   /* free for the caller (the facade stores Kalman outcomes here) */
 };
+
+/* The sensors of a row that delivered a reading. */
+static inline uint8_t window_row_present(const struct window_row *row) {
+    return (uint8_t)(row->masks & 0x0Fu);
+}
+
+/* The sensors of a row with a status-0 reading (a subset of the present ones). */
+static inline uint8_t window_row_valid(const struct window_row *row) {
+    return (uint8_t)(row->masks >> 4);
+}
 
 /*
  * The exact sums of the rows held. β1..β4 are exact negations or copies of α values

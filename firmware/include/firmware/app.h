@@ -75,7 +75,7 @@ struct tof_app {
     bool running;                    /* false: samples are assembled, not estimated */
     uint32_t phase_us;      /* offset into its slot of the earliest reading of the last sample */
     uint32_t slot_first_us; /* ... being measured for the current slot (period: none yet) */
-    uint64_t now_us;        /* 64-bit extension of the platform's 32-bit microsecond clock */
+    uint64_t uptime_us;     /* 64-bit extension of the platform's 32-bit microsecond clock */
     uint32_t last_raw_us;
     bool raw_output;
     struct tof_app_counters counters;
@@ -100,7 +100,8 @@ void tof_app_step(struct tof_app *app, bool idle);
  */
 int tof_app_set_window(struct tof_app *app, uint16_t window, bool sliding);
 
-/* Choose the primary estimator; HAL_ERR_INVALID for an unknown one. */
+/* Choose the primary estimator; HAL_ERR_INVALID (nothing changed) for an unknown one or
+ * one that does not run (not in the configuration's set, or not built into the image). */
 int tof_app_set_primary(struct tof_app *app, enum attitude_estimator primary);
 
 /* Start (true) or stop (false) estimating; acquisition and the fault manager go on. */

@@ -1,0 +1,59 @@
+#!/usr/bin/python3
+"""tools/stack_check.py's indirect-call narrowing on a synthetic call graph.
+
+A driver calls `t->ops->now_us(...)`; the sources store `clock_now` into `.now_us` and
+`deep_callback` (a 1000-byte frame) into `.on_sample`. Narrowed, the time call reaches
+only clock_now; every way the narrowing could be unsound must fall back to "any
+address-taken function" and reach deep_callback.
+"""
+import os
+import sys
+import tempfile
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "tools"))
+import stack_check  # noqa: E402
+
+DRIVER = "uint32_t now(const struct t *t) {\n    return t->ops->now_us(t->ctx);\n}\n"
+
+
+def run(table_source, narrow=True):
+    with tempfile.TemporaryDirectory() as d:
+        driver = os.path.join(d, "driver.c")
+        table = os.path.join(d, "table.c")
+        with open(driver, "w") as f:
+            f.write(DRIVER)
+        with open(table, "w") as f:
+            f.write(table_source)
+        frames = {"main": 16, f"{driver}:now": 8, "clock_now": 4, "deep_callback": 1000}
+        calls = {"main": [(f"{driver}:now", f"{driver}:1:1")],
+                 f"{driver}:now": [("__indirect_call", f"{driver}:2:12")]}
+        sources = {f"{driver}:now": driver, "clock_now": table, "deep_callback": table}
+        stores = stack_check.member_stores(set(sources.values())) if narrow else None
+        thread, _, _, errors = stack_check.analyse(
+            frames, calls, ["main"], [], taken={"clock_now", "deep_callback"}, stores=stores)
+        assert not errors, errors
+        return thread["main"][0]
+
+
+def main():
+    named = ("static const struct time_ops ops = {.now_us = clock_now};\n"
+             "static const struct out_ops out = {.on_sample = deep_callback};\n")
+    cases = [
+        ("narrowed to the stored function", run(named), 16 + 8 + 4),
+        ("not narrowed without --narrow", run(named, narrow=False), 16 + 8 + 1000),
+        ("member also given an expression",
+         run(named + "void f(struct x *x, struct y *y) { x->now_us = y->fn; }\n"), 16 + 8 + 1000),
+        ("address-taken function stored under no name",
+         run("static const struct time_ops ops = {.now_us = clock_now};\n"
+             "void f(void) { attach(deep_callback); }\n"), 16 + 8 + 1000),
+    ]
+    failed = 0
+    for name, got, want in cases:
+        ok = got == want
+        failed += not ok
+        print(f"{'ok' if ok else 'FAIL'}: {name}: worst {got} bytes (expected {want})")
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
