@@ -2,16 +2,13 @@
 
 void sim_clock_init(struct sim_clock *clock, uint64_t start_us) {
     clock->now_us = start_us;
+    clock->wake_us = 0u; /* the first advance runs whoever listens by then */
     clock->listener_count = 0u;
     clock->delay_calls = 0u;
     clock->delayed_us = 0u;
 }
 
-uint64_t sim_clock_now(const struct sim_clock *clock) {
-    return clock->now_us;
-}
-
-int sim_clock_listen(struct sim_clock *clock, void (*on_advance)(void *ctx), void *ctx) {
+int sim_clock_listen(struct sim_clock *clock, uint64_t (*on_advance)(void *ctx), void *ctx) {
     for (uint32_t i = 0; i < clock->listener_count; ++i) {
         if (clock->listeners[i].on_advance == on_advance && clock->listeners[i].ctx == ctx) {
             return 0;
@@ -23,13 +20,21 @@ int sim_clock_listen(struct sim_clock *clock, void (*on_advance)(void *ctx), voi
     clock->listeners[clock->listener_count].on_advance = on_advance;
     clock->listeners[clock->listener_count].ctx = ctx;
     clock->listener_count++;
+    clock->wake_us = 0u; /* run it after the next advance */
     return 0;
 }
 
 void sim_clock_advance(struct sim_clock *clock, uint64_t us) {
     clock->now_us += us;
+    if (clock->now_us < clock->wake_us) {
+        return; /* no listener has anything due: the common case */
+    }
+    /* Every listener runs (in registration order, as when all ran on every advance) and
+     * the wake time becomes the earliest next event; a listener calling
+     * sim_clock_wake_at() meanwhile lowers it further. */
+    clock->wake_us = SIM_CLOCK_NEVER;
     for (uint32_t i = 0; i < clock->listener_count; ++i) {
-        clock->listeners[i].on_advance(clock->listeners[i].ctx);
+        sim_clock_wake_at(clock, clock->listeners[i].on_advance(clock->listeners[i].ctx));
     }
 }
 

@@ -12,7 +12,8 @@ static uint32_t bits_ns(uint32_t bus_hz, uint32_t bits) {
     return (uint32_t)(((uint64_t)bits * 1000000000u + bus_hz - 1u) / bus_hz);
 }
 
-uint32_t sim_i2c_transfer_ns(uint32_t bus_hz, size_t tx_len, size_t rx_len) {
+/* Bits on the wire of a successful transfer (lengths <= SIM_I2C_MAX_TRANSFER). */
+static uint32_t transfer_bits(size_t tx_len, size_t rx_len) {
     uint32_t bits = 1u; /* START */
     if (tx_len > 0u) {
         bits += 9u + 9u * (uint32_t)tx_len; /* address + write bytes, each with its ACK */
@@ -21,7 +22,33 @@ uint32_t sim_i2c_transfer_ns(uint32_t bus_hz, size_t tx_len, size_t rx_len) {
         bits += (tx_len > 0u ? 1u : 0u) + 9u + 9u * (uint32_t)rx_len; /* Sr, address, reads */
     }
     bits += 1u; /* STOP */
-    return bits_ns(bus_hz, bits);
+    return bits;
+}
+
+uint32_t sim_i2c_transfer_ns(uint32_t bus_hz, size_t tx_len, size_t rx_len) {
+    return bits_ns(bus_hz, transfer_bits(tx_len, rx_len));
+}
+
+/* bits_ns at the bus's speed, remembering the last two answers: a replay's transfers come
+ * in two sizes (result block read, interrupt clear), and the 64-bit division is what
+ * costs. Keyed by the speed too, as bus_hz is a public field. */
+static uint32_t wire_ns(struct sim_i2c_bus *bus, uint32_t bits) {
+    for (unsigned i = 0; i < 2u; ++i) {
+        if (bus->wire_memo[i].bits == bits && bus->wire_memo[i].bus_hz == bus->bus_hz) {
+            return bus->wire_memo[i].ns;
+        }
+    }
+    const uint32_t ns = bits_ns(bus->bus_hz, bits);
+    bus->wire_memo[1] = bus->wire_memo[0];
+    bus->wire_memo[0].bits = bits;
+    bus->wire_memo[0].bus_hz = bus->bus_hz;
+    bus->wire_memo[0].ns = ns;
+    return ns;
+}
+
+/* The master's timeout in ns (capped at 4 s). */
+static uint32_t timeout_ns_of(uint32_t timeout_us) {
+    return timeout_us > 4000000u ? 4000000000u : timeout_us * 1000u;
 }
 
 int sim_i2c_error_index(int err) {
@@ -54,6 +81,11 @@ void sim_i2c_init(struct sim_i2c_bus *bus, struct sim_clock *clock, uint32_t bus
     sim_i2c_set_faults(bus, NULL);
     bus->sda_stuck = false;
     bus->ns_carry = 0u;
+    for (unsigned i = 0; i < 2u; ++i) {
+        bus->wire_memo[i].bits = 0u; /* no transfer is 0 bits long: empty */
+        bus->wire_memo[i].bus_hz = 0u;
+        bus->wire_memo[i].ns = 0u;
+    }
     sim_i2c_reset_stats(bus);
     sim_i2c_record(bus, NULL, 0u);
 }
@@ -175,6 +207,108 @@ static void fill_garbage(struct sim_i2c_bus *bus, uint8_t *rx, size_t rx_len) {
     }
 }
 
+/* Any fault kind with a non-zero probability? Read each time (not cached), so a test that
+ * sets a probability directly in bus->faults is seen at once. */
+static bool faults_on(const struct sim_i2c_bus *bus) {
+    uint32_t any = 0u;
+    for (unsigned k = 0; k < (unsigned)SIM_FAULT_COUNT; ++k) {
+        any |= bus->faults.ppm[k];
+    }
+    return any != 0u;
+}
+
+static bool drawn(uint32_t hits, enum sim_fault_kind kind) {
+    return (hits & (1u << kind)) != 0u;
+}
+
+/* One transaction after the request checks, with `hits` the fault kinds drawn for it (bit
+ * k: kind k). Inlined into its two callers, so the fault-free one (hits = 0) loses every
+ * fault branch at compile time. */
+static inline __attribute__((always_inline)) int
+transaction(struct sim_i2c_bus *bus, uint64_t start_us, uint8_t addr7, const uint8_t *tx,
+            size_t tx_len, uint8_t *rx, size_t rx_len, uint32_t timeout_us, uint32_t hits) {
+    uint32_t fault_mask = 0u;
+    uint32_t duration_ns;
+    int result;
+    if (drawn(hits, SIM_FAULT_STUCK) && !bus->sda_stuck) {
+        bus->sda_stuck = true;
+        count_injection(bus, SIM_FAULT_STUCK, start_us, &fault_mask);
+    }
+    if (bus->sda_stuck) {
+        /* The master finds SDA low and waits for the bus to free up, in vain. */
+        duration_ns = timeout_ns_of(timeout_us);
+        spend(bus, duration_ns);
+        note(bus, start_us, duration_ns, addr7, HAL_ERR_BUS_STUCK, fault_mask, tx, tx_len, rx, 0u);
+        return HAL_ERR_BUS_STUCK;
+    }
+
+    size_t matched[SIM_I2C_MAX_TARGETS];
+    size_t count = find_targets(bus, addr7, matched);
+    if (count > 0u && drawn(hits, SIM_FAULT_RESET)) {
+        const struct sim_i2c_target *t = &bus->targets[matched[0]];
+        if (t->ops->inject(t->ctx, SIM_FAULT_RESET)) {
+            count_injection(bus, SIM_FAULT_RESET, start_us, &fault_mask);
+            count = find_targets(bus, addr7, matched);
+        }
+    }
+    if (count > 0u && drawn(hits, SIM_FAULT_NACK) && bus->nack_remaining[matched[0]] == 0u) {
+        bus->nack_remaining[matched[0]] =
+            (uint8_t)(1u + sim_prng_below(&bus->prng, bus->faults.nack_burst_max));
+        bus->nack_is_data[matched[0]] = (sim_prng_next(&bus->prng) & 1u) != 0u;
+        count_injection(bus, SIM_FAULT_NACK, start_us, &fault_mask);
+    }
+    if (count == 0u) {
+        duration_ns = wire_ns(bus, 11u); /* START, address + NACK, STOP */
+        result = HAL_ERR_ADDR_NACK;
+    } else if (bus->nack_remaining[matched[0]] > 0u) {
+        bus->nack_remaining[matched[0]]--;
+        if (bus->nack_is_data[matched[0]] && tx_len > 0u) {
+            duration_ns = wire_ns(bus, 20u); /* ... first data byte NACKed, STOP */
+            result = HAL_ERR_DATA_NACK;
+        } else {
+            duration_ns = wire_ns(bus, 11u);
+            result = HAL_ERR_ADDR_NACK;
+        }
+    } else if (drawn(hits, SIM_FAULT_STRETCH)) {
+        /* Address ACKed, then SCL held low past the master's timeout; nothing is applied. */
+        count_injection(bus, SIM_FAULT_STRETCH, start_us, &fault_mask);
+        duration_ns = wire_ns(bus, 10u) + timeout_ns_of(timeout_us) + wire_ns(bus, 1u);
+        result = HAL_ERR_TIMEOUT;
+    } else {
+        const struct sim_i2c_target *first = &bus->targets[matched[0]];
+        result = first->ops->transfer(first->ctx, tx, tx_len, rx, rx_len);
+        for (size_t m = 1; m < count && result == HAL_OK; ++m) {
+            const struct sim_i2c_target *t = &bus->targets[matched[m]];
+            uint8_t driven[SIM_I2C_MAX_TRANSFER];
+            result = t->ops->transfer(t->ctx, tx, tx_len, driven, rx_len);
+            for (size_t i = 0; i < rx_len; ++i) {
+                rx[i] &= driven[i]; /* open-drain: a 0 from anyone wins */
+            }
+        }
+        duration_ns = wire_ns(bus, result == HAL_OK ? transfer_bits(tx_len, rx_len) : 20u);
+        if (result == HAL_OK && rx_len > 0u && drawn(hits, SIM_FAULT_GARBAGE)) {
+            fill_garbage(bus, rx, rx_len);
+            count_injection(bus, SIM_FAULT_GARBAGE, start_us, &fault_mask);
+        }
+        if (result == HAL_OK && rx_len > 0u && drawn(hits, SIM_FAULT_BITFLIP) &&
+            first->ops->flip_result_bit(first->ctx, tx, tx_len, rx, rx_len,
+                                        sim_prng_below(&bus->prng, 8u * SIM_I2C_MAX_TRANSFER))) {
+            count_injection(bus, SIM_FAULT_BITFLIP, start_us, &fault_mask);
+        }
+        if (drawn(hits, SIM_FAULT_DRDY_HIGH) &&
+            first->ops->inject(first->ctx, SIM_FAULT_DRDY_HIGH)) {
+            count_injection(bus, SIM_FAULT_DRDY_HIGH, start_us, &fault_mask);
+        }
+        if (drawn(hits, SIM_FAULT_DRDY_LOW) && first->ops->inject(first->ctx, SIM_FAULT_DRDY_LOW)) {
+            count_injection(bus, SIM_FAULT_DRDY_LOW, start_us, &fault_mask);
+        }
+    }
+    spend(bus, duration_ns);
+    note(bus, start_us, duration_ns, addr7, result, fault_mask, tx, tx_len, rx,
+         result == HAL_OK ? rx_len : 0u);
+    return result;
+}
+
 static int sim_write_read(void *ctx, uint8_t addr7, const uint8_t *tx, size_t tx_len, uint8_t *rx,
                           size_t rx_len, uint32_t timeout_us) {
     struct sim_i2c_bus *bus = ctx;
@@ -185,94 +319,19 @@ static int sim_write_read(void *ctx, uint8_t addr7, const uint8_t *tx, size_t tx
         bus->stats.invalid_requests++;
         return HAL_ERR_INVALID;
     }
-    const uint32_t stop_bits_ns = bits_ns(bus->bus_hz, 1u);
-    const uint32_t timeout_ns = timeout_us > 4000000u ? 4000000000u : timeout_us * 1000u;
-    uint32_t fault_mask = 0u;
-    uint32_t duration_ns;
-    int result;
-
+    /* With every probability 0 nothing can fire: no draws (the stream's position is then
+     * unobservable; sim_i2c_set_faults() reseeds it) and no fault branches. */
+    if (!faults_on(bus)) {
+        return transaction(bus, start_us, addr7, tx, tx_len, rx, rx_len, timeout_us, 0u);
+    }
     /* Draw every kind on every transaction, so one kind's setting never shifts another's. */
-    bool hit[SIM_FAULT_COUNT];
+    uint32_t hits = 0u;
     for (unsigned k = 0; k < (unsigned)SIM_FAULT_COUNT; ++k) {
-        hit[k] = sim_prng_chance_ppm(&bus->prng, bus->faults.ppm[k]);
-    }
-    if (hit[SIM_FAULT_STUCK] && !bus->sda_stuck) {
-        bus->sda_stuck = true;
-        count_injection(bus, SIM_FAULT_STUCK, start_us, &fault_mask);
-    }
-    if (bus->sda_stuck) {
-        /* The master finds SDA low and waits for the bus to free up, in vain. */
-        duration_ns = timeout_ns;
-        spend(bus, duration_ns);
-        note(bus, start_us, duration_ns, addr7, HAL_ERR_BUS_STUCK, fault_mask, tx, tx_len, rx, 0u);
-        return HAL_ERR_BUS_STUCK;
-    }
-
-    size_t matched[SIM_I2C_MAX_TARGETS];
-    size_t count = find_targets(bus, addr7, matched);
-    if (count > 0u && hit[SIM_FAULT_RESET]) {
-        const struct sim_i2c_target *t = &bus->targets[matched[0]];
-        if (t->ops->inject(t->ctx, SIM_FAULT_RESET)) {
-            count_injection(bus, SIM_FAULT_RESET, start_us, &fault_mask);
-            count = find_targets(bus, addr7, matched);
+        if (sim_prng_chance_ppm(&bus->prng, bus->faults.ppm[k])) {
+            hits |= 1u << k;
         }
     }
-    if (count > 0u && hit[SIM_FAULT_NACK] && bus->nack_remaining[matched[0]] == 0u) {
-        bus->nack_remaining[matched[0]] =
-            (uint8_t)(1u + sim_prng_below(&bus->prng, bus->faults.nack_burst_max));
-        bus->nack_is_data[matched[0]] = (sim_prng_next(&bus->prng) & 1u) != 0u;
-        count_injection(bus, SIM_FAULT_NACK, start_us, &fault_mask);
-    }
-    if (count == 0u) {
-        duration_ns = bits_ns(bus->bus_hz, 11u); /* START, address + NACK, STOP */
-        result = HAL_ERR_ADDR_NACK;
-    } else if (bus->nack_remaining[matched[0]] > 0u) {
-        bus->nack_remaining[matched[0]]--;
-        if (bus->nack_is_data[matched[0]] && tx_len > 0u) {
-            duration_ns = bits_ns(bus->bus_hz, 20u); /* ... first data byte NACKed, STOP */
-            result = HAL_ERR_DATA_NACK;
-        } else {
-            duration_ns = bits_ns(bus->bus_hz, 11u);
-            result = HAL_ERR_ADDR_NACK;
-        }
-    } else if (hit[SIM_FAULT_STRETCH]) {
-        /* Address ACKed, then SCL held low past the master's timeout; nothing is applied. */
-        count_injection(bus, SIM_FAULT_STRETCH, start_us, &fault_mask);
-        duration_ns = bits_ns(bus->bus_hz, 10u) + timeout_ns + stop_bits_ns;
-        result = HAL_ERR_TIMEOUT;
-    } else {
-        result = HAL_OK;
-        for (size_t m = 0; m < count && result == HAL_OK; ++m) {
-            const struct sim_i2c_target *t = &bus->targets[matched[m]];
-            uint8_t driven[SIM_I2C_MAX_TRANSFER];
-            result = t->ops->transfer(t->ctx, tx, tx_len, m == 0u ? rx : driven, rx_len);
-            for (size_t i = 0; m > 0u && i < rx_len; ++i) {
-                rx[i] &= driven[i]; /* open-drain: a 0 from anyone wins */
-            }
-        }
-        duration_ns = result == HAL_OK ? sim_i2c_transfer_ns(bus->bus_hz, tx_len, rx_len)
-                                       : bits_ns(bus->bus_hz, 20u);
-        const struct sim_i2c_target *first = &bus->targets[matched[0]];
-        if (result == HAL_OK && rx_len > 0u && hit[SIM_FAULT_GARBAGE]) {
-            fill_garbage(bus, rx, rx_len);
-            count_injection(bus, SIM_FAULT_GARBAGE, start_us, &fault_mask);
-        }
-        if (result == HAL_OK && rx_len > 0u && hit[SIM_FAULT_BITFLIP] &&
-            first->ops->flip_result_bit(first->ctx, tx, tx_len, rx, rx_len,
-                                        sim_prng_below(&bus->prng, 8u * SIM_I2C_MAX_TRANSFER))) {
-            count_injection(bus, SIM_FAULT_BITFLIP, start_us, &fault_mask);
-        }
-        if (hit[SIM_FAULT_DRDY_HIGH] && first->ops->inject(first->ctx, SIM_FAULT_DRDY_HIGH)) {
-            count_injection(bus, SIM_FAULT_DRDY_HIGH, start_us, &fault_mask);
-        }
-        if (hit[SIM_FAULT_DRDY_LOW] && first->ops->inject(first->ctx, SIM_FAULT_DRDY_LOW)) {
-            count_injection(bus, SIM_FAULT_DRDY_LOW, start_us, &fault_mask);
-        }
-    }
-    spend(bus, duration_ns);
-    note(bus, start_us, duration_ns, addr7, result, fault_mask, tx, tx_len, rx,
-         result == HAL_OK ? rx_len : 0u);
-    return result;
+    return transaction(bus, start_us, addr7, tx, tx_len, rx, rx_len, timeout_us, hits);
 }
 
 static int sim_recover(void *ctx) {
@@ -281,7 +340,7 @@ static int sim_recover(void *ctx) {
     /* Nine SCL pulses let a slave finish the byte it is shifting out and release SDA
      * (UM10204 §3.1.16 "Bus clear"), then a STOP. */
     bus->sda_stuck = false;
-    spend(bus, bits_ns(bus->bus_hz, 10u));
+    spend(bus, wire_ns(bus, 10u));
     return HAL_OK;
 }
 

@@ -8,6 +8,7 @@
 #include "sim/sim_vl53.h"
 
 #include <stddef.h>
+#include <string.h>
 
 #include "hal/hal_err.h"
 #include "vl53/vl53_regs.h"
@@ -168,7 +169,32 @@ static void complete_measurement(struct sim_vl53 *dev, uint64_t time_us) {
     publish(dev, &range, sample_index, time_us);
 }
 
-void sim_vl53_update(struct sim_vl53 *dev) {
+/* When the model next changes state by itself: boot completes, or the next measurement
+ * is due. SIM_CLOCK_NEVER while neither is pending. */
+static uint64_t next_event_us(const struct sim_vl53 *dev) {
+    uint64_t next = SIM_CLOCK_NEVER;
+    if (!dev->powered) {
+        return next;
+    }
+    if (!dev->booted) {
+        next = dev->power_up_us + dev->cfg.boot_us;
+    }
+    if (dev->ranging && !dev->source_done && dev->source_error == 0) {
+        const uint64_t due = dev->range_start_us + dev->budget_us + dev->completed * dev->period_us;
+        next = due < next ? due : next;
+    }
+    return next;
+}
+
+/* After a change from outside (a register write, XSHUT, an injected fault): the next
+ * event may be earlier than the clock knows. */
+static void reschedule(struct sim_vl53 *dev) {
+    dev->next_event_us = next_event_us(dev);
+    sim_clock_wake_at(dev->clock, dev->next_event_us);
+}
+
+/* The body of sim_vl53_update, for when something is due. */
+static void run_due(struct sim_vl53 *dev) {
     const uint64_t t = now(dev);
     if (!dev->powered) {
         return;
@@ -183,7 +209,10 @@ void sim_vl53_update(struct sim_vl53 *dev) {
     if (t < first + dev->completed * dev->period_us) {
         return; /* the next measurement is not due: the common case, no division */
     }
-    const uint64_t due = (t - first) / dev->period_us + 1u;
+    /* Usually exactly the one measurement the check above found due: no division. */
+    const uint64_t due = t < first + (dev->completed + 1u) * dev->period_us
+                             ? dev->completed + 1u
+                             : (t - first) / dev->period_us + 1u;
     if (due - dev->completed > SIM_VL53_MAX_CATCH_UP) {
         uint64_t skip = due - dev->completed - SIM_VL53_MAX_CATCH_UP;
         dev->stats.skipped += (uint32_t)skip;
@@ -198,6 +227,14 @@ void sim_vl53_update(struct sim_vl53 *dev) {
             break;
         }
     }
+}
+
+void sim_vl53_update(struct sim_vl53 *dev) {
+    if (now(dev) < dev->next_event_us) {
+        return; /* nothing due: nearly every call (bus accesses, GPIO reads, clock advances) */
+    }
+    run_due(dev);
+    dev->next_event_us = next_event_us(dev);
 }
 
 /* Decode the ranging configuration at start; false (a protocol error) if it is not one the
@@ -354,9 +391,12 @@ uint8_t sim_vl53_peek(struct sim_vl53 *dev, uint16_t reg) {
 
 static bool target_acks(void *ctx, uint8_t addr7) {
     struct sim_vl53 *dev = ctx;
+    if (dev->address != addr7) {
+        return false; /* asked for every device on every transfer; catching up (below) never
+                         changes the address, so it can wait for the device's own turn */
+    }
     sim_vl53_update(dev);
-    return dev->powered && now(dev) >= dev->power_up_us + dev->cfg.boot_silent_us &&
-           dev->address == addr7;
+    return dev->powered && now(dev) >= dev->power_up_us + dev->cfg.boot_silent_us;
 }
 
 static int target_transfer(void *ctx, const uint8_t *tx, size_t tx_len, uint8_t *rx,
@@ -378,18 +418,34 @@ static int target_transfer(void *ctx, const uint8_t *tx, size_t tx_len, uint8_t 
             }
         }
     }
-    for (size_t i = 0; i < rx_len; ++i) {
-        if (dev->index >= SIM_VL53_REG_SPACE) {
-            dev->stats.protocol_errors++;
-            rx[i] = 0u;
-        } else {
-            rx[i] = read_register(dev, dev->index);
+    const size_t first = dev->index;
+    if (first + rx_len <= SIM_VL53_REG_SPACE &&
+        !(first <= VL53_REG_GPIO_TIO_HV_STATUS && VL53_REG_GPIO_TIO_HV_STATUS < first + rx_len) &&
+        !(first <= VL53_REG_FIRMWARE_SYSTEM_STATUS &&
+          VL53_REG_FIRMWARE_SYSTEM_STATUS < first + rx_len)) {
+        /* Plain registers only (the result block, what a replay reads): what the loop
+         * below gives, as one copy. */
+        if (rx_len > 0u) {
+            memcpy(rx, &dev->regs[first], rx_len);
         }
-        dev->index++;
+        dev->index = (uint16_t)(first + rx_len);
+    } else {
+        for (size_t i = 0; i < rx_len; ++i) {
+            if (dev->index >= SIM_VL53_REG_SPACE) {
+                dev->stats.protocol_errors++;
+                rx[i] = 0u;
+            } else {
+                rx[i] = read_register(dev, dev->index);
+            }
+            dev->index++;
+        }
     }
     if (new_address != dev->address) {
         dev->address = new_address;
         dev->stats.address_changes++;
+    }
+    if (tx_len > 2u) {
+        reschedule(dev); /* a write may have started ranging */
     }
     return HAL_OK;
 }
@@ -404,6 +460,7 @@ bool sim_vl53_inject(struct sim_vl53 *dev, enum sim_fault_kind kind) {
         /* A brown-out or latch-up style reset: the part reboots at 0x29, stopped. */
         power_up(dev);
         dev->stats.injected_resets++;
+        reschedule(dev);
         return true;
     case SIM_FAULT_DRDY_HIGH:
         dev->drdy = SIM_VL53_DRDY_STUCK_HIGH;
@@ -473,6 +530,7 @@ void sim_vl53_set_xshut(struct sim_vl53 *dev, bool high) {
     } else if (!high && dev->powered) {
         power_down(dev);
     }
+    reschedule(dev);
 }
 
 bool sim_vl53_gpio1_level(struct sim_vl53 *dev) {
@@ -503,8 +561,10 @@ int sim_vl53_wire(struct sim_vl53 *dev, struct sim_gpio *gpio, uint16_t xshut_pi
     return 0;
 }
 
-static void clock_advanced(void *ctx) {
-    sim_vl53_update(ctx);
+static uint64_t clock_advanced(void *ctx) {
+    struct sim_vl53 *dev = ctx;
+    sim_vl53_update(dev);
+    return dev->next_event_us;
 }
 
 void sim_vl53_init(struct sim_vl53 *dev, const struct sim_vl53_config *cfg, struct sim_clock *clock,
@@ -550,6 +610,7 @@ void sim_vl53_init(struct sim_vl53 *dev, const struct sim_vl53_config *cfg, stru
     if (!dev->cfg.xshut_wired || dev->cfg.powered_at_start) {
         power_up(dev);
     }
+    dev->next_event_us = next_event_us(dev);
     /* Run with the clock, so measurements complete (and GPIO1 rises) during delays too. */
     (void)sim_clock_listen(clock, clock_advanced, dev);
 }

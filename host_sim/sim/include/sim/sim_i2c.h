@@ -93,6 +93,9 @@ struct sim_i2c_bus {
     struct sim_prng prng;
     bool sda_stuck;
     uint32_t ns_carry; /* sub-microsecond remainder of wire time not yet added to the clock */
+    struct {
+        uint32_t bits, bus_hz, ns;
+    } wire_memo[2]; /* the last two wire times computed ([0] newest; bits 0: empty) */
     struct sim_i2c_stats stats;
     struct sim_i2c_record *records;
     size_t record_capacity;

@@ -89,7 +89,9 @@ struct sim_vl53 {
     uint64_t range_start_us;
     uint64_t budget_us;
     uint64_t period_us;
-    uint64_t completed; /* measurements completed since the start */
+    uint64_t completed;     /* measurements completed since the start */
+    uint64_t next_event_us; /* boot end or next measurement (SIM_CLOCK_NEVER: none); may be
+                               early, never late: sim_vl53_update does nothing before it */
     uint32_t next_sample_index;
     bool stream_started;
     uint8_t stream_count;
