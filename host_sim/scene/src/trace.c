@@ -141,7 +141,9 @@ static bool is_digit(char c) {
     return c >= '0' && c <= '9';
 }
 
-/* Unsigned decimal integer in 0..max (digits only). */
+/* Unsigned decimal integer in 0..max (digits only). One pass without a division per
+ * digit: leading zeros skipped, up to 19 significant digits accumulate exactly in 64
+ * bits, and more than 19 exceed any max. */
 static enum parse_result parse_uint(const struct field *f, uint64_t max, uint64_t *out) {
     if (f->len == 0u) {
         return PARSE_EMPTY;
@@ -155,21 +157,23 @@ static enum parse_result parse_uint(const struct field *f, uint64_t max, uint64_
     if (i == f->len) {
         return PARSE_SYNTAX;
     }
+    while (i < f->len && f->s[i] == '0') {
+        ++i;
+    }
     uint64_t v = 0;
-    bool over = false;
+    size_t significant = 0;
     for (; i < f->len; ++i) {
         if (!is_digit(f->s[i])) {
             return PARSE_SYNTAX;
         }
-        const uint64_t d = (uint64_t)(f->s[i] - '0');
-        if (v > (max - d) / 10u) {
-            over = true; /* keep scanning: a later non-digit is a syntax error */
-        } else {
-            v = v * 10u + d;
+        if (significant < 19u) {
+            v = v * 10u + (uint64_t)(f->s[i] - '0');
         }
+        ++significant;
     }
+    const bool over = significant > 19u || v > max;
     if (negative) {
-        if (v == 0u && !over) { /* "-0" is 0 */
+        if (significant == 0u) { /* "-0" is 0 */
             *out = 0u;
             return PARSE_OK;
         }
@@ -182,10 +186,52 @@ static enum parse_result parse_uint(const struct field *f, uint64_t max, uint64_
     return PARSE_OK;
 }
 
+/* The common form of a real, [+-]digits[.digits] with 1..15 digits in all (what the
+ * writer produces: "-12.345678"), in one pass: the digits as an exact integer, scaled
+ * by one exact power of ten, exactly as parse_real's Clinger path computes it. False
+ * for anything else, which parse_real then takes the long way (and rejects if bad). */
+static bool parse_plain_real(const struct field *f, double *out) {
+    static const double pow10[16] = {1e0, 1e1, 1e2,  1e3,  1e4,  1e5,  1e6,  1e7,
+                                     1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15};
+    size_t i = 0;
+    const bool negative = f->s[0] == '-';
+    if (f->s[0] == '+' || f->s[0] == '-') {
+        i = 1;
+    }
+    uint64_t mantissa = 0;
+    size_t digits = 0;
+    size_t fraction_digits = 0;
+    bool point = false;
+    for (; i < f->len; ++i) {
+        const char c = f->s[i];
+        if (is_digit(c)) {
+            mantissa = mantissa * 10u + (uint64_t)(c - '0');
+            ++digits;
+            fraction_digits += point ? 1u : 0u;
+        } else if (c == '.' && !point) {
+            point = true;
+        } else {
+            return false;
+        }
+        if (digits > 15u) {
+            return false;
+        }
+    }
+    if (digits == 0u) {
+        return false;
+    }
+    const double v = (double)mantissa / pow10[fraction_digits];
+    *out = negative ? -v : v;
+    return true;
+}
+
 /* Decimal real [+-]digits[.digits][(e|E)[+-]digits] (or .digits), finite. */
 static enum parse_result parse_real(const struct field *f, double *out) {
     if (f->len == 0u) {
         return PARSE_EMPTY;
+    }
+    if (parse_plain_real(f, out)) {
+        return PARSE_OK;
     }
     size_t i = 0;
     if (f->s[i] == '+' || f->s[i] == '-') {
@@ -501,15 +547,21 @@ static int parse_row(struct trace_reader *r, struct scene_row *row) {
     struct field fields[TRACE_MAX_COLUMNS];
     unsigned n = 0;
     size_t start = 0;
-    for (size_t i = 0; i <= r->line_len; ++i) {
-        if (i < r->line_len && r->line[i] != ',') {
-            continue;
+    const char *line = r->line;
+    const size_t len = r->line_len;
+    for (;;) { /* one field per pass; each pass consumes at least its ',' or ends the line */
+        size_t i = start;
+        while (i < len && line[i] != ',') {
+            ++i;
         }
         if (n == r->n_columns) {
             return fail_at(r, r->line_no, start + 1u, "long row: more than the header's %u fields",
                            r->n_columns);
         }
-        fields[n++] = make_field(r->line, start, i);
+        fields[n++] = make_field(line, start, i);
+        if (i == len) {
+            break;
+        }
         start = i + 1u;
     }
     if (n < r->n_columns) {
