@@ -32,7 +32,8 @@ const struct tof_app_config tof_app_default_config = {
                .silence_to_lost_ms = 3u * TOF_PERIOD_MS,
                .reinit_backoff_ms = 50,
                .recovery_timeout_ms = 5u * TOF_PERIOD_MS,
-               .suspect_timeout_ms = 10u * TOF_PERIOD_MS},
+               .suspect_timeout_ms = 10u * TOF_PERIOD_MS,
+               .trouble_errors = 5},
     .estimator = ATTITUDE_CONFIG_DEFAULT, /* the estimator's own defaults (attitude.h) */
     .raw_output = false,
 };

@@ -8,6 +8,7 @@ static void enter(struct tof_health *h, enum tof_health_state state, uint32_t no
         if (state == TOF_HEALTH_LOST) {
             ++h->losses;
             h->next_reinit_ms = now_ms; /* first attempt at once */
+            h->in_trouble = false;      /* the re-init starts afresh */
         }
     }
 }
@@ -45,6 +46,15 @@ void tof_health_on_error(struct tof_health *h, const struct tof_health_config *c
     h->consecutive_good = 0;
     if (h->consecutive_errors < UINT8_MAX) {
         ++h->consecutive_errors;
+    }
+    h->last_error_ms = now_ms;
+    if (!h->in_trouble) {
+        h->in_trouble = true;
+        h->trouble_since_ms = now_ms;
+        h->trouble_error_count = 0;
+    }
+    if (h->trouble_error_count < UINT8_MAX) {
+        ++h->trouble_error_count;
     }
     switch (h->state) {
     case TOF_HEALTH_HEALTHY:
@@ -84,8 +94,12 @@ enum tof_health_action tof_health_poll(struct tof_health *h, const struct tof_he
     switch (h->state) {
     case TOF_HEALTH_HEALTHY:
     case TOF_HEALTH_SUSPECT:
+        if (h->in_trouble && now_ms - h->last_error_ms > cfg->suspect_timeout_ms) {
+            h->in_trouble = false; /* a clean stretch ends the episode */
+        }
         if (silent_ms > cfg->silence_to_lost_ms ||
-            (h->state == TOF_HEALTH_SUSPECT && in_state_ms > cfg->suspect_timeout_ms)) {
+            (h->in_trouble && now_ms - h->trouble_since_ms > cfg->suspect_timeout_ms &&
+             h->trouble_error_count >= cfg->trouble_errors)) {
             enter(h, TOF_HEALTH_LOST, now_ms);
             return TOF_HEALTH_ACT_REINIT;
         }
@@ -127,5 +141,6 @@ const char *tof_health_name(enum tof_health_state state) {
 bool tof_health_config_valid(const struct tof_health_config *cfg) {
     return cfg->errors_to_lost >= 1u && cfg->good_to_healthy >= 1u &&
            cfg->silence_to_lost_ms > 0u && cfg->reinit_backoff_ms > 0u &&
-           cfg->recovery_timeout_ms > 0u && cfg->suspect_timeout_ms > 0u;
+           cfg->recovery_timeout_ms > 0u && cfg->suspect_timeout_ms > 0u &&
+           cfg->trouble_errors >= 1u;
 }

@@ -14,6 +14,7 @@ static const struct tof_health_config cfg = {
     .reinit_backoff_ms = 50,
     .recovery_timeout_ms = 200,
     .suspect_timeout_ms = 300,
+    .trouble_errors = 5,
 };
 
 static void test_single_error_makes_suspect_then_good_reads_heal(void **state) {
@@ -107,6 +108,70 @@ static void test_suspect_for_too_long_is_lost(void **state) {
     assert_int_equal(h.state, TOF_HEALTH_LOST);
 }
 
+/* A data-ready line stuck high: a stale read (error) between every two good readings, so
+ * the sensor flips SUSPECT -> HEALTHY -> SUSPECT. The trouble lasts: LOST after 300 ms. */
+static void test_flapping_sensor_is_lost(void **state) {
+    (void)state;
+    struct tof_health h;
+    tof_health_init(&h, 0);
+    uint32_t t = 10;
+    bool was_healthy_between = false;
+    for (; t <= 300; t += 30) {
+        tof_health_on_error(&h, &cfg, t);
+        assert_int_equal(h.state, TOF_HEALTH_SUSPECT);
+        tof_health_on_good(&h, &cfg, t + 10u);
+        tof_health_on_good(&h, &cfg, t + 20u);
+        was_healthy_between = was_healthy_between || h.state == TOF_HEALTH_HEALTHY;
+        assert_int_equal(tof_health_poll(&h, &cfg, t + 20u), TOF_HEALTH_ACT_NONE);
+    }
+    assert_true(was_healthy_between);
+    tof_health_on_error(&h, &cfg, t);
+    assert_int_equal(tof_health_poll(&h, &cfg, t + 1u), TOF_HEALTH_ACT_REINIT);
+    assert_int_equal(h.state, TOF_HEALTH_LOST);
+    /* the re-init starts a fresh episode */
+    tof_health_on_reinit_done(&h, &cfg, t + 5u, true);
+    tof_health_on_good(&h, &cfg, t + 25u);
+    assert_int_equal(h.state, TOF_HEALTH_HEALTHY);
+    assert_int_equal(tof_health_poll(&h, &cfg, t + 26u), TOF_HEALTH_ACT_NONE);
+}
+
+/* Isolated errors, each followed by a clean stretch longer than 300 ms: never LOST. */
+static void test_isolated_errors_with_clean_stretches_stay_usable(void **state) {
+    (void)state;
+    struct tof_health h;
+    tof_health_init(&h, 0);
+    for (uint32_t t = 10; t < 5000u; t += 20) {
+        if (t % 400u == 10u) {
+            tof_health_on_error(&h, &cfg, t);
+        } else {
+            tof_health_on_good(&h, &cfg, t);
+        }
+        assert_int_equal(tof_health_poll(&h, &cfg, t), TOF_HEALTH_ACT_NONE);
+    }
+    assert_int_equal(h.losses, 0);
+}
+
+/* Four sporadic errors 250 ms apart chain into one 750 ms episode (no 300 ms clean
+ * stretch), but four is below trouble_errors: usable throughout; a fifth makes it LOST. */
+static void test_sparse_chained_errors_need_the_error_count(void **state) {
+    (void)state;
+    struct tof_health h;
+    tof_health_init(&h, 0);
+    for (uint32_t t = 10; t <= 1000u; t += 10) {
+        if (t % 250u == 0u) {
+            tof_health_on_error(&h, &cfg, t);
+        } else {
+            tof_health_on_good(&h, &cfg, t);
+        }
+        assert_int_equal(tof_health_poll(&h, &cfg, t), TOF_HEALTH_ACT_NONE);
+    }
+    assert_true(h.in_trouble);
+    assert_int_equal(h.trouble_error_count, 4);
+    tof_health_on_error(&h, &cfg, 1010);
+    assert_int_equal(tof_health_poll(&h, &cfg, 1010), TOF_HEALTH_ACT_REINIT);
+    assert_int_equal(h.state, TOF_HEALTH_LOST);
+}
+
 static void test_timestamps_wrap(void **state) {
     (void)state;
     struct tof_health h;
@@ -124,6 +189,9 @@ static void test_config_validation(void **state) {
     bad = cfg;
     bad.silence_to_lost_ms = 0;
     assert_false(tof_health_config_valid(&bad));
+    bad = cfg;
+    bad.trouble_errors = 0;
+    assert_false(tof_health_config_valid(&bad));
     assert_string_equal(tof_health_name(TOF_HEALTH_RECOVERING), "recovering");
 }
 
@@ -136,6 +204,9 @@ int main(void) {
         cmocka_unit_test(test_failed_reinit_backs_off_then_retries),
         cmocka_unit_test(test_recovery_without_data_times_out),
         cmocka_unit_test(test_suspect_for_too_long_is_lost),
+        cmocka_unit_test(test_flapping_sensor_is_lost),
+        cmocka_unit_test(test_sparse_chained_errors_need_the_error_count),
+        cmocka_unit_test(test_isolated_errors_with_clean_stretches_stay_usable),
         cmocka_unit_test(test_timestamps_wrap),
         cmocka_unit_test(test_config_validation),
     };

@@ -1,10 +1,18 @@
 /*
  * Per-sensor health state machine of the fault manager.
  *
- *   HEALTHY --error--> SUSPECT --errors/silence/too long--> LOST --reinit--> RECOVERING
- *      ^                  |                                                    |
- *      +---- good --------+  <---------------- first good reading -------------+
+ *   HEALTHY --error--> SUSPECT --errors/silence/trouble too long--> LOST --reinit--> RECOVERING
+ *      ^                  |                                                            |
+ *      +---- good --------+  <-------------------- first good reading -----------------+
  *                                    (a failed re-init goes back to LOST and waits a back-off)
+ *
+ * Trouble: an episode that starts with an error and ends only after a clean stretch
+ * (no error for suspect_timeout_ms). One lasting longer than that with at least
+ * trouble_errors errors makes the sensor LOST whether it stayed SUSPECT throughout or
+ * flipped between SUSPECT and HEALTHY: a data-ready line stuck high gives a stale read
+ * between every two good ones, and only an XSHUT re-init clears it
+ * (docs/fault-campaign.md). The error count keeps sporadic bus errors that happen to
+ * chain (NACKs at 1 % of transactions) from costing a re-init.
  *
  * Pure logic over events and millisecond timestamps: no I/O. The firmware feeds
  * it what the driver reported and carries out the action it asks for.
@@ -29,20 +37,25 @@ struct tof_health_config {
     uint32_t silence_to_lost_ms;  /* no reading for this long: LOST (> one measurement period) */
     uint32_t reinit_backoff_ms;   /* wait after a failed re-init before the next attempt */
     uint32_t recovery_timeout_ms; /* RECOVERING without a good reading this long: LOST again */
-    uint32_t suspect_timeout_ms;  /* SUSPECT this long (errors keep interleaving with good
-                                     readings, e.g. a data-ready line stuck high): LOST, so an
-                                     XSHUT re-init clears what the sensor cannot */
+    uint32_t suspect_timeout_ms;  /* trouble (errors without a clean stretch this long, see
+                                     above) lasting longer than this: LOST, so an XSHUT
+                                     re-init clears what the sensor cannot */
+    uint8_t trouble_errors;       /* ... with at least this many errors in it (>= 1) */
 };
 
 struct tof_health {
     enum tof_health_state state;
     uint8_t consecutive_errors;
     uint8_t consecutive_good;
-    uint32_t last_good_ms;   /* time of the last good reading (or of entering RECOVERING) */
-    uint32_t state_since_ms; /* time the current state was entered */
-    uint32_t next_reinit_ms; /* LOST: earliest time of the next re-init attempt */
-    uint32_t transitions;    /* number of state changes, for telemetry */
-    uint32_t losses;         /* number of times the sensor became LOST */
+    uint32_t last_good_ms;       /* time of the last good reading (or of entering RECOVERING) */
+    uint32_t state_since_ms;     /* time the current state was entered */
+    uint32_t next_reinit_ms;     /* LOST: earliest time of the next re-init attempt */
+    bool in_trouble;             /* an error since the last clean stretch (see above) */
+    uint32_t trouble_since_ms;   /* time of the episode's first error */
+    uint32_t last_error_ms;      /* time of the last error */
+    uint8_t trouble_error_count; /* errors in the episode (saturating) */
+    uint32_t transitions;        /* number of state changes, for telemetry */
+    uint32_t losses;             /* number of times the sensor became LOST */
 };
 
 /* What the firmware should do for this sensor now. */
