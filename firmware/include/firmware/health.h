@@ -47,13 +47,13 @@ struct tof_health {
     enum tof_health_state state;
     uint8_t consecutive_errors;
     uint8_t consecutive_good;
+    bool in_trouble;             /* an error since the last clean stretch (see above) */
+    uint8_t trouble_error_count; /* errors in the episode (saturating) */
     uint32_t last_good_ms;       /* time of the last good reading (or of entering RECOVERING) */
     uint32_t state_since_ms;     /* time the current state was entered */
     uint32_t next_reinit_ms;     /* LOST: earliest time of the next re-init attempt */
-    bool in_trouble;             /* an error since the last clean stretch (see above) */
     uint32_t trouble_since_ms;   /* time of the episode's first error */
     uint32_t last_error_ms;      /* time of the last error */
-    uint8_t trouble_error_count; /* errors in the episode (saturating) */
     uint32_t transitions;        /* number of state changes, for telemetry */
     uint32_t losses;             /* number of times the sensor became LOST */
 };
