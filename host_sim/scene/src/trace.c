@@ -442,6 +442,12 @@ static int read_header_line(struct trace_reader *r) {
             return fail_at(r, r->line_no, 1u, "header lacks required column '%s'", column_names[c]);
         }
     }
+    memset(r->column_use, 0, sizeof r->column_use);
+    for (unsigned c = 0; c < TRACE_COL_COUNT; ++c) {
+        if (r->column_of[c] >= 0) {
+            r->column_use[r->column_of[c]] = (uint8_t)(c + 1u);
+        }
+    }
     return 0;
 }
 
@@ -543,7 +549,91 @@ static int field_error(struct trace_reader *r, const struct field *f, enum trace
     return fail_at(r, r->line_no, f->col, "%s: expected an integer, got '%s'", name, q);
 }
 
+/*
+ * A row in the form the writer produces (plain digits, plain reals, nothing to trim),
+ * read in one pass over the line. True with *row filled exactly as parse_row fills it;
+ * false for anything else (blanks, signs, exponents, long numbers, a bad or missing
+ * field, time going backwards), which parse_row then reads the long way and accepts or
+ * reports with its line and column. So the fast path never decides an error.
+ */
+static bool parse_row_fast(struct trace_reader *r, struct scene_row *row) {
+    const char *p = r->line;
+    const char *const end = r->line + r->line_len;
+    memset(row, 0, sizeof *row);
+    for (unsigned n = 0; n < r->n_columns; ++n) {
+        const unsigned use = r->column_use[n];
+        if (use >= TRACE_COL_T_MS + 1u && use <= TRACE_COL_D_ST + 1u) {
+            /* 1..9 digits: at most 999 999 999, exact in 32 bits. */
+            uint32_t v = 0;
+            unsigned digits = 0;
+            while (p < end && is_digit(*p)) {
+                if (++digits > 9u) {
+                    return false;
+                }
+                v = v * 10u + (uint32_t)(*p - '0');
+                ++p;
+            }
+            if (digits == 0u) {
+                return false;
+            }
+            const unsigned c = use - 1u;
+            if (c == TRACE_COL_T_MS) {
+                row->t_ms = v;
+            } else if (c <= TRACE_COL_D_MM) {
+                if (v > UINT16_MAX) {
+                    return false;
+                }
+                row->range_mm[c - TRACE_COL_A_MM] = (uint16_t)v;
+            } else {
+                if (v > UINT8_MAX) {
+                    return false;
+                }
+                row->status[c - TRACE_COL_A_ST] = (uint8_t)v;
+            }
+        } else {
+            const char *const s = p;
+            while (p < end && *p != ',') {
+                ++p;
+            }
+            if (use != 0u && p != s) { /* truth; empty means none (DESIGN.md §5) */
+                const struct field f = {s, (size_t)(p - s), 0u};
+                double d = 0.0;
+                if (!parse_plain_real(&f, &d) || !(fabs(d) <= 90.0)) {
+                    return false;
+                }
+                if (use - 1u == TRACE_COL_ALPHA) {
+                    row->has_alpha = true;
+                    row->alpha_deg = d;
+                } else {
+                    row->has_beta = true;
+                    row->beta_deg = d;
+                }
+            }
+        }
+        if (n + 1u < r->n_columns) {
+            if (p == end || *p != ',') {
+                return false;
+            }
+            ++p;
+        } else if (p != end) {
+            return false;
+        }
+    }
+    if (r->rows > 0u && row->t_ms < r->last_t_ms) {
+        return false;
+    }
+    for (unsigned k = 0; k < SCENE_SENSORS; ++k) {
+        row->present[k] = row->status[k] != SCENE_STATUS_NO_READING;
+    }
+    r->last_t_ms = row->t_ms;
+    r->rows++;
+    return true;
+}
+
 static int parse_row(struct trace_reader *r, struct scene_row *row) {
+    if (parse_row_fast(r, row)) {
+        return 0;
+    }
     struct field fields[TRACE_MAX_COLUMNS];
     unsigned n = 0;
     size_t start = 0;

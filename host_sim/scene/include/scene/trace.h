@@ -70,8 +70,9 @@ struct trace_reader {
     unsigned long line_no;
     /* header */
     struct trace_meta meta;
-    unsigned n_columns;             /* fields in the header */
-    int column_of[TRACE_COL_COUNT]; /* field index of each known column, -1 if absent */
+    unsigned n_columns;                    /* fields in the header */
+    int column_of[TRACE_COL_COUNT];        /* field index of each known column, -1 if absent */
+    uint8_t column_use[TRACE_MAX_COLUMNS]; /* per field: its trace_column + 1, 0 if unknown */
     unsigned long header_line;
     /* rows */
     uint64_t rows; /* rows returned so far */
