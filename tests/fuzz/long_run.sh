@@ -19,8 +19,8 @@ mkdir -p "$out"
 
 # name | binary (relative to BUILD_DIR) | seed dir (relative to the source) | extra flags
 targets="
-telemetry_decoder|tests/telemetry/fuzz_decoder|tests/telemetry/corpus/decoder|
-telemetry_command|tests/telemetry/fuzz_command|tests/telemetry/corpus/command|
+telemetry_decoder|tests/telemetry/fuzz/fuzz_decoder|tests/telemetry/corpus/decoder|
+telemetry_command|tests/telemetry/fuzz/fuzz_command|tests/telemetry/corpus/command|
 trace_reader|tests/scene/fuzz/fuzz_trace_reader|tests/scene/corpus|-max_len=4096 -dict=$src/tests/scene/trace.dict
 fuzz_attitude|tests/fuzz/bin/fuzz_attitude|tests/fuzz/corpus/fuzz_attitude|-max_len=4096
 fuzz_estimator_math|tests/fuzz/bin/fuzz_estimator_math|tests/fuzz/corpus/fuzz_estimator_math|-max_len=2048
