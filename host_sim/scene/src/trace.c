@@ -549,6 +549,43 @@ static int field_error(struct trace_reader *r, const struct field *f, enum trace
     return fail_at(r, r->line_no, f->col, "%s: expected an integer, got '%s'", name, q);
 }
 
+/* parse_plain_real's form and value, scanned from *pp up to the first character that is
+ * neither a digit nor the point (the caller checks that it ends the field). */
+static bool scan_plain_real(const char **pp, const char *end, double *out) {
+    static const double pow10[16] = {1e0, 1e1, 1e2,  1e3,  1e4,  1e5,  1e6,  1e7,
+                                     1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15};
+    const char *p = *pp;
+    bool negative = false;
+    if (p < end && (*p == '+' || *p == '-')) {
+        negative = *p == '-';
+        ++p;
+    }
+    uint64_t mantissa = 0; /* wraps beyond 19 digits, but more than 15 is refused below */
+    size_t digits = 0;
+    size_t fraction_digits = 0;
+    while (p < end && is_digit(*p)) {
+        mantissa = mantissa * 10u + (uint64_t)(*p - '0');
+        ++digits;
+        ++p;
+    }
+    if (p < end && *p == '.') {
+        ++p;
+        while (p < end && is_digit(*p)) {
+            mantissa = mantissa * 10u + (uint64_t)(*p - '0');
+            ++digits;
+            ++fraction_digits;
+            ++p;
+        }
+    }
+    if (digits == 0u || digits > 15u) {
+        return false;
+    }
+    const double v = (double)mantissa / pow10[fraction_digits];
+    *out = negative ? -v : v;
+    *pp = p;
+    return true;
+}
+
 /*
  * A row in the form the writer produces (plain digits, plain reals, nothing to trim),
  * read in one pass over the line. True with *row filled exactly as parse_row fills it;
@@ -590,15 +627,14 @@ static bool parse_row_fast(struct trace_reader *r, struct scene_row *row) {
                 }
                 row->status[c - TRACE_COL_A_ST] = (uint8_t)v;
             }
-        } else {
-            const char *const s = p;
-            while (p < end && *p != ',') {
+        } else if (use == 0u) {
+            while (p < end && *p != ',') { /* a column this reader does not use */
                 ++p;
             }
-            if (use != 0u && p != s) { /* truth; empty means none (DESIGN.md §5) */
-                const struct field f = {s, (size_t)(p - s), 0u};
+        } else {
+            if (p < end && *p != ',') { /* truth; empty means none (DESIGN.md §5) */
                 double d = 0.0;
-                if (!parse_plain_real(&f, &d) || !(fabs(d) <= 90.0)) {
+                if (!scan_plain_real(&p, end, &d) || !(fabs(d) <= 90.0)) {
                     return false;
                 }
                 if (use - 1u == TRACE_COL_ALPHA) {

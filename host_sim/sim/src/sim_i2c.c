@@ -145,9 +145,9 @@ static void spend(struct sim_i2c_bus *bus, uint32_t busy_ns) {
     bus->ns_carry = (uint32_t)(total % 1000u);
 }
 
-static void note(struct sim_i2c_bus *bus, uint64_t start_us, uint32_t duration_ns, uint8_t addr7,
-                 int result, uint32_t fault_mask, const uint8_t *tx, size_t tx_len,
-                 const uint8_t *rx, size_t rx_len) {
+static inline __attribute__((always_inline)) void
+note(struct sim_i2c_bus *bus, uint64_t start_us, uint32_t duration_ns, uint8_t addr7, int result,
+     uint32_t fault_mask, const uint8_t *tx, size_t tx_len, const uint8_t *rx, size_t rx_len) {
     bus->stats.transactions++;
     if (result == HAL_OK) {
         bus->stats.ok++;
