@@ -75,6 +75,7 @@ void sim_i2c_init(struct sim_i2c_bus *bus, struct sim_clock *clock, uint32_t bus
     for (size_t i = 0; i < SIM_I2C_MAX_TARGETS; ++i) {
         bus->targets[i].ops = NULL;
         bus->targets[i].ctx = NULL;
+        bus->targets[i].address = NULL;
         bus->nack_remaining[i] = 0u;
         bus->nack_is_data[i] = false;
     }
@@ -180,7 +181,8 @@ note(struct sim_i2c_bus *bus, uint64_t start_us, uint32_t duration_ns, uint8_t a
 static size_t find_targets(struct sim_i2c_bus *bus, uint8_t addr7, size_t *matched) {
     size_t count = 0u;
     for (size_t i = 0; i < bus->target_count; ++i) {
-        if (bus->targets[i].ops->acks(bus->targets[i].ctx, addr7)) {
+        const struct sim_i2c_target *t = &bus->targets[i];
+        if ((t->address == NULL || *t->address == addr7) && t->ops->acks(t->ctx, addr7)) {
             matched[count++] = i;
         }
     }

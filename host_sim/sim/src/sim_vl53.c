@@ -516,7 +516,8 @@ static const struct sim_i2c_target_ops vl53_target_ops = {
 };
 
 struct sim_i2c_target sim_vl53_target(struct sim_vl53 *dev) {
-    struct sim_i2c_target target = {&vl53_target_ops, dev};
+    /* target_acks is false, and does nothing, for any address but dev->address. */
+    struct sim_i2c_target target = {&vl53_target_ops, dev, &dev->address};
     return target;
 }
 

@@ -43,6 +43,10 @@ struct sim_i2c_target_ops {
 struct sim_i2c_target {
     const struct sim_i2c_target_ops *ops;
     void *ctx;
+    /* Optional: where the device keeps its 7-bit address, for a device whose acks() is false,
+     * without side effects, for any other address. The bus then does not ask it about
+     * transfers to other addresses (three in four on the product's bus). NULL: always ask. */
+    const uint8_t *address;
 };
 
 /* One recorded transaction (bytes beyond SIM_I2C_RECORD_BYTES are not kept). */
