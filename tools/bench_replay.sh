@@ -4,7 +4,7 @@
 # repeated, time stamps renumbered) and times `host_sim replay` on it: the trace goes
 # through the simulated bus, the VL53 models, the drivers, the fault manager and all
 # four estimators. Prints rows, seconds and samples per second.
-# Usage: tools/bench_replay.sh [ROWS]
+# Usage: [RUNS=3] tools/bench_replay.sh [ROWS]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 rows=${1:-1000000}
@@ -24,11 +24,22 @@ awk -F, -v rows="$rows" 'BEGIN { OFS = "," }
           line = f[1]; for (k = 2; k in f; ++k) line = line "," f[k]; print line } }' \
   "$work/one.csv" > "$work/big.csv"
 # CPU time of the replay process (user + system) is what one core spent; wall time is
-# printed too, as it suffers from anything else running on the machine.
+# printed too. The machine's speed drifts by up to 1.5x over minutes (shared host), and
+# noise only ever adds time, so the replay runs RUNS times and the fastest run is the
+# figure (each run is printed).
+runs=${RUNS:-3}
 TIMEFORMAT='%U %S %R'
-times=$( { time $H replay "$work/big.csv" --quiet --report "$work/report.json" >/dev/null; } 2>&1 )
-read -r user sys wall <<<"$times"
-awk -v r="$rows" -v u="$user" -v s="$sys" -v w="$wall" 'BEGIN {
-  cpu = u + s
-  printf "replay: %d samples, %.2f s CPU (%.2f s wall): %.0f samples/s per core (goal 1000000)\n",
-         r, cpu, w, r / cpu }'
+best=""
+for ((i = 1; i <= runs; ++i)); do
+  times=$( { time $H replay "$work/big.csv" --quiet --report "$work/report.json" >/dev/null; } 2>&1 )
+  read -r user sys wall <<<"$times"
+  cpu=$(awk -v u="$user" -v s="$sys" 'BEGIN { printf "%.3f", u + s }')
+  awk -v i="$i" -v r="$rows" -v c="$cpu" -v w="$wall" 'BEGIN {
+    printf "run %d: %d samples, %.2f s CPU (%.2f s wall): %.0f samples/s\n", i, r, c, w, r / c }'
+  if [[ -z "$best" ]] || awk -v a="$cpu" -v b="$best" 'BEGIN { exit !(a < b) }'; then
+    best=$cpu
+  fi
+done
+awk -v r="$rows" -v c="$best" -v n="$runs" 'BEGIN {
+  printf "replay: %d samples, %.2f s CPU (fastest of %d): %.0f samples/s per core (goal 1000000)\n",
+         r, c, n, r / c }'
