@@ -18,8 +18,10 @@ Rules (an upper bound under the project's rules, not a proof):
   ops-struct member, `x->ops->now_us(...)`): with --narrow, a call through member `m`
   reaches the functions the image's sources (the files of its linked functions) store into
   a member named `m` (`.m = f` or `->m = f`) plus every address-taken function stored nowhere under a name. It stays
-  "any address-taken function" when the call site names no member, when `m` is ever
-  assigned something other than a function name, or when its line cannot be read;
+  "any address-taken function" when the call's statement names no member or also calls
+  through a variable, when `m` is ever assigned something other than a function name,
+  or when the source cannot be read (a statement calling through several members reaches
+  the functions of all of them);
 - functions without a .ci (newlib, libgcc) are charged LIB_FRAME bytes each;
 - interrupts: the deepest handler plus the exception frame (EXC_FRAME bytes, the
   extended frame with FP state) is added on top of the deepest thread path.
@@ -128,15 +130,31 @@ def member_stores(sources):
     return stores
 
 
-def call_members(label):
-    """Member names called on the source line of an indirect call (label file:line:col,
-    the column of the enclosing expression), or None when the line cannot be read."""
+C_WORDS = {"if", "while", "for", "switch", "return", "sizeof", "do", "else", "case"}
+PLAIN_CALL_RE = re.compile(r"(?<![\w.>])([A-Za-z_]\w*)\s*\(")
+
+
+def call_members(label, functions):
+    """Member names called in the statement of an indirect call (label file:line:col, the
+    column of the enclosing expression; the statement read up to its `;`), or None when it
+    cannot be read or when it also calls through something that is neither a member nor
+    a known function (a function-pointer variable or parameter: then nothing is narrowed)."""
     try:
         path, line, col = label.rsplit(":", 2)
         with open(path, encoding="utf-8", errors="replace") as f:
-            text = f.read().splitlines()[int(line) - 1][int(col) - 1:]
+            lines = f.read().splitlines()[int(line) - 1:int(line) + 19]
+        lines[0] = lines[0][int(col) - 1:]
     except (OSError, ValueError, IndexError):
         return None
+    text, depth = "", 0
+    for ch in "\n".join(lines):
+        depth += (ch == "(") - (ch == ")")
+        if ch == ";" and depth <= 0:
+            break
+        text += ch
+    for name in PLAIN_CALL_RE.findall(text):
+        if name not in functions and name not in C_WORDS:
+            return None
     return set(MEMBER_CALL_RE.findall(text)) or None
 
 
@@ -172,7 +190,7 @@ def analyse(frames, calls, entries, handlers, taken=None, stores=None):
     unnamed = [cb for cb in callbacks if bare(cb) not in stored]
 
     def targets_of(label):
-        members = call_members(label) if stores is not None else None
+        members = call_members(label, names) if stores is not None else None
         if members is None or members & unresolvable:
             return callbacks
         wanted = set()

@@ -14,14 +14,20 @@ sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "tools"))
 import stack_check  # noqa: E402
 
 DRIVER = "uint32_t now(const struct t *t) {\n    return t->ops->now_us(t->ctx);\n}\n"
+# the same call site, its statement going on to a second indirect call
+DRIVER_TWO_LINES = ("uint32_t now(const struct t *t) {\n    return t->ops->now_us(t->ctx,\n"
+                    "        t->out->on_sample(t->ctx));\n}\n")
+# ... or to a call through a function-pointer variable
+DRIVER_VARIABLE = ("uint32_t now(const struct t *t, hook_fn hook) {\n"
+                   "    return t->ops->now_us(hook(t->ctx));\n}\n")
 
 
-def run(table_source, narrow=True):
+def run(table_source, narrow=True, driver_text=DRIVER):
     with tempfile.TemporaryDirectory() as d:
         driver = os.path.join(d, "driver.c")
         table = os.path.join(d, "table.c")
         with open(driver, "w") as f:
-            f.write(DRIVER)
+            f.write(driver_text)
         with open(table, "w") as f:
             f.write(table_source)
         frames = {"main": 16, f"{driver}:now": 8, "clock_now": 4, "deep_callback": 1000}
@@ -46,6 +52,10 @@ def main():
         ("address-taken function stored under no name",
          run("static const struct time_ops ops = {.now_us = clock_now};\n"
              "void f(void) { attach(deep_callback); }\n"), 16 + 8 + 1000),
+        ("statement going on to another member call",
+         run(named, driver_text=DRIVER_TWO_LINES), 16 + 8 + 1000),
+        ("statement calling through a variable", run(named, driver_text=DRIVER_VARIABLE),
+         16 + 8 + 1000),
     ]
     failed = 0
     for name, got, want in cases:
