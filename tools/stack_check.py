@@ -16,8 +16,9 @@ Rules (an upper bound under the project's rules, not a proof):
   no one calls directly. A function already on the path is skipped there;
 - ... narrowed by the member it goes through (DESIGN.md §4: every function pointer is an
   ops-struct member, `x->ops->now_us(...)`): with --narrow, a call through member `m`
-  reaches the functions the image's sources (the files of its linked functions) store into
-  a member named `m` (`.m = f` or `->m = f`) plus every address-taken function stored nowhere under a name. It stays
+  reaches the functions the image's sources (the files of its linked functions) store
+  into a member named `m` (`.m = f` or `->m = f`) plus every address-taken function
+  stored nowhere under a name. It stays
   "any address-taken function" when the call's statement names no member or also calls
   through a variable, when `m` is ever assigned something other than a function name,
   or when the source cannot be read (a statement calling through several members reaches
