@@ -20,9 +20,12 @@ Rules (an upper bound under the project's rules, not a proof):
   into a member named `m` (`.m = f` or `->m = f`) plus every address-taken function
   stored nowhere under a name. It stays
   "any address-taken function" when the call's statement names no member or also calls
-  through a variable, when `m` is ever assigned something other than a function name,
-  or when the source cannot be read (a statement calling through several members reaches
-  the functions of all of them);
+  through a variable (a lower-case name that is no function of the image, no direct call
+  target and no inline function of a header: UPPER_CASE names are macros by the project's
+  convention) or through an expression (`(*fp)(`, `tbl[i](`, a cast), when `m` is ever
+  assigned something other than a function name, or when the source cannot be read (a
+  statement calling through several members reaches the functions of all of them). A
+  static function matches a store of its name only in its own file or in a header;
 - functions without a .ci (newlib, libgcc) are charged LIB_FRAME bytes each;
 - interrupts: the deepest handler plus the exception frame (EXC_FRAME bytes, the
   extended frame with FP state) is added on top of the deepest thread path.
@@ -37,6 +40,7 @@ import re
 import sys
 
 LIB_FRAME = 64
+SOURCE_ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 EXC_FRAME = 104  # 8 core words + 18 FP words (ARMv7-M ARM B1.5.7), rounded to 8
 
 MEMBER_CALL_RE = re.compile(r"(?:->|\.)\s*([A-Za-z_]\w*)\s*\(")
@@ -61,10 +65,10 @@ def load(root, matches):
                 for line in f:
                     m = NODE_RE.search(line)
                     if m:
-                        where = NODE_FILE_RE.search(m.group(2))
-                        if where:
-                            sources[m.group(1)] = where.group(1)
                         fm = FRAME_RE.search(m.group(2))
+                        where = NODE_FILE_RE.search(m.group(2))
+                        if fm and where:  # a definition (a declaration has no frame)
+                            sources[m.group(1)] = where.group(1)
                         if fm:
                             size, kind = int(fm.group(1)), fm.group(2)
                             if "dynamic" in kind and "bounded" not in kind:
@@ -115,8 +119,9 @@ def address_taken(elf):
 
 
 def member_stores(sources):
-    """member name -> what the image's sources (the files of its linked functions) store
-    into it: a function name, or the whole expression when it is not a bare name."""
+    """member name -> (file, what) pairs: what the image's sources (the files of its
+    linked functions) store into it, a function name, or the whole expression when it is
+    not a bare name."""
     stores = {}
     for path in sources:
         try:
@@ -127,12 +132,29 @@ def member_stores(sources):
         for m in MEMBER_STORE_RE.finditer(text):
             value = m.group(2).strip()
             name = FUNC_NAME_RE.fullmatch(value)
-            stores.setdefault(m.group(1), set()).add(name.group(1) if name else value)
+            stores.setdefault(m.group(1), set()).add((path, name.group(1) if name else value))
     return stores
 
 
+CALL_THROUGH_EXPR_RE = re.compile(r"[)\]]\s*\(")
 C_WORDS = {"if", "while", "for", "switch", "return", "sizeof", "do", "else", "case"}
 PLAIN_CALL_RE = re.compile(r"(?<![\w.>])([A-Za-z_]\w*)\s*\(")
+
+
+INLINE_DEF_RE = re.compile(r"^(?:static\s+inline|FIX_INLINE)\b[^(;=]*?\b([A-Za-z_]\w*)\s*\(", re.M)
+
+
+def inline_functions(root):
+    """Names of the functions headers under `root` define inline (called directly, and
+    often inlined away so that no call graph names them)."""
+    names = set()
+    for dirpath, dirs, files in os.walk(root):
+        dirs[:] = [d for d in dirs if not d.startswith(("build", "."))]
+        for name in files:
+            if name.endswith(".h"):
+                with open(os.path.join(dirpath, name), encoding="utf-8", errors="replace") as f:
+                    names.update(INLINE_DEF_RE.findall(f.read()))
+    return names
 
 
 def call_members(label, functions):
@@ -153,13 +175,18 @@ def call_members(label, functions):
         if ch == ";" and depth <= 0:
             break
         text += ch
+    if CALL_THROUGH_EXPR_RE.search(text):
+        return None  # (*fp)(...), table[i](...), or a cast: not narrowed
     for name in PLAIN_CALL_RE.findall(text):
-        if name not in functions and name not in C_WORDS:
+        # a direct call (a function of the image, a library or inline one) or a macro
+        # (UPPER_CASE, the project's convention); anything else is a pointer variable
+        if name not in functions and name not in C_WORDS and not name.isupper():
             return None
     return set(MEMBER_CALL_RE.findall(text)) or None
 
 
-def analyse(frames, calls, entries, handlers, taken=None, stores=None):
+def analyse(frames, calls, entries, handlers, taken=None, stores=None, sources=None,
+            callables=frozenset()):
     called = {t for ts in calls.values() for t, _ in ts}
 
     def resolve(name):
@@ -180,24 +207,35 @@ def analyse(frames, calls, entries, handlers, taken=None, stores=None):
         return f.split(":")[-1].split(".")[0]
 
     names = {bare(f) for f in frames}
-    stored = set()
+    # what a statement may call directly: the image's functions, every direct call target
+    # of the call graph (libraries included) and the caller's list of inline functions
+    direct = names | {bare(t) for ts in calls.values() for t, _ in ts} | set(callables)
+    direct.discard("__indirect_call")
+
+    def matches(cb, store):
+        """A stored (file, name) is callback cb: same name and, for a static function
+        (title path:name), stored in its own file or in a header."""
+        path, value = store
+        if value != bare(cb):
+            return False
+        own = (sources or {}).get(cb) if ":" in cb else None
+        return own is None or own == path or path.endswith(".h")
+
     unresolvable = set()  # members given something other than a function name
+    all_stores = []
     for member, values in (stores or {}).items():
-        for v in values:
-            if v in names:
-                stored.add(v)
-            elif v not in ("NULL", "0"):
+        for path, v in values:
+            all_stores.append((path, v))
+            if v not in names and v not in ("NULL", "0"):
                 unresolvable.add(member)
-    unnamed = [cb for cb in callbacks if bare(cb) not in stored]
+    unnamed = [cb for cb in callbacks if not any(matches(cb, st) for st in all_stores)]
 
     def targets_of(label):
-        members = call_members(label, names) if stores is not None else None
+        members = call_members(label, direct) if stores is not None else None
         if members is None or members & unresolvable:
             return callbacks
-        wanted = set()
-        for member in members:
-            wanted |= stores.get(member, set())
-        return [cb for cb in callbacks if bare(cb) in wanted] + unnamed
+        wanted = [st for member in members for st in stores.get(member, set())]
+        return [cb for cb in callbacks if any(matches(cb, st) for st in wanted)] + unnamed
 
     memo, libs, errors = {}, set(), []
 
@@ -264,7 +302,9 @@ def main():
         frames = {f: v for f, v in frames.items() if f.split(":")[-1].split(".")[0] in kept}
     taken = address_taken(a.elf) if a.elf else None
     stores = member_stores({sources[f] for f in frames if f in sources}) if a.narrow else None
-    thread, irq, libs, more = analyse(frames, calls, entries, handlers, taken, stores)
+    callables = inline_functions(SOURCE_ROOT) if a.narrow else frozenset()
+    thread, irq, libs, more = analyse(frames, calls, entries, handlers, taken, stores, sources,
+                                      callables)
     errors += more
     t_worst = max((d for d, _ in thread.values()), default=0)
     i_worst = max((d for d, _ in irq.values()), default=0)

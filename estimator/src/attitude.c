@@ -5,6 +5,9 @@
 
 #include "fix_inline.h"
 
+_Static_assert((ATTITUDE_EST_BUILT) != 0u && ((ATTITUDE_EST_BUILT) & ~0x0Fu) == 0u,
+               "ATTITUDE_EST_BUILT: a non-empty mask of the four estimators");
+
 /* Kalman outcomes kept per row in window_row.aux: low nibble used, high rejected. */
 #define AUX_USED(m)     ((uint8_t)((m)&0x0Fu))
 #define AUX_REJECTED(m) ((uint8_t)(((m) >> 4) & 0x0Fu))
@@ -474,7 +477,8 @@ bool attitude_push_sample(struct attitude_state *st, const uint16_t range_mm[ATT
                           const uint8_t range_status[ATTITUDE_SENSORS],
                           const bool present[ATTITUDE_SENSORS], struct attitude_output *out) {
     const struct attitude_config *cfg = &st->cfg;
-    const bool kalman_on = (cfg->estimators & ATTITUDE_EST_BIT(ATTITUDE_EST_KALMAN)) != 0u;
+    const bool kalman_on =
+        (cfg->estimators & ATTITUDE_EST_BUILT & ATTITUDE_EST_BIT(ATTITUDE_EST_KALMAN)) != 0u;
     uint8_t present_mask = 0;
     uint8_t valid_mask = 0;
     uint16_t ranges[ATTITUDE_SENSORS];

@@ -7,6 +7,7 @@
 
 _Static_assert(WINDOW_MAX_SAMPLES >= 255u, "the issue asks for windows of at least 255 rows");
 _Static_assert(WINDOW_MAX_SAMPLES <= 1024u, "exact 64-bit sums of angle products need N <= 1024");
+_Static_assert(sizeof(struct window_row) == 10u, "a window row is 10 bytes (the RAM budget)");
 
 /* 1.4826 = 1/Φ⁻¹(3/4): σ ≈ 1.4826·MAD for Gaussian data, in Q16. */
 #define MAD_TO_SIGMA_Q16 97163

@@ -141,8 +141,9 @@ static void poll_sensor(struct tof_app *app, unsigned sensor) {
             app->slot_first_us = offset;
         }
     }
+    const struct tof_sample_sink sink = {.emit = on_sample, .ctx = app};
     tof_assembler_add(&app->assembler, &app->assembler_cfg, sensor, t_us, result.distance_mm,
-                      result.range_status, on_sample, app);
+                      result.range_status, &sink);
 }
 
 /* Carry out the fault manager's decision for one sensor; returns true if it re-initialised. */
@@ -255,7 +256,14 @@ int tof_app_init(struct tof_app *app, const struct tof_platform *platform,
     if (attitude_init(&app->estimator, &cfg->estimator) != ATTITUDE_ERR_NONE) {
         return HAL_ERR_INVALID; /* attitude_error_message() names the field */
     }
+    /* the product consensus when it runs, else the first estimator that does */
     app->primary = ATTITUDE_EST_CONSENSUS;
+    for (unsigned e = 0; e < (unsigned)ATTITUDE_EST_COUNT; ++e) {
+        if ((cfg->estimator.estimators & ATTITUDE_EST_BIT(e)) != 0u) {
+            app->primary = (enum attitude_estimator)e;
+            break;
+        }
+    }
     app->running = true;
     app->assembler_cfg = (struct tof_assembler_config){
         .period_us = vl53_period_us(&cfg->timing),
@@ -302,7 +310,8 @@ void tof_app_step(struct tof_app *app, bool idle) {
             break;
         }
     }
-    tof_assembler_poll(&app->assembler, &app->assembler_cfg, tof_app_now_us(app), on_sample, app);
+    const struct tof_sample_sink sink = {.emit = on_sample, .ctx = app};
+    tof_assembler_poll(&app->assembler, &app->assembler_cfg, tof_app_now_us(app), &sink);
     const uint64_t end = tof_app_now_us(app);
     const uint64_t took = end - begin;
     if (took > app->counters.max_iteration_us) {

@@ -17,12 +17,12 @@ static uint64_t slot_end(const struct tof_assembler *a, const struct tof_assembl
 
 /* Emit pending[0] and shift the two-slot window by one. */
 static void emit_oldest(struct tof_assembler *a, const struct tof_assembler_config *cfg,
-                        tof_sample_sink sink, void *sink_ctx) {
+                        const struct tof_sample_sink *sink) {
     ++a->counters.emitted;
     if (a->pending[0].present_mask != ALL_SENSORS) {
         ++a->counters.incomplete;
     }
-    sink(sink_ctx, &a->pending[0]);
+    sink->emit(sink->ctx, &a->pending[0]);
     a->pending[0] = a->pending[1];
     ++a->next_index;
     reset_slot(&a->pending[1], a->next_index + 1u, slot_end(a, cfg, a->next_index + 1u));
@@ -38,7 +38,7 @@ void tof_assembler_init(struct tof_assembler *a, uint64_t origin_us) {
 
 void tof_assembler_add(struct tof_assembler *a, const struct tof_assembler_config *cfg,
                        unsigned sensor, uint64_t t_us, uint16_t range_mm, uint8_t status,
-                       tof_sample_sink sink, void *sink_ctx) {
+                       const struct tof_sample_sink *sink) {
     if (sensor >= TOF_SENSOR_COUNT || t_us < a->origin_us) {
         ++a->counters.late; /* before ranging started: cannot belong to any slot */
         return;
@@ -54,7 +54,7 @@ void tof_assembler_add(struct tof_assembler *a, const struct tof_assembler_confi
             ++a->counters.late; /* too far ahead to catch up in one call: counted */
             return;
         }
-        emit_oldest(a, cfg, sink, sink_ctx);
+        emit_oldest(a, cfg, sink);
     }
     struct tof_sample *s = &a->pending[slot64 == a->next_index ? 0 : 1];
     s->t_us = slot_end(a, cfg, s->index);
@@ -67,18 +67,18 @@ void tof_assembler_add(struct tof_assembler *a, const struct tof_assembler_confi
     s->range_mm[sensor] = range_mm;
     s->status[sensor] = status;
     for (uint8_t n = 0; a->pending[0].present_mask == ALL_SENSORS && n < 2u; ++n) {
-        emit_oldest(a, cfg, sink, sink_ctx); /* complete: no need to wait for the deadline */
+        emit_oldest(a, cfg, sink); /* complete: no need to wait for the deadline */
     }
 }
 
 void tof_assembler_poll(struct tof_assembler *a, const struct tof_assembler_config *cfg,
-                        uint64_t now_us, tof_sample_sink sink, void *sink_ctx) {
+                        uint64_t now_us, const struct tof_sample_sink *sink) {
     for (uint8_t n = 0; n < cfg->max_emit_per_call; ++n) {
         const uint64_t deadline = slot_end(a, cfg, a->next_index) + cfg->max_skew_us;
         if (now_us <= deadline) {
             return;
         }
         a->pending[0].t_us = slot_end(a, cfg, a->next_index);
-        emit_oldest(a, cfg, sink, sink_ctx);
+        emit_oldest(a, cfg, sink);
     }
 }

@@ -47,6 +47,9 @@ void tof_health_on_error(struct tof_health *h, const struct tof_health_config *c
     if (h->consecutive_errors < UINT8_MAX) {
         ++h->consecutive_errors;
     }
+    if (h->in_trouble && now_ms - h->last_error_ms > cfg->suspect_timeout_ms) {
+        h->in_trouble = false; /* a clean stretch ended the episode before this error */
+    }
     h->last_error_ms = now_ms;
     if (!h->in_trouble) {
         h->in_trouble = true;
@@ -97,8 +100,10 @@ enum tof_health_action tof_health_poll(struct tof_health *h, const struct tof_he
         if (h->in_trouble && now_ms - h->last_error_ms > cfg->suspect_timeout_ms) {
             h->in_trouble = false; /* a clean stretch ends the episode */
         }
+        /* the errors themselves must span the timeout: a burst followed by good readings
+         * ends with the clean stretch, however long ago it began */
         if (silent_ms > cfg->silence_to_lost_ms ||
-            (h->in_trouble && now_ms - h->trouble_since_ms > cfg->suspect_timeout_ms &&
+            (h->in_trouble && h->last_error_ms - h->trouble_since_ms >= cfg->suspect_timeout_ms &&
              h->trouble_error_count >= cfg->trouble_errors)) {
             enter(h, TOF_HEALTH_LOST, now_ms);
             return TOF_HEALTH_ACT_REINIT;

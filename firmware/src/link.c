@@ -184,9 +184,10 @@ static uint8_t apply(struct tof_link *link, const struct tlm_command *cmd) {
                    ? TLM_RESULT_OK
                    : TLM_RESULT_STATE;
     case TLM_TYPE_SELECT_ESTIMATOR:
+        /* the parser checked the range: a refusal is an estimator that does not run */
         return tof_app_set_primary(app, (enum attitude_estimator)cmd->u.estimator) == HAL_OK
                    ? TLM_RESULT_OK
-                   : TLM_RESULT_OUT_OF_RANGE;
+                   : TLM_RESULT_STATE;
     case TLM_TYPE_START:
         tof_app_set_running(app, true);
         return TLM_RESULT_OK;

@@ -22,7 +22,12 @@ DRIVER_VARIABLE = ("uint32_t now(const struct t *t, hook_fn hook) {\n"
                    "    return t->ops->now_us(hook(t->ctx));\n}\n")
 
 
-def run(table_source, narrow=True, driver_text=DRIVER):
+# ... or to a call through a dereferenced pointer
+DRIVER_DEREF = ("uint32_t now(const struct t *t, hook_fn *hook) {\n"
+                "    return t->ops->now_us((*hook)(t->ctx));\n}\n")
+
+
+def run(table_source, narrow=True, driver_text=DRIVER, static_deep=False):
     with tempfile.TemporaryDirectory() as d:
         driver = os.path.join(d, "driver.c")
         table = os.path.join(d, "table.c")
@@ -30,13 +35,18 @@ def run(table_source, narrow=True, driver_text=DRIVER):
             f.write(driver_text)
         with open(table, "w") as f:
             f.write(table_source)
-        frames = {"main": 16, f"{driver}:now": 8, "clock_now": 4, "deep_callback": 1000}
+        # static_deep: deep_callback is a static function of driver.c (title path:name),
+        # so table.c's `.on_sample = deep_callback` names another function
+        deep = f"{driver}:deep_callback" if static_deep else "deep_callback"
+        frames = {"main": 16, f"{driver}:now": 8, "clock_now": 4, deep: 1000}
         calls = {"main": [(f"{driver}:now", f"{driver}:1:1")],
                  f"{driver}:now": [("__indirect_call", f"{driver}:2:12")]}
-        sources = {f"{driver}:now": driver, "clock_now": table, "deep_callback": table}
+        sources = {f"{driver}:now": driver, "clock_now": table,
+                   deep: driver if static_deep else table}
         stores = stack_check.member_stores(set(sources.values())) if narrow else None
         thread, _, _, errors = stack_check.analyse(
-            frames, calls, ["main"], [], taken={"clock_now", "deep_callback"}, stores=stores)
+            frames, calls, ["main"], [], taken={"clock_now", "deep_callback"}, stores=stores,
+            sources=sources)
         assert not errors, errors
         return thread["main"][0]
 
@@ -56,6 +66,10 @@ def main():
          run(named, driver_text=DRIVER_TWO_LINES), 16 + 8 + 1000),
         ("statement calling through a variable", run(named, driver_text=DRIVER_VARIABLE),
          16 + 8 + 1000),
+        ("statement calling through a dereferenced pointer",
+         run(named, driver_text=DRIVER_DEREF), 16 + 8 + 1000),
+        ("static function stored only under its name in another file",
+         run(named, static_deep=True), 16 + 8 + 1000),
     ]
     failed = 0
     for name, got, want in cases:

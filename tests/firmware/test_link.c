@@ -115,8 +115,7 @@ static void run_ms(uint32_t ms) {
     }
 }
 
-static int setup(void **state) {
-    (void)state;
+static void setup_with(const struct tof_app_config *app_cfg) {
     memset(&t, 0, sizeof t);
     struct sim_rig_config cfg;
     sim_rig_default_config(&cfg); /* every sensor reads 100 mm: a parallel plate */
@@ -131,8 +130,13 @@ static int setup(void **state) {
         t.platform.xshut_pin[i] = SIM_RIG_XSHUT_PIN(i);
         t.platform.gpio1_pin[i] = SIM_RIG_GPIO1_PIN(i);
     }
-    assert_int_equal(tof_app_init(&t.app, &t.platform, &tof_app_default_config), 0);
+    assert_int_equal(tof_app_init(&t.app, &t.platform, app_cfg), 0);
     tof_link_bind(&t.link, &t.app);
+}
+
+static int setup(void **state) {
+    (void)state;
+    setup_with(&tof_app_default_config);
     return 0;
 }
 
@@ -196,7 +200,29 @@ static void test_selecting_an_estimator_that_does_not_run_is_refused(void **stat
     run_ms(100);
     decode_output();
     assert_int_equal(t.nacks, 2);
+    assert_int_equal(t.last_nack_result, TLM_RESULT_STATE);
     assert_int_equal(t.acks, 2);
+    assert_int_equal(t.last_status.estimator, TLM_ESTIMATOR_KALMAN);
+}
+
+/* A configuration without the product consensus: the primary estimator at start is the
+ * first one that runs, so status and telemetry never lead with a stopped estimator. */
+static struct tof_app_config kalman_only;
+static int setup_kalman_only(void **state) {
+    (void)state;
+    kalman_only = tof_app_default_config;
+    kalman_only.estimator.estimators = ATTITUDE_EST_BIT(ATTITUDE_EST_KALMAN);
+    setup_with(&kalman_only);
+    return 0;
+}
+
+static void test_primary_is_an_estimator_that_runs(void **state) {
+    (void)state;
+    assert_int_equal(t.app.primary, ATTITUDE_EST_KALMAN);
+    struct tlm_command cmd = {.type = TLM_TYPE_STATUS_REQUEST};
+    push_command(&cmd, 1);
+    run_ms(100);
+    decode_output();
     assert_int_equal(t.last_status.estimator, TLM_ESTIMATOR_KALMAN);
 }
 
@@ -249,6 +275,7 @@ int main(void) {
         cmocka_unit_test_setup(test_default_windows_report_a_parallel_plate, setup),
         cmocka_unit_test_setup(test_commands_are_applied_and_acknowledged, setup),
         cmocka_unit_test_setup(test_selecting_an_estimator_that_does_not_run_is_refused, setup),
+        cmocka_unit_test_setup(test_primary_is_an_estimator_that_runs, setup_kalman_only),
         cmocka_unit_test_setup(test_stop_silences_estimates_and_raw_stream_sends_samples, setup),
         cmocka_unit_test_setup(test_malformed_frames_are_counted_and_refused, setup),
     };

@@ -172,6 +172,61 @@ static void test_sparse_chained_errors_need_the_error_count(void **state) {
     assert_int_equal(h.state, TOF_HEALTH_LOST);
 }
 
+/* A burst of 5 errors in 90 ms, each followed by a good reading, then clean: the errors
+ * span less than the timeout, so the sensor stays usable however long the run goes on. */
+static void test_burst_then_clean_stays_usable(void **state) {
+    (void)state;
+    struct tof_health h;
+    tof_health_init(&h, 0);
+    for (uint32_t t = 10; t <= 90u; t += 20) {
+        tof_health_on_error(&h, &cfg, t);
+        tof_health_on_good(&h, &cfg, t + 5u);
+        tof_health_on_good(&h, &cfg, t + 10u);
+    }
+    for (uint32_t t = 110; t <= 1000u; t += 10) {
+        tof_health_on_good(&h, &cfg, t);
+        assert_int_equal(tof_health_poll(&h, &cfg, t), TOF_HEALTH_ACT_NONE);
+    }
+    assert_int_equal(h.state, TOF_HEALTH_HEALTHY);
+    assert_int_equal(h.losses, 0);
+}
+
+/* An error after a clean stretch longer than the timeout starts a new episode even when
+ * no poll ran in between (the main loop reads sensors before it manages them). */
+static void test_error_after_clean_stretch_starts_a_new_episode(void **state) {
+    (void)state;
+    struct tof_health h;
+    tof_health_init(&h, 0);
+    for (uint32_t t = 10; t <= 250u; t += 60) { /* 5 errors spanning 240 ms */
+        tof_health_on_error(&h, &cfg, t);
+        tof_health_on_good(&h, &cfg, t + 10u);
+        tof_health_on_good(&h, &cfg, t + 20u);
+    }
+    tof_health_on_error(&h, &cfg, 600); /* 350 ms clean, no poll: a new episode */
+    assert_int_equal(h.trouble_since_ms, 600);
+    assert_int_equal(h.trouble_error_count, 1);
+    tof_health_on_good(&h, &cfg, 610);
+    tof_health_on_good(&h, &cfg, 620);
+    assert_int_equal(tof_health_poll(&h, &cfg, 620), TOF_HEALTH_ACT_NONE);
+}
+
+/* The trouble rule across the 32-bit millisecond wrap. */
+static void test_trouble_across_the_clock_wrap(void **state) {
+    (void)state;
+    struct tof_health h;
+    const uint32_t start = UINT32_MAX - 100u;
+    tof_health_init(&h, start);
+    uint32_t t = start;
+    for (unsigned i = 0; i < 11u; ++i, t += 30u) { /* errors over 300 ms, wrapping */
+        tof_health_on_error(&h, &cfg, t);
+        tof_health_on_good(&h, &cfg, t + 10u);
+        tof_health_on_good(&h, &cfg, t + 20u);
+        const enum tof_health_action want = i == 10u ? TOF_HEALTH_ACT_REINIT : TOF_HEALTH_ACT_NONE;
+        assert_int_equal(tof_health_poll(&h, &cfg, t + 20u), want);
+    }
+    assert_int_equal(h.state, TOF_HEALTH_LOST);
+}
+
 static void test_timestamps_wrap(void **state) {
     (void)state;
     struct tof_health h;
@@ -205,6 +260,9 @@ int main(void) {
         cmocka_unit_test(test_recovery_without_data_times_out),
         cmocka_unit_test(test_suspect_for_too_long_is_lost),
         cmocka_unit_test(test_flapping_sensor_is_lost),
+        cmocka_unit_test(test_burst_then_clean_stays_usable),
+        cmocka_unit_test(test_error_after_clean_stretch_starts_a_new_episode),
+        cmocka_unit_test(test_trouble_across_the_clock_wrap),
         cmocka_unit_test(test_sparse_chained_errors_need_the_error_count),
         cmocka_unit_test(test_isolated_errors_with_clean_stretches_stay_usable),
         cmocka_unit_test(test_timestamps_wrap),

@@ -25,7 +25,11 @@ struct tof_sample {
     uint8_t present_mask;
 };
 
-typedef void (*tof_sample_sink)(void *ctx, const struct tof_sample *sample);
+/* Where assembled samples go: emit(ctx, sample) for each (DESIGN.md §4 ops convention). */
+struct tof_sample_sink {
+    void (*emit)(void *ctx, const struct tof_sample *sample);
+    void *ctx;
+};
 
 struct tof_assembler_config {
     uint32_t period_us;        /* nominal measurement period of every sensor (> 0) */
@@ -57,10 +61,10 @@ void tof_assembler_init(struct tof_assembler *a, uint64_t origin_us);
  */
 void tof_assembler_add(struct tof_assembler *a, const struct tof_assembler_config *cfg,
                        unsigned sensor, uint64_t t_us, uint16_t range_mm, uint8_t status,
-                       tof_sample_sink sink, void *sink_ctx);
+                       const struct tof_sample_sink *sink);
 
 /* Emit every slot whose end + max skew is before `now_us` (at most max_emit_per_call). */
 void tof_assembler_poll(struct tof_assembler *a, const struct tof_assembler_config *cfg,
-                        uint64_t now_us, tof_sample_sink sink, void *sink_ctx);
+                        uint64_t now_us, const struct tof_sample_sink *sink);
 
 #endif /* FIRMWARE_ASSEMBLER_H */

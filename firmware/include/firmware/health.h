@@ -7,8 +7,8 @@
  *                                    (a failed re-init goes back to LOST and waits a back-off)
  *
  * Trouble: an episode that starts with an error and ends only after a clean stretch
- * (no error for suspect_timeout_ms). One lasting longer than that with at least
- * trouble_errors errors makes the sensor LOST whether it stayed SUSPECT throughout or
+ * (no error for suspect_timeout_ms). One whose errors span at least that long, with at
+ * least trouble_errors of them, makes the sensor LOST whether it stayed SUSPECT throughout or
  * flipped between SUSPECT and HEALTHY: a data-ready line stuck high gives a stale read
  * between every two good ones, and only an XSHUT re-init clears it
  * (docs/fault-campaign.md). The error count keeps sporadic bus errors that happen to
@@ -38,7 +38,7 @@ struct tof_health_config {
     uint32_t reinit_backoff_ms;   /* wait after a failed re-init before the next attempt */
     uint32_t recovery_timeout_ms; /* RECOVERING without a good reading this long: LOST again */
     uint32_t suspect_timeout_ms;  /* trouble (errors without a clean stretch this long, see
-                                     above) lasting longer than this: LOST, so an XSHUT
+                                     above) whose errors span this long: LOST, so an XSHUT
                                      re-init clears what the sensor cannot */
     uint8_t trouble_errors;       /* ... with at least this many errors in it (>= 1) */
 };
