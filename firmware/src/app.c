@@ -95,12 +95,13 @@ static void note_error(struct tof_app *app, unsigned sensor, int err) {
     ++app->counters.read_errors[sensor];
     ++app->counters.errors_by_code[error_slot(err)];
     const enum tof_health_state before = app->health[sensor].state;
-    tof_health_on_error(&app->health[sensor], &app->cfg->health,
-                        (uint32_t)(app->uptime_us / 1000u));
+    const bool bus_wide = err == HAL_ERR_BUS_STUCK || err == HAL_ERR_BUS_BUSY;
+    tof_health_on_error(&app->health[sensor], &app->cfg->health, (uint32_t)(app->uptime_us / 1000u),
+                        bus_wide ? TOF_ERROR_BUS : TOF_ERROR_SENSOR);
     if (app->health[sensor].state != before) {
         emit_event(app, TOF_EVENT_HEALTH, sensor, before, app->health[sensor].state, err);
     }
-    if (err == HAL_ERR_BUS_STUCK || err == HAL_ERR_BUS_BUSY) {
+    if (bus_wide) {
         const int rc = vl53_array_recover_bus(&app->array);
         ++app->counters.bus_recoveries;
         emit_event(app, TOF_EVENT_BUS_RECOVERY, 0xFFu, before, before, rc);
@@ -281,7 +282,8 @@ int tof_app_init(struct tof_app *app, const struct tof_platform *platform,
         } else {
             /* Failed bring-up: the fault manager retries it after its back-off. */
             for (uint8_t k = 0; k < cfg->health.errors_to_lost; ++k) {
-                tof_health_on_error(&app->health[i], &cfg->health, (uint32_t)(now / 1000u));
+                tof_health_on_error(&app->health[i], &cfg->health, (uint32_t)(now / 1000u),
+                                    TOF_ERROR_SENSOR);
             }
             tof_health_on_reinit_done(&app->health[i], &cfg->health, (uint32_t)(now / 1000u),
                                       false);

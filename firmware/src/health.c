@@ -41,12 +41,9 @@ void tof_health_on_good(struct tof_health *h, const struct tof_health_config *cf
     }
 }
 
-void tof_health_on_error(struct tof_health *h, const struct tof_health_config *cfg,
+/* A sensor error joins the current episode of trouble or starts one. */
+static void note_trouble(struct tof_health *h, const struct tof_health_config *cfg,
                          uint32_t now_ms) {
-    h->consecutive_good = 0;
-    if (h->consecutive_errors < UINT8_MAX) {
-        ++h->consecutive_errors;
-    }
     if (h->in_trouble && now_ms - h->last_error_ms > cfg->suspect_timeout_ms) {
         h->in_trouble = false; /* a clean stretch ended the episode before this error */
     }
@@ -58,6 +55,17 @@ void tof_health_on_error(struct tof_health *h, const struct tof_health_config *c
     }
     if (h->trouble_error_count < UINT8_MAX) {
         ++h->trouble_error_count;
+    }
+}
+
+void tof_health_on_error(struct tof_health *h, const struct tof_health_config *cfg, uint32_t now_ms,
+                         enum tof_error_scope scope) {
+    h->consecutive_good = 0;
+    if (h->consecutive_errors < UINT8_MAX) {
+        ++h->consecutive_errors;
+    }
+    if (scope == TOF_ERROR_SENSOR) {
+        note_trouble(h, cfg, now_ms);
     }
     switch (h->state) {
     case TOF_HEALTH_HEALTHY:

@@ -21,7 +21,7 @@ static void test_single_error_makes_suspect_then_good_reads_heal(void **state) {
     (void)state;
     struct tof_health h;
     tof_health_init(&h, 0);
-    tof_health_on_error(&h, &cfg, 10);
+    tof_health_on_error(&h, &cfg, 10, TOF_ERROR_SENSOR);
     assert_int_equal(h.state, TOF_HEALTH_SUSPECT);
     assert_true(tof_health_usable(&h));
     tof_health_on_good(&h, &cfg, 30);
@@ -36,7 +36,7 @@ static void test_consecutive_errors_lose_and_ask_for_reinit(void **state) {
     struct tof_health h;
     tof_health_init(&h, 0);
     for (uint32_t t = 1; t <= 3; ++t) {
-        tof_health_on_error(&h, &cfg, t);
+        tof_health_on_error(&h, &cfg, t, TOF_ERROR_SENSOR);
     }
     assert_int_equal(h.state, TOF_HEALTH_LOST);
     assert_false(tof_health_usable(&h));
@@ -48,11 +48,11 @@ static void test_interleaved_good_read_resets_error_count(void **state) {
     (void)state;
     struct tof_health h;
     tof_health_init(&h, 0);
-    tof_health_on_error(&h, &cfg, 1);
-    tof_health_on_error(&h, &cfg, 2);
+    tof_health_on_error(&h, &cfg, 1, TOF_ERROR_SENSOR);
+    tof_health_on_error(&h, &cfg, 2, TOF_ERROR_SENSOR);
     tof_health_on_good(&h, &cfg, 3);
-    tof_health_on_error(&h, &cfg, 4);
-    tof_health_on_error(&h, &cfg, 5);
+    tof_health_on_error(&h, &cfg, 4, TOF_ERROR_SENSOR);
+    tof_health_on_error(&h, &cfg, 5, TOF_ERROR_SENSOR);
     assert_int_equal(h.state, TOF_HEALTH_SUSPECT);
 }
 
@@ -98,12 +98,12 @@ static void test_suspect_for_too_long_is_lost(void **state) {
     tof_health_init(&h, 0);
     /* errors keep interleaving with good readings: never two good in a row */
     for (uint32_t t = 10; t <= 300; t += 20) {
-        tof_health_on_error(&h, &cfg, t);
+        tof_health_on_error(&h, &cfg, t, TOF_ERROR_SENSOR);
         tof_health_on_good(&h, &cfg, t + 10u);
         assert_int_equal(tof_health_poll(&h, &cfg, t + 10u), TOF_HEALTH_ACT_NONE);
     }
     assert_int_equal(h.state, TOF_HEALTH_SUSPECT);
-    tof_health_on_error(&h, &cfg, 310);
+    tof_health_on_error(&h, &cfg, 310, TOF_ERROR_SENSOR);
     assert_int_equal(tof_health_poll(&h, &cfg, 311), TOF_HEALTH_ACT_REINIT);
     assert_int_equal(h.state, TOF_HEALTH_LOST);
 }
@@ -117,7 +117,7 @@ static void test_flapping_sensor_is_lost(void **state) {
     uint32_t t = 10;
     bool was_healthy_between = false;
     for (; t <= 300; t += 30) {
-        tof_health_on_error(&h, &cfg, t);
+        tof_health_on_error(&h, &cfg, t, TOF_ERROR_SENSOR);
         assert_int_equal(h.state, TOF_HEALTH_SUSPECT);
         tof_health_on_good(&h, &cfg, t + 10u);
         tof_health_on_good(&h, &cfg, t + 20u);
@@ -125,7 +125,7 @@ static void test_flapping_sensor_is_lost(void **state) {
         assert_int_equal(tof_health_poll(&h, &cfg, t + 20u), TOF_HEALTH_ACT_NONE);
     }
     assert_true(was_healthy_between);
-    tof_health_on_error(&h, &cfg, t);
+    tof_health_on_error(&h, &cfg, t, TOF_ERROR_SENSOR);
     assert_int_equal(tof_health_poll(&h, &cfg, t + 1u), TOF_HEALTH_ACT_REINIT);
     assert_int_equal(h.state, TOF_HEALTH_LOST);
     /* the re-init starts a fresh episode */
@@ -142,7 +142,7 @@ static void test_isolated_errors_with_clean_stretches_stay_usable(void **state) 
     tof_health_init(&h, 0);
     for (uint32_t t = 10; t < 5000u; t += 20) {
         if (t % 400u == 10u) {
-            tof_health_on_error(&h, &cfg, t);
+            tof_health_on_error(&h, &cfg, t, TOF_ERROR_SENSOR);
         } else {
             tof_health_on_good(&h, &cfg, t);
         }
@@ -159,7 +159,7 @@ static void test_sparse_chained_errors_need_the_error_count(void **state) {
     tof_health_init(&h, 0);
     for (uint32_t t = 10; t <= 1000u; t += 10) {
         if (t % 250u == 0u) {
-            tof_health_on_error(&h, &cfg, t);
+            tof_health_on_error(&h, &cfg, t, TOF_ERROR_SENSOR);
         } else {
             tof_health_on_good(&h, &cfg, t);
         }
@@ -167,7 +167,7 @@ static void test_sparse_chained_errors_need_the_error_count(void **state) {
     }
     assert_true(h.in_trouble);
     assert_int_equal(h.trouble_error_count, 4);
-    tof_health_on_error(&h, &cfg, 1010);
+    tof_health_on_error(&h, &cfg, 1010, TOF_ERROR_SENSOR);
     assert_int_equal(tof_health_poll(&h, &cfg, 1010), TOF_HEALTH_ACT_REINIT);
     assert_int_equal(h.state, TOF_HEALTH_LOST);
 }
@@ -179,7 +179,7 @@ static void test_burst_then_clean_stays_usable(void **state) {
     struct tof_health h;
     tof_health_init(&h, 0);
     for (uint32_t t = 10; t <= 90u; t += 20) {
-        tof_health_on_error(&h, &cfg, t);
+        tof_health_on_error(&h, &cfg, t, TOF_ERROR_SENSOR);
         tof_health_on_good(&h, &cfg, t + 5u);
         tof_health_on_good(&h, &cfg, t + 10u);
     }
@@ -198,11 +198,11 @@ static void test_error_after_clean_stretch_starts_a_new_episode(void **state) {
     struct tof_health h;
     tof_health_init(&h, 0);
     for (uint32_t t = 10; t <= 250u; t += 60) { /* 5 errors spanning 240 ms */
-        tof_health_on_error(&h, &cfg, t);
+        tof_health_on_error(&h, &cfg, t, TOF_ERROR_SENSOR);
         tof_health_on_good(&h, &cfg, t + 10u);
         tof_health_on_good(&h, &cfg, t + 20u);
     }
-    tof_health_on_error(&h, &cfg, 600); /* 350 ms clean, no poll: a new episode */
+    tof_health_on_error(&h, &cfg, 600, TOF_ERROR_SENSOR); /* 350 ms clean, no poll: a new episode */
     assert_int_equal(h.trouble_since_ms, 600);
     assert_int_equal(h.trouble_error_count, 1);
     tof_health_on_good(&h, &cfg, 610);
@@ -218,13 +218,33 @@ static void test_trouble_across_the_clock_wrap(void **state) {
     tof_health_init(&h, start);
     uint32_t t = start;
     for (unsigned i = 0; i < 11u; ++i, t += 30u) { /* errors over 300 ms, wrapping */
-        tof_health_on_error(&h, &cfg, t);
+        tof_health_on_error(&h, &cfg, t, TOF_ERROR_SENSOR);
         tof_health_on_good(&h, &cfg, t + 10u);
         tof_health_on_good(&h, &cfg, t + 20u);
         const enum tof_health_action want = i == 10u ? TOF_HEALTH_ACT_REINIT : TOF_HEALTH_ACT_NONE;
         assert_int_equal(tof_health_poll(&h, &cfg, t + 20u), want);
     }
     assert_int_equal(h.state, TOF_HEALTH_LOST);
+}
+
+/* Bus-wide errors (SDA stuck, bus busy) flapping with good readings: bus recovery's job,
+ * not a re-init's, so they never make a trouble episode (consecutive ones still count). */
+static void test_bus_errors_are_not_trouble(void **state) {
+    (void)state;
+    struct tof_health h;
+    tof_health_init(&h, 0);
+    for (uint32_t t = 10; t <= 1000u; t += 30) {
+        tof_health_on_error(&h, &cfg, t, TOF_ERROR_BUS);
+        assert_int_equal(h.state, TOF_HEALTH_SUSPECT);
+        tof_health_on_good(&h, &cfg, t + 10u);
+        tof_health_on_good(&h, &cfg, t + 20u);
+        assert_int_equal(tof_health_poll(&h, &cfg, t + 20u), TOF_HEALTH_ACT_NONE);
+    }
+    assert_false(h.in_trouble);
+    for (uint32_t t = 1010; t <= 1030u; t += 10) {
+        tof_health_on_error(&h, &cfg, t, TOF_ERROR_BUS);
+    }
+    assert_int_equal(h.state, TOF_HEALTH_LOST); /* errors_to_lost in a row */
 }
 
 static void test_timestamps_wrap(void **state) {
@@ -260,6 +280,7 @@ int main(void) {
         cmocka_unit_test(test_recovery_without_data_times_out),
         cmocka_unit_test(test_suspect_for_too_long_is_lost),
         cmocka_unit_test(test_flapping_sensor_is_lost),
+        cmocka_unit_test(test_bus_errors_are_not_trouble),
         cmocka_unit_test(test_burst_then_clean_stays_usable),
         cmocka_unit_test(test_error_after_clean_stretch_starts_a_new_episode),
         cmocka_unit_test(test_trouble_across_the_clock_wrap),

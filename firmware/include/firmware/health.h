@@ -70,9 +70,17 @@ void tof_health_init(struct tof_health *h, uint32_t now_ms);
 /* A reading arrived and passed the driver's checks. */
 void tof_health_on_good(struct tof_health *h, const struct tof_health_config *cfg, uint32_t now_ms);
 
-/* A read or poll failed (bus error, timeout, corrupt data, sensor found reset). */
-void tof_health_on_error(struct tof_health *h, const struct tof_health_config *cfg,
-                         uint32_t now_ms);
+/* Whom an error concerns: the sensor, or the whole bus (SDA stuck, bus held or
+ * arbitration lost), which bus recovery clears and a sensor re-init cannot. */
+enum tof_error_scope {
+    TOF_ERROR_SENSOR = 0,
+    TOF_ERROR_BUS = 1,
+};
+
+/* A read or poll failed (bus error, timeout, corrupt data, sensor found reset). Every
+ * error counts toward errors_to_lost; only sensor errors count toward trouble. */
+void tof_health_on_error(struct tof_health *h, const struct tof_health_config *cfg, uint32_t now_ms,
+                         enum tof_error_scope scope);
 
 /* Re-initialization finished: `ok` true enters RECOVERING, false stays LOST with back-off. */
 void tof_health_on_reinit_done(struct tof_health *h, const struct tof_health_config *cfg,
