@@ -17,6 +17,15 @@ static const struct tof_health_config cfg = {
     .trouble_errors = 5,
 };
 
+/* One flap: an error at t (SUSPECT), then two good readings (HEALTHY again). */
+static void flap(struct tof_health *h, uint32_t t, enum tof_error_scope scope) {
+    tof_health_on_error(h, &cfg, t, scope);
+    assert_int_equal(h->state, TOF_HEALTH_SUSPECT);
+    tof_health_on_good(h, &cfg, t + 10u);
+    tof_health_on_good(h, &cfg, t + 20u);
+    assert_int_equal(h->state, TOF_HEALTH_HEALTHY);
+}
+
 static void test_single_error_makes_suspect_then_good_reads_heal(void **state) {
     (void)state;
     struct tof_health h;
@@ -115,16 +124,10 @@ static void test_flapping_sensor_is_lost(void **state) {
     struct tof_health h;
     tof_health_init(&h, 0);
     uint32_t t = 10;
-    bool was_healthy_between = false;
     for (; t <= 300; t += 30) {
-        tof_health_on_error(&h, &cfg, t, TOF_ERROR_SENSOR);
-        assert_int_equal(h.state, TOF_HEALTH_SUSPECT);
-        tof_health_on_good(&h, &cfg, t + 10u);
-        tof_health_on_good(&h, &cfg, t + 20u);
-        was_healthy_between = was_healthy_between || h.state == TOF_HEALTH_HEALTHY;
+        flap(&h, t, TOF_ERROR_SENSOR);
         assert_int_equal(tof_health_poll(&h, &cfg, t + 20u), TOF_HEALTH_ACT_NONE);
     }
-    assert_true(was_healthy_between);
     tof_health_on_error(&h, &cfg, t, TOF_ERROR_SENSOR);
     assert_int_equal(tof_health_poll(&h, &cfg, t + 1u), TOF_HEALTH_ACT_REINIT);
     assert_int_equal(h.state, TOF_HEALTH_LOST);
@@ -198,9 +201,7 @@ static void test_error_after_clean_stretch_starts_a_new_episode(void **state) {
     struct tof_health h;
     tof_health_init(&h, 0);
     for (uint32_t t = 10; t <= 250u; t += 60) { /* 5 errors spanning 240 ms */
-        tof_health_on_error(&h, &cfg, t, TOF_ERROR_SENSOR);
-        tof_health_on_good(&h, &cfg, t + 10u);
-        tof_health_on_good(&h, &cfg, t + 20u);
+        flap(&h, t, TOF_ERROR_SENSOR);
     }
     tof_health_on_error(&h, &cfg, 600, TOF_ERROR_SENSOR); /* 350 ms clean, no poll: a new episode */
     assert_int_equal(h.trouble_since_ms, 600);
@@ -218,9 +219,7 @@ static void test_trouble_across_the_clock_wrap(void **state) {
     tof_health_init(&h, start);
     uint32_t t = start;
     for (unsigned i = 0; i < 11u; ++i, t += 30u) { /* errors over 300 ms, wrapping */
-        tof_health_on_error(&h, &cfg, t, TOF_ERROR_SENSOR);
-        tof_health_on_good(&h, &cfg, t + 10u);
-        tof_health_on_good(&h, &cfg, t + 20u);
+        flap(&h, t, TOF_ERROR_SENSOR);
         const enum tof_health_action want = i == 10u ? TOF_HEALTH_ACT_REINIT : TOF_HEALTH_ACT_NONE;
         assert_int_equal(tof_health_poll(&h, &cfg, t + 20u), want);
     }
@@ -234,10 +233,7 @@ static void test_bus_errors_are_not_trouble(void **state) {
     struct tof_health h;
     tof_health_init(&h, 0);
     for (uint32_t t = 10; t <= 1000u; t += 30) {
-        tof_health_on_error(&h, &cfg, t, TOF_ERROR_BUS);
-        assert_int_equal(h.state, TOF_HEALTH_SUSPECT);
-        tof_health_on_good(&h, &cfg, t + 10u);
-        tof_health_on_good(&h, &cfg, t + 20u);
+        flap(&h, t, TOF_ERROR_BUS);
         assert_int_equal(tof_health_poll(&h, &cfg, t + 20u), TOF_HEALTH_ACT_NONE);
     }
     assert_false(h.in_trouble);
