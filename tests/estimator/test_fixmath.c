@@ -308,7 +308,7 @@ static void test_angle_sigma(void **state) {
     assert_int_equal(fix_angle_sigma_udeg(INT64_MAX, 1000, 0), INT32_MAX);
 }
 
-/* The atan table: every node recomputed in double (estimator/tools/gen_atan_table.py's
+/* The atan table: every node recomputed in double (tools/gen_atan_table.py's
  * recipe), the interpolation between them within 1 udeg over random slopes, and
  * fix_atan_q32_udeg odd. */
 static void test_atan_table_and_interpolation(void **state) {

@@ -10,7 +10,7 @@ h^4/384 * max|atan''''| = 7e-10 rad (0.04 udeg) for h = 1/64; the roundings of t
 table and of the evaluation add < 0.3 udeg. tests/estimator/test_fixmath.c
 recomputes every entry in double and checks the table against it.
 
-Usage: estimator/tools/gen_atan_table.py  (prints the C initialiser)
+Usage: tools/gen_atan_table.py  (prints the C initialiser)
 """
 import math
 

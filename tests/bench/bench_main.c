@@ -11,6 +11,8 @@
  *   window     (fixed only) the whole window-end work of all four estimators
  * `fixed` is the product's estimator; `float` the plain single-precision baseline
  * in tests/bench/float_baseline.c. tools/bench_report.py collects the lines.
+ * Benchmark code, not firmware: it lives in tests/ because it uses float (the baseline's
+ * results); boards/mps2 links it into the bench images with the board's own files.
  */
 #include <string.h>
 
