@@ -8,16 +8,9 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "fuzz_input.h" /* FUZZ_CHECK */
 #include "telemetry/tlm_frame.h"
 #include "telemetry/tlm_messages.h"
-
-#define CHECK(cond)                                                                                \
-    do {                                                                                           \
-        if (!(cond)) {                                                                             \
-            fprintf(stderr, "%s:%d: property violated: %s\n", __FILE__, __LINE__, #cond);          \
-            abort();                                                                               \
-        }                                                                                          \
-    } while (0)
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
@@ -28,7 +21,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
     /* Copy the payload so ASan sees its exact extent. */
     const size_t length = size - 1;
     uint8_t *payload = malloc(length > 0 ? length : 1);
-    CHECK(payload != NULL);
+    FUZZ_CHECK(payload != NULL);
     memcpy(payload, data + 1, length);
     const struct tlm_frame frame = {
         .type = data[0], .seq = 0x5C, .length = (uint8_t)length, .payload = payload};
@@ -39,19 +32,19 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
     const enum tlm_result result = tlm_parse_command(&frame, &cmd, &counters);
     const int expected_len = tlm_type_payload_length(frame.type, TLM_ACCEPT_COMMANDS);
     if (expected_len < 0) {
-        CHECK(result == TLM_RESULT_UNKNOWN_TYPE && counters.unknown_type == 1);
+        FUZZ_CHECK(result == TLM_RESULT_UNKNOWN_TYPE && counters.unknown_type == 1);
     } else if ((size_t)expected_len != length) {
-        CHECK(result == TLM_RESULT_BAD_LENGTH && counters.bad_length == 1);
+        FUZZ_CHECK(result == TLM_RESULT_BAD_LENGTH && counters.bad_length == 1);
     } else if (result == TLM_RESULT_OK) {
-        CHECK(cmd.type == frame.type);
+        FUZZ_CHECK(cmd.type == frame.type);
         uint8_t out[TLM_FRAME_MAX];
         const int n = tlm_encode_command(frame.seq, &cmd, out, sizeof out);
-        CHECK(n == (int)(length + TLM_FRAME_OVERHEAD));
-        CHECK(out[3] == frame.type && out[4] == frame.seq);
-        CHECK(length == 0 || memcmp(&out[TLM_HEADER_SIZE], payload, length) == 0);
-        CHECK(counters.unknown_type + counters.bad_length + counters.out_of_range == 0);
+        FUZZ_CHECK(n == (int)(length + TLM_FRAME_OVERHEAD));
+        FUZZ_CHECK(out[3] == frame.type && out[4] == frame.seq);
+        FUZZ_CHECK(length == 0 || memcmp(&out[TLM_HEADER_SIZE], payload, length) == 0);
+        FUZZ_CHECK(counters.unknown_type + counters.bad_length + counters.out_of_range == 0);
     } else {
-        CHECK(result == TLM_RESULT_OUT_OF_RANGE && counters.out_of_range == 1);
+        FUZZ_CHECK(result == TLM_RESULT_OUT_OF_RANGE && counters.out_of_range == 1);
     }
 
     /* The same frame through the telemetry parser: a command is unknown there. */
@@ -59,11 +52,11 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
     const enum tlm_result tresult = tlm_parse_telemetry(&frame, &msg, NULL);
     const int tlen = tlm_type_payload_length(frame.type, TLM_ACCEPT_TELEMETRY);
     if (tlen < 0) {
-        CHECK(tresult == TLM_RESULT_UNKNOWN_TYPE);
+        FUZZ_CHECK(tresult == TLM_RESULT_UNKNOWN_TYPE);
     } else if ((size_t)tlen != length) {
-        CHECK(tresult == TLM_RESULT_BAD_LENGTH);
+        FUZZ_CHECK(tresult == TLM_RESULT_BAD_LENGTH);
     } else if (tresult == TLM_RESULT_OK) {
-        CHECK(msg.type == frame.type);
+        FUZZ_CHECK(msg.type == frame.type);
         uint8_t out[TLM_FRAME_MAX];
         int n = -1;
         switch (msg.type) {
@@ -88,10 +81,10 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
                     __LINE__, (unsigned)frame.type);
             abort();
         }
-        CHECK(n == (int)(length + TLM_FRAME_OVERHEAD));
-        CHECK(memcmp(&out[TLM_HEADER_SIZE], payload, length) == 0);
+        FUZZ_CHECK(n == (int)(length + TLM_FRAME_OVERHEAD));
+        FUZZ_CHECK(memcmp(&out[TLM_HEADER_SIZE], payload, length) == 0);
     } else {
-        CHECK(tresult == TLM_RESULT_OUT_OF_RANGE);
+        FUZZ_CHECK(tresult == TLM_RESULT_OUT_OF_RANGE);
     }
     free(payload);
     return 0;

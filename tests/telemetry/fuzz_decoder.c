@@ -10,16 +10,9 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "fuzz_input.h" /* FUZZ_CHECK */
 #include "telemetry/tlm_frame.h"
 #include "telemetry/tlm_messages.h"
-
-#define CHECK(cond)                                                                                \
-    do {                                                                                           \
-        if (!(cond)) {                                                                             \
-            fprintf(stderr, "%s:%d: property violated: %s\n", __FILE__, __LINE__, #cond);          \
-            abort();                                                                               \
-        }                                                                                          \
-    } while (0)
 
 struct fuzz_ctx {
     struct tlm_decoder dec;
@@ -50,12 +43,12 @@ static void on_frame(void *ctx, const struct tlm_frame *frame) {
     struct fuzz_ctx *f = ctx;
     f->frames++;
     f->frame_bytes += (size_t)frame->length + TLM_FRAME_OVERHEAD;
-    CHECK(frame->length == tlm_type_payload_length(frame->type, TLM_ACCEPT_ALL));
+    FUZZ_CHECK(frame->length == tlm_type_payload_length(frame->type, TLM_ACCEPT_ALL));
 
     uint8_t original[TLM_FRAME_MAX];
     const int n = tlm_frame_encode(frame->type, frame->seq, frame->payload, frame->length, original,
                                    sizeof original);
-    CHECK(n == (int)(frame->length + TLM_FRAME_OVERHEAD));
+    FUZZ_CHECK(n == (int)(frame->length + TLM_FRAME_OVERHEAD));
 
     uint8_t again[TLM_FRAME_MAX];
     int k = -1;
@@ -74,10 +67,10 @@ static void on_frame(void *ctx, const struct tlm_frame *frame) {
         }
     }
     /* The decoder already checked type and length: only field values can fail. */
-    CHECK(result == TLM_RESULT_OK || result == TLM_RESULT_OUT_OF_RANGE);
+    FUZZ_CHECK(result == TLM_RESULT_OK || result == TLM_RESULT_OUT_OF_RANGE);
     if (result == TLM_RESULT_OK) {
-        CHECK(k == n);
-        CHECK(memcmp(again, original, (size_t)n) == 0);
+        FUZZ_CHECK(k == n);
+        FUZZ_CHECK(memcmp(again, original, (size_t)n) == 0);
     }
 }
 
@@ -86,10 +79,10 @@ static void on_reject(void *ctx, const struct tlm_reject *reject) {
     f->rejects++;
     const int expected = tlm_type_payload_length(reject->type, TLM_ACCEPT_ALL);
     if (reject->reason == TLM_RESULT_UNKNOWN_TYPE) {
-        CHECK(expected < 0);
+        FUZZ_CHECK(expected < 0);
     } else {
-        CHECK(reject->reason == TLM_RESULT_BAD_LENGTH);
-        CHECK(expected >= 0 && expected != reject->length);
+        FUZZ_CHECK(reject->reason == TLM_RESULT_BAD_LENGTH);
+        FUZZ_CHECK(expected >= 0 && expected != reject->length);
     }
 }
 
@@ -107,20 +100,20 @@ static void check_stream(const uint8_t *data, size_t size) {
 
     for (size_t i = 0; i < size; ++i) {
         tlm_decoder_push(&bytewise.dec, data[i], &sink1);
-        CHECK(tlm_decoder_pending(&bytewise.dec) < TLM_FRAME_MAX);
-        CHECK(bytewise.frame_bytes + bytewise.dec.counters.discarded_bytes +
-                  tlm_decoder_pending(&bytewise.dec) ==
-              i + 1);
+        FUZZ_CHECK(tlm_decoder_pending(&bytewise.dec) < TLM_FRAME_MAX);
+        FUZZ_CHECK(bytewise.frame_bytes + bytewise.dec.counters.discarded_bytes +
+                       tlm_decoder_pending(&bytewise.dec) ==
+                   i + 1);
     }
     tlm_decoder_feed(&whole.dec, data, size, &sink2);
-    CHECK(memcmp(&bytewise.dec.counters, &whole.dec.counters, sizeof whole.dec.counters) == 0);
+    FUZZ_CHECK(memcmp(&bytewise.dec.counters, &whole.dec.counters, sizeof whole.dec.counters) == 0);
 
     tlm_decoder_flush(&bytewise.dec, &sink1);
-    CHECK(tlm_decoder_pending(&bytewise.dec) == 0);
-    CHECK(bytewise.frame_bytes + bytewise.dec.counters.discarded_bytes == size);
-    CHECK(bytewise.dec.counters.frames_ok == bytewise.frames);
-    CHECK(bytewise.dec.counters.unknown_type + bytewise.dec.counters.bad_length >=
-          bytewise.rejects);
+    FUZZ_CHECK(tlm_decoder_pending(&bytewise.dec) == 0);
+    FUZZ_CHECK(bytewise.frame_bytes + bytewise.dec.counters.discarded_bytes == size);
+    FUZZ_CHECK(bytewise.dec.counters.frames_ok == bytewise.frames);
+    FUZZ_CHECK(bytewise.dec.counters.unknown_type + bytewise.dec.counters.bad_length >=
+               bytewise.rejects);
 }
 
 /*
@@ -152,7 +145,7 @@ static size_t build_framed(const uint8_t *data, size_t size, uint8_t *out) {
             len = len < size - at ? len : size - at;
             last_frame = n;
             const int k = tlm_frame_encode(type, seq++, &data[at], len, &out[n], FRAMED_MAX - n);
-            CHECK(k == (int)(len + TLM_FRAME_OVERHEAD));
+            FUZZ_CHECK(k == (int)(len + TLM_FRAME_OVERHEAD));
             at += len;
             n += (size_t)k;
         }
