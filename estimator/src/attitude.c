@@ -42,7 +42,7 @@ const char *attitude_error_message(int err) {
     case ATTITUDE_ERR_KALMAN_PROCESS_NOISE:
         return "kalman_process_noise_um2 too large";
     case ATTITUDE_ERR_KALMAN_MEASUREMENT_NOISE:
-        return "kalman_initial_noise_um2 is 0";
+        return "kalman_initial_noise_um2 below 83334 (1/12 mm², the 1 mm rounding)";
     case ATTITUDE_ERR_KALMAN_WARMUP:
         return "kalman_warmup_rows outside [1, 8]";
     case ATTITUDE_ERR_KALMAN_NOISE_SHIFT:

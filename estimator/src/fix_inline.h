@@ -94,4 +94,11 @@ FIX_INLINE int32_t fix_recip31_inline(uint32_t m) {
     return r < INT32_MAX ? (int32_t)r : INT32_MAX;
 }
 
+/* fix_mul_q31() (estimator/fixmath.h), any sign of r: floor(v · r / 2^31) for |v| < 2^62. */
+FIX_INLINE int64_t fix_mul_q31_inline(int64_t v, int32_t r) {
+    const int64_t vh = fix_floor_shr_s64(v, 31u);
+    const int64_t vl = v - vh * ((int64_t)1 << 31); /* in [0, 2^31) */
+    return vh * r + fix_floor_shr_s64(vl * r, 31u);
+}
+
 #endif /* ESTIMATOR_FIX_INLINE_H */

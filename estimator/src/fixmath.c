@@ -335,10 +335,7 @@ int32_t fix_recip31(uint32_t m) {
 }
 
 int64_t fix_mul_q31(int64_t v, int32_t r) {
-    const int64_t vh = fix_floor_shr_s64(v, 31u);
-    const uint64_t vl = (uint64_t)(v - vh * ((int64_t)1 << 31));
-    const uint64_t low = (vl * (uint32_t)r) >> 31;
-    return vh * r + (int64_t)low;
+    return fix_mul_q31_inline(v, r);
 }
 
 uint64_t fix_div_u64_u16(uint64_t num, uint32_t den) {

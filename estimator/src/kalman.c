@@ -5,8 +5,6 @@
 
 #include "fix_inline.h"
 
-/* 1/12 mm² in Q32: the variance of 1 mm rounding, the floor of every R. */
-#define QUANT_VAR_Q32 357913941
 /* Largest accepted initial R: 2^20 mm² (σ = 1024 mm). */
 #define R_MAX_Q32 ((int64_t)1 << 52)
 /* Bound of every state, 2^24 mm (16.8 km): far beyond any 16-bit reading, and small
@@ -19,14 +17,24 @@
 /* Rows of Eq. 5 with the slopes scaled by a: A [1, −1, 0], B [1, 0, 1], C [1, 1, 0],
  * D [1, 0, −1]: h = e0 + σ e_j (update_exact, block_update). */
 
+/* Q > 0 runs the covariance form (when built), Q = 0 the information form. */
+static bool covariance_form(const struct kalman_state *k) {
+    return KALMAN_COVARIANCE_BUILT != 0 && k->process_noise;
+}
+
+static void r_changed(struct kalman_state *k);
+static void info_prior(struct kalman_state *k);
+static void info_solve(struct kalman_state *k);
+
 int kalman_init(struct kalman_state *k, const struct kalman_config *cfg) {
     for (unsigned i = 0; i < KALMAN_STATES; ++i) {
-        if (cfg->process_noise_mm2[i] < 0 || cfg->process_noise_mm2[i] > KALMAN_P0_MM2_Q32) {
+        if (cfg->process_noise_mm2[i] < 0 || cfg->process_noise_mm2[i] > KALMAN_P0_MM2_Q32 ||
+            (KALMAN_COVARIANCE_BUILT == 0 && cfg->process_noise_mm2[i] != 0)) {
             return KALMAN_ERR_PROCESS_NOISE;
         }
     }
     for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
-        if (cfg->initial_noise_mm2[s] <= 0 || cfg->initial_noise_mm2[s] > R_MAX_Q32) {
+        if (cfg->initial_noise_mm2[s] < KALMAN_R_MIN_Q32 || cfg->initial_noise_mm2[s] > R_MAX_Q32) {
             return KALMAN_ERR_MEASUREMENT_NOISE;
         }
     }
@@ -45,21 +53,27 @@ int kalman_init(struct kalman_state *k, const struct kalman_config *cfg) {
     for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
         k->r[s] = cfg->initial_noise_mm2[s];
     }
+    r_changed(k);
     kalman_reset(k);
     return KALMAN_OK;
 }
 
 static void diffuse_covariance(struct kalman_state *k) {
-    k->bvalid = false;
-    (void)memset(k->p, 0, sizeof k->p);
+    k->f.cov.bvalid = false;
+    (void)memset(k->f.cov.p, 0, sizeof k->f.cov.p);
     for (unsigned i = 0; i < KALMAN_STATES; ++i) {
-        k->p[i][i] = KALMAN_P0_MM2_Q32;
+        k->f.cov.p[i][i] = KALMAN_P0_MM2_Q32;
     }
 }
 
 void kalman_reset(struct kalman_state *k) {
     (void)memset(k->x, 0, sizeof k->x);
-    diffuse_covariance(k);
+    if (covariance_form(k)) {
+        diffuse_covariance(k);
+    } else {
+        k->f.info.x0_mm = 0;
+        info_prior(k);
+    }
     k->started = false;
     k->warm_rows = 0;
     (void)memset(k->reject_run, 0, sizeof k->reject_run);
@@ -131,8 +145,8 @@ static void joseph_update(struct kalman_state *k, const fix_q32_t g[KALMAN_STATE
             const fix_s128 t2 = fix_s128_mul(sk_i, gain[j]);
             const int64_t d =
                 fix_s128_to_s64(fix_s128_shr_round(fix_s128_sub(t1, t2), FIX_Q30_SHIFT), ovf);
-            k->p[i][j] -= d;
-            k->p[j][i] = k->p[i][j];
+            k->f.cov.p[i][j] -= d;
+            k->f.cov.p[j][i] = k->f.cov.p[i][j];
         }
     }
 }
@@ -165,7 +179,7 @@ static bool update_exact(struct kalman_state *k, unsigned sensor, fix_q32_t z_mm
     const bool minus = h_minus(sensor);
     fix_q32_t g[KALMAN_STATES];
     for (unsigned i = 0; i < KALMAN_STATES; ++i) {
-        g[i] = minus ? k->p[i][0] - k->p[i][j] : k->p[i][0] + k->p[i][j];
+        g[i] = minus ? k->f.cov.p[i][0] - k->f.cov.p[i][j] : k->f.cov.p[i][0] + k->f.cov.p[i][j];
     }
     const fix_q32_t hph = minus ? g[0] - g[j] : g[0] + g[j];
     const fix_q32_t pred = minus ? k->x[0] - k->x[j] : k->x[0] + k->x[j];
@@ -245,31 +259,25 @@ FIX_INLINE int32_t shr_to_s32(int64_t v, unsigned sh) {
  * leaves such a measurement to the exact update. (Found by tests/fuzz.) */
 #define BLOCK_R_TOO_LARGE ((int64_t)1 << 61)
 
-/* R and the gate's sure-accept threshold in block units, for the current exponent. */
+/* R in block units, for the current exponent. */
 static void block_refresh_r(struct kalman_state *k, int32_t e) {
-    const uint64_t q2 = (uint64_t)k->cfg.gate_sigmas_q8 * k->cfg.gate_sigmas_q8;
-    const uint64_t fl = (uint64_t)k->cfg.gate_floor_mm;
     for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
         const int64_t r = k->r[s];
         if (e >= 0) {
-            k->rb[s] = fix_floor_shr_s64(r, (unsigned)e);
+            k->f.cov.rb[s] = fix_floor_shr_s64(r, (unsigned)e);
         } else if (r >= (BLOCK_R_TOO_LARGE >> (unsigned)(-e))) {
-            k->rb[s] = BLOCK_R_TOO_LARGE;
+            k->f.cov.rb[s] = BLOCK_R_TOO_LARGE;
         } else {
-            k->rb[s] = r * ((int64_t)1 << (unsigned)(-e));
+            k->f.cov.rb[s] = r * ((int64_t)1 << (unsigned)(-e));
         }
-        /* |e24|² (Q48) below q²·R (Q32·Q16) or the floor: inside the gate for any s >= R */
-        const uint64_t a = (uint64_t)r > UINT64_MAX / (q2 + 1u) ? UINT64_MAX : (uint64_t)r * q2;
-        const uint64_t f = fl >= 0x8000u ? UINT64_MAX : (fl * fl) << 48;
-        k->gate_accept[s] = a > f ? a : f;
         /* the block path's bound hᵀPh <= 4 R in block units, as an int32 (an R too large
          * for the block: −1, never) */
-        const int64_t rb = k->rb[s];
-        k->hph_max[s] =
+        const int64_t rb = k->f.cov.rb[s];
+        k->f.cov.hph_max[s] =
             rb >= BLOCK_R_TOO_LARGE ? -1 : (rb >= (INT32_MAX / 4) ? INT32_MAX : (int32_t)(4 * rb));
     }
-    k->rb_pe = e;
-    k->rb_valid = true;
+    k->f.cov.rb_pe = e;
+    k->f.cov.rb_valid = true;
 }
 
 /* p_ij · 2^-e rounded, as a block mantissa (|p_ij| <= max P_ii < 2^(28 + e)). */
@@ -280,12 +288,12 @@ FIX_INLINE int32_t to_block(int64_t v, int32_t e) {
     return (int32_t)(v * ((int64_t)1 << (unsigned)(-e)));
 }
 
-/* The block of the current p (k->bm, k->be); false when P is not well scaled for it. */
+/* The block of the current p (k->f.cov.bm, k->f.cov.be); false when P is not well scaled for it. */
 static bool block_from_p(struct kalman_state *k) {
-    k->bvalid = false;
-    const int64_t d0 = k->p[0][0];
-    const int64_t d1 = k->p[1][1];
-    const int64_t d2 = k->p[2][2];
+    k->f.cov.bvalid = false;
+    const int64_t d0 = k->f.cov.p[0][0];
+    const int64_t d1 = k->f.cov.p[1][1];
+    const int64_t d2 = k->f.cov.p[2][2];
     if (d0 <= 0 || d1 <= 0 || d2 <= 0) {
         return false;
     }
@@ -296,20 +304,20 @@ static bool block_from_p(struct kalman_state *k) {
     }
     /* |P_ij| <= max P_ii (the last check), so every mantissa fits; the diagonal floor
      * keeps every state resolved */
-    int32_t *m = k->bm;
+    int32_t *m = k->f.cov.bm;
     m[0] = to_block(d0, e);
     m[3] = to_block(d1, e);
     m[5] = to_block(d2, e);
     if (m[0] < BLOCK_MIN_DIAG || m[3] < BLOCK_MIN_DIAG || m[5] < BLOCK_MIN_DIAG) {
         return false;
     }
-    m[1] = to_block(k->p[0][1], e);
-    m[2] = to_block(k->p[0][2], e);
-    m[4] = to_block(k->p[1][2], e);
-    k->be = e;
-    k->brows = 0;
-    k->bvalid = true;
-    if (!k->rb_valid || k->rb_pe != e) {
+    m[1] = to_block(k->f.cov.p[0][1], e);
+    m[2] = to_block(k->f.cov.p[0][2], e);
+    m[4] = to_block(k->f.cov.p[1][2], e);
+    k->f.cov.be = e;
+    k->f.cov.brows = 0;
+    k->f.cov.bvalid = true;
+    if (!k->f.cov.rb_valid || k->f.cov.rb_pe != e) {
         block_refresh_r(k, e);
     }
     return true;
@@ -318,12 +326,12 @@ static bool block_from_p(struct kalman_state *k) {
 /* The block for the next row: kept while it is fresh and its largest diagonal still has
  * 26 bits, else taken afresh from p. */
 static bool block_ready(struct kalman_state *k) {
-    if (k->bvalid && k->brows < BLOCK_MAX_ROWS) {
-        const int32_t *m = k->bm;
+    if (k->f.cov.bvalid && k->f.cov.brows < BLOCK_MAX_ROWS) {
+        const int32_t *m = k->f.cov.bm;
         const int32_t top = m[0] > m[3] ? (m[0] > m[5] ? m[0] : m[5]) : (m[3] > m[5] ? m[3] : m[5]);
         if (top >= ((int32_t)1 << (BLOCK_TOP_BITS - 1))) {
-            if (!k->rb_valid) {
-                block_refresh_r(k, k->be);
+            if (!k->f.cov.rb_valid) {
+                block_refresh_r(k, k->f.cov.be);
             }
             return true;
         }
@@ -334,7 +342,7 @@ static bool block_ready(struct kalman_state *k) {
 /* True when the mantissas prove p positive definite (kalman.h's check) with a margin
  * for their drift from p; false means "not proven" (then p itself is checked). */
 static bool block_healthy(const struct kalman_state *k) {
-    const int32_t *m = k->bm;
+    const int32_t *m = k->f.cov.bm;
     const int32_t mg = BLOCK_CHECK_MARGIN;
     const int32_t d0 = m[0] - mg;
     const int32_t d1 = m[3] - mg;
@@ -348,17 +356,17 @@ static bool block_healthy(const struct kalman_state *k) {
 
 /* P −= dec · 2^(e − 31), one rounding per entry; dec starts again from 0. */
 static void block_apply(struct kalman_state *k, struct pblock *b) {
-    const int32_t sh_signed = 31 - k->be;
+    const int32_t sh_signed = 31 - k->f.cov.be;
     const unsigned sh = (unsigned)sh_signed; /* in [1, 61] */
-    k->p[0][0] -= fix_round_shr_s64(b->dec[0], sh);
-    k->p[0][1] -= fix_round_shr_s64(b->dec[1], sh);
-    k->p[0][2] -= fix_round_shr_s64(b->dec[2], sh);
-    k->p[1][1] -= fix_round_shr_s64(b->dec[3], sh);
-    k->p[1][2] -= fix_round_shr_s64(b->dec[4], sh);
-    k->p[2][2] -= fix_round_shr_s64(b->dec[5], sh);
-    k->p[1][0] = k->p[0][1];
-    k->p[2][0] = k->p[0][2];
-    k->p[2][1] = k->p[1][2];
+    k->f.cov.p[0][0] -= fix_round_shr_s64(b->dec[0], sh);
+    k->f.cov.p[0][1] -= fix_round_shr_s64(b->dec[1], sh);
+    k->f.cov.p[0][2] -= fix_round_shr_s64(b->dec[2], sh);
+    k->f.cov.p[1][1] -= fix_round_shr_s64(b->dec[3], sh);
+    k->f.cov.p[1][2] -= fix_round_shr_s64(b->dec[4], sh);
+    k->f.cov.p[2][2] -= fix_round_shr_s64(b->dec[5], sh);
+    k->f.cov.p[1][0] = k->f.cov.p[0][1];
+    k->f.cov.p[2][0] = k->f.cov.p[0][2];
+    k->f.cov.p[2][1] = k->f.cov.p[1][2];
     b->dec[0] = 0;
     b->dec[1] = 0;
     b->dec[2] = 0;
@@ -376,15 +384,15 @@ FIX_INLINE void block_sub(struct kalman_state *k, struct pblock *b, unsigned idx
     const uint32_t lo = (uint32_t)u;
     const uint32_t hi = (uint32_t)(u >> 32);
     const uint32_t q = ((hi << 1) | (lo >> 31)) + ((lo >> 30) & 1u);
-    const uint32_t mantissa = (uint32_t)k->bm[idx] - q;
-    k->bm[idx] = (int32_t)mantissa;
+    const uint32_t mantissa = (uint32_t)k->f.cov.bm[idx] - q;
+    k->f.cov.bm[idx] = (int32_t)mantissa;
 }
 
 /* One scalar update on the block: 1 accepted, 0 gated out, BLOCK_NOT_POSSIBLE when the
  * conditions above fail (nothing changed). */
 static int block_update(struct kalman_state *k, struct pblock *b, unsigned sensor, fix_q32_t z_mm,
                         bool gate) {
-    int32_t *m = k->bm;
+    int32_t *m = k->f.cov.bm;
     /* The int32 sums below rely on |m| <= max P_ii < 2^28, true of a block when it is
      * taken; a nearly singular P can lose it inside a row (the updates overshoot and a
      * diagonal turns negative: found by tests/fuzz). Such a row goes on exactly, and the
@@ -435,10 +443,10 @@ static int block_update(struct kalman_state *k, struct pblock *b, unsigned senso
     /* e in [−2^39, 2^39) (128 mm) exactly when its high word is in [−128, 127]; then e24
      * below fits int32 and |k e24| < 2^62 */
     const uint32_t e_hi = (uint32_t)((uint64_t)e >> 32) + 128u;
-    if (hph < BLOCK_MIN_HPH || hph > k->hph_max[sensor] || e_hi > 255u) {
+    if (hph < BLOCK_MIN_HPH || hph > k->f.cov.hph_max[sensor] || e_hi > 255u) {
         return BLOCK_NOT_POSSIBLE;
     }
-    const int64_t r_b = k->rb[sensor];
+    const int64_t r_b = k->f.cov.rb[sensor];
     const int64_t s_b = hph + r_b; /* in [2^21, 2^62) */
     if (s_b < ((int64_t)1 << 30)) {
         /* small s: check |g_i| < s (1 − 2^-8), so every gain is below 1 (for s >= 2^30
@@ -454,8 +462,8 @@ static int block_update(struct kalman_state *k, struct pblock *b, unsigned senso
     const int64_t e24_sq = (int64_t)e24 * e24;
     if (gate && k->cfg.gate_sigmas_q8 != 0u && (uint64_t)e24_sq > k->gate_accept[sensor]) {
         /* not surely inside: the gate on the exact s */
-        const fix_q32_t s = (k->be >= 0 ? (int64_t)hph * ((int64_t)1 << (unsigned)k->be)
-                                        : fix_floor_shr_s64(hph, (unsigned)(-k->be))) +
+        const fix_q32_t s = (k->f.cov.be >= 0 ? (int64_t)hph * ((int64_t)1 << (unsigned)k->f.cov.be)
+                                              : fix_floor_shr_s64(hph, (unsigned)(-k->f.cov.be))) +
                             k->r[sensor];
         if (gated_out(k, e, s)) {
             return 0;
@@ -532,58 +540,413 @@ static uint8_t update_row(struct kalman_state *k, const uint16_t range_mm[ANGLES
     if (dirty) {
         block_apply(k, &b);
     }
-    if (k->bvalid) {
-        k->brows++;
+    if (k->f.cov.bvalid) {
+        k->f.cov.brows++;
     }
     /* The mantissas prove p only while a block unit is at least one LSB of p (be >= 0):
      * finer units leave p's own rounding (half an LSB per entry) outside the margin, and
      * a P of a few LSB (sliding windows, Q = 0, long runs) could round to singular
      * unseen. (Found by tests/fuzz.) */
-    *proven = k->bvalid && k->be >= 0 && block_healthy(k);
+    *proven = k->f.cov.bvalid && k->f.cov.be >= 0 && block_healthy(k);
     return used;
 }
 
 /* After a failed check or an overflow: forget the covariance, keep the state; counted,
  * never silent. */
 static void check_covariance(struct kalman_state *k, bool ovf, bool proven) {
-    if (ovf || (!proven && !covariance_healthy(k->p))) {
+    if (ovf || (!proven && !covariance_healthy(k->f.cov.p))) {
         diffuse_covariance(k);
         k->numeric_restarts++;
         k->restarts++;
     }
 }
 
-bool kalman_update(struct kalman_state *k, unsigned sensor, fix_q32_t z_mm, bool gate) {
-    bool ovf = false;
-    bool proven = false;
-    bool accepted;
-    if (sensor < ANGLES_SENSORS && z_mm >= 0 && z_mm <= ((int64_t)UINT16_MAX << FIX_Q32_SHIFT) &&
-        (z_mm & (FIX_Q32_ONE - 1)) == 0) {
-        /* an integer reading: the row path (block when it applies) */
-        uint16_t range[ANGLES_SENSORS] = {0, 0, 0, 0};
-        range[sensor] = (uint16_t)(z_mm >> FIX_Q32_SHIFT);
-        uint8_t rejected;
-        accepted =
-            update_row(k, range, (uint8_t)(1u << sensor), gate, &rejected, &ovf, &proven) != 0u;
+/* --- the information form (Q = 0) ------------------------------------------------------
+ * Without process noise the filter is recursive least squares: after any set of accepted
+ * readings Y = P⁻¹ = y0·I + Σ_s a_s h_s h_sᵀ and Y(θ̂ − θ0) = Σ_s h_s ζ_s, where a_s is the
+ * sum of the weights 1/R_s of sensor s's accepted readings, ζ_s the sum of those weights
+ * times the readings' deviations from θ0 = (x0_mm, 0, 0), the prior mean. With the rows h_s
+ * (kalman.h) Y is
+ *     [ f  c  e ]      f = y0 + a_A + a_B + a_C + a_D
+ *     [ c  A  0 ]      c = a_C − a_A,  A = y0 + a_A + a_C
+ *     [ e  0  B ]      e = a_B − a_D,  B = y0 + a_B + a_D
+ * (no row has both a·tan α and a·tan β, so Y_12 = 0 exactly). Eliminating the two slopes
+ * (Schur complement on x̄), with g_α = c/A, g_β = e/B and each axis written as its sensors
+ * m ("minus") and p ("plus"): α (A, C), β (D, B):
+ *     d   = y0 + Σ_axes (y0(a_m + a_p) + 4 a_m a_p) / Y_jj
+ *     δx̄  = Σ_axes ((y0 + 2a_p) ζ_m + (y0 + 2a_m) ζ_p) / Y_jj  /  d
+ *     δθ_j = (ζ_p − ζ_m) / Y_jj − g_j δx̄
+ *     P   = [ 1/d, −g_α/d, −g_β/d; ·, 1/A + g_α²/d, g_α g_β/d; ·, ·, 1/B + g_β²/d ]
+ * Every term of d and of δx̄'s numerator is written without cancellation (the textbook
+ * f − c²/A − e²/B and ζ1 − g_α ζα − g_β ζβ would lose the bits of a weak sensor of a pair to
+ * it), and d, A, B >= y0 > 0: P is positive definite by construction, nothing to check.
+ * Each quotient takes the 31-bit reciprocal of its divisor (relative error below 2^-28) and
+ * the divided quantity's own 31-bit mantissa; the sums themselves are exact integers.
+ *
+ * Units: a weight unit is 2^-e mm⁻² (y0 = 1/P0 = 2^-24 mm⁻² is 2^(e − 24) units), chosen at
+ * each start so that the largest weight of one reading is in (2^29, 2^30]; a sensor 2^12
+ * times noisier in σ keeps 6 bits of weight. Deviations are whole mm (|dev| < 2^16), each
+ * weight · deviation below 2^46: the sums are checked every INFO_CHECK_ROWS rows and, past
+ * 2^58 (after ~2^28 readings, or ~2^12 readings 65 m from the start), halved with the
+ * weights: one unit coarser, exact but for the dropped bit. */
+
+#define INFO_SUM_CHECK                                                                             \
+    ((uint64_t)1 << 58)       /* checked bound of each |sum|: below 2^59 between checks */
+#define INFO_CHECK_ROWS 2048u /* 2048 rows add below 2^57 to a sum */
+#define INFO_W_SHIFT    (-1)  /* largest weight = fix_recip31(m_R) / 2 */
+#define INFO_KEEP_RANGE 6     /* units kept while the largest weight >= 2^24 */
+
+/* y0 in units: 2^(e − 24); after 2+ halvings (~2^29 readings) at least 1 unit, a tighter
+ * prior than P0, still negligible beside the data. */
+static uint64_t info_y0(const struct kalman_info *in) {
+    return in->e >= 24 ? (uint64_t)1 << (unsigned)(in->e - 24) : 1u;
+}
+
+/* Every sum shifted right by sh: sh units coarser. */
+static void info_coarser(struct kalman_info *in, unsigned sh) {
+    for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
+        in->a[s] >>= sh;
+        in->z[s] = fix_floor_shr_s64(in->z[s], sh);
+    }
+    in->e -= (int32_t)sh;
+}
+
+/* The weights of one reading for the current R, in the units of the sums: chosen afresh
+ * when the sums are empty, else kept while the largest weight stays in [2^24, 2^30] (a
+ * smaller R makes the sums coarser; a larger one finer when they have the room). */
+static void info_set_weights(struct kalman_state *k) {
+    struct kalman_info *in = &k->f.info;
+    fix_q32_t r_min = k->r[0];
+    for (unsigned s = 1; s < ANGLES_SENSORS; ++s) {
+        r_min = k->r[s] < r_min ? k->r[s] : r_min;
+    }
+    int32_t er;
+    (void)fix_norm31_inline((uint64_t)r_min, &er);
+    /* weight of R = m·2^er: fix_recip31(m) · 2^(e + 32 − 61 − er) */
+    const int32_t want = 29 + INFO_W_SHIFT + er;
+    const bool empty = (in->a[0] | in->a[1] | in->a[2] | in->a[3]) == 0u;
+    if (empty) {
+        in->e = want;
+    } else if (want < in->e) {
+        info_coarser(in, (unsigned)(in->e - want));
+    } else if (want > in->e + INFO_KEEP_RANGE) {
+        const unsigned sh = (unsigned)(want - in->e);
+        bool room = true;
+        for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
+            room = room && in->a[s] < (INFO_SUM_CHECK >> sh) &&
+                   fix_abs_u64(in->z[s]) < (INFO_SUM_CHECK >> sh);
+        }
+        if (room) {
+            for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
+                in->a[s] <<= sh;
+                in->z[s] *= (int64_t)1 << sh;
+            }
+            in->e = want;
+        } /* else the weights keep fewer bits (at least 2^12 of the largest) */
     } else {
-        accepted = update_exact(k, sensor, z_mm, gate, &ovf);
-        k->bvalid = false;
+        /* the units stay */
     }
-    if (accepted) {
-        check_covariance(k, ovf, proven);
+    for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
+        int32_t e;
+        const uint32_t m = fix_norm31_inline((uint64_t)k->r[s], &e);
+        const uint32_t rr = (uint32_t)fix_recip31_inline(m); /* 2^61/m, in (2^30, 2^31] */
+        const int32_t sh = in->e + 32 - 61 - e;              /* <= INFO_W_SHIFT */
+        const uint32_t w = sh <= -32 ? 0u : rr >> (unsigned)(-sh);
+        in->w[s] = w != 0u ? (int32_t)w : 1; /* <= 2^30 */
     }
-    return accepted;
+}
+
+/* The state after no reading: the prior. */
+static void info_prior(struct kalman_state *k) {
+    struct kalman_info *in = &k->f.info;
+    (void)memset(in->a, 0, sizeof in->a);
+    (void)memset(in->z, 0, sizeof in->z);
+    in->rows_to_check = INFO_CHECK_ROWS;
+    info_set_weights(k);
+    info_solve(k); /* x = θ0, P = P0·I */
+}
+
+/* (v · r) / 2^31 for v < 2^59 and r < 2^32: two 32x32 products, truncated. */
+FIX_INLINE uint64_t info_mul(uint64_t v, uint32_t r) {
+    const uint64_t hi = (v >> 32) * r;             /* < 2^59 */
+    const uint64_t lo = (uint64_t)(uint32_t)v * r; /* < 2^64 */
+    return (hi << 1) + (lo >> 31);
+}
+
+FIX_INLINE int64_t info_mul_s(int64_t v, int32_t r) {
+    const bool neg = (v < 0) != (r < 0);
+    const uint64_t m = info_mul(fix_abs_u64(v), r < 0 ? (uint32_t)(-(int64_t)r) : (uint32_t)r);
+    return neg ? -(int64_t)m : (int64_t)m;
+}
+
+/* v << sh for sh >= 0, v >> −sh otherwise (sh in [−63, 63]; the callers' results fit). */
+FIX_INLINE uint64_t info_shift(uint64_t v, int32_t sh) {
+    return sh >= 0 ? v << (unsigned)sh : (sh > -64 ? v >> (unsigned)(-sh) : 0u);
+}
+
+/* v / D in Q31 for v <= D = m · 2^e (r = fix_recip31(m) ≈ 2^61/m): at most 2^31. */
+FIX_INLINE uint32_t info_ratio(uint64_t v, int32_t e, uint32_t r) {
+    const uint32_t t = (uint32_t)info_shift(v, -e); /* <= m < 2^31 */
+    return (uint32_t)(((uint64_t)t * r) >> 30);
+}
+
+/* z · v / D (units·mm) for v <= 2D: v's own mantissa, so a small v keeps its bits. */
+FIX_INLINE int64_t info_scaled(int64_t z, uint64_t v, int32_t e, uint32_t r) {
+    if (v == 0u) {
+        return 0;
+    }
+    int32_t ev;
+    const uint32_t mv = fix_norm31_inline(v, &ev);
+    const uint32_t t = (uint32_t)(((uint64_t)mv * r) >> 30); /* v/D · 2^(31 + e − ev) */
+    const uint64_t q = info_shift(info_mul(fix_abs_u64(z), t), ev - e);
+    return z < 0 ? -(int64_t)q : (int64_t)q;
+}
+
+/* v · 2^32 / D as Q32 (v in units·mm: mm; v = 2^e units: mm²), D = m · 2^e_d. */
+FIX_INLINE int64_t info_quotient(int64_t v, int32_t e_d, uint32_t r) {
+    if (v == 0) {
+        return 0;
+    }
+    int32_t ev;
+    const uint32_t vm = fix_norm31_inline(fix_abs_u64(v), &ev);
+    const uint64_t prod = (uint64_t)vm * r; /* v/D · 2^(61 + e_d − ev), < 2^62 */
+    const int32_t sh = ev - e_d - 29;
+    const uint64_t q =
+        sh >= 0
+            ? prod << (unsigned)sh
+            : (sh > -63 ? (prod + ((uint64_t)1 << (unsigned)(-sh - 1))) >> (unsigned)(-sh) : 0u);
+    return v < 0 ? -(int64_t)q : (int64_t)q;
+}
+
+/* One axis of the solve: its terms of d and of d·δx̄, and δθ_j before − g_j δx̄. */
+struct info_axis {
+    uint64_t q;    /* (y0(a_m + a_p) + 4 a_m a_p) / Y_jj, units */
+    int64_t n;     /* ((y0 + 2a_p) ζ_m + (y0 + 2a_m) ζ_p) / Y_jj, units·mm */
+    int64_t slope; /* (ζ_p − ζ_m) / Y_jj, Q32 mm */
+};
+
+FIX_INLINE void info_axis_solve(struct kalman_info *in, unsigned j,
+                                const uint64_t a[ANGLES_SENSORS], const int64_t z[ANGLES_SENSORS],
+                                unsigned sm, unsigned sp, uint64_t y0, int32_t fine,
+                                struct info_axis *ax) {
+    const uint64_t am = a[sm];
+    const uint64_t ap = a[sp];
+    const uint64_t sum = am + ap;
+    if (sum == 0u) { /* the prior alone: Y_jj = y0, nothing couples the axis to x̄ */
+        in->rec[j] = 0u;
+        in->g[j - 1u] = 0;
+        ax->q = 0u;
+        ax->n = 0;
+        ax->slope = 0;
+        return;
+    }
+    int32_t e;
+    const uint32_t m = fix_norm31_inline(sum + y0, &e);
+    const uint32_t r = (uint32_t)fix_recip31_inline(m);
+    in->rec[j] = r;
+    in->rec_e[j] = e - fine;
+    const uint32_t rm = info_ratio(am, e, r);
+    const uint32_t rp = info_ratio(ap, e, r);
+    in->g[j - 1u] = (int32_t)((int64_t)rp - (int64_t)rm);
+    /* 4 a_m a_p / Y_jj as 4 · min · (max / Y_jj): the ratio at least about 1/2 */
+    const uint64_t lo = am < ap ? am : ap;
+    const uint32_t r_hi = am < ap ? rp : rm;
+    ax->q = info_mul(4u * lo, r_hi) + info_mul(y0, rm + rp);
+    ax->n = info_scaled(z[sm], y0 + 2u * ap, e, r) + info_scaled(z[sp], y0 + 2u * am, e, r);
+    ax->slope = info_quotient(z[sp] - z[sm], e, r);
+}
+
+/* x and the factors of P from the sums. */
+static void info_solve(struct kalman_state *k) {
+    struct kalman_info *in = &k->f.info;
+    /* Finer units for the solve while the sums are small (the first rows): each weight sum
+     * below 2^42 after the shift, so |ζ| <= a · 2^17 stays below 2^59. The quotients'
+     * integer parts (q, d, n) then keep their bits whatever a weak sensor weighs. */
+    const uint64_t top = in->a[0] | in->a[1] | in->a[2] | in->a[3] | info_y0(in);
+    const int32_t fine_bits = 42 - (int32_t)fix_bitlen_u64(top);
+    const unsigned fine = fine_bits > 0 ? (unsigned)fine_bits : 0u;
+    uint64_t a[ANGLES_SENSORS];
+    int64_t z[ANGLES_SENSORS];
+    for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
+        a[s] = in->a[s] << fine;
+        z[s] = in->z[s] * ((int64_t)1 << fine);
+    }
+    const uint64_t y0 = info_y0(in) << fine;
+    struct info_axis al;
+    struct info_axis be;
+    info_axis_solve(in, 1u, a, z, ANGLES_A, ANGLES_C, y0, (int32_t)fine, &al);
+    info_axis_solve(in, 2u, a, z, ANGLES_D, ANGLES_B, y0, (int32_t)fine, &be);
+    int32_t ed;
+    const uint32_t md = fix_norm31_inline(y0 + al.q + be.q, &ed);
+    const uint32_t rd = (uint32_t)fix_recip31_inline(md);
+    in->rec[0] = rd;
+    in->rec_e[0] = ed - (int32_t)fine;
+    const int64_t dx = info_quotient(al.n + be.n, ed, rd);
+    k->x[0] = ((int64_t)in->x0_mm << FIX_Q32_SHIFT) + dx;
+    k->x[1] = al.slope - info_mul_s(dx, in->g[0]);
+    k->x[2] = be.slope - info_mul_s(dx, in->g[1]);
+}
+
+/* One accepted reading of sensor s (the sums' headroom: info_row). */
+FIX_INLINE void info_add(struct kalman_info *in, unsigned s, uint16_t range_mm) {
+    const int32_t dev = (int32_t)range_mm - in->x0_mm; /* |dev| < 2^16 + 2^16 */
+    in->a[s] += (uint32_t)in->w[s];
+    in->z[s] += (int64_t)in->w[s] * dev;
+}
+
+/* Before a row: every INFO_CHECK_ROWS rows the sums' headroom, halved past INFO_SUM_CHECK. */
+static void info_check_sums(struct kalman_info *in) {
+    if (--in->rows_to_check != 0u) {
+        return;
+    }
+    in->rows_to_check = INFO_CHECK_ROWS;
+    for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
+        if (in->a[s] >= INFO_SUM_CHECK || fix_abs_u64(in->z[s]) >= INFO_SUM_CHECK) {
+            info_coarser(in, 1u);
+            for (unsigned t = 0; t < ANGLES_SENSORS; ++t) {
+                in->w[t] = in->w[t] > 1 ? in->w[t] / 2 : 1;
+            }
+            return;
+        }
+    }
+}
+
+/* 1/D in Q32 mm² from its reciprocal (0: the prior, P0). */
+static fix_q32_t info_inverse(const struct kalman_info *in, unsigned j) {
+    return in->rec[j] == 0u
+               ? KALMAN_P0_MM2_Q32
+               : info_quotient((int64_t)1 << (unsigned)in->e, in->rec_e[j], in->rec[j]);
+}
+
+/* P of the last solve. */
+static void info_covariance(const struct kalman_state *k,
+                            fix_q32_t p[KALMAN_STATES][KALMAN_STATES]) {
+    const struct kalman_info *in = &k->f.info;
+    const fix_q32_t inv_d = info_inverse(in, 0u);
+    const fix_q32_t ga = info_mul_s(inv_d, in->g[0]); /* g_α/d */
+    const fix_q32_t gb = info_mul_s(inv_d, in->g[1]);
+    p[0][0] = inv_d;
+    p[0][1] = -ga;
+    p[0][2] = -gb;
+    p[1][1] = info_inverse(in, 1u) + info_mul_s(ga, in->g[0]);
+    p[1][2] = info_mul_s(ga, in->g[1]);
+    p[2][2] = info_inverse(in, 2u) + info_mul_s(gb, in->g[1]);
+    p[1][0] = p[0][1];
+    p[2][0] = p[0][2];
+    p[2][1] = p[1][2];
+}
+
+/* The gate's sure-accept threshold per sensor: |e24|² (Q48) below q²·R (Q32·Q16) or the
+ * floor is inside the gate for any s >= R. */
+static void gate_refresh_accept(struct kalman_state *k) {
+    const uint64_t q2 = (uint64_t)k->cfg.gate_sigmas_q8 * k->cfg.gate_sigmas_q8;
+    const uint64_t fl = (uint64_t)k->cfg.gate_floor_mm;
+    for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
+        const uint64_t r = (uint64_t)k->r[s];
+        const uint64_t a = r > UINT64_MAX / (q2 + 1u) ? UINT64_MAX : r * q2;
+        const uint64_t f = fl >= 0x8000u ? UINT64_MAX : (fl * fl) << 48;
+        k->gate_accept[s] = a > f ? a : f;
+    }
+}
+
+/* Everything that depends on R, after R changed. */
+static void r_changed(struct kalman_state *k) {
+    gate_refresh_accept(k);
+    if (covariance_form(k)) {
+        k->f.cov.rb_valid = false;
+    } else {
+        info_set_weights(k); /* may change the units: x and P again from the sums */
+        info_solve(k);
+    }
+}
+
+/* The gate of the information form: the reading against the state of the rows before. */
+static bool info_gated_out(const struct kalman_state *k, unsigned sensor, uint16_t range_mm) {
+    const unsigned j = h_index(sensor);
+    const bool minus = h_minus(sensor);
+    const fix_q32_t pred = minus ? k->x[0] - k->x[j] : k->x[0] + k->x[j];
+    const fix_q32_t e = ((fix_q32_t)range_mm << FIX_Q32_SHIFT) - pred;
+    if (e < ((int64_t)1 << 39) && e > -((int64_t)1 << 39)) {
+        const int64_t e24 = fix_round_shr_s64(e, 8u);
+        if ((uint64_t)(e24 * e24) <= k->gate_accept[sensor]) {
+            return false; /* inside for any s >= R: P not needed */
+        }
+    }
+    fix_q32_t p[KALMAN_STATES][KALMAN_STATES];
+    info_covariance(k, p);
+    const fix_q32_t hph = minus ? p[0][0] - 2 * p[0][j] + p[j][j] : p[0][0] + 2 * p[0][j] + p[j][j];
+    return gated_out(k, e, hph + k->r[sensor]);
+}
+
+/* One row of the information form: every valid reading gated against the state before
+ * the row, the accepted ones added, one solve. Returns the sensors accepted. */
+static uint8_t info_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENSORS],
+                        uint8_t valid_mask, bool gate, uint8_t *rejected) {
+    uint8_t used = valid_mask;
+    if (gate && k->cfg.gate_sigmas_q8 != 0u) {
+        for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
+            if ((valid_mask & (1u << s)) != 0u && info_gated_out(k, s, range_mm[s])) {
+                used = (uint8_t)(used & ~(1u << s));
+            }
+        }
+    }
+    *rejected = (uint8_t)(valid_mask & ~used);
+    if (used == 0u) {
+        return 0u;
+    }
+    struct kalman_info *in = &k->f.info;
+    info_check_sums(in);
+    for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
+        if ((used & (1u << s)) != 0u) {
+            info_add(in, s, range_mm[s]);
+        }
+    }
+    info_solve(k);
+    return used;
+}
+
+/* One row of either form (no prediction): returns the sensors accepted. */
+static uint8_t update_any(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENSORS],
+                          uint8_t valid_mask, bool gate, uint8_t *rejected) {
+    if (!covariance_form(k)) {
+        return info_row(k, range_mm, valid_mask, gate, rejected);
+    }
+    bool ovf = false;
+    bool proven;
+    const uint8_t used = update_row(k, range_mm, valid_mask, gate, rejected, &ovf, &proven);
+    if (used != 0u) {
+        check_covariance(k, ovf, proven); /* once per row: a failure restarts P before the next */
+    }
+    return used;
+}
+
+bool kalman_update(struct kalman_state *k, unsigned sensor, uint16_t range_mm, bool gate) {
+    if (sensor >= ANGLES_SENSORS) {
+        return false;
+    }
+    uint16_t range[ANGLES_SENSORS] = {0, 0, 0, 0};
+    range[sensor] = range_mm;
+    uint8_t rejected;
+    return update_any(k, range, (uint8_t)(1u << sensor), gate, &rejected) != 0u;
+}
+
+void kalman_covariance(const struct kalman_state *k, fix_q32_t p[KALMAN_STATES][KALMAN_STATES]) {
+    if (covariance_form(k)) {
+        (void)memcpy(p, k->f.cov.p, sizeof k->f.cov.p);
+    } else {
+        info_covariance(k, p);
+    }
 }
 
 static void predict(struct kalman_state *k) {
-    if (!k->process_noise) {
+    if (!covariance_form(k)) {
         return;
     }
-    k->bvalid = false; /* p changes outside the block */
+    k->f.cov.bvalid = false; /* p changes outside the block */
     for (unsigned i = 0; i < KALMAN_STATES; ++i) {
-        if (k->p[i][i] < P_MAX_Q32) { /* a long outage saturates here, never overflows */
-            const int64_t grown = k->p[i][i] + k->cfg.process_noise_mm2[i];
-            k->p[i][i] = grown < P_MAX_Q32 ? grown : P_MAX_Q32;
+        if (k->f.cov.p[i][i] < P_MAX_Q32) { /* a long outage saturates here, never overflows */
+            const int64_t grown = k->f.cov.p[i][i] + k->cfg.process_noise_mm2[i];
+            k->f.cov.p[i][i] = grown < P_MAX_Q32 ? grown : P_MAX_Q32;
         }
     }
 }
@@ -624,6 +987,11 @@ static void flush_warmup(struct kalman_state *k, struct kalman_rows *out) {
     k->x[0] = start_n > 0 ? fix_div_round_s64(start_sum * FIX_Q32_ONE, start_n) : 0;
     k->x[1] = 0;
     k->x[2] = 0;
+    if (!covariance_form(k)) {
+        /* the information form's prior mean, whole mm: its deviations are integers */
+        k->f.info.x0_mm = (int32_t)fix_round_shr_s64(k->x[0], FIX_Q32_SHIFT);
+        k->x[0] = (fix_q32_t)k->f.info.x0_mm << FIX_Q32_SHIFT;
+    }
 
     out->count = k->warm_rows;
     for (unsigned r = 0; r < k->warm_rows; ++r) {
@@ -652,11 +1020,8 @@ static void flush_warmup(struct kalman_state *k, struct kalman_rows *out) {
             }
         }
         if (used != 0u) {
-            bool ovf = false;
             uint8_t none;
-            bool proven;
-            (void)update_row(k, k->warm_range[r], used, false, &none, &ovf, &proven);
-            check_covariance(k, ovf, proven);
+            (void)update_any(k, k->warm_range[r], used, false, &none);
         }
         out->used[r] = used;
         out->rejected[r] = rejected;
@@ -681,13 +1046,7 @@ void kalman_push_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENS
     }
     predict(k);
     uint8_t rejected = 0;
-    bool ovf = false;
-    bool proven;
-    const uint8_t used = update_row(k, range_mm, valid_mask, true, &rejected, &ovf, &proven);
-    if (used != 0u) {
-        check_covariance(k, ovf,
-                         proven); /* once per row: a failure restarts P before the next row */
-    }
+    const uint8_t used = update_any(k, range_mm, valid_mask, true, &rejected);
     out->count = 1;
     out->used[0] = used;
     out->rejected[0] = rejected;
@@ -709,9 +1068,9 @@ void kalman_push_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENS
         for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
             if (k->reject_run[s] >= KALMAN_LOCKOUT_ROWS && !k->r_tracked[s]) {
                 k->r[s] = k->r[s] < R_MAX_Q32 / 4 ? 4 * k->r[s] : R_MAX_Q32;
-                k->rb_valid = false;
             }
         }
+        r_changed(k);
         kalman_reset(k);
         k->restarts++;
     }
@@ -732,22 +1091,21 @@ void kalman_track_noise(struct kalman_state *k, unsigned sensor, fix_q32_t var_m
     /* Bounded like a configured R: a window variance beyond σ = 1024 mm (readings 0 and
      * 65535 mm in one window give 2^31 mm²) would overflow s = hᵀPh + R. */
     const fix_q32_t v =
-        var_mm2 < QUANT_VAR_Q32 ? QUANT_VAR_Q32 : (var_mm2 > R_MAX_Q32 ? R_MAX_Q32 : var_mm2);
+        var_mm2 < KALMAN_R_MIN_Q32 ? KALMAN_R_MIN_Q32 : (var_mm2 > R_MAX_Q32 ? R_MAX_Q32 : var_mm2);
     if (!k->r_tracked[sensor]) {
         k->r[sensor] = v; /* the configured R was only a guess */
-        k->rb_valid = false;
         k->r_tracked[sensor] = true;
-        return;
+    } else {
+        k->r[sensor] += fix_asr_s64(v - k->r[sensor], k->cfg.noise_shift);
     }
-    k->r[sensor] += fix_asr_s64(v - k->r[sensor], k->cfg.noise_shift);
-    k->rb_valid = false;
+    r_changed(k);
 }
 
 void kalman_estimate(const struct kalman_state *k, int32_t arm_um, struct kalman_result *out) {
-    (void)memcpy(out->p_mm2, k->p, sizeof out->p_mm2);
+    kalman_covariance(k, out->p_mm2);
     const int64_t observable_below = KALMAN_P0_MM2_Q32 >> 6;
-    out->alpha_observable = k->started && k->p[1][1] < observable_below;
-    out->beta_observable = k->started && k->p[2][2] < observable_below;
+    out->alpha_observable = k->started && out->p_mm2[1][1] < observable_below;
+    out->beta_observable = k->started && out->p_mm2[2][2] < observable_below;
     out->distance_mm = k->x[0];
     /* α = atan(θ1 / a): θ1 in mm Q32, a in um → both as um Q32 */
     const int64_t a_q32 = (int64_t)arm_um << FIX_Q32_SHIFT;
@@ -755,6 +1113,6 @@ void kalman_estimate(const struct kalman_state *k, int32_t arm_um, struct kalman
     out->beta_udeg = fix_atan2_udeg(fix_sat_mul_s64(k->x[2], 1000), a_q32);
     const fix_q32_t ta = fix_div_round_s64(fix_sat_mul_s64(k->x[1], 1000), arm_um);
     const fix_q32_t tb = fix_div_round_s64(fix_sat_mul_s64(k->x[2], 1000), arm_um);
-    out->alpha_sigma_udeg = fix_angle_sigma_udeg(k->p[1][1], arm_um, ta);
-    out->beta_sigma_udeg = fix_angle_sigma_udeg(k->p[2][2], arm_um, tb);
+    out->alpha_sigma_udeg = fix_angle_sigma_udeg(out->p_mm2[1][1], arm_um, ta);
+    out->beta_sigma_udeg = fix_angle_sigma_udeg(out->p_mm2[2][2], arm_um, tb);
 }

@@ -99,6 +99,10 @@ static void test_config_errors(void **state) {
     attitude_config_default(&cfg);
     cfg.kalman_initial_noise_um2[3] = 0;
     assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_KALMAN_MEASUREMENT_NOISE);
+    cfg.kalman_initial_noise_um2[3] = 83333; /* below 1/12 mm² */
+    assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_KALMAN_MEASUREMENT_NOISE);
+    cfg.kalman_initial_noise_um2[3] = 83334;
+    assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_NONE);
     attitude_config_default(&cfg);
     cfg.kalman_warmup_rows = 0;
     assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_KALMAN_WARMUP);

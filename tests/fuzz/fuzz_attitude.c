@@ -88,7 +88,7 @@ static bool tolerance_ok(int32_t t) {
 }
 static bool measurement_noise_ok(const struct attitude_config *c) {
     for (unsigned k = 0; k < ATTITUDE_SENSORS; ++k) {
-        if (c->kalman_initial_noise_um2[k] == 0u) {
+        if (c->kalman_initial_noise_um2[k] < 83334u) { /* 1/12 mm² */
             return false;
         }
     }
@@ -169,7 +169,7 @@ static void config_guided(struct fuzz_input *in, struct attitude_config *c) {
         c->kalman_process_noise_um2[i] = (uint32_t)fuzz_u16(in) << (q_shift % 17u);
     }
     for (unsigned k = 0; k < ATTITUDE_SENSORS; ++k) {
-        c->kalman_initial_noise_um2[k] = fuzz_u32(in) | 1u;
+        c->kalman_initial_noise_um2[k] = fuzz_range_u32(in, 83334u, UINT32_MAX);
     }
     c->kalman_gate_sigmas_q8 = fuzz_u16(in);
     c->kalman_warmup_rows = (uint8_t)fuzz_range_u32(in, 1u, 8u);

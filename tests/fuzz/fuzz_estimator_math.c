@@ -14,8 +14,8 @@
  * s128 shifts and rounding on magnitudes below 2^126; angles with valid arms;
  * consensus_product with per-sensor means of 16-bit readings (0..65535 mm),
  * any non-negative variance and count >= 1; consensus_paper with means within
- * ±90° (means of angles) and any covariances; Kalman readings of 0..65535 mm (kalman_update:
- * |z| below 2^49, so a bit beyond) and any variance for noise tracking.
+ * ±90° (means of angles) and any covariances; Kalman readings of 0..65535 mm (both forms:
+ * Q = 0 and Q > 0) and any variance for noise tracking.
  *
  * Long run: docs/reliability.md, "Fuzzing".
  */
@@ -532,14 +532,24 @@ static struct kalman_state kf;
 
 /* Positive diagonal, symmetric, every correlation strictly inside ±1 (kalman.h: any
  * failure restarts the filter, so no public call may leave P otherwise). */
+/* P of either form: positive diagonal, symmetric, every correlation inside ±1. */
 static void check_covariance(const struct kalman_state *k) {
+    fix_q32_t p[KALMAN_STATES][KALMAN_STATES];
+    kalman_covariance(k, p);
     for (unsigned i = 0; i < KALMAN_STATES; ++i) {
-        FUZZ_CHECK(k->p[i][i] > 0);
+        FUZZ_CHECK(p[i][i] > 0);
         for (unsigned j = i + 1u; j < KALMAN_STATES; ++j) {
-            FUZZ_CHECK(k->p[i][j] == k->p[j][i]);
-            FUZZ_CHECK((s128)k->p[i][j] * k->p[i][j] < (s128)k->p[i][i] * k->p[j][j]);
+            FUZZ_CHECK(p[i][j] == p[j][i]);
+            FUZZ_CHECK((s128)p[i][j] * p[i][j] < (s128)p[i][i] * p[j][j]);
         }
     }
+}
+
+static void trace_covariance(const struct kalman_state *k) {
+    fix_q32_t p[KALMAN_STATES][KALMAN_STATES];
+    kalman_covariance(k, p);
+    fprintf(stderr, "P = [%lld %lld %lld; %lld %lld; %lld]", (long long)p[0][0], (long long)p[0][1],
+            (long long)p[0][2], (long long)p[1][1], (long long)p[1][2], (long long)p[2][2]);
 }
 
 static void check_rows(const struct kalman_rows *rows, uint8_t valid) {
@@ -569,12 +579,17 @@ static void check_kalman(struct fuzz_input *in) {
     cfg.noise_shift = fuzz_u8(in);
     if ((style & 1u) != 0u) { /* guided: a valid configuration */
         for (unsigned i = 0; i < KALMAN_STATES; ++i) {
-            cfg.process_noise_mm2[i] =
-                (int64_t)((uint64_t)cfg.process_noise_mm2[i] % ((uint64_t)KALMAN_P0_MM2_Q32 + 1u));
+            /* half of them Q = 0: the information form */
+            cfg.process_noise_mm2[i] = (style & 2u) != 0u
+                                           ? 0
+                                           : (int64_t)((uint64_t)cfg.process_noise_mm2[i] %
+                                                       ((uint64_t)KALMAN_P0_MM2_Q32 + 1u));
         }
         for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
             cfg.initial_noise_mm2[s] =
-                1 + (int64_t)((uint64_t)cfg.initial_noise_mm2[s] % ((uint64_t)1 << 52));
+                KALMAN_R_MIN_Q32 +
+                (int64_t)((uint64_t)cfg.initial_noise_mm2[s] %
+                          (((uint64_t)1 << 52) - (uint64_t)KALMAN_R_MIN_Q32 + 1u));
         }
         cfg.warmup_rows = (uint8_t)(1u + cfg.warmup_rows % KALMAN_WARMUP_MAX);
         cfg.noise_shift = (uint8_t)(cfg.noise_shift % 9u);
@@ -586,8 +601,8 @@ static void check_kalman(struct fuzz_input *in) {
             q_ok && cfg.process_noise_mm2[i] >= 0 && cfg.process_noise_mm2[i] <= KALMAN_P0_MM2_Q32;
     }
     for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
-        r_ok =
-            r_ok && cfg.initial_noise_mm2[s] > 0 && cfg.initial_noise_mm2[s] <= ((int64_t)1 << 52);
+        r_ok = r_ok && cfg.initial_noise_mm2[s] >= KALMAN_R_MIN_Q32 &&
+               cfg.initial_noise_mm2[s] <= ((int64_t)1 << 52);
     }
     const bool w_ok = cfg.warmup_rows >= 1u && cfg.warmup_rows <= KALMAN_WARMUP_MAX;
     const bool n_ok = cfg.noise_shift <= 8u;
@@ -608,10 +623,9 @@ static void check_kalman(struct fuzz_input *in) {
     for (unsigned step = 0; step < 64u && !fuzz_input_done(in); ++step) {
         const uint8_t op = fuzz_u8(in);
         if (trace) {
-            fprintf(stderr, "kalman op %u: P = [%lld %lld %lld; %lld %lld; %lld] started %d\n",
-                    op % 6u, (long long)kf.p[0][0], (long long)kf.p[0][1], (long long)kf.p[0][2],
-                    (long long)kf.p[1][1], (long long)kf.p[1][2], (long long)kf.p[2][2],
-                    (int)kf.started);
+            fprintf(stderr, "kalman op %u: ", op % 6u);
+            trace_covariance(&kf);
+            fprintf(stderr, " started %d\n", (int)kf.started);
         }
         struct kalman_rows rows;
         switch (op % 6u) {
@@ -627,13 +641,11 @@ static void check_kalman(struct fuzz_input *in) {
                 memset(&rows, 0xA5, sizeof rows);
                 kalman_push_row(&kf, r, valid, &rows);
                 if (trace) {
-                    fprintf(stderr,
-                            "  row [%u %u %u %u] valid %x: used %x rejected %x, P = [%lld %lld "
-                            "%lld; %lld %lld; %lld], restarts %u\n",
-                            r[0], r[1], r[2], r[3], valid, rows.count ? rows.used[0] : 0u,
-                            rows.count ? rows.rejected[0] : 0u, (long long)kf.p[0][0],
-                            (long long)kf.p[0][1], (long long)kf.p[0][2], (long long)kf.p[1][1],
-                            (long long)kf.p[1][2], (long long)kf.p[2][2], kf.restarts);
+                    fprintf(stderr, "  row [%u %u %u %u] valid %x: used %x rejected %x, ", r[0],
+                            r[1], r[2], r[3], valid, rows.count ? rows.used[0] : 0u,
+                            rows.count ? rows.rejected[0] : 0u);
+                    trace_covariance(&kf);
+                    fprintf(stderr, ", restarts %u\n", kf.restarts);
                 }
                 check_rows(&rows, (uint8_t)(valid & ANGLES_ALL_SENSORS));
                 check_covariance(&kf);
@@ -648,8 +660,8 @@ static void check_kalman(struct fuzz_input *in) {
             break;
         case 3: {
             const unsigned sensor = fuzz_u8(in) % ANGLES_SENSORS;
-            const int64_t z = fuzz_s64(in) >> (15u + fuzz_u8(in) % 49u); /* |z| < 2^49 */
-            (void)kalman_update(&kf, sensor, z, (op & 0x80u) != 0u);
+            (void)kalman_update(&kf, sensor, fuzz_u16(in), (op & 0x80u) != 0u);
+            check_covariance(&kf);
             break;
         }
         case 4: {
@@ -666,7 +678,9 @@ static void check_kalman(struct fuzz_input *in) {
             FUZZ_CHECK(res.beta_udeg >= -FIX_UDEG_90 && res.beta_udeg <= FIX_UDEG_90);
             FUZZ_CHECK(res.alpha_sigma_udeg >= 0 && res.beta_sigma_udeg >= 0);
             FUZZ_CHECK(!res.alpha_observable || kf.started);
-            FUZZ_CHECK(memcmp(res.p_mm2, kf.p, sizeof res.p_mm2) == 0);
+            fix_q32_t p[KALMAN_STATES][KALMAN_STATES];
+            kalman_covariance(&kf, p);
+            FUZZ_CHECK(memcmp(res.p_mm2, p, sizeof res.p_mm2) == 0);
             if ((op & 0x80u) != 0u) {
                 kalman_reset(&kf);
                 FUZZ_CHECK(!kf.started && kf.warm_rows == 0u);

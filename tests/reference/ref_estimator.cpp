@@ -368,9 +368,11 @@ void compare_window(const std::vector<Row> &rows, const attitude_config &cfg,
         const double d = std::fabs(ke.alpha_udeg - std::atan(x(1) / arm) * kUdegPerRad);
         worst.kalman = std::max(worst.kalman, d);
         check_le(d, kGoalUdeg, "kalman alpha (udeg)");
+        fix_q32_t p_fixed[KALMAN_STATES][KALMAN_STATES];
+        kalman_covariance(&st.kalman, p_fixed);
         for (int i = 0; i < 3; ++i) {
             for (int j = 0; j < 3; ++j) {
-                const double pf = static_cast<double>(st.kalman.p[i][j]) / 4294967296.0;
+                const double pf = static_cast<double>(p_fixed[i][j]) / 4294967296.0;
                 /* relative to the scale of the entry, plus 64 LSB of Q32 for the
                  * per-update roundings (the filter contracts them; they do not add up) */
                 const double diff = std::fabs(pf - pk(i, j));

@@ -94,7 +94,8 @@ enum attitude_error {
     ATTITUDE_ERR_TOLERANCE = -5,            /* consensus_tolerance_udeg outside [1, 10000000] */
     ATTITUDE_ERR_PAPER_ITERATIONS = -6,     /* paper_max_iterations is 0 */
     ATTITUDE_ERR_KALMAN_PROCESS_NOISE = -7, /* kalman_process_noise_um2 above 2^32 */
-    ATTITUDE_ERR_KALMAN_MEASUREMENT_NOISE = -8, /* a kalman_initial_noise_um2 is 0 */
+    ATTITUDE_ERR_KALMAN_MEASUREMENT_NOISE = -8, /* a kalman_initial_noise_um2 below the
+                                                   1/12 mm² of 1 mm rounding */
     ATTITUDE_ERR_KALMAN_WARMUP = -9,            /* kalman_warmup_rows outside 1..8 */
     ATTITUDE_ERR_KALMAN_NOISE_SHIFT = -10,      /* kalman_noise_shift above 8 */
     ATTITUDE_ERR_NULL = -11,                    /* a NULL pointer */
@@ -112,7 +113,7 @@ struct attitude_config {
     uint16_t gate_sigmas_q8; /* window gate: reject |x − median| > k·1.4826·MAD; 0: off */
     uint16_t gate_floor_mm;  /* ... but never closer than this */
     uint32_t kalman_process_noise_um2[KALMAN_STATES];    /* Q per row: x̄, a·tan α, a·tan β */
-    uint32_t kalman_initial_noise_um2[ATTITUDE_SENSORS]; /* R until the first window */
+    uint32_t kalman_initial_noise_um2[ATTITUDE_SENSORS]; /* R until the first window, >= 83334 */
     uint16_t kalman_gate_sigmas_q8;                      /* innovation gate k; 0: off */
     uint8_t kalman_warmup_rows;                          /* robust start: rows buffered */
     uint8_t kalman_noise_shift;                          /* R tracking gain 2^-shift per window */

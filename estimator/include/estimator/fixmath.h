@@ -113,7 +113,7 @@ uint32_t fix_norm31(uint64_t v, int32_t *e);
 /* ≈ 2^61 / m for m in [2^30, 2^31), in (2^30, 2^31), relative error < 2^-28: a 16-bit
  * quotient of one 32-bit division refined by one Newton step. */
 int32_t fix_recip31(uint32_t m);
-/* floor(v · r / 2^31) for |v| < 2^62 and 0 <= r < 2^31 (v times a Q31 fraction), exact,
+/* floor(v · r / 2^31) for |v| < 2^62 and any r (v times a Q31 fraction), exact,
  * from two 32x32 -> 64 products. */
 int64_t fix_mul_q31(int64_t v, int32_t r);
 /* floor(num / den) for den in [1, 65535]: four 32-by-16-bit division steps, exact. */

@@ -8,9 +8,22 @@
  * mm². Identity dynamics with a configurable process noise Q (diagonal; 0 for
  * the static-window protocol of the paper).
  *
- * Each row is four scalar updates, one per valid reading (R is diagonal, so no
- * matrix inverse: Alg. 2's [C P Cᵀ + R]⁻¹ becomes a division by a scalar s),
- * skipping flagged sensors. The covariance update is the Joseph form
+ * Two forms of the same filter, chosen by Q:
+ *
+ * Q = 0 (the default, the paper's static-window protocol): the information form.
+ * Without process noise Alg. 2 is recursive least squares, and its information
+ * matrix Y = P⁻¹ = y0·I + Σ h hᵀ/R never couples a·tan α with a·tan β (no row has
+ * both): the filter is, per sensor, the sum of the weights 1/R of its accepted
+ * readings and of their weighted deviations, two additions per reading. x and P
+ * follow in closed form (Schur complement on x̄, kalman.c) after each row, every
+ * divisor a sum of positive terms: P is positive definite by construction, no
+ * check or restart is needed. Each row's readings are gated against the state
+ * of the rows before it (not against each other).
+ *
+ * Q > 0: the covariance form. Each row is four scalar updates, one per valid
+ * reading (R is diagonal, so no matrix inverse: Alg. 2's [C P Cᵀ + R]⁻¹ becomes
+ * a division by a scalar s), skipping flagged sensors. The covariance update is
+ * the Joseph form
  *     P' = (I − k hᵀ) P (I − k hᵀ)ᵀ + k R kᵀ = P − k gᵀ − g kᵀ + s k kᵀ,
  * g = P h, s = hᵀg + R, evaluated with exact 128-bit products and one rounding
  * per entry, upper triangle mirrored: symmetric by construction, and correct
@@ -51,13 +64,24 @@
 #define KALMAN_STATES       3u
 #define KALMAN_WARMUP_MAX   8u
 #define KALMAN_LOCKOUT_ROWS 4u
+/* Smallest R: 1/12 mm² (Q32, rounded down), the variance of rounding to whole mm; a sensor
+ * reporting whole millimetres cannot be more certain. */
+#define KALMAN_R_MIN_Q32 ((int64_t)357913941)
 /* Diffuse prior: σ = 4096 mm on each state (P0 = 2^24 mm²). */
 #define KALMAN_P0_MM2_Q32 ((int64_t)1 << 56)
 
+/* Whether the covariance form (Q > 0) is built: a flight image that runs the static
+ * protocol only defines it 0 (with TOF_BOARD_DEFINITIONS) and kalman_init() then
+ * refuses a non-zero Q. */
+#ifndef KALMAN_COVARIANCE_BUILT
+#define KALMAN_COVARIANCE_BUILT 1
+#endif
+
 enum kalman_error {
     KALMAN_OK = 0,
-    KALMAN_ERR_PROCESS_NOISE = -1,     /* a Q entry negative or above P0 */
-    KALMAN_ERR_MEASUREMENT_NOISE = -2, /* an initial R not in (0, 2^20 mm²] */
+    KALMAN_ERR_PROCESS_NOISE = -1,     /* a Q entry negative or above P0, or non-zero
+                                          without KALMAN_COVARIANCE_BUILT */
+    KALMAN_ERR_MEASUREMENT_NOISE = -2, /* an initial R not in [1/12 mm², 2^20 mm²] */
     KALMAN_ERR_WARMUP = -3,            /* warmup_rows outside 1..KALMAN_WARMUP_MAX */
     KALMAN_ERR_NOISE_SHIFT = -4,       /* noise_shift above 8 */
 };
@@ -71,25 +95,28 @@ struct kalman_config {
     uint8_t noise_shift;     /* R tracking gain 2^-shift (0: replace each window) */
 };
 
-struct kalman_state {
-    struct kalman_config cfg;
-    fix_q32_t x[KALMAN_STATES];
+/* The information form's state (Q = 0; kalman.c): per sensor the weight of one reading
+ * (≈ 2^e / R in units of 2^-e mm⁻²), the exact sums of the accepted readings' weights and
+ * of weight · (z − x0_mm), and the last solve: the divisors d, Y_11, Y_22 as reciprocal
+ * mantissas (0: an axis with no reading) with their exponents, and g = Y_0j / Y_jj. */
+struct kalman_info {
+    int32_t e;
+    int32_t x0_mm;
+    int32_t w[ANGLES_SENSORS];
+    uint64_t a[ANGLES_SENSORS];
+    int64_t z[ANGLES_SENSORS];
+    uint32_t rec[KALMAN_STATES];
+    int32_t rec_e[KALMAN_STATES];
+    int32_t g[2];           /* Q31 */
+    uint16_t rows_to_check; /* rows until the sums' headroom is checked again */
+};
+
+/* The covariance form's state (Q > 0): P, and the steady-state updates' form of P
+ * (kalman.c, "the block update"): mantissas P ≈ bm · 2^be (packed upper triangle)
+ * while bvalid, taken from p brows rows ago; R in those units while rb_valid
+ * (exponent rb_pe). */
+struct kalman_cov {
     fix_q32_t p[KALMAN_STATES][KALMAN_STATES];
-    fix_q32_t r[ANGLES_SENSORS];
-    bool r_tracked[ANGLES_SENSORS]; /* R already replaced by window statistics */
-    bool started;                   /* warm-up done, running online */
-    uint8_t warm_rows;
-    uint16_t warm_range[KALMAN_WARMUP_MAX][ANGLES_SENSORS];
-    uint8_t warm_valid[KALMAN_WARMUP_MAX];
-    uint8_t reject_run[ANGLES_SENSORS]; /* consecutive gated-out readings per sensor */
-    uint32_t restarts;                  /* lock-outs and definiteness failures */
-    uint32_t numeric_restarts;          /* definiteness failures alone */
-    uint64_t gate_s_max;                /* s up to which s·k² fits 64 bits (fast gate) */
-    bool process_noise;                 /* some Q entry is non-zero */
-    /* The steady-state updates' form of P (kalman.c, "the block update"): mantissas
-     * P ≈ bm · 2^be (packed upper triangle) while bvalid, taken from p brows rows ago;
-     * R and the gate's sure-accept threshold in those units while rb_valid (exponent
-     * rb_pe). */
     bool bvalid;
     uint8_t brows;
     int32_t be;
@@ -97,8 +124,28 @@ struct kalman_state {
     bool rb_valid;
     int32_t rb_pe;
     int64_t rb[ANGLES_SENSORS];
-    uint64_t gate_accept[ANGLES_SENSORS];
     int32_t hph_max[ANGLES_SENSORS]; /* 4 R in those units (−1: R too large for them) */
+};
+
+struct kalman_state {
+    struct kalman_config cfg;
+    fix_q32_t x[KALMAN_STATES];
+    fix_q32_t r[ANGLES_SENSORS];
+    bool r_tracked[ANGLES_SENSORS]; /* R already replaced by window statistics */
+    bool started;                   /* warm-up done, running online */
+    uint8_t warm_rows;
+    uint16_t warm_range[KALMAN_WARMUP_MAX][ANGLES_SENSORS];
+    uint8_t warm_valid[KALMAN_WARMUP_MAX];
+    uint8_t reject_run[ANGLES_SENSORS];   /* consecutive gated-out readings per sensor */
+    uint32_t restarts;                    /* lock-outs and definiteness failures */
+    uint32_t numeric_restarts;            /* definiteness failures alone (covariance form) */
+    uint64_t gate_s_max;                  /* s up to which s·k² fits 64 bits (fast gate) */
+    uint64_t gate_accept[ANGLES_SENSORS]; /* e24² below this: inside the gate for any s >= R */
+    bool process_noise;                   /* some Q entry is non-zero: the covariance form */
+    union {                               /* the form process_noise selects */
+        struct kalman_info info;
+        struct kalman_cov cov;
+    } f;
 };
 
 /* Outcome of one kalman_push_row(): the rows it processed, oldest first (a
@@ -136,9 +183,12 @@ void kalman_push_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENS
  * warm-up, or the end of the data). */
 void kalman_flush(struct kalman_state *k, struct kalman_rows *out);
 
-/* One scalar measurement update of sensor `sensor` with z in mm (Q32), gated
- * when `gate` is set. Returns true if the reading was accepted. */
-bool kalman_update(struct kalman_state *k, unsigned sensor, fix_q32_t z_mm, bool gate);
+/* One measurement of sensor `sensor` (no prediction), gated when `gate` is set.
+ * Returns true if the reading was accepted. */
+bool kalman_update(struct kalman_state *k, unsigned sensor, uint16_t range_mm, bool gate);
+
+/* The covariance of the state (Q32 mm²), either form. */
+void kalman_covariance(const struct kalman_state *k, fix_q32_t p[KALMAN_STATES][KALMAN_STATES]);
 
 /* Feeds the gated sample variance (Q32 mm²) of `count` readings of a sensor in
  * the last window to its R (first time: replace; then track). count < 2: ignored. */
