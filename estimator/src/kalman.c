@@ -666,6 +666,11 @@ static void info_prior(struct kalman_state *k) {
     info_solve(k); /* x = θ0, P = P0·I */
 }
 
+/* |v| for |v| < 2^63 (the sums and quotients of the solve), inline. */
+FIX_INLINE uint64_t info_abs(int64_t v) {
+    return v < 0 ? (uint64_t)(-v) : (uint64_t)v;
+}
+
 /* (v · r) / 2^31 for v < 2^59 and r < 2^32: two 32x32 products, truncated. */
 FIX_INLINE uint64_t info_mul(uint64_t v, uint32_t r) {
     const uint64_t hi = (v >> 32) * r;             /* < 2^59 */
@@ -675,7 +680,7 @@ FIX_INLINE uint64_t info_mul(uint64_t v, uint32_t r) {
 
 FIX_INLINE int64_t info_mul_s(int64_t v, int32_t r) {
     const bool neg = (v < 0) != (r < 0);
-    const uint64_t m = info_mul(fix_abs_u64(v), r < 0 ? (uint32_t)(-(int64_t)r) : (uint32_t)r);
+    const uint64_t m = info_mul(info_abs(v), r < 0 ? (uint32_t)(-(int64_t)r) : (uint32_t)r);
     return neg ? -(int64_t)m : (int64_t)m;
 }
 
@@ -698,7 +703,7 @@ FIX_INLINE int64_t info_scaled(int64_t z, uint64_t v, int32_t e, uint32_t r) {
     int32_t ev;
     const uint32_t mv = fix_norm31_inline(v, &ev);
     const uint32_t t = (uint32_t)(((uint64_t)mv * r) >> 30); /* v/D · 2^(31 + e − ev) */
-    const uint64_t q = info_shift(info_mul(fix_abs_u64(z), t), ev - e);
+    const uint64_t q = info_shift(info_mul(info_abs(z), t), ev - e);
     return z < 0 ? -(int64_t)q : (int64_t)q;
 }
 
@@ -708,7 +713,7 @@ FIX_INLINE int64_t info_quotient(int64_t v, int32_t e_d, uint32_t r) {
         return 0;
     }
     int32_t ev;
-    const uint32_t vm = fix_norm31_inline(fix_abs_u64(v), &ev);
+    const uint32_t vm = fix_norm31_inline(info_abs(v), &ev);
     const uint64_t prod = (uint64_t)vm * r; /* v/D · 2^(61 + e_d − ev), < 2^62 */
     const int32_t sh = ev - e_d - 29;
     const uint64_t q =
@@ -718,19 +723,27 @@ FIX_INLINE int64_t info_quotient(int64_t v, int32_t e_d, uint32_t r) {
     return v < 0 ? -(int64_t)q : (int64_t)q;
 }
 
+/* (v · r) / 2^(31 − fine), truncated, for fine <= 31 and v < 2^(42 − fine), or fine = 0 and
+ * v < 2^59 (the solve's finer units, info_solve). */
+FIX_INLINE uint64_t info_mul_fine(uint64_t v, uint32_t r, unsigned fine) {
+    const uint64_t hi = (v >> 32) * r;
+    const uint64_t lo = (uint64_t)(uint32_t)v * r;
+    return (hi << (1u + fine)) + (lo >> (31u - fine));
+}
+
 /* One axis of the solve: its terms of d and of d·δx̄, and δθ_j before − g_j δx̄. */
 struct info_axis {
-    uint64_t q;    /* (y0(a_m + a_p) + 4 a_m a_p) / Y_jj, units */
+    uint64_t q;    /* (y0(a_m + a_p) + 4 a_m a_p) / Y_jj, units · 2^-fine */
     int64_t n;     /* ((y0 + 2a_p) ζ_m + (y0 + 2a_m) ζ_p) / Y_jj, units·mm */
     int64_t slope; /* (ζ_p − ζ_m) / Y_jj, Q32 mm */
 };
 
-FIX_INLINE void info_axis_solve(struct kalman_info *in, unsigned j,
-                                const uint64_t a[ANGLES_SENSORS], const int64_t z[ANGLES_SENSORS],
-                                unsigned sm, unsigned sp, uint64_t y0, int32_t fine,
-                                struct info_axis *ax) {
-    const uint64_t am = a[sm];
-    const uint64_t ap = a[sp];
+static void info_axis_solve(struct kalman_info *in, unsigned j, unsigned sm, unsigned sp,
+                                uint64_t y0, unsigned fine, struct info_axis *ax) {
+    const uint64_t am = in->a[sm];
+    const uint64_t ap = in->a[sp];
+    const int64_t zm = in->z[sm];
+    const int64_t zp = in->z[sp];
     const uint64_t sum = am + ap;
     if (sum == 0u) { /* the prior alone: Y_jj = y0, nothing couples the axis to x̄ */
         in->rec[j] = 0u;
@@ -744,43 +757,38 @@ FIX_INLINE void info_axis_solve(struct kalman_info *in, unsigned j,
     const uint32_t m = fix_norm31_inline(sum + y0, &e);
     const uint32_t r = (uint32_t)fix_recip31_inline(m);
     in->rec[j] = r;
-    in->rec_e[j] = e - fine;
+    in->rec_e[j] = e;
     const uint32_t rm = info_ratio(am, e, r);
     const uint32_t rp = info_ratio(ap, e, r);
     in->g[j - 1u] = (int32_t)((int64_t)rp - (int64_t)rm);
     /* 4 a_m a_p / Y_jj as 4 · min · (max / Y_jj): the ratio at least about 1/2 */
     const uint64_t lo = am < ap ? am : ap;
     const uint32_t r_hi = am < ap ? rp : rm;
-    ax->q = info_mul(4u * lo, r_hi) + info_mul(y0, rm + rp);
-    ax->n = info_scaled(z[sm], y0 + 2u * ap, e, r) + info_scaled(z[sp], y0 + 2u * am, e, r);
-    ax->slope = info_quotient(z[sp] - z[sm], e, r);
+    ax->q = info_mul_fine(4u * lo, r_hi, fine) + info_mul_fine(y0, rm + rp, fine);
+    ax->n = info_scaled(zm, y0 + 2u * ap, e, r) + info_scaled(zp, y0 + 2u * am, e, r);
+    ax->slope = info_quotient(zp - zm, e, r);
 }
 
 /* x and the factors of P from the sums. */
 static void info_solve(struct kalman_state *k) {
     struct kalman_info *in = &k->f.info;
-    /* Finer units for the solve while the sums are small (the first rows): each weight sum
-     * below 2^42 after the shift, so |ζ| <= a · 2^17 stays below 2^59. The quotients'
-     * integer parts (q, d, n) then keep their bits whatever a weak sensor weighs. */
-    const uint64_t top = in->a[0] | in->a[1] | in->a[2] | in->a[3] | info_y0(in);
+    /* d in finer units (2^-fine) while the sums are small (the first rows: each weight sum
+     * below 2^(42 − fine)): its terms' integer parts then keep their bits whatever a weak
+     * sensor weighs. */
+    const uint64_t y0 = info_y0(in);
+    const uint64_t top = in->a[0] | in->a[1] | in->a[2] | in->a[3] | y0;
     const int32_t fine_bits = 42 - (int32_t)fix_bitlen_u64(top);
-    const unsigned fine = fine_bits > 0 ? (unsigned)fine_bits : 0u;
-    uint64_t a[ANGLES_SENSORS];
-    int64_t z[ANGLES_SENSORS];
-    for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
-        a[s] = in->a[s] << fine;
-        z[s] = in->z[s] * ((int64_t)1 << fine);
-    }
-    const uint64_t y0 = info_y0(in) << fine;
+    const unsigned fine = fine_bits > 0 ? (fine_bits < 31 ? (unsigned)fine_bits : 31u) : 0u;
     struct info_axis al;
     struct info_axis be;
-    info_axis_solve(in, 1u, a, z, ANGLES_A, ANGLES_C, y0, (int32_t)fine, &al);
-    info_axis_solve(in, 2u, a, z, ANGLES_D, ANGLES_B, y0, (int32_t)fine, &be);
+    info_axis_solve(in, 1u, ANGLES_A, ANGLES_C, y0, fine, &al);
+    info_axis_solve(in, 2u, ANGLES_D, ANGLES_B, y0, fine, &be);
     int32_t ed;
-    const uint32_t md = fix_norm31_inline(y0 + al.q + be.q, &ed);
+    const uint32_t md = fix_norm31_inline((y0 << fine) + al.q + be.q, &ed);
     const uint32_t rd = (uint32_t)fix_recip31_inline(md);
+    ed -= (int32_t)fine; /* d in units */
     in->rec[0] = rd;
-    in->rec_e[0] = ed - (int32_t)fine;
+    in->rec_e[0] = ed;
     const int64_t dx = info_quotient(al.n + be.n, ed, rd);
     k->x[0] = ((int64_t)in->x0_mm << FIX_Q32_SHIFT) + dx;
     k->x[1] = al.slope - info_mul_s(dx, in->g[0]);

@@ -3,7 +3,8 @@
  * kalman, cmake/toolchain/board-nucleo-l476rg.cmake; this test compiles attitude.c with
  * that definition): the default selects exactly the built estimators, a configuration
  * selecting one that is not built is refused, and the built ones estimate a tilted
- * plate as in the full build while the others read "disabled".
+ * plate as in the full build while the others read "disabled". Its Kalman filter has no
+ * covariance form (KALMAN_COVARIANCE_BUILT = 0): a process noise is refused.
  */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -20,6 +21,7 @@
     (ATTITUDE_EST_BIT(ATTITUDE_EST_CONSENSUS) | ATTITUDE_EST_BIT(ATTITUDE_EST_KALMAN))
 
 _Static_assert(ATTITUDE_EST_BUILT == FLIGHT_SET, "compiled with the flight estimator set");
+_Static_assert(KALMAN_COVARIANCE_BUILT == 0, "compiled without the covariance form");
 
 static struct attitude_state st;
 static struct attitude_output out;
@@ -88,8 +90,22 @@ static void test_built_estimators_run_others_disabled(void **state) {
     }
 }
 
+static void test_process_noise_refused(void **state) {
+    (void)state;
+    struct attitude_config cfg;
+    attitude_config_default(&cfg);
+    cfg.kalman_process_noise_um2[1] = 1u;
+    assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_KALMAN_PROCESS_NOISE);
+    assert_string_equal(attitude_error_message(ATTITUDE_ERR_KALMAN_PROCESS_NOISE),
+                        "kalman_process_noise_um2 too large, or not 0 in an image built without "
+                        "the covariance form");
+    cfg.kalman_process_noise_um2[1] = 0u;
+    assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_NONE);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_process_noise_refused),
         cmocka_unit_test(test_default_selects_the_built_set),
         cmocka_unit_test(test_unbuilt_estimator_refused),
         cmocka_unit_test(test_built_estimators_run_others_disabled),
