@@ -739,7 +739,7 @@ struct info_axis {
 };
 
 static void info_axis_solve(struct kalman_info *in, unsigned j, unsigned sm, unsigned sp,
-                                uint64_t y0, unsigned fine, struct info_axis *ax) {
+                            uint64_t y0, unsigned fine, struct info_axis *ax) {
     const uint64_t am = in->a[sm];
     const uint64_t ap = in->a[sp];
     const int64_t zm = in->z[sm];

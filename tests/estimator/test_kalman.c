@@ -295,6 +295,44 @@ static void test_forms_match_double(void **state) {
                   "%.2g mm, P %.2g rel\n",
                   worst_x[0], worst_p[0], worst_x[1], worst_p[1]);
 }
+/* The information form's sums near their headroom: readings 65 m from the prior mean make
+ * each weight·deviation 2^46, so the sums pass their check bound within a few thousand rows
+ * and halve (with the weights) several times; the state and P still follow Alg. 2 in double. */
+static void test_information_form_sums_halve(void **state) {
+    (void)state;
+    struct kalman_config c = default_config();
+    c.gate_sigmas_q8 = 0;
+    c.warmup_rows = 1;
+    c.initial_noise_mm2[2] = (int64_t)9 << 32; /* unequal weights */
+    assert_int_equal(kalman_init(&kf, &c), KALMAN_OK);
+    kf.started = true; /* prior mean 0: every deviation is the reading itself */
+    const int32_t e_start = kf.f.info.e;
+    struct dkf d;
+    dkf_init(&d);
+    static const uint16_t base[4] = {65000, 65300, 65500, 65200};
+    for (int row = 0; row < 40000; ++row) {
+        uint16_t z[4];
+        for (unsigned s = 0; s < 4; ++s) {
+            z[s] = (uint16_t)(base[s] + (unsigned)(row * 7 + (int)s * 13) % 31u);
+            dkf_update(&d, s, z[s], (double)kf.r[s] / Q32);
+        }
+        struct kalman_rows rows;
+        kalman_push_row(&kf, z, 0x0F, &rows);
+    }
+    assert_true(kf.f.info.e < e_start); /* the sums halved */
+    fix_q32_t p[3][3];
+    kalman_covariance(&kf, p);
+    for (unsigned a = 0; a < 3; ++a) {
+        assert_true(fabs((double)kf.x[a] / Q32 - d.x[a]) < 1e-4);
+        for (unsigned b = 0; b < 3; ++b) {
+            const double scale = sqrt(d.p[a][a] * d.p[b][b]);
+            assert_true(fabs((double)p[a][b] / Q32 - d.p[a][b]) < 1e-5 * scale + 16.0 / Q32);
+        }
+    }
+    print_message("sums halved %d times; x within %.2g mm of double\n", e_start - kf.f.info.e,
+                  fabs((double)kf.x[0] / Q32 - d.x[0]));
+}
+
 static void test_long_run_stays_positive_definite(void **state) {
     (void)state;
     struct kalman_config c = default_config();
@@ -558,6 +596,7 @@ int main(void) {
         cmocka_unit_test(test_noise_free_plate_is_exact),
         cmocka_unit_test(test_matches_batch_least_squares),
         cmocka_unit_test(test_forms_match_double),
+        cmocka_unit_test(test_information_form_sums_halve),
         cmocka_unit_test(test_long_run_stays_positive_definite),
         cmocka_unit_test(test_flagged_skipped_and_outliers_gated),
         cmocka_unit_test(test_warmup_outlier_in_first_rows),
