@@ -24,7 +24,7 @@ static bool covariance_form(const struct kalman_state *k) {
 
 static void r_changed(struct kalman_state *k);
 static void info_prior(struct kalman_state *k);
-static void info_solve(struct kalman_state *k);
+static void info_solve_general(struct kalman_state *k);
 
 int kalman_init(struct kalman_state *k, const struct kalman_config *cfg) {
     for (unsigned i = 0; i < KALMAN_STATES; ++i) {
@@ -656,15 +656,6 @@ static void info_set_weights(struct kalman_state *k) {
     }
 }
 
-/* The state after no reading: the prior. */
-static void info_prior(struct kalman_state *k) {
-    struct kalman_info *in = &k->f.info;
-    (void)memset(in->a, 0, sizeof in->a);
-    (void)memset(in->z, 0, sizeof in->z);
-    in->rows_to_check = INFO_CHECK_ROWS;
-    info_set_weights(k);
-    info_solve(k); /* x = θ0, P = P0·I */
-}
 
 /* |v| for |v| < 2^63 (the sums and quotients of the solve), inline. */
 FIX_INLINE uint64_t info_abs(int64_t v) {
@@ -731,36 +722,43 @@ FIX_INLINE uint64_t info_mul_fine(uint64_t v, uint32_t r, unsigned fine) {
     return (hi << (1u + fine)) + (lo >> (31u - fine));
 }
 
-/* One axis of the solve: its terms of d and of d·δx̄, and δθ_j before − g_j δx̄. */
+/* One axis of the general solve (sensors m and p of its rows, kalman.h): its divisor
+ * Y_jj = m · 2^e with r = fix_recip31(m), g = Y_0j/Y_jj, its terms of d and of d·δx̄, and
+ * δθ_j before − g_j δx̄. */
 struct info_axis {
+    uint32_t r;
+    int32_t e;
+    int32_t g;     /* Q31 */
     uint64_t q;    /* (y0(a_m + a_p) + 4 a_m a_p) / Y_jj, units · 2^-fine */
     int64_t n;     /* ((y0 + 2a_p) ζ_m + (y0 + 2a_m) ζ_p) / Y_jj, units·mm */
     int64_t slope; /* (ζ_p − ζ_m) / Y_jj, Q32 mm */
+    bool empty;    /* no reading: Y_jj = y0, nothing couples the axis to x̄ */
 };
 
-static void info_axis_solve(struct kalman_info *in, unsigned j, unsigned sm, unsigned sp,
-                            uint64_t y0, unsigned fine, struct info_axis *ax) {
+static void info_axis_solve(const struct kalman_info *in, unsigned sm, unsigned sp, uint64_t y0,
+                            unsigned fine, struct info_axis *ax) {
     const uint64_t am = in->a[sm];
     const uint64_t ap = in->a[sp];
     const int64_t zm = in->z[sm];
     const int64_t zp = in->z[sp];
     const uint64_t sum = am + ap;
-    if (sum == 0u) { /* the prior alone: Y_jj = y0, nothing couples the axis to x̄ */
-        in->rec[j] = 0u;
-        in->g[j - 1u] = 0;
+    ax->empty = sum == 0u;
+    if (ax->empty) {
+        ax->r = 0u;
+        ax->e = 0;
+        ax->g = 0;
         ax->q = 0u;
         ax->n = 0;
         ax->slope = 0;
         return;
     }
-    int32_t e;
-    const uint32_t m = fix_norm31_inline(sum + y0, &e);
+    const uint32_t m = fix_norm31_inline(sum + y0, &ax->e);
     const uint32_t r = (uint32_t)fix_recip31_inline(m);
-    in->rec[j] = r;
-    in->rec_e[j] = e;
+    const int32_t e = ax->e;
+    ax->r = r;
     const uint32_t rm = info_ratio(am, e, r);
     const uint32_t rp = info_ratio(ap, e, r);
-    in->g[j - 1u] = (int32_t)((int64_t)rp - (int64_t)rm);
+    ax->g = (int32_t)((int64_t)rp - (int64_t)rm);
     /* 4 a_m a_p / Y_jj as 4 · min · (max / Y_jj): the ratio at least about 1/2 */
     const uint64_t lo = am < ap ? am : ap;
     const uint32_t r_hi = am < ap ? rp : rm;
@@ -769,9 +767,15 @@ static void info_axis_solve(struct kalman_info *in, unsigned j, unsigned sm, uns
     ax->slope = info_quotient(zp - zm, e, r);
 }
 
-/* x and the factors of P from the sums. */
-static void info_solve(struct kalman_state *k) {
-    struct kalman_info *in = &k->f.info;
+/* The general solve's factors: both axes and d = m · 2^ed (units) with rd = fix_recip31(m). */
+struct info_solution {
+    struct info_axis al;
+    struct info_axis be;
+    uint32_t rd;
+    int32_t ed;
+};
+
+static void info_factors(const struct kalman_info *in, struct info_solution *sol) {
     /* d in finer units (2^-fine) while the sums are small (the first rows: each weight sum
      * below 2^(42 − fine)): its terms' integer parts then keep their bits whatever a weak
      * sensor weighs. */
@@ -779,66 +783,202 @@ static void info_solve(struct kalman_state *k) {
     const uint64_t top = in->a[0] | in->a[1] | in->a[2] | in->a[3] | y0;
     const int32_t fine_bits = 42 - (int32_t)fix_bitlen_u64(top);
     const unsigned fine = fine_bits > 0 ? (fine_bits < 31 ? (unsigned)fine_bits : 31u) : 0u;
-    struct info_axis al;
-    struct info_axis be;
-    info_axis_solve(in, 1u, ANGLES_A, ANGLES_C, y0, fine, &al);
-    info_axis_solve(in, 2u, ANGLES_D, ANGLES_B, y0, fine, &be);
-    int32_t ed;
-    const uint32_t md = fix_norm31_inline((y0 << fine) + al.q + be.q, &ed);
-    const uint32_t rd = (uint32_t)fix_recip31_inline(md);
-    ed -= (int32_t)fine; /* d in units */
-    in->rec[0] = rd;
-    in->rec_e[0] = ed;
-    const int64_t dx = info_quotient(al.n + be.n, ed, rd);
-    k->x[0] = ((int64_t)in->x0_mm << FIX_Q32_SHIFT) + dx;
-    k->x[1] = al.slope - info_mul_s(dx, in->g[0]);
-    k->x[2] = be.slope - info_mul_s(dx, in->g[1]);
+    info_axis_solve(in, ANGLES_A, ANGLES_C, y0, fine, &sol->al);
+    info_axis_solve(in, ANGLES_D, ANGLES_B, y0, fine, &sol->be);
+    const uint32_t md = fix_norm31_inline((y0 << fine) + sol->al.q + sol->be.q, &sol->ed);
+    sol->rd = (uint32_t)fix_recip31_inline(md);
+    sol->ed -= (int32_t)fine; /* d in units */
 }
 
-/* One accepted reading of sensor s (the sums' headroom: info_row). */
+/* x from the sums, any rows. */
+static void info_solve_general(struct kalman_state *k) {
+    const struct kalman_info *in = &k->f.info;
+    struct info_solution sol;
+    info_factors(in, &sol);
+    const int64_t dx = info_quotient(sol.al.n + sol.be.n, sol.ed, sol.rd);
+    k->x[0] = ((int64_t)in->x0_mm << FIX_Q32_SHIFT) + dx;
+    k->x[1] = sol.al.slope - info_mul_s(dx, sol.al.g);
+    k->x[2] = sol.be.slope - info_mul_s(dx, sol.be.g);
+}
+
+/* The state after no reading: the prior, a uniform run of no rows. */
+static void info_prior(struct kalman_state *k) {
+    struct kalman_info *in = &k->f.info;
+    (void)memset(in->a, 0, sizeof in->a);
+    (void)memset(in->z, 0, sizeof in->z);
+    (void)memset(in->dsum, 0, sizeof in->dsum);
+    in->rows_to_check = INFO_CHECK_ROWS;
+    in->uniform = true;
+    in->fast_ready = false;
+    in->n = 0;
+    info_set_weights(k);
+    info_solve_general(k); /* x = θ0 */
+}
+
+/* --- the fast solve of a uniform run ----------------------------------------------------
+ * While every row since the start accepted all four readings with the same weights w_s,
+ * a_s = n·w_s and ζ_s = w_s·D_s (D_s the sum of sensor s's deviations): Y = n·(M0 + εI)
+ * with M0 = Σ w_s h_s h_sᵀ constant and ε = y0/n, and Y δ = n·Σ h_s w_s μ_s with the means
+ * μ_s = D_s/n. So δ = (M0 + εI)⁻¹ b = δ0 − ε·G·δ0 + O(ε²‖G‖²), G = M0⁻¹, δ0 = G b. From
+ * the Schur formulas with y0 = 0, δ0 is a fixed mix of the four means:
+ *     δx̄  = κ (μ_A + μ_C) + (1/2 − κ)(μ_D + μ_B),   κ = q_α/(2 d0)
+ *     δθ_j = π_p μ_p − π_m μ_m − g_j δx̄,            π_s = w_s/W_j, g_j = π_p − π_m
+ * (q_j = 4 w_m w_p / W_j, d0 = q_α + q_β), and G δ0 follows from 1/d0, 1/W_α, 1/W_β:
+ * (Gδ)_0 = (δ0 − g_α δα − g_β δβ)/d0, (Gδ)_j = δ_j/W_j − g_j (Gδ)_0. The coefficients are
+ * set once per run; a row costs one reciprocal of n and a dozen 32x32 products. The
+ * prior's term is first order: the run uses it from the row n_fast on, where
+ * ε‖G‖ < 2^-16 (its square, the neglected term, below 2^-32); before that, and whenever
+ * a mean is 128 mm or more from x0, the general solve. P always comes from the sums. */
+
+#define INFO_FAST_MEAN_LIMIT ((int64_t)1 << 31) /* |μ| in Q24 below 128 mm */
+
+/* 2^(e + 16) / den (mm² Q16 for den in units), or −1 from 256 mm² on (the fast solve's
+ * products stay below 2^62 with that bound). */
+static int32_t info_inv_q16(uint64_t den, int32_t e) {
+    if (den == 0u || e + 16 > 62) {
+        return -1;
+    }
+    const uint64_t v = (e + 16 >= 0 ? (uint64_t)1 << (unsigned)(e + 16) : 0u) / den;
+    return v < ((uint64_t)1 << 24) ? (int32_t)v : -1;
+}
+
+/* The run's coefficients from its weights (once per run; exact 64-bit divisions). A run
+ * they do not suit (noise beyond 256 mm²) never takes the fast solve (n_fast: never). */
+static void info_fast_prepare(struct kalman_info *in) {
+    in->fast_ready = true;
+    in->n_fast = UINT32_MAX;
+    const uint64_t w[ANGLES_SENSORS] = {(uint64_t)in->w[0], (uint64_t)in->w[1],
+                                        (uint64_t)in->w[2], (uint64_t)in->w[3]};
+    const uint64_t w_al = w[ANGLES_A] + w[ANGLES_C]; /* <= 2^31 */
+    const uint64_t w_be = w[ANGLES_B] + w[ANGLES_D];
+    in->pi[ANGLES_A] = (int32_t)((w[ANGLES_A] << 31) / w_al); /* < 2^31: w_C >= 1 */
+    in->pi[ANGLES_C] = (int32_t)((w[ANGLES_C] << 31) / w_al);
+    in->pi[ANGLES_B] = (int32_t)((w[ANGLES_B] << 31) / w_be);
+    in->pi[ANGLES_D] = (int32_t)((w[ANGLES_D] << 31) / w_be);
+    const uint64_t q_al = (4u * w[ANGLES_A] * w[ANGLES_C]) / w_al; /* < 2^33 */
+    const uint64_t q_be = (4u * w[ANGLES_B] * w[ANGLES_D]) / w_be;
+    const uint64_t d0 = q_al + q_be;
+    in->kappa = (int32_t)((q_al << 30) / d0); /* q_α/(2 d0) in Q31 */
+    in->inv_q16[0] = info_inv_q16(d0, in->e);
+    in->inv_q16[1] = info_inv_q16(w_al, in->e);
+    in->inv_q16[2] = info_inv_q16(w_be, in->e);
+    int32_t top = 0;
+    for (unsigned j = 0; j < KALMAN_STATES; ++j) {
+        if (in->inv_q16[j] < 0) {
+            return;
+        }
+        top = in->inv_q16[j] > top ? in->inv_q16[j] : top;
+    }
+    /* ε‖G‖ <= 2^-24 · 3 · 2 · max(1/d0, 1/W) / n < 2^-16: n > 6 · top (Q16) / 2^24 */
+    in->n_fast = 1u + (uint32_t)(((uint64_t)top * 6u) >> 24);
+}
+
+/* x from the run's means; false (nothing changed) when the run does not allow it. The
+ * products are 32x32 -> 64 and every shift takes the 32-bit result from the two halves
+ * (shr_to_s32): a row costs about a hundred instructions. */
+static bool info_fast_solve(struct kalman_state *k) {
+    struct kalman_info *in = &k->f.info;
+    if (in->n < in->n_fast) {
+        return false;
+    }
+    int32_t en;
+    const uint32_t mn = fix_norm31_inline(in->n, &en); /* en <= 0 below 2^31 rows */
+    const int32_t rn = fix_recip31_inline(mn);         /* 1/n = rn · 2^(−61 − en) */
+    const unsigned mean_shift = (unsigned)(37 + en);   /* μ (Q24) = D · rn / 2^(37 + en) */
+    int32_t mu[ANGLES_SENSORS];
+    for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
+        const int64_t dsum = in->dsum[s];
+        /* |D| < 2^31 (one product) and |μ| < 128 mm (Q24 in an int32) */
+        if ((uint64_t)(dsum + INT32_MAX) > (uint64_t)INT32_MAX * 2u) {
+            return false;
+        }
+        const int64_t prod = dsum * rn; /* |prod| < 2^62 */
+        if (mean_shift < 31u) {
+            const int64_t limit = (int64_t)1 << (mean_shift + 31u);
+            if (prod >= limit || prod < -limit) {
+                return false;
+            }
+        }
+        mu[s] = shr_to_s32(prod, mean_shift);
+    }
+    /* δ0 in Q55 (Q31 × Q24), then Q24 */
+    const int32_t kb = (int32_t)0x40000000 - in->kappa;
+    const int64_t dx55 = (int64_t)in->kappa * mu[ANGLES_A] + (int64_t)in->kappa * mu[ANGLES_C] +
+                         (int64_t)kb * mu[ANGLES_D] + (int64_t)kb * mu[ANGLES_B];
+    const int32_t dx = shr_to_s32(dx55, 31u); /* |δx̄| < 128 mm */
+    const int32_t ga = in->pi[ANGLES_C] - in->pi[ANGLES_A];
+    const int32_t gb = in->pi[ANGLES_B] - in->pi[ANGLES_D];
+    const int64_t ta55 = (int64_t)in->pi[ANGLES_C] * mu[ANGLES_C] -
+                         (int64_t)in->pi[ANGLES_A] * mu[ANGLES_A] - (int64_t)ga * dx;
+    const int64_t tb55 = (int64_t)in->pi[ANGLES_B] * mu[ANGLES_B] -
+                         (int64_t)in->pi[ANGLES_D] * mu[ANGLES_D] - (int64_t)gb * dx;
+    const int32_t ta = shr_to_s32(ta55, 31u); /* |δθ| < 256 mm */
+    const int32_t tb = shr_to_s32(tb55, 31u);
+    /* The prior: − ε G δ0 with ε = 2^-24/n mm⁻², at most 2^-16 of δ0 (n >= n_fast): ten bits
+     * of it are enough, so δ in Q16 and G δ in Q8 (mm³), 32-bit. */
+    const int32_t dx16 = shr_to_s32(dx, 8u);
+    const int32_t ta16 = shr_to_s32(ta, 8u);
+    const int32_t tb16 = shr_to_s32(tb, 8u);
+    const int32_t c0 = dx16 - shr_to_s32((int64_t)ga * ta16 + (int64_t)gb * tb16, 31u); /* Q16 */
+    const int32_t g0 = shr_to_s32((int64_t)c0 * in->inv_q16[0], 24u); /* (Gδ)_0, Q8 */
+    const int32_t g1 = shr_to_s32((int64_t)ta16 * in->inv_q16[1], 24u) -
+                       shr_to_s32((int64_t)ga * g0, 31u);
+    const int32_t g2 = shr_to_s32((int64_t)tb16 * in->inv_q16[2], 24u) -
+                       shr_to_s32((int64_t)gb * g0, 31u);
+    /* ε (Gδ) in Q32 = (Gδ)_Q8 · 2^24 · 2^-24 / n = (Gδ)_Q8 · rn / 2^(61 + en) */
+    const unsigned corr_shift = (unsigned)(61 + en);
+    k->x[0] = ((int64_t)in->x0_mm << FIX_Q32_SHIFT) + (int64_t)dx * 256 -
+              shr_to_s32((int64_t)g0 * rn, corr_shift);
+    k->x[1] = (int64_t)ta * 256 - shr_to_s32((int64_t)g1 * rn, corr_shift);
+    k->x[2] = (int64_t)tb * 256 - shr_to_s32((int64_t)g2 * rn, corr_shift);
+    return true;
+}
+
+/* One accepted reading of sensor s (the sums' headroom: info_check_sums). */
 FIX_INLINE void info_add(struct kalman_info *in, unsigned s, uint16_t range_mm) {
-    const int32_t dev = (int32_t)range_mm - in->x0_mm; /* |dev| < 2^16 + 2^16 */
+    const int32_t dev = (int32_t)range_mm - in->x0_mm; /* |dev| < 2^17 */
     in->a[s] += (uint32_t)in->w[s];
     in->z[s] += (int64_t)in->w[s] * dev;
+    in->dsum[s] += dev; /* below 2^17 per row: never near 2^63 */
 }
 
-/* Before a row: every INFO_CHECK_ROWS rows the sums' headroom, halved past INFO_SUM_CHECK. */
+/* Before a row: every INFO_CHECK_ROWS rows the sums' headroom, halved past INFO_SUM_CHECK
+ * (the weights change: the uniform run ends). */
 static void info_check_sums(struct kalman_info *in) {
     if (--in->rows_to_check != 0u) {
         return;
     }
     in->rows_to_check = INFO_CHECK_ROWS;
     for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
-        if (in->a[s] >= INFO_SUM_CHECK || fix_abs_u64(in->z[s]) >= INFO_SUM_CHECK) {
+        if (in->a[s] >= INFO_SUM_CHECK || info_abs(in->z[s]) >= INFO_SUM_CHECK) {
             info_coarser(in, 1u);
             for (unsigned t = 0; t < ANGLES_SENSORS; ++t) {
                 in->w[t] = in->w[t] > 1 ? in->w[t] / 2 : 1;
             }
+            in->uniform = false;
             return;
         }
     }
 }
 
-/* 1/D in Q32 mm² from its reciprocal (0: the prior, P0). */
-static fix_q32_t info_inverse(const struct kalman_info *in, unsigned j) {
-    return in->rec[j] == 0u
-               ? KALMAN_P0_MM2_Q32
-               : info_quotient((int64_t)1 << (unsigned)in->e, in->rec_e[j], in->rec[j]);
-}
-
-/* P of the last solve. */
+/* P from the sums (either solve). */
 static void info_covariance(const struct kalman_state *k,
                             fix_q32_t p[KALMAN_STATES][KALMAN_STATES]) {
     const struct kalman_info *in = &k->f.info;
-    const fix_q32_t inv_d = info_inverse(in, 0u);
-    const fix_q32_t ga = info_mul_s(inv_d, in->g[0]); /* g_α/d */
-    const fix_q32_t gb = info_mul_s(inv_d, in->g[1]);
+    struct info_solution sol;
+    info_factors(in, &sol);
+    const int64_t one = (int64_t)1 << (unsigned)in->e; /* 1 mm⁻² in units */
+    const fix_q32_t inv_d = info_quotient(one, sol.ed, sol.rd);
+    const fix_q32_t inv_a = sol.al.empty ? KALMAN_P0_MM2_Q32 : info_quotient(one, sol.al.e, sol.al.r);
+    const fix_q32_t inv_b = sol.be.empty ? KALMAN_P0_MM2_Q32 : info_quotient(one, sol.be.e, sol.be.r);
+    const fix_q32_t ga = info_mul_s(inv_d, sol.al.g); /* g_α/d */
+    const fix_q32_t gb = info_mul_s(inv_d, sol.be.g);
     p[0][0] = inv_d;
     p[0][1] = -ga;
     p[0][2] = -gb;
-    p[1][1] = info_inverse(in, 1u) + info_mul_s(ga, in->g[0]);
-    p[1][2] = info_mul_s(ga, in->g[1]);
-    p[2][2] = info_inverse(in, 2u) + info_mul_s(gb, in->g[1]);
+    p[1][1] = inv_a + info_mul_s(ga, sol.al.g);
+    p[1][2] = info_mul_s(ga, sol.be.g);
+    p[2][2] = inv_b + info_mul_s(gb, sol.be.g);
     p[1][0] = p[0][1];
     p[2][0] = p[0][2];
     p[2][1] = p[1][2];
@@ -863,8 +1003,14 @@ static void r_changed(struct kalman_state *k) {
     if (covariance_form(k)) {
         k->f.cov.rb_valid = false;
     } else {
-        info_set_weights(k); /* may change the units: x and P again from the sums */
-        info_solve(k);
+        struct kalman_info *in = &k->f.info;
+        const bool empty = (in->a[0] | in->a[1] | in->a[2] | in->a[3]) == 0u;
+        info_set_weights(k); /* may change the units: x again from the sums */
+        if (!empty) {
+            in->uniform = false; /* past readings keep their weights */
+        }
+        in->fast_ready = false;
+        info_solve_general(k);
     }
 }
 
@@ -882,12 +1028,14 @@ static bool info_gated_out(const struct kalman_state *k, unsigned sensor, uint16
     }
     fix_q32_t p[KALMAN_STATES][KALMAN_STATES];
     info_covariance(k, p);
-    const fix_q32_t hph = minus ? p[0][0] - 2 * p[0][j] + p[j][j] : p[0][0] + 2 * p[0][j] + p[j][j];
+    const fix_q32_t hph =
+        minus ? p[0][0] - 2 * p[0][j] + p[j][j] : p[0][0] + 2 * p[0][j] + p[j][j];
     return gated_out(k, e, hph + k->r[sensor]);
 }
 
 /* One row of the information form: every valid reading gated against the state before
- * the row, the accepted ones added, one solve. Returns the sensors accepted. */
+ * the row, the accepted ones added, one solve (the fast one while the run allows it).
+ * Returns the sensors accepted. */
 static uint8_t info_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENSORS],
                         uint8_t valid_mask, bool gate, uint8_t *rejected) {
     uint8_t used = valid_mask;
@@ -904,12 +1052,23 @@ static uint8_t info_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_S
     }
     struct kalman_info *in = &k->f.info;
     info_check_sums(in);
+    in->uniform = in->uniform && used == ANGLES_ALL_SENSORS;
     for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
         if ((used & (1u << s)) != 0u) {
             info_add(in, s, range_mm[s]);
         }
     }
-    info_solve(k);
+    bool solved = false;
+    if (in->uniform) {
+        in->n++;
+        if (!in->fast_ready) {
+            info_fast_prepare(in);
+        }
+        solved = info_fast_solve(k);
+    }
+    if (!solved) {
+        info_solve_general(k);
+    }
     return used;
 }
 

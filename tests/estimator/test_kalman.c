@@ -295,6 +295,62 @@ static void test_forms_match_double(void **state) {
                   "%.2g mm, P %.2g rel\n",
                   worst_x[0], worst_p[0], worst_x[1], worst_p[1]);
 }
+/* A uniform run (every row all four readings, the same R): the fast solve from the run's
+ * means, started by the warm-up as the facade starts it (prior mean = the first row's
+ * median), against Alg. 2 in double with that prior, row for row. */
+static void test_fast_solve_matches_double(void **state) {
+    (void)state;
+    double worst = 0;
+    for (int trial = 0; trial < 40; ++trial) {
+        struct kalman_config c = default_config();
+        c.gate_sigmas_q8 = 0;
+        c.warmup_rows = 1;
+        for (unsigned s = 0; s < 4; ++s) {
+            const double sd = 0.3 + 6 * urand();
+            c.initial_noise_mm2[s] = (int64_t)llround(sd * sd * Q32);
+        }
+        assert_int_equal(kalman_init(&kf, &c), KALMAN_OK);
+        struct dkf d;
+        dkf_init(&d);
+        double x0[4];
+        ideal(30, 100 + 300 * urand(), (urand() - 0.5) * 20, (urand() - 0.5) * 20, x0);
+        for (int row = 0; row < 300; ++row) {
+            uint16_t z[4];
+            for (unsigned s = 0; s < 4; ++s) {
+                const double v = round(x0[s] + 2 * gauss());
+                z[s] = (uint16_t)(v < 0 ? 0 : v);
+            }
+            struct kalman_rows rows;
+            kalman_push_row(&kf, z, 0x0F, &rows);
+            if (row == 0) {
+                d.x[0] = kf.f.info.x0_mm; /* the warm-up's prior mean */
+            }
+            for (unsigned s = 0; s < 4; ++s) {
+                dkf_update(&d, s, z[s], (double)kf.r[s] / Q32);
+            }
+            fix_q32_t p[3][3];
+            kalman_covariance(&kf, p);
+            for (unsigned a = 0; a < 3; ++a) {
+                const double dxa = fabs((double)kf.x[a] / Q32 - d.x[a]);
+                worst = dxa > worst ? dxa : worst;
+                if (dxa > 1e-6) {
+                    fail_msg("trial %d row %d x[%u]: %.9f, double %.9f", trial, row, a,
+                             (double)kf.x[a] / Q32, d.x[a]);
+                }
+                for (unsigned b = 0; b < 3; ++b) {
+                    const double scale = sqrt(d.p[a][a] * d.p[b][b]);
+                    assert_true(fabs((double)p[a][b] / Q32 - d.p[a][b]) < 1e-6 * scale + 16.0 / Q32);
+                }
+            }
+        }
+        /* the run stayed uniform and took the fast solve from its first rows */
+        assert_true(kf.f.info.uniform && kf.f.info.fast_ready);
+        assert_int_equal(kf.f.info.n, 300);
+        assert_true(kf.f.info.n_fast <= 2u);
+    }
+    print_message("fast solve vs double: x within %.2g mm\n", worst);
+}
+
 /* The information form's sums near their headroom: readings 65 m from the prior mean make
  * each weight·deviation 2^46, so the sums pass their check bound within a few thousand rows
  * and halve (with the weights) several times; the state and P still follow Alg. 2 in double. */
@@ -596,6 +652,7 @@ int main(void) {
         cmocka_unit_test(test_noise_free_plate_is_exact),
         cmocka_unit_test(test_matches_batch_least_squares),
         cmocka_unit_test(test_forms_match_double),
+        cmocka_unit_test(test_fast_solve_matches_double),
         cmocka_unit_test(test_information_form_sums_halve),
         cmocka_unit_test(test_long_run_stays_positive_definite),
         cmocka_unit_test(test_flagged_skipped_and_outliers_gated),

@@ -96,19 +96,25 @@ struct kalman_config {
 };
 
 /* The information form's state (Q = 0; kalman.c): per sensor the weight of one reading
- * (≈ 2^e / R in units of 2^-e mm⁻²), the exact sums of the accepted readings' weights and
- * of weight · (z − x0_mm), and the last solve: the divisors d, Y_11, Y_22 as reciprocal
- * mantissas (0: an axis with no reading) with their exponents, and g = Y_0j / Y_jj. */
+ * (≈ 2^e / R in units of 2^-e mm⁻²) and the exact sums of the accepted readings' weights
+ * and of weight · (z − x0_mm); while every row since the start accepted all four readings
+ * with the same weights (a uniform run), also the rows and the per-sensor sums of the
+ * deviations, and the run's constant coefficients of the fast solve. */
 struct kalman_info {
     int32_t e;
     int32_t x0_mm;
     int32_t w[ANGLES_SENSORS];
     uint64_t a[ANGLES_SENSORS];
     int64_t z[ANGLES_SENSORS];
-    uint32_t rec[KALMAN_STATES];
-    int32_t rec_e[KALMAN_STATES];
-    int32_t g[2];           /* Q31 */
     uint16_t rows_to_check; /* rows until the sums' headroom is checked again */
+    bool uniform;
+    bool fast_ready;           /* the coefficients below are set for this run */
+    uint32_t n;                /* rows of the uniform run */
+    uint32_t n_fast;           /* from this row on the fast solve's prior term is exact */
+    int64_t dsum[ANGLES_SENSORS]; /* Σ (z − x0_mm) over the run, whole mm */
+    int32_t pi[ANGLES_SENSORS];   /* w_s / (w_m + w_p) of its axis, Q31 */
+    int32_t kappa;                /* the α pair's share of x̄, Q31 (β: 1/2 − κ) */
+    int32_t inv_q16[KALMAN_STATES]; /* 1/d0, 1/W_α, 1/W_β without the prior, mm² Q16 */
 };
 
 /* The covariance form's state (Q > 0): P, and the steady-state updates' form of P
