@@ -885,21 +885,18 @@ static bool info_fast_solve(struct kalman_state *k) {
     const uint32_t mn = fix_norm31_inline(in->n, &en); /* en <= 0 below 2^31 rows */
     const int32_t rn = fix_recip31_inline(mn);         /* 1/n = rn · 2^(−61 − en) */
     const unsigned mean_shift = (unsigned)(37 + en);   /* μ (Q24) = D · rn / 2^(37 + en) */
+    /* every |μ| = |D|/n below 128 mm (Q24 in an int32), so |D| < 2^31 below 2^24 rows */
+    if (in->n >= ((uint32_t)1 << 24)) {
+        return false;
+    }
+    const int64_t lim = (int64_t)in->n << 7;
     int32_t mu[ANGLES_SENSORS];
     for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
         const int64_t dsum = in->dsum[s];
-        /* |D| < 2^31 (one product) and |μ| < 128 mm (Q24 in an int32) */
-        if ((uint64_t)(dsum + INT32_MAX) > (uint64_t)INT32_MAX * 2u) {
+        if (dsum >= lim || dsum <= -lim) {
             return false;
         }
-        const int64_t prod = dsum * rn; /* |prod| < 2^62 */
-        if (mean_shift < 31u) {
-            const int64_t limit = (int64_t)1 << (mean_shift + 31u);
-            if (prod >= limit || prod < -limit) {
-                return false;
-            }
-        }
-        mu[s] = shr_to_s32(prod, mean_shift);
+        mu[s] = shr_to_s32((int64_t)(int32_t)dsum * rn, mean_shift);
     }
     /* δ0 in Q55 (Q31 × Q24), then Q24 */
     const int32_t kb = (int32_t)0x40000000 - in->kappa;
@@ -1014,18 +1011,11 @@ static void r_changed(struct kalman_state *k) {
     }
 }
 
-/* The gate of the information form: the reading against the state of the rows before. */
-static bool info_gated_out(const struct kalman_state *k, unsigned sensor, uint16_t range_mm) {
+/* The gate of the information form for a reading outside the sure-accept test (info_row):
+ * against s = hᵀPh + R with P of the rows before. */
+static bool info_gated_out(const struct kalman_state *k, unsigned sensor, fix_q32_t e) {
     const unsigned j = h_index(sensor);
     const bool minus = h_minus(sensor);
-    const fix_q32_t pred = minus ? k->x[0] - k->x[j] : k->x[0] + k->x[j];
-    const fix_q32_t e = ((fix_q32_t)range_mm << FIX_Q32_SHIFT) - pred;
-    if (e < ((int64_t)1 << 39) && e > -((int64_t)1 << 39)) {
-        const int64_t e24 = fix_round_shr_s64(e, 8u);
-        if ((uint64_t)(e24 * e24) <= k->gate_accept[sensor]) {
-            return false; /* inside for any s >= R: P not needed */
-        }
-    }
     fix_q32_t p[KALMAN_STATES][KALMAN_STATES];
     info_covariance(k, p);
     const fix_q32_t hph =
@@ -1040,8 +1030,24 @@ static uint8_t info_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_S
                         uint8_t valid_mask, bool gate, uint8_t *rejected) {
     uint8_t used = valid_mask;
     if (gate && k->cfg.gate_sigmas_q8 != 0u) {
+        /* predictions h·x: A x̄ − θα, B x̄ + θβ, C x̄ + θα, D x̄ − θβ */
+        const fix_q32_t pred[ANGLES_SENSORS] = {k->x[0] - k->x[1], k->x[0] + k->x[2],
+                                                k->x[0] + k->x[1], k->x[0] - k->x[2]};
         for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
-            if ((valid_mask & (1u << s)) != 0u && info_gated_out(k, s, range_mm[s])) {
+            if ((valid_mask & (1u << s)) == 0u) {
+                continue;
+            }
+            const fix_q32_t e = ((fix_q32_t)range_mm[s] << FIX_Q32_SHIFT) - pred[s];
+            /* |e| < 128 mm (the high word in [−128, 127]) and e24² <= q²R or the floor:
+             * inside the gate for any s >= R, P not needed */
+            const uint32_t e_hi = (uint32_t)((uint64_t)e >> 32) + 128u;
+            if (e_hi <= 255u) {
+                const int32_t e24 = shr_to_s32(e + 128, 8u);
+                if ((uint64_t)((int64_t)e24 * e24) <= k->gate_accept[s]) {
+                    continue;
+                }
+            }
+            if (info_gated_out(k, s, e)) {
                 used = (uint8_t)(used & ~(1u << s));
             }
         }
@@ -1218,7 +1224,11 @@ void kalman_push_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENS
     out->used[0] = used;
     out->rejected[0] = rejected;
     bool locked_out = false;
-    for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
+    const bool all_used = rejected == 0u && used == ANGLES_ALL_SENSORS; /* the common row */
+    if (all_used) {
+        (void)memset(k->reject_run, 0, sizeof k->reject_run);
+    }
+    for (unsigned s = 0; s < ANGLES_SENSORS && !all_used; ++s) {
         if ((rejected & (1u << s)) != 0u) {
             k->reject_run[s]++;
             locked_out = locked_out || k->reject_run[s] >= KALMAN_LOCKOUT_ROWS;
