@@ -411,8 +411,14 @@ static void note_kalman_restart(struct attitude_state *st) {
     st->kalman_rows_since_restart = 0;
 }
 
-/* Writes the Kalman outcomes of the rows just processed into their ring rows. */
-static void record_kalman_rows(struct attitude_state *st, const struct kalman_rows *rows) {
+/* Writes the Kalman outcomes of the rows just processed into their ring rows (newest: the
+ * row just pushed, or NULL to look it up). */
+static void record_kalman_rows(struct attitude_state *st, const struct kalman_rows *rows,
+                               struct window_row *newest) {
+    if (rows->count == 1u && newest != NULL) { /* the common row */
+        newest->aux = AUX_MAKE(rows->used[0], rows->rejected[0]);
+        return;
+    }
     for (unsigned i = 0; i < rows->count; ++i) {
         struct window_row *row = window_row_at(&st->window, (uint16_t)(rows->count - 1u - i));
         if (row != NULL) {
@@ -499,12 +505,12 @@ bool attitude_push_sample(struct attitude_state *st, const uint16_t range_mm[ATT
         window_clear(&st->window);
         kalman_reset(&st->kalman);
     }
-    window_push(&st->window, ranges, present_mask, valid_mask);
+    struct window_row *newest = window_push(&st->window, ranges, present_mask, valid_mask);
     if (kalman_on) {
         const uint32_t restarts = st->kalman.restarts;
         struct kalman_rows rows;
         kalman_push_row(&st->kalman, ranges, valid_mask, &rows);
-        record_kalman_rows(st, &rows);
+        record_kalman_rows(st, &rows, newest);
         if (st->kalman.restarts != restarts) {
             note_kalman_restart(st);
         }
@@ -521,7 +527,7 @@ bool attitude_push_sample(struct attitude_state *st, const uint16_t range_mm[ATT
         const uint32_t restarts = st->kalman.restarts;
         struct kalman_rows rows;
         kalman_flush(&st->kalman, &rows);
-        record_kalman_rows(st, &rows);
+        record_kalman_rows(st, &rows, NULL);
         if (st->kalman.restarts != restarts) {
             note_kalman_restart(st);
         }

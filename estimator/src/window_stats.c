@@ -124,6 +124,23 @@ static void contrib(struct window_sums *s, const struct window_row *row, uint8_t
      * removes exactly what was added */
     const uint32_t step = sign > 0 ? 1u : UINT32_MAX;
     const uint64_t step64 = sign > 0 ? 1u : UINT64_MAX;
+    if (mask == ANGLES_ALL_SENSORS && sign > 0) { /* the common row, unrolled */
+        const uint16_t *x = row->range_mm;
+        s->sum_mm[0] += x[0];
+        s->sum_mm[1] += x[1];
+        s->sum_mm[2] += x[2];
+        s->sum_mm[3] += x[3];
+        s->sum_sq_mm2[0] += (uint64_t)((uint32_t)x[0] * x[0]);
+        s->sum_sq_mm2[1] += (uint64_t)((uint32_t)x[1] * x[1]);
+        s->sum_sq_mm2[2] += (uint64_t)((uint32_t)x[2] * x[2]);
+        s->sum_sq_mm2[3] += (uint64_t)((uint32_t)x[3] * x[3]);
+        s->count[0]++;
+        s->count[1]++;
+        s->count[2]++;
+        s->count[3]++;
+        contrib_complete(s, x, arm, sign);
+        return;
+    }
     for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
         if ((mask & (1u << k)) != 0u) {
             const uint32_t x = row->range_mm[k];
@@ -139,8 +156,8 @@ static void contrib(struct window_sums *s, const struct window_row *row, uint8_t
     }
 }
 
-void window_push(struct window_state *w, const uint16_t range_mm[ANGLES_SENSORS],
-                 uint8_t present_mask, uint8_t valid_mask) {
+struct window_row *window_push(struct window_state *w, const uint16_t range_mm[ANGLES_SENSORS],
+                               uint8_t present_mask, uint8_t valid_mask) {
     if (w->fill >= w->cfg.length) {
         const struct window_row *old = &w->ring[w->oldest];
         contrib(&w->sums, old, window_row_valid(old), &w->arm, -1);
@@ -156,6 +173,7 @@ void window_push(struct window_state *w, const uint16_t range_mm[ANGLES_SENSORS]
     row->aux = 0;
     w->fill++;
     contrib(&w->sums, row, valid, &w->arm, +1);
+    return row;
 }
 
 uint16_t window_fill(const struct window_state *w) {

@@ -145,9 +145,10 @@ int window_init(struct window_state *w, const struct window_config *cfg);
 void window_clear(struct window_state *w);
 
 /* Appends one row: ranges of A..D, the sensors that delivered a reading and
- * those among them with status 0. A full window first drops its oldest row. */
-void window_push(struct window_state *w, const uint16_t range_mm[ANGLES_SENSORS],
-                 uint8_t present_mask, uint8_t valid_mask);
+ * those among them with status 0. A full window first drops its oldest row.
+ * Returns the new row (window_row_at(w, 0)). */
+struct window_row *window_push(struct window_state *w, const uint16_t range_mm[ANGLES_SENSORS],
+                               uint8_t present_mask, uint8_t valid_mask);
 
 /* Rows currently held (0..length). */
 uint16_t window_fill(const struct window_state *w);
