@@ -656,7 +656,6 @@ static void info_set_weights(struct kalman_state *k) {
     }
 }
 
-
 /* |v| for |v| < 2^63 (the sums and quotients of the solve), inline. */
 FIX_INLINE uint64_t info_abs(int64_t v) {
     return v < 0 ? (uint64_t)(-v) : (uint64_t)v;
@@ -735,12 +734,13 @@ struct info_axis {
     bool empty;    /* no reading: Y_jj = y0, nothing couples the axis to x̄ */
 };
 
-static void info_axis_solve(const struct kalman_info *in, unsigned sm, unsigned sp, uint64_t y0,
-                            unsigned fine, struct info_axis *ax) {
-    const uint64_t am = in->a[sm];
-    const uint64_t ap = in->a[sp];
-    const int64_t zm = in->z[sm];
-    const int64_t zp = in->z[sp];
+static void info_axis_solve(const uint64_t a[ANGLES_SENSORS], const int64_t z[ANGLES_SENSORS],
+                            unsigned sm, unsigned sp, uint64_t y0, unsigned fine,
+                            struct info_axis *ax) {
+    const uint64_t am = a[sm];
+    const uint64_t ap = a[sp];
+    const int64_t zm = z[sm];
+    const int64_t zp = z[sp];
     const uint64_t sum = am + ap;
     ax->empty = sum == 0u;
     if (ax->empty) {
@@ -775,16 +775,37 @@ struct info_solution {
     int32_t ed;
 };
 
+/* The sums: those stored, or during a uniform run (which stores only its rows and the
+ * deviation sums) a_s = n·w_s and ζ_s = w_s·D_s, exact. */
+static void info_sums(const struct kalman_info *in, uint64_t a[ANGLES_SENSORS],
+                      int64_t z[ANGLES_SENSORS]) {
+    for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
+        a[s] = in->uniform ? (uint64_t)in->n * (uint32_t)in->w[s] : in->a[s];
+        z[s] = in->uniform ? in->dsum[s] * in->w[s] : in->z[s];
+    }
+}
+
+/* The end of a uniform run: its sums stored. */
+static void info_end_run(struct kalman_info *in) {
+    if (in->uniform) {
+        info_sums(in, in->a, in->z);
+        in->uniform = false;
+    }
+}
+
 static void info_factors(const struct kalman_info *in, struct info_solution *sol) {
+    uint64_t a[ANGLES_SENSORS];
+    int64_t z[ANGLES_SENSORS];
+    info_sums(in, a, z);
     /* d in finer units (2^-fine) while the sums are small (the first rows: each weight sum
      * below 2^(42 − fine)): its terms' integer parts then keep their bits whatever a weak
      * sensor weighs. */
     const uint64_t y0 = info_y0(in);
-    const uint64_t top = in->a[0] | in->a[1] | in->a[2] | in->a[3] | y0;
+    const uint64_t top = a[0] | a[1] | a[2] | a[3] | y0;
     const int32_t fine_bits = 42 - (int32_t)fix_bitlen_u64(top);
     const unsigned fine = fine_bits > 0 ? (fine_bits < 31 ? (unsigned)fine_bits : 31u) : 0u;
-    info_axis_solve(in, ANGLES_A, ANGLES_C, y0, fine, &sol->al);
-    info_axis_solve(in, ANGLES_D, ANGLES_B, y0, fine, &sol->be);
+    info_axis_solve(a, z, ANGLES_A, ANGLES_C, y0, fine, &sol->al);
+    info_axis_solve(a, z, ANGLES_D, ANGLES_B, y0, fine, &sol->be);
     const uint32_t md = fix_norm31_inline((y0 << fine) + sol->al.q + sol->be.q, &sol->ed);
     sol->rd = (uint32_t)fix_recip31_inline(md);
     sol->ed -= (int32_t)fine; /* d in units */
@@ -847,8 +868,8 @@ static int32_t info_inv_q16(uint64_t den, int32_t e) {
 static void info_fast_prepare(struct kalman_info *in) {
     in->fast_ready = true;
     in->n_fast = UINT32_MAX;
-    const uint64_t w[ANGLES_SENSORS] = {(uint64_t)in->w[0], (uint64_t)in->w[1],
-                                        (uint64_t)in->w[2], (uint64_t)in->w[3]};
+    const uint64_t w[ANGLES_SENSORS] = {(uint64_t)in->w[0], (uint64_t)in->w[1], (uint64_t)in->w[2],
+                                        (uint64_t)in->w[3]};
     const uint64_t w_al = w[ANGLES_A] + w[ANGLES_C]; /* <= 2^31 */
     const uint64_t w_be = w[ANGLES_B] + w[ANGLES_D];
     in->pi[ANGLES_A] = (int32_t)((w[ANGLES_A] << 31) / w_al); /* < 2^31: w_C >= 1 */
@@ -918,10 +939,10 @@ static bool info_fast_solve(struct kalman_state *k) {
     const int32_t tb16 = shr_to_s32(tb, 8u);
     const int32_t c0 = dx16 - shr_to_s32((int64_t)ga * ta16 + (int64_t)gb * tb16, 31u); /* Q16 */
     const int32_t g0 = shr_to_s32((int64_t)c0 * in->inv_q16[0], 24u); /* (Gδ)_0, Q8 */
-    const int32_t g1 = shr_to_s32((int64_t)ta16 * in->inv_q16[1], 24u) -
-                       shr_to_s32((int64_t)ga * g0, 31u);
-    const int32_t g2 = shr_to_s32((int64_t)tb16 * in->inv_q16[2], 24u) -
-                       shr_to_s32((int64_t)gb * g0, 31u);
+    const int32_t g1 =
+        shr_to_s32((int64_t)ta16 * in->inv_q16[1], 24u) - shr_to_s32((int64_t)ga * g0, 31u);
+    const int32_t g2 =
+        shr_to_s32((int64_t)tb16 * in->inv_q16[2], 24u) - shr_to_s32((int64_t)gb * g0, 31u);
     /* ε (Gδ) in Q32 = (Gδ)_Q8 · 2^24 · 2^-24 / n = (Gδ)_Q8 · rn / 2^(61 + en) */
     const unsigned corr_shift = (unsigned)(61 + en);
     k->x[0] = ((int64_t)in->x0_mm << FIX_Q32_SHIFT) + (int64_t)dx * 256 -
@@ -936,7 +957,6 @@ FIX_INLINE void info_add(struct kalman_info *in, unsigned s, uint16_t range_mm) 
     const int32_t dev = (int32_t)range_mm - in->x0_mm; /* |dev| < 2^17 */
     in->a[s] += (uint32_t)in->w[s];
     in->z[s] += (int64_t)in->w[s] * dev;
-    in->dsum[s] += dev; /* below 2^17 per row: never near 2^63 */
 }
 
 /* Before a row: every INFO_CHECK_ROWS rows the sums' headroom, halved past INFO_SUM_CHECK
@@ -946,13 +966,24 @@ static void info_check_sums(struct kalman_info *in) {
         return;
     }
     in->rows_to_check = INFO_CHECK_ROWS;
+    if (in->uniform) {
+        /* its derived sums below 2^58 until the next check: n·w < 2^54 and |D| < 2^28
+         * (w <= 2^30; the next 2048 rows add below 2^28 to |D|) */
+        bool room = in->n < ((uint32_t)1 << 24);
+        for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
+            room = room && info_abs(in->dsum[s]) < ((uint64_t)1 << 28);
+        }
+        if (room) {
+            return;
+        }
+        info_end_run(in);
+    }
     for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
         if (in->a[s] >= INFO_SUM_CHECK || info_abs(in->z[s]) >= INFO_SUM_CHECK) {
             info_coarser(in, 1u);
             for (unsigned t = 0; t < ANGLES_SENSORS; ++t) {
                 in->w[t] = in->w[t] > 1 ? in->w[t] / 2 : 1;
             }
-            in->uniform = false;
             return;
         }
     }
@@ -966,8 +997,10 @@ static void info_covariance(const struct kalman_state *k,
     info_factors(in, &sol);
     const int64_t one = (int64_t)1 << (unsigned)in->e; /* 1 mm⁻² in units */
     const fix_q32_t inv_d = info_quotient(one, sol.ed, sol.rd);
-    const fix_q32_t inv_a = sol.al.empty ? KALMAN_P0_MM2_Q32 : info_quotient(one, sol.al.e, sol.al.r);
-    const fix_q32_t inv_b = sol.be.empty ? KALMAN_P0_MM2_Q32 : info_quotient(one, sol.be.e, sol.be.r);
+    const fix_q32_t inv_a =
+        sol.al.empty ? KALMAN_P0_MM2_Q32 : info_quotient(one, sol.al.e, sol.al.r);
+    const fix_q32_t inv_b =
+        sol.be.empty ? KALMAN_P0_MM2_Q32 : info_quotient(one, sol.be.e, sol.be.r);
     const fix_q32_t ga = info_mul_s(inv_d, sol.al.g); /* g_α/d */
     const fix_q32_t gb = info_mul_s(inv_d, sol.be.g);
     p[0][0] = inv_d;
@@ -1001,11 +1034,10 @@ static void r_changed(struct kalman_state *k) {
         k->f.cov.rb_valid = false;
     } else {
         struct kalman_info *in = &k->f.info;
-        const bool empty = (in->a[0] | in->a[1] | in->a[2] | in->a[3]) == 0u;
-        info_set_weights(k); /* may change the units: x again from the sums */
-        if (!empty) {
-            in->uniform = false; /* past readings keep their weights */
+        if (in->n != 0u) {
+            info_end_run(in); /* past readings keep their weights */
         }
+        info_set_weights(k); /* may change the units: x again from the sums */
         in->fast_ready = false;
         info_solve_general(k);
     }
@@ -1018,8 +1050,7 @@ static bool info_gated_out(const struct kalman_state *k, unsigned sensor, fix_q3
     const bool minus = h_minus(sensor);
     fix_q32_t p[KALMAN_STATES][KALMAN_STATES];
     info_covariance(k, p);
-    const fix_q32_t hph =
-        minus ? p[0][0] - 2 * p[0][j] + p[j][j] : p[0][0] + 2 * p[0][j] + p[j][j];
+    const fix_q32_t hph = minus ? p[0][0] - 2 * p[0][j] + p[j][j] : p[0][0] + 2 * p[0][j] + p[j][j];
     return gated_out(k, e, hph + k->r[sensor]);
 }
 
@@ -1057,20 +1088,29 @@ static uint8_t info_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_S
         return 0u;
     }
     struct kalman_info *in = &k->f.info;
-    info_check_sums(in);
-    in->uniform = in->uniform && used == ANGLES_ALL_SENSORS;
-    for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
-        if ((used & (1u << s)) != 0u) {
-            info_add(in, s, range_mm[s]);
-        }
+    if (used != ANGLES_ALL_SENSORS) {
+        info_end_run(in);
     }
+    info_check_sums(in);
     bool solved = false;
     if (in->uniform) {
+        /* the run's rows and deviation sums (each below 2^17 per row) */
+        in->dsum[0] += (int32_t)range_mm[0] - in->x0_mm;
+        in->dsum[1] += (int32_t)range_mm[1] - in->x0_mm;
+        in->dsum[2] += (int32_t)range_mm[2] - in->x0_mm;
+        in->dsum[3] += (int32_t)range_mm[3] - in->x0_mm;
         in->n++;
         if (!in->fast_ready) {
             info_fast_prepare(in);
         }
         solved = info_fast_solve(k);
+    }
+    if (!in->uniform) {
+        for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
+            if ((used & (1u << s)) != 0u) {
+                info_add(in, s, range_mm[s]);
+            }
+        }
     }
     if (!solved) {
         info_solve_general(k);

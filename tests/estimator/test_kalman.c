@@ -339,7 +339,8 @@ static void test_fast_solve_matches_double(void **state) {
                 }
                 for (unsigned b = 0; b < 3; ++b) {
                     const double scale = sqrt(d.p[a][a] * d.p[b][b]);
-                    assert_true(fabs((double)p[a][b] / Q32 - d.p[a][b]) < 1e-6 * scale + 16.0 / Q32);
+                    assert_true(fabs((double)p[a][b] / Q32 - d.p[a][b]) <
+                                1e-6 * scale + 16.0 / Q32);
                 }
             }
         }

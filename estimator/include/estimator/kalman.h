@@ -108,12 +108,12 @@ struct kalman_info {
     int64_t z[ANGLES_SENSORS];
     uint16_t rows_to_check; /* rows until the sums' headroom is checked again */
     bool uniform;
-    bool fast_ready;           /* the coefficients below are set for this run */
-    uint32_t n;                /* rows of the uniform run */
-    uint32_t n_fast;           /* from this row on the fast solve's prior term is exact */
-    int64_t dsum[ANGLES_SENSORS]; /* Σ (z − x0_mm) over the run, whole mm */
-    int32_t pi[ANGLES_SENSORS];   /* w_s / (w_m + w_p) of its axis, Q31 */
-    int32_t kappa;                /* the α pair's share of x̄, Q31 (β: 1/2 − κ) */
+    bool fast_ready;                /* the coefficients below are set for this run */
+    uint32_t n;                     /* rows of the uniform run */
+    uint32_t n_fast;                /* from this row on the fast solve's prior term is exact */
+    int64_t dsum[ANGLES_SENSORS];   /* Σ (z − x0_mm) over the run, whole mm */
+    int32_t pi[ANGLES_SENSORS];     /* w_s / (w_m + w_p) of its axis, Q31 */
+    int32_t kappa;                  /* the α pair's share of x̄, Q31 (β: 1/2 − κ) */
     int32_t inv_q16[KALMAN_STATES]; /* 1/d0, 1/W_α, 1/W_β without the prior, mm² Q16 */
 };
 
