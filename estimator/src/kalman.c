@@ -668,7 +668,7 @@ FIX_INLINE uint64_t info_mul(uint64_t v, uint32_t r) {
     return (hi << 1) + (lo >> 31);
 }
 
-FIX_INLINE int64_t info_mul_s(int64_t v, int32_t r) {
+static int64_t info_mul_s(int64_t v, int32_t r) {
     const bool neg = (v < 0) != (r < 0);
     const uint64_t m = info_mul(info_abs(v), r < 0 ? (uint32_t)(-(int64_t)r) : (uint32_t)r);
     return neg ? -(int64_t)m : (int64_t)m;
@@ -686,7 +686,7 @@ FIX_INLINE uint32_t info_ratio(uint64_t v, int32_t e, uint32_t r) {
 }
 
 /* z · v / D (units·mm) for v <= 2D: v's own mantissa, so a small v keeps its bits. */
-FIX_INLINE int64_t info_scaled(int64_t z, uint64_t v, int32_t e, uint32_t r) {
+static int64_t info_scaled(int64_t z, uint64_t v, int32_t e, uint32_t r) {
     if (v == 0u) {
         return 0;
     }
@@ -698,7 +698,7 @@ FIX_INLINE int64_t info_scaled(int64_t z, uint64_t v, int32_t e, uint32_t r) {
 }
 
 /* v · 2^32 / D as Q32 (v in units·mm: mm; v = 2^e units: mm²), D = m · 2^e_d. */
-FIX_INLINE int64_t info_quotient(int64_t v, int32_t e_d, uint32_t r) {
+static int64_t info_quotient(int64_t v, int32_t e_d, uint32_t r) {
     if (v == 0) {
         return 0;
     }
