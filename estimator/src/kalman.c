@@ -599,7 +599,8 @@ static void check_covariance(struct kalman_state *k, bool ovf, bool proven) {
 /* y0 in units: 2^(e − 24); after 2+ halvings (~2^29 readings) at least 1 unit, a tighter
  * prior than P0, still negligible beside the data. */
 static uint64_t info_y0(const struct kalman_info *in) {
-    return in->e >= 24 ? (uint64_t)1 << (unsigned)(in->e - 24) : 1u;
+    const int32_t sh = in->e - 24;
+    return sh >= 0 ? (uint64_t)1 << (unsigned)sh : 1u;
 }
 
 /* Every sum shifted right by sh: sh units coarser. */
@@ -628,9 +629,11 @@ static void info_set_weights(struct kalman_state *k) {
     if (empty) {
         in->e = want;
     } else if (want < in->e) {
-        info_coarser(in, (unsigned)(in->e - want));
+        const int32_t sh = in->e - want;
+        info_coarser(in, (unsigned)sh);
     } else if (want > in->e + INFO_KEEP_RANGE) {
-        const unsigned sh = (unsigned)(want - in->e);
+        const int32_t finer = want - in->e;
+        const unsigned sh = (unsigned)finer;
         bool room = true;
         for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
             room = room && in->a[s] < (INFO_SUM_CHECK >> sh) &&
@@ -706,10 +709,10 @@ static int64_t info_quotient(int64_t v, int32_t e_d, uint32_t r) {
     const uint32_t vm = fix_norm31_inline(info_abs(v), &ev);
     const uint64_t prod = (uint64_t)vm * r; /* v/D · 2^(61 + e_d − ev), < 2^62 */
     const int32_t sh = ev - e_d - 29;
-    const uint64_t q =
-        sh >= 0
-            ? prod << (unsigned)sh
-            : (sh > -63 ? (prod + ((uint64_t)1 << (unsigned)(-sh - 1))) >> (unsigned)(-sh) : 0u);
+    const int32_t right = -sh;
+    const unsigned ur = (unsigned)right;
+    const uint64_t q = sh >= 0 ? prod << (unsigned)sh
+                               : (right < 63 ? (prod + ((uint64_t)1 << (ur - 1u))) >> ur : 0u);
     return v < 0 ? -(int64_t)q : (int64_t)q;
 }
 
@@ -851,15 +854,14 @@ static void info_prior(struct kalman_state *k) {
  * ε‖G‖ < 2^-16 (its square, the neglected term, below 2^-32); before that, and whenever
  * a mean is 128 mm or more from x0, the general solve. P always comes from the sums. */
 
-#define INFO_FAST_MEAN_LIMIT ((int64_t)1 << 31) /* |μ| in Q24 below 128 mm */
-
 /* 2^(e + 16) / den (mm² Q16 for den in units), or −1 from 256 mm² on (the fast solve's
  * products stay below 2^62 with that bound). */
 static int32_t info_inv_q16(uint64_t den, int32_t e) {
-    if (den == 0u || e + 16 > 62) {
+    const int32_t sh = e + 16;
+    if (den == 0u || sh > 62) {
         return -1;
     }
-    const uint64_t v = (e + 16 >= 0 ? (uint64_t)1 << (unsigned)(e + 16) : 0u) / den;
+    const uint64_t v = (sh >= 0 ? (uint64_t)1 << (unsigned)sh : 0u) / den;
     return v < ((uint64_t)1 << 24) ? (int32_t)v : -1;
 }
 
@@ -872,14 +874,19 @@ static void info_fast_prepare(struct kalman_info *in) {
                                         (uint64_t)in->w[3]};
     const uint64_t w_al = w[ANGLES_A] + w[ANGLES_C]; /* <= 2^31 */
     const uint64_t w_be = w[ANGLES_B] + w[ANGLES_D];
-    in->pi[ANGLES_A] = (int32_t)((w[ANGLES_A] << 31) / w_al); /* < 2^31: w_C >= 1 */
-    in->pi[ANGLES_C] = (int32_t)((w[ANGLES_C] << 31) / w_al);
-    in->pi[ANGLES_B] = (int32_t)((w[ANGLES_B] << 31) / w_be);
-    in->pi[ANGLES_D] = (int32_t)((w[ANGLES_D] << 31) / w_be);
+    const uint64_t pi_a = (w[ANGLES_A] << 31) / w_al; /* < 2^31: w_C >= 1 */
+    const uint64_t pi_c = (w[ANGLES_C] << 31) / w_al;
+    const uint64_t pi_b = (w[ANGLES_B] << 31) / w_be;
+    const uint64_t pi_d = (w[ANGLES_D] << 31) / w_be;
+    in->pi[ANGLES_A] = (int32_t)pi_a;
+    in->pi[ANGLES_C] = (int32_t)pi_c;
+    in->pi[ANGLES_B] = (int32_t)pi_b;
+    in->pi[ANGLES_D] = (int32_t)pi_d;
     const uint64_t q_al = (4u * w[ANGLES_A] * w[ANGLES_C]) / w_al; /* < 2^33 */
     const uint64_t q_be = (4u * w[ANGLES_B] * w[ANGLES_D]) / w_be;
     const uint64_t d0 = q_al + q_be;
-    in->kappa = (int32_t)((q_al << 30) / d0); /* q_α/(2 d0) in Q31 */
+    const uint64_t kappa = (q_al << 30) / d0; /* q_α/(2 d0) in Q31 */
+    in->kappa = (int32_t)kappa;
     in->inv_q16[0] = info_inv_q16(d0, in->e);
     in->inv_q16[1] = info_inv_q16(w_al, in->e);
     in->inv_q16[2] = info_inv_q16(w_be, in->e);
@@ -905,7 +912,8 @@ static bool info_fast_solve(struct kalman_state *k) {
     int32_t en;
     const uint32_t mn = fix_norm31_inline(in->n, &en); /* en <= 0 below 2^31 rows */
     const int32_t rn = fix_recip31_inline(mn);         /* 1/n = rn · 2^(−61 − en) */
-    const unsigned mean_shift = (unsigned)(37 + en);   /* μ (Q24) = D · rn / 2^(37 + en) */
+    const int32_t mean_exp = 37 + en;                  /* μ (Q24) = D · rn / 2^(37 + en) */
+    const unsigned mean_shift = (unsigned)mean_exp;
     /* every |μ| = |D|/n below 128 mm (Q24 in an int32), so |D| < 2^31 below 2^24 rows */
     if (in->n >= ((uint32_t)1 << 24)) {
         return false;
@@ -944,7 +952,8 @@ static bool info_fast_solve(struct kalman_state *k) {
     const int32_t g2 =
         shr_to_s32((int64_t)tb16 * in->inv_q16[2], 24u) - shr_to_s32((int64_t)gb * g0, 31u);
     /* ε (Gδ) in Q32 = (Gδ)_Q8 · 2^24 · 2^-24 / n = (Gδ)_Q8 · rn / 2^(61 + en) */
-    const unsigned corr_shift = (unsigned)(61 + en);
+    const int32_t corr_exp = 61 + en;
+    const unsigned corr_shift = (unsigned)corr_exp;
     k->x[0] = ((int64_t)in->x0_mm << FIX_Q32_SHIFT) + (int64_t)dx * 256 -
               shr_to_s32((int64_t)g0 * rn, corr_shift);
     k->x[1] = (int64_t)ta * 256 - shr_to_s32((int64_t)g1 * rn, corr_shift);
@@ -1074,7 +1083,8 @@ static uint8_t info_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_S
             const uint32_t e_hi = (uint32_t)((uint64_t)e >> 32) + 128u;
             if (e_hi <= 255u) {
                 const int32_t e24 = shr_to_s32(e + 128, 8u);
-                if ((uint64_t)((int64_t)e24 * e24) <= k->gate_accept[s]) {
+                const int64_t e24_sq = (int64_t)e24 * e24;
+                if ((uint64_t)e24_sq <= k->gate_accept[s]) {
                     continue;
                 }
             }
@@ -1083,7 +1093,7 @@ static uint8_t info_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_S
             }
         }
     }
-    *rejected = (uint8_t)(valid_mask & ~used);
+    *rejected = (uint8_t)(valid_mask ^ used); /* used is a subset of valid_mask */
     if (used == 0u) {
         return 0u;
     }
