@@ -716,8 +716,8 @@ static int64_t info_quotient(int64_t v, int32_t e_d, uint32_t r) {
     return v < 0 ? -(int64_t)q : (int64_t)q;
 }
 
-/* (v · r) / 2^(31 − fine), truncated, for fine <= 31 and v < 2^(42 − fine), or fine = 0 and
- * v < 2^59 (the solve's finer units, info_solve). */
+/* (v · r) / 2^(31 − fine), truncated, for fine <= 31 and v < 2^(44 − fine), or fine = 0 and
+ * v < 2^59 (the solve's finer units, info_factors). */
 FIX_INLINE uint64_t info_mul_fine(uint64_t v, uint32_t r, unsigned fine) {
     const uint64_t hi = (v >> 32) * r;
     const uint64_t lo = (uint64_t)(uint32_t)v * r;
@@ -882,11 +882,19 @@ static void info_fast_prepare(struct kalman_info *in) {
     in->pi[ANGLES_C] = (int32_t)pi_c;
     in->pi[ANGLES_B] = (int32_t)pi_b;
     in->pi[ANGLES_D] = (int32_t)pi_d;
-    const uint64_t q_al = (4u * w[ANGLES_A] * w[ANGLES_C]) / w_al; /* < 2^33 */
-    const uint64_t q_be = (4u * w[ANGLES_B] * w[ANGLES_D]) / w_be;
-    const uint64_t d0 = q_al + q_be;
-    const uint64_t kappa = (q_al << 30) / d0; /* q_α/(2 d0) in Q31 */
+    /* q_j = 4 w_lo w_hi / W_j with 29 fraction bits: w_lo · π_hi (below 2^61), so the
+     * weaker pair's share keeps its bits (whole units would cost κ up to 2^-19: review) */
+    const uint64_t qh_al = w[ANGLES_A] < w[ANGLES_C] ? w[ANGLES_A] * pi_c : w[ANGLES_C] * pi_a;
+    const uint64_t qh_be = w[ANGLES_D] < w[ANGLES_B] ? w[ANGLES_D] * pi_b : w[ANGLES_B] * pi_d;
+    const uint64_t qh_sum = qh_al + qh_be; /* below 2^63 */
+    if (qh_sum == 0u) {
+        return; /* unreachable: every weight >= 1, so q_α > 0 */
+    }
+    const int32_t drop_exp = (int32_t)fix_bitlen_u64(qh_sum) - 33;
+    const unsigned drop = drop_exp > 0 ? (unsigned)drop_exp : 0u;
+    const uint64_t kappa = ((qh_al >> drop) << 30) / (qh_sum >> drop); /* q_α/(2 d0), Q31 */
     in->kappa = (int32_t)kappa;
+    const uint64_t d0 = qh_sum >> 29; /* q_α + q_β in units */
     in->inv_q16[0] = info_inv_q16(d0, in->e);
     in->inv_q16[1] = info_inv_q16(w_al, in->e);
     in->inv_q16[2] = info_inv_q16(w_be, in->e);
@@ -938,7 +946,15 @@ static bool info_fast_solve(struct kalman_state *k) {
                          (int64_t)in->pi[ANGLES_A] * mu[ANGLES_A] - (int64_t)ga * dx;
     const int64_t tb55 = (int64_t)in->pi[ANGLES_B] * mu[ANGLES_B] -
                          (int64_t)in->pi[ANGLES_D] * mu[ANGLES_D] - (int64_t)gb * dx;
-    const int32_t ta = shr_to_s32(ta55, 31u); /* |δθ| < 256 mm */
+    /* |δθ| below 128 mm as well (Q24 in an int32): data far from the model (A + C far from
+     * B + D, a pair of unequal weights) can reach 256 mm with every mean below 128 mm
+     * (found by review); those rows take the general solve */
+    const int64_t theta_limit = (int64_t)1 << 62;
+    if (ta55 >= theta_limit || ta55 <= -theta_limit || tb55 >= theta_limit ||
+        tb55 <= -theta_limit) {
+        return false;
+    }
+    const int32_t ta = shr_to_s32(ta55, 31u);
     const int32_t tb = shr_to_s32(tb55, 31u);
     /* The prior: − ε G δ0 with ε = 2^-24/n mm⁻², at most 2^-16 of δ0 (n >= n_fast): ten bits
      * of it are enough, so δ in Q16 and G δ in Q8 (mm³), 32-bit. */
@@ -1031,7 +1047,7 @@ static void gate_refresh_accept(struct kalman_state *k) {
     for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
         const uint64_t r = (uint64_t)k->r[s];
         const uint64_t a = r > UINT64_MAX / (q2 + 1u) ? UINT64_MAX : r * q2;
-        const uint64_t f = fl >= 0x8000u ? UINT64_MAX : (fl * fl) << 48;
+        const uint64_t f = fl >= 256u ? UINT64_MAX : (fl * fl) << 48; /* 2^64 from 256 mm */
         k->gate_accept[s] = a > f ? a : f;
     }
 }
@@ -1144,8 +1160,8 @@ static uint8_t update_any(struct kalman_state *k, const uint16_t range_mm[ANGLES
 }
 
 bool kalman_update(struct kalman_state *k, unsigned sensor, uint16_t range_mm, bool gate) {
-    if (sensor >= ANGLES_SENSORS) {
-        return false;
+    if (sensor >= ANGLES_SENSORS || !k->started) {
+        return false; /* before the warm-up there is no start to update (kalman.h) */
     }
     uint16_t range[ANGLES_SENSORS] = {0, 0, 0, 0};
     range[sensor] = range_mm;

@@ -352,6 +352,55 @@ static void test_fast_solve_matches_double(void **state) {
     print_message("fast solve vs double: x within %.2g mm\n", worst);
 }
 
+/* Data far from the model in a uniform run: a pair of very unequal weights (R_A = 200 mm²,
+ * the rest 1 mm²) and A + C far from B + D make δθ_α about 249 mm with every mean within
+ * 127 mm of the start: beyond the fast solve's 128 mm, so the general one answers (found
+ * by review: the fast solve wrapped to −7 mm). */
+static void test_fast_solve_hands_large_slopes_to_general(void **state) {
+    (void)state;
+    struct kalman_config c = default_config();
+    c.gate_sigmas_q8 = 0;
+    c.warmup_rows = 1;
+    c.initial_noise_mm2[0] = (int64_t)200 << 32;
+    for (unsigned s = 1; s < 4; ++s) {
+        c.initial_noise_mm2[s] = (int64_t)1 << 32;
+    }
+    assert_int_equal(kalman_init(&kf, &c), KALMAN_OK);
+    struct dkf d;
+    dkf_init(&d);
+    const uint16_t z[4] = {1127, 873, 1127, 873};
+    for (int row = 0; row < 5; ++row) {
+        struct kalman_rows rows;
+        kalman_push_row(&kf, z, 0x0F, &rows);
+        if (row == 0) {
+            d.x[0] = kf.f.info.x0_mm;
+        }
+        for (unsigned s = 0; s < 4; ++s) {
+            dkf_update(&d, s, z[s], (double)kf.r[s] / Q32);
+        }
+        for (unsigned a = 0; a < 3; ++a) {
+            assert_true(fabs((double)kf.x[a] / Q32 - d.x[a]) < 1e-5);
+        }
+    }
+    assert_true(fabs((double)kf.x[1] / Q32 - 248.995) < 1e-3);
+}
+
+/* kalman_update before the warm-up has started the filter: not used, and said so. */
+static void test_update_before_start_refused(void **state) {
+    (void)state;
+    struct kalman_config c = default_config();
+    assert_int_equal(kalman_init(&kf, &c), KALMAN_OK);
+    assert_false(kalman_update(&kf, 0, 1000, false));
+    struct kalman_rows rows;
+    const uint16_t z[4] = {1000, 1000, 1000, 1000};
+    for (int row = 0; row < 3; ++row) {
+        kalman_push_row(&kf, z, 0x0F, &rows); /* warm-up: 3 rows */
+    }
+    assert_true(kf.started);
+    assert_true(kalman_update(&kf, 0, 1000, true));
+    assert_true(fabs((double)kf.x[0] / Q32 - 1000.0) < 1e-6);
+}
+
 /* The information form's sums near their headroom: readings 65 m from the prior mean make
  * each weight·deviation 2^46, so the sums pass their check bound within a few thousand rows
  * and halve (with the weights) several times; the state and P still follow Alg. 2 in double. */
@@ -654,6 +703,8 @@ int main(void) {
         cmocka_unit_test(test_matches_batch_least_squares),
         cmocka_unit_test(test_forms_match_double),
         cmocka_unit_test(test_fast_solve_matches_double),
+        cmocka_unit_test(test_fast_solve_hands_large_slopes_to_general),
+        cmocka_unit_test(test_update_before_start_refused),
         cmocka_unit_test(test_information_form_sums_halve),
         cmocka_unit_test(test_long_run_stays_positive_definite),
         cmocka_unit_test(test_flagged_skipped_and_outliers_gated),

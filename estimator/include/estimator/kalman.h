@@ -190,7 +190,8 @@ void kalman_push_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENS
 void kalman_flush(struct kalman_state *k, struct kalman_rows *out);
 
 /* One measurement of sensor `sensor` (no prediction), gated when `gate` is set.
- * Returns true if the reading was accepted. */
+ * Returns true if the reading was accepted; false also before the warm-up has
+ * started the filter (kalman_push_row, kalman_flush): the reading is not used. */
 bool kalman_update(struct kalman_state *k, unsigned sensor, uint16_t range_mm, bool gate);
 
 /* The covariance of the state (Q32 mm²), either form. */
