@@ -18,7 +18,10 @@
  * follow in closed form (Schur complement on x̄, kalman.c) after each row, every
  * divisor a sum of positive terms: P is positive definite by construction, no
  * check or restart is needed. Each row's readings are gated against the state
- * of the rows before it (not against each other).
+ * of the rows before it (not against each other). While every row since the
+ * start accepted all four readings with the same R (a uniform run, the common
+ * case), x comes from the run's four means with coefficients fixed for the run
+ * (the fast solve, about 560 instructions per row on a Cortex-M4).
  *
  * Q > 0: the covariance form. Each row is four scalar updates, one per valid
  * reading (R is diagonal, so no matrix inverse: Alg. 2's [C P Cᵀ + R]⁻¹ becomes
