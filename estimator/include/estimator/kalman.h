@@ -21,7 +21,7 @@
  * of the rows before it (not against each other). While every row since the
  * start accepted all four readings with the same R (a uniform run, the common
  * case), x comes from the run's four means with coefficients fixed for the run
- * (the fast solve, about 560 instructions per row on a Cortex-M4).
+ * (the fast solve; the whole row about 560 instructions on a Cortex-M4).
  *
  * Q > 0: the covariance form. Each row is four scalar updates, one per valid
  * reading (R is diagonal, so no matrix inverse: Alg. 2's [C P Cᵀ + R]⁻¹ becomes
@@ -33,7 +33,7 @@
  * for the gain k actually used (rounded to Q30), so rounding the gain only
  * costs second-order error. Where the paper is unsafe: Alg. 2's
  * P_post = P_pre − K C P_pre loses symmetry and definiteness in finite
- * precision. Every update also checks positive definiteness (positive
+ * precision. Every row also checks positive definiteness (positive
  * diagonal, P_ij² < P_ii P_jj); a failure restarts the filter and is counted,
  * never hidden.
  *
@@ -183,7 +183,9 @@ int kalman_init(struct kalman_state *k, const struct kalman_config *cfg);
  * the start of a static window. */
 void kalman_reset(struct kalman_state *k);
 
-/* One row: predict (P += Q), then one scalar update per valid reading, A..D.
+/* One row. Covariance form: predict (P += Q), then one scalar update per valid
+ * reading, A..D. Information form: every valid reading gated against the state
+ * before the row, the accepted ones added, one solve.
  * valid_mask: sensors present with status 0. Reports what was processed. */
 void kalman_push_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENSORS],
                      uint8_t valid_mask, struct kalman_rows *out);
