@@ -1,7 +1,7 @@
 /*
  * QEMU MPS2 board (mps2-an386: Cortex-M4, mps2-an385: Cortex-M3): the firmware
  * replays a recorded trace against the same simulated I²C bus and VL53 models
- * as host_sim (host_sim/sim, integer C), reading the trace and writing the
+ * as host_sim (sim/, integer C), reading the trace and writing the
  * estimate CSV through semihosting. Its output is byte-identical to
  * `host_sim replay TRACE --out EST.csv` with the same window, mode and
  * estimator (a `target` test checks it).

@@ -1,6 +1,6 @@
 /*
  * Adapters from rows (struct scene_row) to the device models' range source
- * (host_sim/sim/include/sim/range_source.h: reading number sample_index of
+ * (sim/include/sim/range_source.h: reading number sample_index of
  * sensor k; present = false is a dropout).
  *
  * - scene_row_array: rows already in memory (the estimator benchmark).

@@ -1,6 +1,6 @@
 /*
  * Where a simulated VL53 device gets its distances: the contract between the
- * device models (host_sim/sim) and what feeds them (a scene, a recorded trace).
+ * device models (sim/) and what feeds them (a scene, a recorded trace).
  * Integer only, so the same models link into the QEMU images.
  */
 #ifndef SIM_RANGE_SOURCE_H
