@@ -36,6 +36,7 @@ int main(void) {
                       BOARD_HAL_XSHUT_PIN(3)},
         .gpio1_pin = {BOARD_HAL_GPIO1_PIN(0), BOARD_HAL_GPIO1_PIN(1), BOARD_HAL_GPIO1_PIN(2),
                       BOARD_HAL_GPIO1_PIN(3)},
+        .sensor_pads_at_avdd = true, /* the NUCLEO boards' 3V3 pull-ups (docs/driver.md) */
     };
     return tof_app_main(&platform, &tof_app_default_config, &app, &link, 0);
 }

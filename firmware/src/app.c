@@ -96,8 +96,12 @@ static void note_error(struct tof_app *app, unsigned sensor, int err) {
     ++app->counters.errors_by_code[error_slot(err)];
     const enum tof_health_state before = app->health[sensor].state;
     const bool bus_wide = err == HAL_ERR_BUS_STUCK || err == HAL_ERR_BUS_BUSY;
+    /* The sensor reported its own hardware fault: re-initialise it, the bus is fine. */
+    const enum tof_error_scope scope = bus_wide                   ? TOF_ERROR_BUS
+                                       : err == HAL_ERR_DEVICE ? TOF_ERROR_DEVICE
+                                                                 : TOF_ERROR_SENSOR;
     tof_health_on_error(&app->health[sensor], &app->cfg->health, (uint32_t)(app->uptime_us / 1000u),
-                        bus_wide ? TOF_ERROR_BUS : TOF_ERROR_SENSOR);
+                        scope);
     if (app->health[sensor].state != before) {
         emit_event(app, TOF_EVENT_HEALTH, sensor, before, app->health[sensor].state, err);
     }
@@ -247,6 +251,7 @@ int tof_app_init(struct tof_app *app, const struct tof_platform *platform,
             .gpio1_pin = platform->gpio1_pin[i],
             .polarity = VL53_INT_ACTIVE_HIGH,
             .timing = cfg->timing,
+            .pads_at_avdd = platform->sensor_pads_at_avdd,
         };
     }
     app->array_cfg = (struct vl53_array_config){.sensors = app->sensor_cfg, .count = TOF_SENSORS};

@@ -97,6 +97,10 @@ int cli_parse_replay(int argc, char **argv, struct replay_args *out) {
             if ((out->plot_path = option_value(cmd, argc, argv, &i)) == NULL) {
                 return -1;
             }
+        } else if (strcmp(arg, "--i2c-log") == 0) {
+            if ((out->i2c_log_path = option_value(cmd, argc, argv, &i)) == NULL) {
+                return -1;
+            }
         } else if (strcmp(arg, "--faults") == 0) {
             if ((out->faults = option_value(cmd, argc, argv, &i)) == NULL) {
                 return -1;

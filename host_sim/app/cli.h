@@ -3,7 +3,7 @@
  *
  *   host_sim replay TRACE.csv --estimator NAME [--window N] [--mode tumbling|sliding]
  *                             [--out EST.csv] [--report REPORT.json] [--plot FIG.png]
- *                             [--faults SPEC] [--seed S]
+ *                             [--faults SPEC] [--seed S] [--i2c-log BUS.csv]
  *   host_sim scenario NAME [--seed S] --trace-out TRACE.csv
  *   host_sim camera ...      (synthetic ToF camera + pose pipeline; see docs/pose.md)
  */
@@ -26,6 +26,7 @@ struct replay_args {
     uint64_t seed;
     bool quiet;                /* --quiet: no summary table on stdout */
     uint64_t faults_until_row; /* --faults-until ROW: injection stops there (0: never) */
+    const char *i2c_log_path;  /* --i2c-log BUS.csv: every bus transaction (NULL: none) */
 };
 
 struct scenario_args {

@@ -15,6 +15,7 @@
 #include "scene/trace.h"
 #include "sim/sim_fault.h"
 #include "sim/sim_replay.h"
+#include "i2c_log.h"
 
 /* "No value" in tables and JSON (printed as nan / null). */
 #define NO_VALUE ((double)NAN)
@@ -65,6 +66,7 @@ struct replay {
     struct tof_app app;
     enum attitude_estimator primary;
     FILE *est_out;
+    struct i2c_log_file i2c_log;
     FILE *plot_data;
     char plot_data_path[4096];
     struct err_stats stats[ATTITUDE_EST_COUNT];
@@ -321,6 +323,7 @@ static int configure(struct replay *r) {
         .gpio = r->sim.rig.hal_gpio,
         .time = r->sim.rig.time,
         .output = {.ops = &replay_output_ops, .ctx = r},
+        .sensor_pads_at_avdd = true, /* as the NUCLEO boards it simulates */
     };
     for (unsigned i = 0; i < 4; ++i) {
         r->platform.xshut_pin[i] = SIM_RIG_XSHUT_PIN(i);
@@ -330,6 +333,10 @@ static int configure(struct replay *r) {
 }
 
 static int open_outputs(struct replay *r) {
+    if (r->args->i2c_log_path != NULL &&
+        i2c_log_open(&r->i2c_log, r->args->i2c_log_path, &r->sim.rig.bus) != 0) {
+        return -1;
+    }
     if (r->args->out_path != NULL) {
         r->est_out = fopen(r->args->out_path, "w");
         if (r->est_out == NULL || fputs(TOF_EST_CSV_HEADER, r->est_out) == EOF) {
@@ -594,6 +601,9 @@ int replay_execute(const struct replay_args *args, struct replay_result *result)
     }
     if (R.est_out != NULL && fclose(R.est_out) != 0 && rc == 0) {
         fprintf(stderr, "host_sim replay: %s: write failed\n", args->out_path);
+        rc = -1;
+    }
+    if (i2c_log_close(&R.i2c_log, &R.sim.rig.bus) != 0 && rc == 0) {
         rc = -1;
     }
     if (R.reader.file != NULL) {
