@@ -524,8 +524,9 @@ int vl53_configure_begin(struct vl53_dev *dev) {
 }
 
 /* The VHV step's end ([ULD] SensorInit): wait for the first range's data ready (polarity as
- * the block set it, as CheckForDataReady reads it), clear, stop, two-bounds VHV from the
- * previous temperature. */
+ * the block set it, as CheckForDataReady reads it; from GPIO1 when it is wired, the same
+ * signal without ~100 register reads), clear, stop, two-bounds VHV from the previous
+ * temperature. A poll lost to a bus error is retried within the budget. */
 static int finish_vhv(const struct call *c) {
     const uint8_t *table = c->dev->cfg->vendor_default_config != NULL
                                ? c->dev->cfg->vendor_default_config
@@ -539,10 +540,21 @@ static int finish_vhv(const struct call *c) {
     const uint32_t max_polls = c->budget_us / poll_us + 1u;
     bool ready = false;
     int err = HAL_OK;
+    const struct vl53_config *cfg = c->dev->cfg;
     for (uint32_t poll = 0; poll < max_polls && !ready; ++poll) {
-        err = read_data_ready(c, polarity, &ready);
-        if (err != HAL_OK) {
+        if (cfg->gpio1_pin != VL53_PIN_NONE) {
+            /* GPIO1 is the same data-ready signal: no bus traffic while the range runs. */
+            bool level_high = false;
+            err = cfg->gpio.ops->read(cfg->gpio.ctx, cfg->gpio1_pin, &level_high);
+            ready = level_high == (polarity == VL53_INT_ACTIVE_HIGH);
+        } else {
+            err = read_data_ready(c, polarity, &ready);
+        }
+        if (err == HAL_ERR_BUS_STUCK || err == HAL_ERR_INVALID) {
             return err;
+        }
+        if (err != HAL_OK) {
+            ready = false; /* a lost poll (NACK, stretch): the next one may get through */
         }
         if (!ready) {
             if (call_transfer_timeout(c) <= poll_us) {

@@ -168,8 +168,16 @@ static void publish(struct sim_vl53 *dev, const struct sim_range *range, uint32_
 
 static void complete_measurement(struct sim_vl53 *dev, uint64_t time_us) {
     dev->stats.measurements++;
-    if (dev->vhv_stage == 0u) {
-        dev->vhv_stage = 1u; /* the first range after the block: the VHV range ([ULD]) */
+    if (dev->vhv_stage < 3u) {
+        /* Not calibrated: the VHV range itself, or ranging without the VHV step. Its result
+         * says "no VHV value found" (raw 3) and measures nothing the scene could supply, so
+         * the source is not consulted (the model's choice; the ULD discards this range). */
+        if (dev->vhv_stage == 0u) {
+            dev->vhv_stage = 1u; /* the first range after the block: the VHV range ([ULD]) */
+        }
+        const struct sim_range none = {0u, 0u, true};
+        publish(dev, &none, dev->next_sample_index, time_us);
+        return;
     }
     uint32_t sample_index;
     if (dev->cfg.index_mode == SIM_VL53_INDEX_BY_TIME && dev->cfg.index_period_us != 0u) {
@@ -383,13 +391,14 @@ static void write_register(struct sim_vl53 *dev, uint16_t reg, uint8_t value,
         dev->stats.protocol_errors++;
         return;
     }
+    if (reg >= M_BLOCK_FIRST && reg <= M_BLOCK_LAST) {
+        /* 0x31 is read-only, yet ST's block writes it: written all the same */
+        const unsigned k = (unsigned)(reg - M_BLOCK_FIRST);
+        dev->block_written[k / 8u] = (uint8_t)(dev->block_written[k / 8u] | (1u << (k % 8u)));
+    }
     if (is_read_only(reg)) {
         dev->stats.readonly_writes++;
         return;
-    }
-    if (reg >= M_BLOCK_FIRST && reg <= M_BLOCK_LAST) {
-        const unsigned k = (unsigned)(reg - M_BLOCK_FIRST);
-        dev->block_written[k / 8u] = (uint8_t)(dev->block_written[k / 8u] | (1u << (k % 8u)));
     }
     switch (reg) {
     case M_VHV_LOOP_BOUND:

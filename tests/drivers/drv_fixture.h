@@ -55,7 +55,7 @@ void drv_sleep(struct drv_fixture *f, uint32_t us);
 bool drv_result_matches(const struct sim_vl53 *m, const struct vl53_result *r);
 
 /* Worst wire time (µs, rounded up, plus the bus-free gap) of the longest transfer the driver
- * makes in normal operation: the 30-byte configuration read-back. */
+ * makes in normal operation: the 91-byte default-configuration write. */
 uint32_t drv_transfer_slack_us(const struct drv_fixture *f);
 
 /* Could a consumer be misled by this OK result? Safe when its status is not "valid" (it is
@@ -89,7 +89,7 @@ struct drv_manager {
                                 not publish for that measurement (drv_result_safe) */
     uint64_t glitches;       /* OK results that are safe but not exact: a valid reading turned
                                 invalid, or a flipped stream count on the right distance */
-    uint64_t errors[12];     /* by -hal_err */
+    uint64_t errors[13];     /* by -hal_err */
     uint32_t calls[DRV_CALL_COUNT];
     uint32_t max_us[DRV_CALL_COUNT];
     uint32_t over_budget[DRV_CALL_COUNT]; /* calls that took longer than their bound */
