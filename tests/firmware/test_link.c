@@ -142,7 +142,9 @@ static int setup(void **state) {
 
 static void test_default_windows_report_a_parallel_plate(void **state) {
     (void)state;
-    run_ms(2 * 100 * 20 + 100); /* two windows of 100 samples at 20 ms */
+    /* Two windows of 100 samples at 20 ms, after the ~115 ms bring-up (ST's block and VHV
+     * step) and the first slot, with time for the link to send the second window. */
+    run_ms(2 * 100 * 20 + 300);
     decode_output();
     assert_int_equal(t.estimates, 2 * 4); /* four estimators per window */
     assert_int_equal(t.health, 2);
@@ -233,7 +235,7 @@ static void test_stop_silences_estimates_and_raw_stream_sends_samples(void **sta
     cmd = (struct tlm_command){.type = TLM_TYPE_RAW_STREAM};
     cmd.u.raw_enable = true;
     push_command(&cmd, 8);
-    run_ms(150 * 20);
+    run_ms(150 * 20 + 200);
     decode_output();
     assert_int_equal(t.acks, 2);
     assert_int_equal(t.estimates, 0);
