@@ -214,6 +214,7 @@ int vl53_attach(struct vl53_dev *dev, const struct vl53_config *cfg) {
     dev->next_register_poll_us = dev->power_up_us;
     dev->boot_state = 0u;
     dev->vhv_running = false;
+    dev->vhv_start_us = dev->power_up_us;
     return HAL_OK;
 }
 
@@ -519,37 +520,67 @@ int vl53_configure_begin(struct vl53_dev *dev) {
     }
     if (err == HAL_OK) {
         dev->vhv_running = true;
+        dev->vhv_start_us = now_us(dev);
     }
     return err;
 }
 
-/* The VHV step's end ([ULD] SensorInit): wait for the first range's data ready (polarity as
- * the block set it, as CheckForDataReady reads it; from GPIO1 when it is wired, the same
- * signal without ~100 register reads), clear, stop, two-bounds VHV from the previous
- * temperature. A poll lost to a bus error is retried within the budget. */
-static int finish_vhv(const struct call *c) {
-    const uint8_t *table = c->dev->cfg->vendor_default_config != NULL
-                               ? c->dev->cfg->vendor_default_config
-                               : vl53_default_config;
+/* Polarity of data ready during the VHV range: as the block set it (0x30 bit 4), as
+ * [ULD] CheckForDataReady reads it. */
+static enum vl53_polarity vhv_polarity(const struct vl53_config *cfg) {
+    const uint8_t *table =
+        cfg->vendor_default_config != NULL ? cfg->vendor_default_config : vl53_default_config;
     const size_t mux_ofs = VL53_REG_GPIO_HV_MUX_CTRL - VL53_REG_DEFAULT_CONFIG_FIRST;
-    const enum vl53_polarity polarity = (table[mux_ofs] & VL53_GPIO_HV_MUX_POLARITY_LOW_BIT) != 0u
-                                            ? VL53_INT_ACTIVE_LOW
-                                            : VL53_INT_ACTIVE_HIGH;
+    return (table[mux_ofs] & VL53_GPIO_HV_MUX_POLARITY_LOW_BIT) != 0u ? VL53_INT_ACTIVE_LOW
+                                                                      : VL53_INT_ACTIVE_HIGH;
+}
+
+/* One look at the VHV range's data ready: GPIO1 when wired (the same signal, no bus
+ * traffic), else GPIO__TIO_HV_STATUS. */
+static int vhv_ready_once(const struct call *c, bool *ready) {
+    const struct vl53_config *cfg = c->dev->cfg;
+    const enum vl53_polarity polarity = vhv_polarity(cfg);
+    if (cfg->gpio1_pin == VL53_PIN_NONE) {
+        return read_data_ready(c, polarity, ready);
+    }
+    bool level_high = false;
+    int err = cfg->gpio.ops->read(cfg->gpio.ctx, cfg->gpio1_pin, &level_high);
+    *ready = err == HAL_OK && level_high == (polarity == VL53_INT_ACTIVE_HIGH);
+    return err;
+}
+
+int vl53_configure_pending(struct vl53_dev *dev) {
+    if (!dev_ok(dev)) {
+        return HAL_ERR_INVALID;
+    }
+    if (!dev->vhv_running) {
+        return HAL_ERR_STATE;
+    }
+    struct call c = call_begin(dev, call_budget(dev));
+    bool ready = false;
+    int err = vhv_ready_once(&c, &ready);
+    if (err == HAL_OK && ready) {
+        return HAL_OK;
+    }
+    const uint32_t budget =
+        or_default(dev->cfg->configure_budget_us, VL53_DEFAULT_CONFIGURE_BUDGET_US);
+    if (hal_time_elapsed_us(now_us(dev), dev->vhv_start_us) >= budget) {
+        return HAL_ERR_TIMEOUT;
+    }
+    return err != HAL_OK ? err : HAL_ERR_NOT_READY;
+}
+
+/* The VHV step's end ([ULD] SensorInit): wait for the first range's data ready, clear,
+ * stop, two-bounds VHV from the previous temperature. A poll lost to a bus error is
+ * retried within the budget. */
+static int finish_vhv(const struct call *c) {
     const uint32_t poll_us =
         or_default(c->dev->cfg->poll_interval_us, VL53_DEFAULT_POLL_INTERVAL_US);
     const uint32_t max_polls = c->budget_us / poll_us + 1u;
     bool ready = false;
     int err = HAL_OK;
-    const struct vl53_config *cfg = c->dev->cfg;
     for (uint32_t poll = 0; poll < max_polls && !ready; ++poll) {
-        if (cfg->gpio1_pin != VL53_PIN_NONE) {
-            /* GPIO1 is the same data-ready signal: no bus traffic while the range runs. */
-            bool level_high = false;
-            err = cfg->gpio.ops->read(cfg->gpio.ctx, cfg->gpio1_pin, &level_high);
-            ready = level_high == (polarity == VL53_INT_ACTIVE_HIGH);
-        } else {
-            err = read_data_ready(c, polarity, &ready);
-        }
+        err = vhv_ready_once(c, &ready);
         if (err == HAL_ERR_BUS_STUCK || err == HAL_ERR_INVALID) {
             return err;
         }
@@ -853,7 +884,16 @@ static int read_result_in(const struct call *c, struct vl53_result *result) {
     const uint8_t raw = result->raw_status;
     if (raw == VL53_RAW_VCSEL_CONTINUITY_FAIL || raw == VL53_RAW_VCSEL_WATCHDOG_FAIL ||
         raw == VL53_RAW_NO_VHV_VALUE || raw == VL53_RAW_MULTCLIP_FAIL) {
-        /* The part reports its own hardware fault ([SSD]): not the bus's. */
+        /* The part reports its own hardware fault ([SSD]): not the bus's. Read the status
+         * again first: a garbled read must not cost the sensor a re-initialisation. */
+        uint8_t again = 0u;
+        err = call_read(c, dev->address, VL53_REG_RESULT_RANGE_STATUS, &again, 1u);
+        if (err != HAL_OK) {
+            return err;
+        }
+        if ((again & VL53_RANGE_STATUS_RAW_MASK) != raw) {
+            return HAL_ERR_CORRUPT;
+        }
         result->flags |= VL53_RESULT_HW_FAULT;
         return HAL_ERR_DEVICE;
     }

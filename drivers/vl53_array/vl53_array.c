@@ -246,7 +246,7 @@ int vl53_array_bring_up(struct vl53_array *array) {
     return first_err;
 }
 
-int vl53_array_recover_sensor(struct vl53_array *array, size_t index) {
+int vl53_array_recover_sensor_begin(struct vl53_array *array, size_t index) {
     if (!index_ok(array, index)) {
         return HAL_ERR_INVALID;
     }
@@ -264,6 +264,29 @@ int vl53_array_recover_sensor(struct vl53_array *array, size_t index) {
     if (err == HAL_OK) {
         err = release_and_begin(array, index);
     }
+    return err;
+}
+
+int vl53_array_recover_sensor_step(struct vl53_array *array, size_t index) {
+    if (!index_ok(array, index)) {
+        return HAL_ERR_INVALID;
+    }
+    if (array->report[index].state != VL53_SENSOR_CONFIGURING) {
+        return HAL_ERR_STATE;
+    }
+    int err = vl53_configure_pending(&array->dev[index]);
+    if (err == HAL_OK) {
+        return finish_and_start(array, index); /* data ready: no waiting */
+    }
+    if (err == HAL_ERR_TIMEOUT || err == HAL_ERR_BUS_STUCK) {
+        return fail(array, index, VL53_ARRAY_CONFIG_FAILED, err,
+                    array->cfg->sensors[index].address);
+    }
+    return HAL_ERR_NOT_READY; /* still ranging, or one look lost to the bus: look again */
+}
+
+int vl53_array_recover_sensor(struct vl53_array *array, size_t index) {
+    int err = vl53_array_recover_sensor_begin(array, index);
     if (err == HAL_OK) {
         err = finish_and_start(array, index);
     }

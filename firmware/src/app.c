@@ -151,21 +151,9 @@ static void poll_sensor(struct tof_app *app, unsigned sensor) {
                       result.range_status, &sink);
 }
 
-/* Carry out the fault manager's decision for one sensor; returns true if it re-initialised. */
-static bool manage_sensor(struct tof_app *app, unsigned sensor) {
-    const uint32_t now_ms = (uint32_t)(app->uptime_us / 1000u);
-    const enum tof_health_state before = app->health[sensor].state;
-    const enum tof_health_action action =
-        tof_health_poll(&app->health[sensor], &app->cfg->health, now_ms);
-    if (app->health[sensor].state != before) {
-        emit_event(app, TOF_EVENT_HEALTH, sensor, before, app->health[sensor].state,
-                   HAL_ERR_TIMEOUT);
-    }
-    if (action != TOF_HEALTH_ACT_REINIT) {
-        return false;
-    }
-    const int rc = vl53_array_recover_sensor(&app->array, sensor);
-    (void)tof_app_now_us(app);
+/* A re-initialisation ended (`rc` from the array): count it, park the sensor for the next
+ * slot on success, free a stuck bus on failure, tell the health state machine. */
+static void reinit_done(struct tof_app *app, unsigned sensor, int rc) {
     if (rc == HAL_OK) {
         ++app->counters.reinits_ok;
         park_until_boundary(app, sensor);
@@ -184,6 +172,38 @@ static bool manage_sensor(struct tof_app *app, unsigned sensor) {
     tof_health_on_reinit_done(&app->health[sensor], &app->cfg->health,
                               (uint32_t)(app->uptime_us / 1000u), rc == HAL_OK);
     emit_event(app, TOF_EVENT_REINIT, sensor, lost, app->health[sensor].state, rc);
+}
+
+/* Carry out the fault manager's decision for one sensor; returns true if it did bus work
+ * for a re-initialisation. A re-init runs in two halves: the XSHUT cycle up to the start of
+ * ST's ~100 ms VHV range, then, in later iterations, its end once the range is over, so
+ * the other sensors keep being read meanwhile. */
+static bool manage_sensor(struct tof_app *app, unsigned sensor) {
+    if (vl53_array_report(&app->array, sensor)->state == VL53_SENSOR_CONFIGURING) {
+        const int rc = vl53_array_recover_sensor_step(&app->array, sensor);
+        if (rc == HAL_ERR_NOT_READY) {
+            return false; /* VHV range still running: one quick look, nothing else */
+        }
+        (void)tof_app_now_us(app);
+        reinit_done(app, sensor, rc);
+        return true;
+    }
+    const uint32_t now_ms = (uint32_t)(app->uptime_us / 1000u);
+    const enum tof_health_state before = app->health[sensor].state;
+    const enum tof_health_action action =
+        tof_health_poll(&app->health[sensor], &app->cfg->health, now_ms);
+    if (app->health[sensor].state != before) {
+        emit_event(app, TOF_EVENT_HEALTH, sensor, before, app->health[sensor].state,
+                   HAL_ERR_TIMEOUT);
+    }
+    if (action != TOF_HEALTH_ACT_REINIT) {
+        return false;
+    }
+    const int rc = vl53_array_recover_sensor_begin(&app->array, sensor);
+    (void)tof_app_now_us(app);
+    if (rc != HAL_OK) {
+        reinit_done(app, sensor, rc); /* failed before the VHV range */
+    }
     return true;
 }
 

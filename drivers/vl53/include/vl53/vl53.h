@@ -156,6 +156,7 @@ struct vl53_dev {
     uint32_t next_register_poll_us;
     uint8_t boot_state; /* FIRMWARE__SYSTEM_STATUS when vl53_wait_boot() saw it booted */
     bool vhv_running;   /* vl53_configure_begin() started the VHV range */
+    uint32_t vhv_start_us;
 };
 
 /*
@@ -217,6 +218,15 @@ int vl53_configure_begin(struct vl53_dev *dev);
  */
 int vl53_configure_finish(struct vl53_dev *dev);
 
+/*
+ * Has the VHV range started by vl53_configure_begin() finished? One look, no waiting (GPIO1
+ * when wired, else one register read): HAL_OK when its data is ready (vl53_configure_finish()
+ * then returns without waiting), HAL_ERR_NOT_READY while it runs, HAL_ERR_TIMEOUT once
+ * configure_budget_us since the begin has passed without it, HAL_ERR_STATE without a begin,
+ * or the bus error of the read. Lets a caller finish the bring-up without blocking.
+ */
+int vl53_configure_pending(struct vl53_dev *dev);
+
 /* vl53_configure_begin() then vl53_configure_finish(). */
 int vl53_configure(struct vl53_dev *dev);
 
@@ -241,8 +251,8 @@ int vl53_gpio1_ready(struct vl53_dev *dev, bool *ready);
 /*
  * Read and check the 17-byte result block. HAL_OK with *result filled; HAL_ERR_DEVICE
  * (result filled, VL53_RESULT_HW_FAULT, status VL53_RANGE_HARDWARE_FAIL) when the part
- * reports its own hardware fault (raw 1, 2, 3, 17): re-initialise that sensor, the bus is
- * fine; HAL_ERR_CORRUPT (result still filled) when the raw status is one ST does not map,
+ * reports its own hardware fault (raw 1, 2, 3, 17, confirmed by a 1-byte re-read of the
+ * status): re-initialise that sensor, the bus is fine; HAL_ERR_CORRUPT (result still filled) when the raw status is one ST does not map,
  * the stream count did not advance (stale block) or advanced inconsistently with the time
  * elapsed, or the distance re-read (verify_distance) differs. The first result after a
  * start is accepted with any stream count (the part's count does not restart) and marked

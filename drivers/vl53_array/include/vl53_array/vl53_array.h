@@ -87,6 +87,17 @@ int vl53_array_bring_up(struct vl53_array *array);
  */
 int vl53_array_recover_sensor(struct vl53_array *array, size_t index);
 
+/*
+ * The same in two halves, so a caller need not block for the ~100 ms VHV range: _begin
+ * does everything up to the VHV range's start (sensor CONFIGURING; ~5 ms); _step then takes
+ * one look (no waiting): HAL_ERR_NOT_READY while the range runs, HAL_OK once it finished
+ * the bring-up (RANGING), or the failure's error (sensor parked, report updated: TIMEOUT
+ * once configure_budget_us has passed). HAL_ERR_STATE from _step if not CONFIGURING.
+ * Each call within call_budget_us (plus vl53_configure_finish's for the last step).
+ */
+int vl53_array_recover_sensor_begin(struct vl53_array *array, size_t index);
+int vl53_array_recover_sensor_step(struct vl53_array *array, size_t index);
+
 /* Bus recovery (nine clocks and a STOP on a stuck SDA) through the bus's hal_i2c recover.
  * HAL_OK if SDA is released; HAL_ERR_INVALID if the bus has no recover hook. */
 int vl53_array_recover_bus(struct vl53_array *array);
