@@ -242,6 +242,26 @@ static void test_stop_silences_estimates_and_raw_stream_sends_samples(void **sta
     assert_true(t.raw >= 140u);
 }
 
+/* A sensor reporting its own hardware fault (raw 2, VCSEL watchdog) is re-initialised by
+ * the fault manager, alone, and the bus is left alone. */
+static void test_sensor_hardware_fault_reinits_that_sensor(void **state) {
+    (void)state;
+    run_ms(500);
+    assert_int_equal(t.app.counters.reinits_ok, 0u);
+    sim_vl53_force_results(&t.rig.sensor[2], 2u, 100u, 1u);
+    run_ms(600);
+    assert_int_equal(t.app.counters.reinits_ok, 1u);
+    assert_int_equal(t.app.counters.reinits_failed, 0u);
+    assert_int_equal(t.app.counters.bus_recoveries, 0u);
+    assert_int_equal(t.rig.bus.stats.recoveries, 0u);
+    assert_int_equal(t.rig.sensor[2].stats.injected_resets + t.rig.sensor[2].stats.power_ups,
+                     3u); /* powered at start, bring-up, the re-init's XSHUT cycle */
+    assert_int_equal(t.rig.sensor[0].stats.power_ups, 2u);
+    for (unsigned i = 0; i < 4; ++i) {
+        assert_int_equal(t.app.health[i].state, TOF_HEALTH_HEALTHY);
+    }
+}
+
 static void test_malformed_frames_are_counted_and_refused(void **state) {
     (void)state;
     /* bad CRC: a valid frame with its last byte changed */
@@ -279,6 +299,7 @@ int main(void) {
         cmocka_unit_test_setup(test_selecting_an_estimator_that_does_not_run_is_refused, setup),
         cmocka_unit_test_setup(test_primary_is_an_estimator_that_runs, setup_kalman_only),
         cmocka_unit_test_setup(test_stop_silences_estimates_and_raw_stream_sends_samples, setup),
+        cmocka_unit_test_setup(test_sensor_hardware_fault_reinits_that_sensor, setup),
         cmocka_unit_test_setup(test_malformed_frames_are_counted_and_refused, setup),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
