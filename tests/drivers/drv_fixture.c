@@ -167,16 +167,9 @@ static void note_error(struct drv_manager *m, size_t i, int err) {
     m->healthy_since_us[i] = UINT64_MAX;
 }
 
-static void recover_sensor(struct drv_manager *m, size_t i) {
-    uint64_t t0 = drv_now(m->f);
-    faults_mark(m);
-    int err = vl53_array_recover_sensor(&m->f->array, i);
-    faults_attribute(m, err);
-    timed(m, DRV_CALL_RECOVER_SENSOR, t0);
-    m->consecutive_errors[i] = 0u;
+/* A sensor re-init ended with `err` (its last half, or a failed first half). */
+static void recovery_ended(struct drv_manager *m, size_t i, int err) {
     m->last_error_us[i] = drv_now(m->f);
-    m->ok_since_error[i] = 0u;
-    m->healthy_since_us[i] = UINT64_MAX;
     if (err == HAL_OK) {
         m->recoveries_ok++;
     } else if (err == HAL_ERR_BUS_STUCK) {
@@ -193,10 +186,42 @@ static void recover_sensor(struct drv_manager *m, size_t i) {
     }
 }
 
+/* The first half of a re-init (as the firmware does it): up to the VHV range's start. */
+static void recover_sensor(struct drv_manager *m, size_t i) {
+    uint64_t t0 = drv_now(m->f);
+    faults_mark(m);
+    int err = vl53_array_recover_sensor_begin(&m->f->array, i);
+    faults_attribute(m, err);
+    timed(m, DRV_CALL_RECOVER_SENSOR, t0);
+    m->consecutive_errors[i] = 0u;
+    m->last_error_us[i] = drv_now(m->f);
+    m->ok_since_error[i] = 0u;
+    m->healthy_since_us[i] = UINT64_MAX;
+    if (err != HAL_OK) {
+        recovery_ended(m, i, err);
+    }
+}
+
+/* The second half, one look per tick until the VHV range is over. */
+static void step_sensor(struct drv_manager *m, size_t i) {
+    uint64_t t0 = drv_now(m->f);
+    faults_mark(m);
+    int err = vl53_array_recover_sensor_step(&m->f->array, i);
+    faults_attribute(m, err);
+    timed(m, DRV_CALL_RECOVER_SENSOR, t0);
+    if (err != HAL_ERR_NOT_READY) {
+        recovery_ended(m, i, err);
+    }
+}
+
 void drv_manager_tick(struct drv_manager *m, uint32_t tick_us) {
     struct drv_fixture *f = m->f;
     bool bus_recovered = false;
     for (size_t i = 0; i < DRV_SENSORS; ++i) {
+        if (f->array.report[i].state == VL53_SENSOR_CONFIGURING) {
+            step_sensor(m, i);
+            continue;
+        }
         if (f->array.report[i].state != VL53_SENSOR_RANGING) {
             if (drv_now(f) >= m->retry_at_us[i]) {
                 recover_sensor(m, i);

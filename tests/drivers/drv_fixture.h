@@ -67,9 +67,11 @@ bool drv_result_safe(const struct sim_vl53 *m, const struct vl53_result *r);
  * A reference acquisition loop with a simple fault policy, standing in for the firmware's
  * fault manager in tests and the benchmark: every tick polls each ranging sensor; a stuck
  * bus gets a bus recovery; overdue data, or DRV_MANAGER_ERRORS_TO_RECOVER errors without
- * DRV_MANAGER_CLEAN_TO_FORGIVE clean results in between, get a sensor recovery (XSHUT
- * re-init); a sensor whose recovery failed is retried every DRV_MANAGER_RETRY_US. Every call is
- * timed in simulated time against its bound.
+ * DRV_MANAGER_CLEAN_TO_FORGIVE clean results in between, or a hardware fault the sensor
+ * reports (HAL_ERR_DEVICE), get a sensor recovery (XSHUT re-init, in two halves as the
+ * firmware does it: vl53_array_recover_sensor_begin, then one _step per tick until the VHV
+ * range is over); a sensor whose recovery failed is retried every DRV_MANAGER_RETRY_US.
+ * Every call is timed in simulated time against its bound.
  */
 #define DRV_MANAGER_ERRORS_TO_RECOVER 3u
 #define DRV_MANAGER_CLEAN_TO_FORGIVE  10u
