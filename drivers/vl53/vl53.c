@@ -37,8 +37,8 @@ static const struct timing_entry long_mode_timing[] = {
  * VL53L1X_GetRangeStatus / GetResult), with raw 1, 2 and 17, which the ULD leaves unmapped,
  * as hardware fail (5) as ST's full API has them ([SSD]); raw 24..31 are unmapped. */
 static const uint8_t raw_to_uld_status[24] = {
-    255u, 5u,   5u,   5u,   2u,   4u,   1u,  7u, 3u,   0u,   255u, 255u,
-    9u,   13u,  255u, 255u, 255u, 5u,   10u, 6u, 255u, 255u, 11u,  12u,
+    255u, 5u,  5u,   5u,   2u,   4u, 1u,  7u, 3u,   0u,   255u, 255u,
+    9u,   13u, 255u, 255u, 255u, 5u, 10u, 6u, 255u, 255u, 11u,  12u,
 };
 
 uint8_t vl53_range_status_from_raw(uint8_t raw) {

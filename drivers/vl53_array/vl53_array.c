@@ -169,7 +169,8 @@ static int finish_and_start(struct vl53_array *array, size_t index) {
         err = vl53_start_ranging(dev);
     }
     if (err != HAL_OK) {
-        return fail(array, index, VL53_ARRAY_CONFIG_FAILED, err, array->cfg->sensors[index].address);
+        return fail(array, index, VL53_ARRAY_CONFIG_FAILED, err,
+                    array->cfg->sensors[index].address);
     }
     report->state = VL53_SENSOR_RANGING;
     report->fault = VL53_ARRAY_OK;

@@ -97,9 +97,9 @@ static void note_error(struct tof_app *app, unsigned sensor, int err) {
     const enum tof_health_state before = app->health[sensor].state;
     const bool bus_wide = err == HAL_ERR_BUS_STUCK || err == HAL_ERR_BUS_BUSY;
     /* The sensor reported its own hardware fault: re-initialise it, the bus is fine. */
-    const enum tof_error_scope scope = bus_wide                   ? TOF_ERROR_BUS
+    const enum tof_error_scope scope = bus_wide                ? TOF_ERROR_BUS
                                        : err == HAL_ERR_DEVICE ? TOF_ERROR_DEVICE
-                                                                 : TOF_ERROR_SENSOR;
+                                                               : TOF_ERROR_SENSOR;
     tof_health_on_error(&app->health[sensor], &app->cfg->health, (uint32_t)(app->uptime_us / 1000u),
                         scope);
     if (app->health[sensor].state != before) {

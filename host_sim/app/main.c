@@ -19,6 +19,7 @@ static void usage(FILE *f) {
           "  host_sim replay TRACE.csv [--estimator consensus|consensus-paper|kalman|mean]\n"
           "                  [--window N] [--mode tumbling|sliding] [--out EST.csv]\n"
           "                  [--report REPORT.json] [--plot FIG.png] [--faults SPEC] [--seed S]\n"
+          "                  [--i2c-log BUS.csv]\n"
           "                  [--quiet]\n"
           "  host_sim scenario NAME [--seed S] --trace-out TRACE.csv\n"
           "  host_sim camera --frames K --range-mm R ... (see docs/pose.md)\n"

@@ -35,8 +35,12 @@ static const struct budget_code short_codes[] = {
     {0x0591u, 0x05C1u, 500u},
 };
 static const struct budget_code long_codes[] = {
-    {0x001Eu, 0x0022u, 20u},  {0x0060u, 0x006Eu, 33u},  {0x00ADu, 0x00C6u, 50u},
-    {0x01CCu, 0x01EAu, 100u}, {0x02D9u, 0x02F8u, 200u}, {0x048Fu, 0x04A4u, 500u},
+    {0x001Eu, 0x0022u, 20u},
+    {0x0060u, 0x006Eu, 33u},
+    {0x00ADu, 0x00C6u, 50u},
+    {0x01CCu, 0x01EAu, 100u},
+    {0x02D9u, 0x02F8u, 200u},
+    {0x048Fu, 0x04A4u, 500u},
     {M_BLOCK_TIMEOUT_A, M_BLOCK_TIMEOUT_B, M_BLOCK_RANGE_MS}, /* ST's block itself */
 };
 
@@ -317,8 +321,7 @@ static bool decode_timing(struct sim_vl53 *dev) {
     /* SYSTEM__INTERMEASUREMENT_PERIOD = ms * clock_pll * 1.075 ([ULD]); 0 = back to back. */
     uint32_t imp = ((uint32_t)r[M_INTERMEASUREMENT] << 24) |
                    ((uint32_t)r[M_INTERMEASUREMENT + 1u] << 16) |
-                   ((uint32_t)r[M_INTERMEASUREMENT + 2u] << 8) |
-                   r[M_INTERMEASUREMENT + 3u];
+                   ((uint32_t)r[M_INTERMEASUREMENT + 2u] << 8) | r[M_INTERMEASUREMENT + 3u];
     uint64_t clock_pll = dev->cfg.osc_calibrate & M_OSC_MASK;
     uint64_t imp_us =
         clock_pll != 0u ? ((uint64_t)imp * 1000000u) / (clock_pll * M_IMP_PER_MILLE) : 0u;
@@ -377,12 +380,9 @@ static void vhv_write(struct sim_vl53 *dev, uint16_t reg, uint8_t value) {
 }
 
 static bool is_read_only(uint16_t reg) {
-    return reg == M_GPIO_TIO_STATUS ||
-           (reg >= M_RESULT_FIRST && reg <= RESULT_BLOCK_LAST) ||
-           reg == M_OSC_CALIBRATE ||
-           reg == M_OSC_CALIBRATE + 1u ||
-           reg == M_FIRMWARE_STATUS || reg == M_MODEL_ID ||
-           reg == M_MODEL_ID + 1u;
+    return reg == M_GPIO_TIO_STATUS || (reg >= M_RESULT_FIRST && reg <= RESULT_BLOCK_LAST) ||
+           reg == M_OSC_CALIBRATE || reg == M_OSC_CALIBRATE + 1u || reg == M_FIRMWARE_STATUS ||
+           reg == M_MODEL_ID || reg == M_MODEL_ID + 1u;
 }
 
 static void write_register(struct sim_vl53 *dev, uint16_t reg, uint8_t value,
@@ -447,8 +447,7 @@ static bool drdy_level(const struct sim_vl53 *dev) {
     if (dev->drdy == SIM_VL53_DRDY_STUCK_LOW) {
         return false;
     }
-    bool active_low =
-        (dev->regs[M_GPIO_HV_MUX_CTRL] & M_MUX_ACTIVE_LOW) != 0u;
+    bool active_low = (dev->regs[M_GPIO_HV_MUX_CTRL] & M_MUX_ACTIVE_LOW) != 0u;
     return active_low ? !dev->irq_pending : dev->irq_pending;
 }
 
@@ -514,8 +513,7 @@ static int target_transfer(void *ctx, const uint8_t *tx, size_t tx_len, uint8_t 
     const size_t first = dev->index;
     if (first + rx_len <= SIM_VL53_REG_SPACE &&
         !(first <= M_GPIO_TIO_STATUS && M_GPIO_TIO_STATUS < first + rx_len) &&
-        !(first <= M_FIRMWARE_STATUS &&
-          M_FIRMWARE_STATUS < first + rx_len)) {
+        !(first <= M_FIRMWARE_STATUS && M_FIRMWARE_STATUS < first + rx_len)) {
         /* Plain registers only (the result block, what a replay reads): what the loop
          * below gives, as one copy. */
         if (rx_len > 0u) {

@@ -28,13 +28,13 @@
 /* The block [ULD] writes after boot, and the three of its registers that make the part
  * range at all: sequence config (bit 7 range enable [REG]), firmware enable (bit 0 [REG]),
  * interrupt on new sample (0x20 [ULD] comment on 0x46). */
-#define M_BLOCK_FIRST        0x002Du
-#define M_BLOCK_LAST         0x0087u
-#define M_SEQUENCE_CONFIG    0x0081u
-#define M_SEQUENCE_RANGE_EN  0x80u
-#define M_FIRMWARE_ENABLE    0x0085u
-#define M_INT_CONFIG_GPIO    0x0046u
-#define M_INT_NEW_SAMPLE     0x20u
+#define M_BLOCK_FIRST       0x002Du
+#define M_BLOCK_LAST        0x0087u
+#define M_SEQUENCE_CONFIG   0x0081u
+#define M_SEQUENCE_RANGE_EN 0x80u
+#define M_FIRMWARE_ENABLE   0x0085u
+#define M_INT_CONFIG_GPIO   0x0046u
+#define M_INT_NEW_SAMPLE    0x20u
 
 #define M_GPIO_HV_MUX_CTRL  0x0030u /* bit 4: active-low interrupt [ULD] */
 #define M_MUX_ACTIVE_LOW    0x10u
@@ -70,8 +70,8 @@
 #define M_STREAM_WRAP_TO    0x80u /* [API] */
 
 /* Raw RESULT__RANGE_STATUS codes (low 5 bits, [REG] VL53L1_DEVICEERROR_*). */
-#define M_RAW_NO_VHV        3u
-#define M_RAW_RANGE_VALID   9u
+#define M_RAW_NO_VHV      3u
+#define M_RAW_RANGE_VALID 9u
 
 /* The block's own timing: long mode, timeouts A 0x01CC, B 0x01F1 [ULD] table, a pair in no
  * budget table; its range time is the field measurement [FR]. */

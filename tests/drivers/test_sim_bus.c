@@ -222,9 +222,9 @@ static void test_model_ranges_only_when_configured_as_st_does(void **state) {
     assert_int_equal(start_and_look(0), 0u);
     assert_int_equal(dev->refusal, SIM_VL53_NO_BLOCK);
     /* The block but for one register: still nothing. */
-    assert_int_equal(wr(0x29, ULD_BLOCK_FIRST + 1u, &uld_default_configuration[1],
-                        ULD_BLOCK_LEN - 1u),
-                     0); /* 0x2D never written */
+    assert_int_equal(
+        wr(0x29, ULD_BLOCK_FIRST + 1u, &uld_default_configuration[1], ULD_BLOCK_LEN - 1u),
+        0); /* 0x2D never written */
     program_short_15(0x29, 20u);
     assert_int_equal(start_and_look(0), 0u);
     assert_int_equal(dev->refusal, SIM_VL53_NO_BLOCK);

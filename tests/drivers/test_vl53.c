@@ -174,7 +174,8 @@ static void check_script(const struct sim_i2c_record *log, size_t logged,
         assert_int_equal(log[i].tx_len, want[i].tx_len);
         /* (longer transfers: their first sizeof tx bytes) */
         assert_memory_equal(log[i].tx, want[i].tx,
-                            want[i].tx_len < sizeof want[i].tx ? want[i].tx_len : sizeof want[i].tx);
+                            want[i].tx_len < sizeof want[i].tx ? want[i].tx_len
+                                                               : sizeof want[i].tx);
         assert_int_equal(log[i].rx_len, want[i].rx_len);
         if (want[i].rx_len > 0u && want[i].rx_len <= sizeof want[i].rx) {
             assert_memory_equal(log[i].rx, want[i].rx, want[i].rx_len);
@@ -242,10 +243,9 @@ static void test_scripted_bytes_of_init_and_read(void **state) {
     };
     check_script(log, fx.rig.bus.record_count, init, sizeof init / sizeof init[0]);
     /* 0x5E..0x7B: ours, and ST's block between them (sigma 0x0168, min rate 0x0080, ...). */
-    static const uint8_t readback[30] = {0x00, 0x1D, 0x07, 0x00, 0x27, 0x05, 0x01, 0x68,
-                                         0x00, 0x80, 0x08, 0x38, 0x00, 0x00, 0x00, 0x00,
-                                         0x29, 0xFE, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-                                         0x00, 0x01, 0x07, 0x05, 0x06, 0x06};
+    static const uint8_t readback[30] = {
+        0x00, 0x1D, 0x07, 0x00, 0x27, 0x05, 0x01, 0x68, 0x00, 0x80, 0x08, 0x38, 0x00, 0x00, 0x00,
+        0x00, 0x29, 0xFE, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x01, 0x07, 0x05, 0x06, 0x06};
     assert_memory_equal(log[14].rx, readback, 30u);
 
     /* One read: data-ready register, the 17-byte block, the interrupt clear. Nothing on the
@@ -615,7 +615,7 @@ static void test_many_sensors_no_globals(void **state) {
     }
     /* 20 ms period, plus the result pending since b's ~100 ms VHV step. */
     assert_in_range(got[0], 25u, 27u);
-    assert_in_range(got[1], 9u, 10u);  /* 50 ms period */
+    assert_in_range(got[1], 9u, 10u); /* 50 ms period */
 }
 
 int main(void) {

@@ -176,8 +176,7 @@ static void test_bring_up_from_the_i2c_log(void **state) {
      * ranges overlap). The release follows the 0.5 ms XSHUT-low wait and one probe. */
     const uint64_t release_us = t0 + VL53_ARRAY_XSHUT_LOW_US;
     print_message("bring-up: XSHUT release to all four ranging %.1f ms (call %.1f ms)\n",
-                  (double)(last_start_us - release_us) / 1000.0,
-                  (double)(t_end - t0) / 1000.0);
+                  (double)(last_start_us - release_us) / 1000.0, (double)(t_end - t0) / 1000.0);
     assert_true(last_start_us - release_us <= 150000u);
 }
 
@@ -187,7 +186,8 @@ static void test_csv_line_format(void **state) {
     const uint8_t rx[2] = {0x0F, 0xE0};
     struct sim_i2c_transaction t = {123456789012u, 0u, 0x30u, HAL_OK, 0u, tx, 2u, rx, 2u};
     char line[SIM_I2C_CSV_LINE_MAX];
-    assert_int_equal(sim_i2c_csv_line(&t, line, sizeof line), strlen("123456789012,0x30,0089,0fe0,ok\n"));
+    assert_int_equal(sim_i2c_csv_line(&t, line, sizeof line),
+                     strlen("123456789012,0x30,0089,0fe0,ok\n"));
     assert_string_equal(line, "123456789012,0x30,0089,0fe0,ok\n");
     t.tx_len = 3u;
     t.rx_len = 0u;
@@ -250,16 +250,26 @@ static void test_every_range_status_path(void **state) {
         int rc;
         uint8_t status;
     } paths[] = {
-        {9, HAL_OK, VL53_RANGE_VALID},           {6, HAL_OK, VL53_RANGE_SIGMA_FAIL},
-        {4, HAL_OK, VL53_RANGE_SIGNAL_FAIL},     {8, HAL_OK, VL53_RANGE_MIN_RANGE},
-        {5, HAL_OK, VL53_RANGE_OUT_OF_BOUNDS},   {7, HAL_OK, VL53_RANGE_WRAP_AROUND},
-        {19, HAL_OK, VL53_RANGE_NO_WRAP_CHECK},  {12, HAL_OK, 9u},
-        {13, HAL_OK, 13u},                       {18, HAL_OK, 10u},
-        {22, HAL_OK, 11u},                       {23, HAL_OK, 12u},
-        {1, HAL_ERR_DEVICE, 5u},                 {2, HAL_ERR_DEVICE, 5u},
-        {3, HAL_ERR_DEVICE, 5u},                 {17, HAL_ERR_DEVICE, 5u},
-        {0, HAL_ERR_CORRUPT, VL53_RANGE_UNKNOWN}, {10, HAL_ERR_CORRUPT, VL53_RANGE_UNKNOWN},
-        {16, HAL_ERR_CORRUPT, VL53_RANGE_UNKNOWN}, {31, HAL_ERR_CORRUPT, VL53_RANGE_UNKNOWN},
+        {9, HAL_OK, VL53_RANGE_VALID},
+        {6, HAL_OK, VL53_RANGE_SIGMA_FAIL},
+        {4, HAL_OK, VL53_RANGE_SIGNAL_FAIL},
+        {8, HAL_OK, VL53_RANGE_MIN_RANGE},
+        {5, HAL_OK, VL53_RANGE_OUT_OF_BOUNDS},
+        {7, HAL_OK, VL53_RANGE_WRAP_AROUND},
+        {19, HAL_OK, VL53_RANGE_NO_WRAP_CHECK},
+        {12, HAL_OK, 9u},
+        {13, HAL_OK, 13u},
+        {18, HAL_OK, 10u},
+        {22, HAL_OK, 11u},
+        {23, HAL_OK, 12u},
+        {1, HAL_ERR_DEVICE, 5u},
+        {2, HAL_ERR_DEVICE, 5u},
+        {3, HAL_ERR_DEVICE, 5u},
+        {17, HAL_ERR_DEVICE, 5u},
+        {0, HAL_ERR_CORRUPT, VL53_RANGE_UNKNOWN},
+        {10, HAL_ERR_CORRUPT, VL53_RANGE_UNKNOWN},
+        {16, HAL_ERR_CORRUPT, VL53_RANGE_UNKNOWN},
+        {31, HAL_ERR_CORRUPT, VL53_RANGE_UNKNOWN},
     };
     for (size_t k = 0; k < sizeof paths / sizeof paths[0]; ++k) {
         print_message("raw %u\n", paths[k].raw);
@@ -290,12 +300,16 @@ static void test_plausibility_flags(void **state) {
         bool flagged;
         uint8_t status;
     } cases[] = {
-        {9, 1360u, false, VL53_RANGE_VALID},     {9, 1361u, true, VL53_RANGE_IMPLAUSIBLE},
-        {9, 0u, true, VL53_RANGE_IMPLAUSIBLE},   {9, 8190u, true, VL53_RANGE_IMPLAUSIBLE},
-        {9, 8191u, true, VL53_RANGE_IMPLAUSIBLE}, {9, 65535u, true, VL53_RANGE_IMPLAUSIBLE},
+        {9, 1360u, false, VL53_RANGE_VALID},
+        {9, 1361u, true, VL53_RANGE_IMPLAUSIBLE},
+        {9, 0u, true, VL53_RANGE_IMPLAUSIBLE},
+        {9, 8190u, true, VL53_RANGE_IMPLAUSIBLE},
+        {9, 8191u, true, VL53_RANGE_IMPLAUSIBLE},
+        {9, 65535u, true, VL53_RANGE_IMPLAUSIBLE},
         {9, 1u, false, VL53_RANGE_VALID},
         /* flagged whatever the status; a status already not valid is kept */
-        {4, 8191u, true, VL53_RANGE_SIGNAL_FAIL}, {7, 0u, true, VL53_RANGE_WRAP_AROUND},
+        {4, 8191u, true, VL53_RANGE_SIGNAL_FAIL},
+        {7, 0u, true, VL53_RANGE_WRAP_AROUND},
         {4, 800u, false, VL53_RANGE_SIGNAL_FAIL},
     };
     for (size_t k = 0; k < sizeof cases / sizeof cases[0]; ++k) {

@@ -23,10 +23,9 @@ struct budget {
     uint16_t ms, a, b;
 };
 /* VL53L1X_SetTimingBudgetInMs, short then long mode. */
-static const struct budget short_budgets[] = {{15, 0x001D, 0x0027}, {20, 0x0051, 0x006E},
-                                              {33, 0x00D6, 0x006E}, {50, 0x01AE, 0x01E8},
-                                              {100, 0x02E1, 0x0388}, {200, 0x03E1, 0x0496},
-                                              {500, 0x0591, 0x05C1}};
+static const struct budget short_budgets[] = {
+    {15, 0x001D, 0x0027},  {20, 0x0051, 0x006E},  {33, 0x00D6, 0x006E}, {50, 0x01AE, 0x01E8},
+    {100, 0x02E1, 0x0388}, {200, 0x03E1, 0x0496}, {500, 0x0591, 0x05C1}};
 static const struct budget long_budgets[] = {{20, 0x001E, 0x0022},  {33, 0x0060, 0x006E},
                                              {50, 0x00AD, 0x00C6},  {100, 0x01CC, 0x01EA},
                                              {200, 0x02D9, 0x02F8}, {500, 0x048F, 0x04A4}};
@@ -63,7 +62,8 @@ bool uld_reference_image(bool long_mode, uint16_t budget_ms, uint32_t period_ms,
         image[0x2F - ULD_BLOCK_FIRST] |= 0x01u;
     }
     /* SetInterruptPolarity: 0x30 = (0x30 & 0xEF) | !active_high << 4. */
-    put(image, 0x30, (uint8_t)((image[0x30 - ULD_BLOCK_FIRST] & 0xEFu) | (active_high ? 0u : 0x10u)));
+    put(image, 0x30,
+        (uint8_t)((image[0x30 - ULD_BLOCK_FIRST] & 0xEFu) | (active_high ? 0u : 0x10u)));
     /* SetDistanceMode. */
     put(image, 0x4B, long_mode ? 0x0A : 0x14);
     put(image, 0x60, long_mode ? 0x0F : 0x07);

@@ -470,10 +470,11 @@ static void op_driver(enum fz_op op) {
         /* begin (call budget) then finish (configure budget), one transfer each over; a
          * data-ready poll of the VHV wait lost to a bus error is retried, not failed. */
         check_error_origin(rc);
-        check_bound((uint64_t)budget +
-                        or_default(fz.cfg[i].configure_budget_us, VL53_DEFAULT_CONFIGURE_BUDGET_US) +
-                        2u * fz.max_wire_us,
-                    "vl53_configure");
+        check_bound(
+            (uint64_t)budget +
+                or_default(fz.cfg[i].configure_budget_us, VL53_DEFAULT_CONFIGURE_BUDGET_US) +
+                2u * fz.max_wire_us,
+            "vl53_configure");
         FUZZ_CHECK(rc != HAL_OK || !vl53_is_ranging(dev));
         break;
     case FZ_OP_IDENTIFY: {

@@ -109,12 +109,12 @@ struct sim_vl53 {
     bool stream_started; /* since power-up: the count does not restart at a start */
     uint8_t stream_count;
     uint8_t block_written[(0x87u - 0x2Du) / 8u + 1u]; /* bit k: 0x2D + k written */
-    uint8_t vhv_stage;         /* 0 none, 1 a range completed, 2 stopped after it, 3 done */
-    bool vhv_bound_ok;         /* in stage 2: 0x0008 = 0x09 written */
-    bool vhv_init_ok;          /* in stage 2: 0x000B = 0x00 written */
-    bool started_since_boot;   /* FIRMWARE__SYSTEM_STATUS: 0x01 until the first start */
+    uint8_t vhv_stage;       /* 0 none, 1 a range completed, 2 stopped after it, 3 done */
+    bool vhv_bound_ok;       /* in stage 2: 0x0008 = 0x09 written */
+    bool vhv_init_ok;        /* in stage 2: 0x000B = 0x00 written */
+    bool started_since_boot; /* FIRMWARE__SYSTEM_STATUS: 0x01 until the first start */
     enum sim_vl53_refusal refusal;
-    uint32_t forced_left;      /* results still to publish with forced_raw / forced_mm */
+    uint32_t forced_left; /* results still to publish with forced_raw / forced_mm */
     uint8_t forced_raw;
     uint16_t forced_mm;
     bool irq_pending;

@@ -44,8 +44,8 @@
 #define VL53_IMP_MAX_MS 10000u
 
 /* Defaults used when a config field is 0. */
-#define VL53_DEFAULT_I2C_TIMEOUT_US      2000u
-#define VL53_DEFAULT_CALL_BUDGET_US      10000u
+#define VL53_DEFAULT_I2C_TIMEOUT_US 2000u
+#define VL53_DEFAULT_CALL_BUDGET_US 10000u
 /* vl53_configure_finish(): the VHV range at the block's own ~100 ms timing, twice over. */
 #define VL53_DEFAULT_CONFIGURE_BUDGET_US 200000u
 #define VL53_DEFAULT_POLL_INTERVAL_US    1000u
@@ -78,9 +78,9 @@ enum vl53_distance_mode {
 #define VL53_RANGE_MAX_LONG_MM  4000u
 /* Distances no valid reading has: 8190/8191 are the no-target codes, 65535 what a read of
  * an undriven bus (all ones) gives, 0 a target at the window. */
-#define VL53_NO_TARGET_MM      8190u
-#define VL53_NO_TARGET_ALT_MM  8191u
-#define VL53_FAILED_READ_MM    65535u
+#define VL53_NO_TARGET_MM     8190u
+#define VL53_NO_TARGET_ALT_MM 8191u
+#define VL53_FAILED_READ_MM   65535u
 
 /* struct vl53_result.flags */
 #define VL53_RESULT_FIRST       0x01u /* first result after a (re)start: not wrap-checked */
@@ -252,11 +252,11 @@ int vl53_gpio1_ready(struct vl53_dev *dev, bool *ready);
  * Read and check the 17-byte result block. HAL_OK with *result filled; HAL_ERR_DEVICE
  * (result filled, VL53_RESULT_HW_FAULT, status VL53_RANGE_HARDWARE_FAIL) when the part
  * reports its own hardware fault (raw 1, 2, 3, 17, confirmed by a 1-byte re-read of the
- * status): re-initialise that sensor, the bus is fine; HAL_ERR_CORRUPT (result still filled) when the raw status is one ST does not map,
- * the stream count did not advance (stale block) or advanced inconsistently with the time
- * elapsed, or the distance re-read (verify_distance) differs. The first result after a
- * start is accepted with any stream count (the part's count does not restart) and marked
- * VL53_RESULT_FIRST, status VL53_RANGE_NO_WRAP_CHECK if it came as valid. A distance the
+ * status): re-initialise that sensor, the bus is fine; HAL_ERR_CORRUPT (result still filled) when
+ * the raw status is one ST does not map, the stream count did not advance (stale block) or advanced
+ * inconsistently with the time elapsed, or the distance re-read (verify_distance) differs. The
+ * first result after a start is accepted with any stream count (the part's count does not restart)
+ * and marked VL53_RESULT_FIRST, status VL53_RANGE_NO_WRAP_CHECK if it came as valid. A distance the
  * mode cannot give as valid (0, 8190, 8191, 65535, beyond the mode's range) is marked
  * VL53_RESULT_IMPLAUSIBLE whatever its status, and a valid status becomes
  * VL53_RANGE_IMPLAUSIBLE.

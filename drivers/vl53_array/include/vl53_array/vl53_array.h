@@ -22,7 +22,7 @@
 #define VL53_ARRAY_XSHUT_LOW_US 500u
 
 enum vl53_sensor_state {
-    VL53_SENSOR_OFF,     /* held in reset (XSHUT low): never started, or parked after a fault */
+    VL53_SENSOR_OFF,         /* held in reset (XSHUT low): never started, or parked after a fault */
     VL53_SENSOR_CONFIGURING, /* at its own address, its VHV range running (bring-up only) */
     VL53_SENSOR_RANGING,     /* at its own address, configured, ranging */
 };
