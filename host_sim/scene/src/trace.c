@@ -727,6 +727,7 @@ static int parse_row(struct trace_reader *r, struct scene_row *row) {
         check_timing(r, row->t_ms);
     }
     r->last_t_ms = row->t_ms;
+    r->last_row_line = r->line_no;
     r->rows++;
     return 0;
 }

@@ -103,6 +103,7 @@ struct trace_reader {
     /* rows */
     uint64_t rows; /* rows returned so far */
     uint32_t last_t_ms;
+    unsigned long last_row_line; /* line of the last row returned */
     struct trace_timing timing;
     bool bom;                 /* the file began with a UTF-8 byte-order mark (skipped) */
     unsigned long empty_line; /* first empty line seen after the header; 0 = none */
