@@ -32,7 +32,7 @@ HEADER_SIZE = 5
 CRC_SIZE = 2
 FRAME_OVERHEAD = HEADER_SIZE + CRC_SIZE
 MAX_PAYLOAD = 192
-PROTOCOL_VERSION = 1
+PROTOCOL_VERSION = 2
 
 ACCEPT_COMMANDS = 1
 ACCEPT_TELEMETRY = 2
@@ -55,7 +55,7 @@ TYPES = {
     T_ESTIMATE: ("estimate", ACCEPT_TELEMETRY, 28),
     T_RAW_SAMPLE: ("raw", ACCEPT_TELEMETRY, 17),
     T_HEALTH: ("health", ACCEPT_TELEMETRY, 144),
-    T_ACK: ("ack", ACCEPT_TELEMETRY, 3),
+    T_ACK: ("ack", ACCEPT_TELEMETRY, 4),
     T_STATUS: ("status", ACCEPT_TELEMETRY, 16),
     T_SET_WINDOW: ("set-window", ACCEPT_COMMANDS, 3),
     T_SELECT_ESTIMATOR: ("select-estimator", ACCEPT_COMMANDS, 1),
@@ -267,8 +267,11 @@ def _health(p):
 
 
 def _ack(p):
-    echo_seq, command, result = struct.unpack("<BBB", p)
-    return result < len(RESULTS), {"echo_seq": echo_seq, "command": command, "result": result}
+    # error: the firmware's own negative code behind a nack, unchanged (an attitude_error
+    # of estimator/attitude.h for set-window and select-estimator); 0 in an ack.
+    echo_seq, command, result, error = struct.unpack("<BBBb", p)
+    valid = result < len(RESULTS) and error <= 0 and (result != R_OK or error == 0)
+    return valid, {"echo_seq": echo_seq, "command": command, "result": result, "error": error}
 
 
 def _status(p):
@@ -377,9 +380,9 @@ def format_message(ftype, seq, m):
             parts.append("%s=%d" % (key, m[key]))
         return head + " ".join(parts)
     if ftype == T_ACK:
-        return head + "%s echo_seq=%d command=%s result=%s" % (
+        return head + "%s echo_seq=%d command=%s result=%s error=%d" % (
             "ack" if m["result"] == 0 else "nack", m["echo_seq"], command_name(m["command"]),
-            RESULTS[m["result"]])
+            RESULTS[m["result"]], m["error"])
     if ftype == T_STATUS:
         return head + (
             "status fw=%d.%d.%d protocol=%d uptime_ms=%d window_n=%d mode=%s estimator=%s "

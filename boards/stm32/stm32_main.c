@@ -37,7 +37,8 @@ int main(void) {
         .gpio1_pin = {BOARD_HAL_GPIO1_PIN(0), BOARD_HAL_GPIO1_PIN(1), BOARD_HAL_GPIO1_PIN(2),
                       BOARD_HAL_GPIO1_PIN(3)},
     };
-    return tof_app_main(&platform, &tof_app_default_config, &app, &link, 0);
+    const struct tof_app_service telemetry = {.ops = &tof_link_service_ops, .ctx = &link};
+    return tof_app_main(&platform, &tof_app_default_config, &app, &telemetry, 0);
 }
 
 void board_exit(int status) {

@@ -11,6 +11,7 @@
 #include <cmocka.h>
 
 #include "firmware/link.h"
+#include "hal/hal_err.h"
 #include "sim/sim_rig.h"
 #include "telemetry/tlm_messages.h"
 
@@ -51,6 +52,7 @@ static struct {
     /* decoded output */
     unsigned acks, nacks, estimates, health, status, raw;
     uint8_t last_nack_result, last_ack_command;
+    int last_nack_error;
     struct tlm_status last_status;
     struct tlm_estimate last_estimate[4];
     struct tlm_health last_health;
@@ -76,6 +78,7 @@ static void on_frame(void *ctx, const struct tlm_frame *frame) {
         } else {
             ++t.nacks;
             t.last_nack_result = msg.u.ack.result;
+            t.last_nack_error = msg.u.ack.error;
         }
         break;
     case TLM_TYPE_ESTIMATE:
@@ -100,7 +103,7 @@ static void on_frame(void *ctx, const struct tlm_frame *frame) {
 
 static void decode_output(void) {
     struct tlm_decoder dec;
-    tlm_decoder_init(&dec, TLM_ACCEPT_TELEMETRY);
+    tlm_decoder_init(&dec, tlm_message_types(TLM_ACCEPT_TELEMETRY));
     const struct tlm_frame_sink sink = {.on_frame = on_frame, .ctx = NULL};
     tlm_decoder_feed(&dec, t.serial.tx, t.serial.tx_len, &sink);
     assert_int_equal(dec.counters.bad_crc, 0);
@@ -201,6 +204,7 @@ static void test_selecting_an_estimator_that_does_not_run_is_refused(void **stat
     decode_output();
     assert_int_equal(t.nacks, 2);
     assert_int_equal(t.last_nack_result, TLM_RESULT_STATE);
+    assert_int_equal(t.last_nack_error, ATTITUDE_ERR_ESTIMATORS); /* the estimator's code */
     assert_int_equal(t.acks, 2);
     assert_int_equal(t.last_status.estimator, TLM_ESTIMATOR_KALMAN);
 }
@@ -270,6 +274,87 @@ static void test_malformed_frames_are_counted_and_refused(void **state) {
     assert_int_equal(t.app.estimator.cfg.window, 100); /* nothing applied */
 }
 
+/* The estimator's error codes reach the firmware's callers unchanged. */
+static void test_estimator_errors_pass_up_unchanged(void **state) {
+    (void)state;
+    assert_int_equal(tof_app_set_window(&t.app, 1, false), ATTITUDE_ERR_WINDOW);
+    assert_int_equal(tof_app_set_window(&t.app, ATTITUDE_WINDOW_MAX + 1u, true),
+                     ATTITUDE_ERR_WINDOW);
+    assert_int_equal(t.app.estimator.cfg.window, 100); /* nothing changed */
+    assert_int_equal(t.app.estimator.cfg.mode, ATTITUDE_TUMBLING);
+    assert_int_equal(tof_app_set_window(&t.app, 20, true), ATTITUDE_ERR_NONE);
+    assert_int_equal(t.app.estimator.cfg.window, 20);
+    assert_int_equal(tof_app_set_primary(&t.app, (enum attitude_estimator)9),
+                     ATTITUDE_ERR_ESTIMATORS);
+    /* At init: the estimator's refusal is returned as it is and named by its message. */
+    static struct tof_app app;
+    static struct tof_app_config bad;
+    bad = tof_app_default_config;
+    bad.estimator.consensus_tolerance_udeg = 0;
+    const int rc = tof_app_init(&app, &t.platform, &bad);
+    assert_int_equal(rc, ATTITUDE_ERR_TOLERANCE);
+    assert_int_equal(app.estimator_error, ATTITUDE_ERR_TOLERANCE);
+    assert_string_equal(tof_app_error_message(&app, rc),
+                        attitude_error_message(ATTITUDE_ERR_TOLERANCE));
+    assert_string_equal(tof_app_error_message(&t.app, HAL_ERR_TIMEOUT), "TIMEOUT");
+}
+
+/* tof_app_main knows the link only as a service: started once after init, polled after
+ * every iteration, never started when init fails (which it logs in the estimator's words). */
+static unsigned service_starts, service_polls;
+static struct tof_app *service_app;
+static char log_text[512];
+static size_t log_len;
+
+static void count_start(void *ctx, struct tof_app *app) {
+    (void)ctx;
+    ++service_starts;
+    service_app = app;
+}
+
+static void count_poll(void *ctx) {
+    (void)ctx;
+    ++service_polls;
+}
+
+static void log_write(void *ctx, const char *text, size_t len) {
+    (void)ctx;
+    const size_t n = len < sizeof log_text - 1u - log_len ? len : sizeof log_text - 1u - log_len;
+    memcpy(log_text + log_len, text, n);
+    log_len += n;
+    log_text[log_len] = '\0';
+}
+
+static const struct hal_log_ops log_ops = {.write = log_write};
+
+static void test_main_runs_the_link_as_a_service(void **state) {
+    (void)state;
+    static const struct tof_app_service_ops ops = {.start = count_start, .poll = count_poll};
+    const struct tof_app_service svc = {.ops = &ops, .ctx = NULL};
+    service_starts = service_polls = 0;
+    static struct tof_app app;
+    assert_int_equal(tof_app_main(&t.platform, &tof_app_default_config, &app, &svc, 5), 0);
+    assert_int_equal(service_starts, 1);
+    assert_int_equal(service_polls, 5);
+    assert_ptr_equal(service_app, &app);
+    static struct tof_app_config bad;
+    bad = tof_app_default_config;
+    bad.estimator.paper_max_iterations = 0;
+    log_len = 0;
+    log_text[0] = '\0';
+    t.platform.log = (struct hal_log){.ops = &log_ops, .ctx = NULL};
+    assert_int_equal(tof_app_main(&t.platform, &bad, &app, &svc, 5), ATTITUDE_ERR_PAPER_ITERATIONS);
+    assert_int_equal(service_starts, 1);
+    assert_non_null(strstr(log_text, "init failed: estimator: paper_max_iterations is 0"));
+    /* The link's own service ops: start binds and sends a status frame. */
+    struct tof_link link;
+    tof_link_init(&link, (struct hal_serial){.ops = &serial_ops, .ctx = &t.serial});
+    tof_link_service_ops.start(&link, &t.app);
+    assert_ptr_equal(link.app, &t.app);
+    decode_output();
+    assert_int_equal(t.status, 1);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup(test_default_windows_report_a_parallel_plate, setup),
@@ -278,6 +363,8 @@ int main(void) {
         cmocka_unit_test_setup(test_primary_is_an_estimator_that_runs, setup_kalman_only),
         cmocka_unit_test_setup(test_stop_silences_estimates_and_raw_stream_sends_samples, setup),
         cmocka_unit_test_setup(test_malformed_frames_are_counted_and_refused, setup),
+        cmocka_unit_test_setup(test_estimator_errors_pass_up_unchanged, setup),
+        cmocka_unit_test_setup(test_main_runs_the_link_as_a_service, setup),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

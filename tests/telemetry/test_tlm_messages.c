@@ -91,7 +91,7 @@ static struct tlm_frame decode_one(struct recorder *rec, const uint8_t *bytes, s
                                    uint8_t accept) {
     struct tlm_decoder dec;
     const struct tlm_frame_sink sink = recorder_sink(rec);
-    tlm_decoder_init(&dec, accept);
+    tlm_decoder_init(&dec, tlm_message_types(accept));
     tlm_decoder_feed(&dec, bytes, len, &sink);
     assert_int_equal(rec->frame_count, 1);
     assert_int_equal(dec.counters.frames_ok, 1);
@@ -131,7 +131,7 @@ static void test_every_type_has_its_documented_length(void **state) {
     assert_int_equal(tlm_encode_estimate(0, &est, out, sizeof out), 28 + 7);
     assert_int_equal(tlm_encode_raw_sample(0, &raw, out, sizeof out), 17 + 7);
     assert_int_equal(tlm_encode_health(0, &health, out, sizeof out), 144 + 7);
-    assert_int_equal(tlm_encode_ack(0, &ack, out, sizeof out), 3 + 7);
+    assert_int_equal(tlm_encode_ack(0, &ack, out, sizeof out), 4 + 7);
     assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 16 + 7);
     assert_int_equal(tlm_type_payload_length(TLM_TYPE_HEALTH, TLM_ACCEPT_TELEMETRY), 144);
     assert_int_equal(tlm_type_payload_length(TLM_TYPE_HEALTH, TLM_ACCEPT_COMMANDS), -1);
@@ -426,13 +426,30 @@ static void test_raw_health_ack_status_validation(void **state) {
     assert_int_equal(tlm_parse_telemetry(&frame, &msg, NULL), TLM_RESULT_OUT_OF_RANGE);
 
     const struct tlm_ack good_ack = {.echo_seq = 0, .command = TLM_TYPE_STOP, .result = 0};
-    assert_int_equal(tlm_encode_ack(0, &good_ack, out, sizeof out), 10);
+    assert_int_equal(tlm_encode_ack(0, &good_ack, out, sizeof out), 11);
     out[5 + 2] = 5; /* result */
     frame = raw_frame(TLM_TYPE_ACK, &out[5], TLM_LEN_ACK);
     assert_int_equal(tlm_parse_telemetry(&frame, &msg, NULL), TLM_RESULT_OUT_OF_RANGE);
+    /* The error code: negative, carried unchanged by a nack, never in an ack. */
+    const struct tlm_ack nack = {
+        .echo_seq = 3, .command = TLM_TYPE_SET_WINDOW, .result = 3, .error = -2};
+    assert_int_equal(tlm_encode_ack(0, &nack, out, sizeof out), 11);
+    assert_int_equal(out[5 + 3], 0xFE);
+    frame = raw_frame(TLM_TYPE_ACK, &out[5], TLM_LEN_ACK);
+    assert_int_equal(tlm_parse_telemetry(&frame, &msg, NULL), TLM_RESULT_OK);
+    assert_int_equal(msg.u.ack.error, -2);
+    assert_int_equal(msg.u.ack.result, 3);
+    out[5 + 3] = 0x05; /* a positive code is not a firmware error */
+    assert_int_equal(tlm_parse_telemetry(&frame, &msg, NULL), TLM_RESULT_OUT_OF_RANGE);
+    out[5 + 2] = 0;
+    out[5 + 3] = 0xFE; /* an ack with an error */
+    assert_int_equal(tlm_parse_telemetry(&frame, &msg, NULL), TLM_RESULT_OUT_OF_RANGE);
+    const struct tlm_ack ack_with_error = {.result = 0, .error = -1};
+    assert_int_equal(tlm_encode_ack(0, &ack_with_error, out, sizeof out), HAL_ERR_INVALID);
 
     const size_t status_bytes[] = {3, 10, 11, 12, 13};
-    const uint8_t status_bad[] = {2, 2, 4, 2, 2}; /* protocol, mode, estimator, bools */
+    const uint8_t status_bad[] = {TLM_PROTOCOL_VERSION + 1u, 2, 4, 2, 2}; /* protocol, mode,
+                                                                    estimator, bools */
     for (size_t i = 0; i < 5; ++i) {
         status = sample_status();
         assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 23);
@@ -624,7 +641,7 @@ static void test_commands_round_trip_through_the_firmware_decoder(void **state) 
     struct tlm_decoder dec;
     struct recorder rec;
     const struct tlm_frame_sink sink = recorder_sink(&rec);
-    tlm_decoder_init(&dec, TLM_ACCEPT_COMMANDS);
+    tlm_decoder_init(&dec, tlm_message_types(TLM_ACCEPT_COMMANDS));
     tlm_decoder_feed(&dec, stream, n, &sink);
     assert_int_equal(rec.frame_count, 8);
     for (size_t i = 0; i < 8; ++i) {

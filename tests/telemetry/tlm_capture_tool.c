@@ -205,8 +205,10 @@ static void build(struct builder *b) {
     ack.type = TLM_TYPE_ACK;
     ack.u.ack = (struct tlm_ack){.echo_seq = 4, .command = TLM_TYPE_SET_WINDOW, .result = 0};
     add_telemetry(b, &ack);
-    ack.u.ack = (struct tlm_ack){
-        .echo_seq = 5, .command = TLM_TYPE_SET_WINDOW, .result = TLM_RESULT_OUT_OF_RANGE};
+    ack.u.ack = (struct tlm_ack){.echo_seq = 5,
+                                 .command = TLM_TYPE_SET_WINDOW,
+                                 .result = TLM_RESULT_OUT_OF_RANGE,
+                                 .error = -2}; /* ATTITUDE_ERR_WINDOW, unchanged */
     add_telemetry(b, &ack);
     ack.u.ack = (struct tlm_ack){.echo_seq = 6, .command = 0x99, .result = 1};
     add_telemetry(b, &ack);
@@ -345,7 +347,7 @@ static int dump(const char *path) {
     static struct dump_ctx d;
     const struct tlm_frame_sink sink = {
         .on_frame = dump_frame, .on_reject = dump_reject, .ctx = &d};
-    tlm_decoder_init(&d.dec, TLM_ACCEPT_ALL);
+    tlm_decoder_init(&d.dec, tlm_message_types(TLM_ACCEPT_ALL));
     uint8_t chunk[4096];
     size_t got;
     while ((got = fread(chunk, 1, sizeof chunk, in)) > 0) {

@@ -170,7 +170,7 @@ void tlm_text_telemetry(FILE *out, uint8_t seq, const struct tlm_telemetry *msg)
         } else {
             fprintf(out, "0x%02x", a->command);
         }
-        fprintf(out, " result=%s", result_names[a->result]);
+        fprintf(out, " result=%s error=%d", result_names[a->result], a->error);
         break;
     }
     case TLM_TYPE_STATUS: {

@@ -19,7 +19,7 @@ import tof_telemetry as t  # noqa: E402
 
 START_SEQ0 = bytes.fromhex("a55a0083005782")
 SET_WINDOW_100_SEQ1 = bytes.fromhex("a55a038101640000 6e79".replace(" ", ""))
-ACK_SEQ9 = bytes.fromhex("a55a03040901810018a5")
+ACK_SEQ9 = bytes.fromhex("a55a040409018100000be4")
 ESTIMATE_SEQ42 = bytes.fromhex(
     "a55a1c012a204e0000c7000000000000 0f60e31600702ffcff00ca5b07f4ffffff2502".replace(" ", ""))
 
@@ -43,7 +43,7 @@ class EncodeTest(unittest.TestCase):
         self.assertEqual(t.encode_frame(t.T_START, 0, b""), START_SEQ0)
         self.assertEqual(t.encode_frame(t.T_SET_WINDOW, 1, struct.pack("<HB", 100, 0)),
                          SET_WINDOW_100_SEQ1)
-        self.assertEqual(t.encode_frame(t.T_ACK, 9, bytes([1, 0x81, 0])), ACK_SEQ9)
+        self.assertEqual(t.encode_frame(t.T_ACK, 9, bytes([1, 0x81, 0, 0])), ACK_SEQ9)
         payload = struct.pack("<IIBBBBiiii", 20000, 199, 0, 0, 0, 15, 1500000, -250000,
                               123456000, -12)
         self.assertEqual(t.encode_frame(t.T_ESTIMATE, 42, payload), ESTIMATE_SEQ42)
@@ -115,7 +115,7 @@ class DecoderTest(unittest.TestCase):
     def test_rejections(self):
         d = t.Decoder(t.ACCEPT_COMMANDS)
         events = d.feed(ACK_SEQ9 + t.encode_frame(t.T_START, 3, b"\x00"))
-        self.assertEqual(events, [("reject", t.T_ACK, 9, 3, t.R_UNKNOWN_TYPE),
+        self.assertEqual(events, [("reject", t.T_ACK, 9, 4, t.R_UNKNOWN_TYPE),
                                   ("reject", t.T_START, 3, 1, t.R_BAD_LENGTH)])
         self.assertEqual(d.counters["unknown_type"], 1)
         self.assertEqual(d.counters["bad_length"], 1)
@@ -157,7 +157,7 @@ class FormatTest(unittest.TestCase):
                 "seq=42 estimate t_ms=20000 window=199 estimator=consensus status=ok "
                 "reason=none sensors=ABCD alpha_deg=1.500000 beta_deg=-0.250000 "
                 "distance_mm=123456.000 flatness_um=-12"))
-            self.assertEqual(lines[1], "seq=9 ack echo_seq=1 command=set-window result=ok")
+            self.assertEqual(lines[1], "seq=9 ack echo_seq=1 command=set-window result=ok error=0")
             self.assertTrue(lines[2].startswith("# frames_ok=2 bad_crc=0"))
 
 
@@ -186,8 +186,8 @@ class SerialPortTest(unittest.TestCase):
                     received += os.read(master, 1024)
             self.assertEqual(received, expected_cmds)
             # Answer: two acks, then a partial frame and silence (idle flush -> truncated).
-            os.write(master, t.encode_frame(t.T_ACK, 0, bytes([0, t.T_SET_WINDOW, 0]))
-                     + t.encode_frame(t.T_ACK, 1, bytes([1, t.T_START, 0])) + ACK_SEQ9[:6])
+            os.write(master, t.encode_frame(t.T_ACK, 0, bytes([0, t.T_SET_WINDOW, 0, 0]))
+                     + t.encode_frame(t.T_ACK, 1, bytes([1, t.T_START, 0, 0])) + ACK_SEQ9[:6])
             out, err = proc.communicate(timeout=10)
         finally:
             if proc.poll() is None:
@@ -196,8 +196,8 @@ class SerialPortTest(unittest.TestCase):
             os.close(slave)
         self.assertEqual(proc.returncode, 0, err.decode())
         lines = out.decode().splitlines()
-        self.assertEqual(lines[0], "seq=0 ack echo_seq=0 command=set-window result=ok")
-        self.assertEqual(lines[1], "seq=1 ack echo_seq=1 command=start result=ok")
+        self.assertEqual(lines[0], "seq=0 ack echo_seq=0 command=set-window result=ok error=0")
+        self.assertEqual(lines[1], "seq=1 ack echo_seq=1 command=start result=ok error=0")
         self.assertEqual(lines[-1], "# frames_ok=2 bad_crc=0 bad_length=0 unknown_type=0 "
                                     "truncated=1 out_of_range=0 discarded_bytes=6")
 

@@ -1,3 +1,4 @@
+/* Telemetry messages and commands: the type table, encoders and validating parsers. */
 #include "telemetry/tlm_messages.h"
 
 #include <string.h>
@@ -46,6 +47,21 @@ static const struct type_info *find_type(uint8_t type, uint8_t accept) {
 int tlm_type_payload_length(uint8_t type, uint8_t accept) {
     const struct type_info *info = find_type(type, accept);
     return info != NULL ? (int)info->length : -1;
+}
+
+static int table_length(const void *ctx, uint8_t type) {
+    return tlm_type_payload_length(type, *(const uint8_t *)ctx);
+}
+
+const struct tlm_type_table *tlm_message_types(uint8_t accept) {
+    static const uint8_t masks[4] = {0u, TLM_ACCEPT_COMMANDS, TLM_ACCEPT_TELEMETRY, TLM_ACCEPT_ALL};
+    static const struct tlm_type_table tables[4] = {
+        {.payload_length = table_length, .ctx = &masks[0]},
+        {.payload_length = table_length, .ctx = &masks[1]},
+        {.payload_length = table_length, .ctx = &masks[2]},
+        {.payload_length = table_length, .ctx = &masks[3]},
+    };
+    return &tables[accept & TLM_ACCEPT_ALL];
 }
 
 bool tlm_type_is_command(uint8_t type) {
@@ -330,14 +346,20 @@ static enum tlm_result parse_health(struct reader *r, struct tlm_health *m) {
 
 /* --- ack ------------------------------------------------------------------ */
 
+static bool ack_is_valid(const struct tlm_ack *m) {
+    return tlm_result_is_valid(m->result) && m->error <= 0 &&
+           (m->result != (uint8_t)TLM_RESULT_OK || m->error == 0);
+}
+
 int tlm_encode_ack(uint8_t seq, const struct tlm_ack *msg, uint8_t *out, size_t cap) {
-    if (msg == NULL || !has_room(out, cap, TLM_LEN_ACK) || !tlm_result_is_valid(msg->result)) {
+    if (msg == NULL || !has_room(out, cap, TLM_LEN_ACK) || !ack_is_valid(msg)) {
         return HAL_ERR_INVALID;
     }
     struct writer w = {.buf = &out[TLM_HEADER_SIZE], .at = 0};
     put_u8(&w, msg->echo_seq);
     put_u8(&w, msg->command);
     put_u8(&w, msg->result);
+    put_u8(&w, (uint8_t)msg->error); /* two's complement by definition of the conversion */
     return finish_frame(TLM_TYPE_ACK, seq, out, w.at, cap);
 }
 
@@ -345,7 +367,9 @@ static enum tlm_result parse_ack(struct reader *r, struct tlm_ack *m) {
     m->echo_seq = get_u8(r);
     m->command = get_u8(r);
     m->result = get_u8(r);
-    return tlm_result_is_valid(m->result) ? TLM_RESULT_OK : TLM_RESULT_OUT_OF_RANGE;
+    const uint8_t raw = get_u8(r);
+    m->error = (int8_t)(raw <= 127u ? (int)raw : (int)raw - 256);
+    return ack_is_valid(m) ? TLM_RESULT_OK : TLM_RESULT_OUT_OF_RANGE;
 }
 
 /* --- status --------------------------------------------------------------- */

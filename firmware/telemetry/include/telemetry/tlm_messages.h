@@ -17,7 +17,7 @@
 #include "telemetry/tlm_frame.h"
 
 /* Version of this protocol, reported in the status message. */
-#define TLM_PROTOCOL_VERSION 1u
+#define TLM_PROTOCOL_VERSION 2u /* 2: nacks carry the firmware's error code */
 
 /* Frame types. Commands have the top bit set, so direction shows in a dump. */
 enum tlm_type {
@@ -38,7 +38,7 @@ enum tlm_type {
 #define TLM_LEN_ESTIMATE         28u
 #define TLM_LEN_RAW_SAMPLE       17u
 #define TLM_LEN_HEALTH           144u
-#define TLM_LEN_ACK              3u
+#define TLM_LEN_ACK              4u
 #define TLM_LEN_STATUS           16u
 #define TLM_LEN_SET_WINDOW       3u
 #define TLM_LEN_SELECT_ESTIMATOR 1u
@@ -154,6 +154,9 @@ struct tlm_ack {
     uint8_t echo_seq; /* sequence of the command answered */
     uint8_t command;  /* type of the command answered (any byte, for unknown types) */
     uint8_t result;   /* enum tlm_result */
+    int8_t error;     /* the firmware's own negative code behind a refusal, unchanged (an
+                         attitude_error for set-window and select-estimator); 0 when there
+                         is none, always 0 in an ack */
 };
 
 /* Firmware version and configuration (TLM_TYPE_STATUS). */
@@ -193,11 +196,22 @@ struct tlm_command {
     } u;
 };
 
+/* Which message types a decoder accepts. */
+#define TLM_ACCEPT_COMMANDS  0x01u /* host -> firmware: the firmware's decoder */
+#define TLM_ACCEPT_TELEMETRY 0x02u /* firmware -> host: a host-side decoder */
+#define TLM_ACCEPT_ALL       (TLM_ACCEPT_COMMANDS | TLM_ACCEPT_TELEMETRY)
+
 /*
  * Fixed payload length of `type` if it is one of the types in the `accept`
- * mask (TLM_ACCEPT_*), else -1. The decoder's type table.
+ * mask (TLM_ACCEPT_*), else -1.
  */
 int tlm_type_payload_length(uint8_t type, uint8_t accept);
+
+/*
+ * The protocol's type table for a decoder accepting the `accept` mask (TLM_ACCEPT_*):
+ * tlm_decoder_init(&dec, tlm_message_types(TLM_ACCEPT_COMMANDS)). Static, never NULL.
+ */
+const struct tlm_type_table *tlm_message_types(uint8_t accept);
 
 /* True if `type` is a command (host -> firmware) type. */
 bool tlm_type_is_command(uint8_t type);
