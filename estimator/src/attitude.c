@@ -50,6 +50,11 @@ const char *attitude_error_message(int err) {
         return "kalman_noise_shift above 8";
     case ATTITUDE_ERR_NULL:
         return "NULL state or config";
+    case ATTITUDE_ERR_INTEGRITY:
+        return "an integrity field out of range (range_max_mm 1..8189, parity/motion sigmas "
+               "1..16 x 256, drift_shift 1..8)";
+    case ATTITUDE_ERR_BUFFER:
+        return "buffer too small";
     default:
         return "unknown attitude error";
     }
@@ -81,6 +86,11 @@ int attitude_init(struct attitude_state *st, const struct attitude_config *cfg) 
     }
     if (cfg->paper_max_iterations == 0u) {
         return ATTITUDE_ERR_PAPER_ITERATIONS;
+    }
+    if (cfg->range_max_mm == 0u || cfg->range_max_mm >= 8190u || cfg->parity_sigmas_q8 < 256u ||
+        cfg->parity_sigmas_q8 > 16u * 256u || cfg->motion_sigmas_q8 < 256u ||
+        cfg->motion_sigmas_q8 > 16u * 256u || cfg->drift_shift == 0u || cfg->drift_shift > 8u) {
+        return ATTITUDE_ERR_INTEGRITY;
     }
     (void)memset(st, 0, sizeof *st);
     st->cfg = *cfg;
@@ -147,6 +157,8 @@ static void finish_status(struct attitude_estimate *e, bool alpha_ok, bool beta_
     }
     if (!alpha_ok || !beta_ok) {
         e->status = ATTITUDE_INVALID;
+        e->alpha_sd_udeg = alpha_ok ? (e->alpha_sigma_udeg > 0 ? e->alpha_sigma_udeg : 1) : 0;
+        e->beta_sd_udeg = beta_ok ? (e->beta_sigma_udeg > 0 ? e->beta_sigma_udeg : 1) : 0;
         /* "kalman-restarted" is a degraded reason: an invalid estimate names its axes */
         if (e->reason == ATTITUDE_REASON_NONE || e->reason == ATTITUDE_REASON_KALMAN_RESTARTED) {
             if (alpha_ok) {
@@ -157,6 +169,7 @@ static void finish_status(struct attitude_estimate *e, bool alpha_ok, bool beta_
                 e->reason = ATTITUDE_REASON_UNOBSERVABLE;
             }
         }
+        e->why = ATTITUDE_WHY_REASON(e->reason);
         return;
     }
     bool missing_sensor = false;
@@ -166,17 +179,33 @@ static void finish_status(struct attitude_estimate *e, bool alpha_ok, bool beta_
         missing_sensor = missing_sensor || c->used == 0u;
         flagged = flagged || c->flagged != 0u || c->missing != 0u || c->rejected != 0u;
     }
+    e->why = 0;
+    for (unsigned k = 0; k < ATTITUDE_SENSORS; ++k) {
+        const struct attitude_sensor_counts *c = &e->counts[k];
+        e->why |= (c->flagged != 0u ? ATTITUDE_WHY_FLAGGED(k) : 0u) |
+                  (c->missing != 0u ? ATTITUDE_WHY_MISSING(k) : 0u) |
+                  (c->rejected != 0u ? ATTITUDE_WHY_REJECTED(k) : 0u);
+    }
+    e->alpha_sd_udeg = e->alpha_sigma_udeg > 0 ? e->alpha_sigma_udeg : 1;
+    e->beta_sd_udeg = e->beta_sigma_udeg > 0 ? e->beta_sigma_udeg : 1;
+    e->distance_sd_um = 1;
     if (missing_sensor) {
         e->status = ATTITUDE_DEGRADED;
         e->reason = ATTITUDE_REASON_SENSOR_MISSING;
     } else if (e->reason == ATTITUDE_REASON_KALMAN_RESTARTED || flagged) {
         e->status = ATTITUDE_DEGRADED;
+        if (e->reason == ATTITUDE_REASON_KALMAN_RESTARTED) {
+            e->why |= ATTITUDE_WHY_REASON(e->reason);
+        }
         if (e->reason == ATTITUDE_REASON_NONE) {
             e->reason = ATTITUDE_REASON_FLAGGED_DATA;
         }
     } else {
         e->status = ATTITUDE_OK;
         e->reason = ATTITUDE_REASON_NONE;
+    }
+    if (e->status != ATTITUDE_OK && e->why == 0u) { /* a not-ok estimate always says why */
+        e->why = ATTITUDE_WHY_REASON(e->reason);
     }
 }
 
@@ -590,4 +619,58 @@ const char *attitude_reason_name(enum attitude_reason r) {
         return "unknown";
     }
     return names[r];
+}
+
+/* Appends "+name" (no '+' first) with an optional ":X" sensor letter; false when full. */
+static bool why_append(char *buf, size_t cap, size_t *len, const char *name, char sensor) {
+    size_t need = (*len != 0u ? 1u : 0u) + strlen(name) + (sensor != '\0' ? 2u : 0u);
+    if (*len + need + 1u > cap) {
+        return false;
+    }
+    if (*len != 0u) {
+        buf[(*len)++] = '+';
+    }
+    for (const char *c = name; *c != '\0'; ++c) {
+        buf[(*len)++] = *c;
+    }
+    if (sensor != '\0') {
+        buf[(*len)++] = ':';
+        buf[(*len)++] = sensor;
+    }
+    buf[*len] = '\0';
+    return true;
+}
+
+int attitude_why_format(attitude_why_t why, char *buf, size_t cap) {
+    static const char *const per_sensor[5] = {"no-target", "range", "flagged", "missing",
+                                              "rejected"};
+    static const char *const window[3] = {"parity", "motion", "drift"};
+    if (buf == NULL || cap == 0u) {
+        return buf == NULL ? ATTITUDE_ERR_NULL : ATTITUDE_ERR_BUFFER;
+    }
+    size_t len = 0;
+    buf[0] = '\0';
+    bool fits = true;
+    for (unsigned g = 0; g < 5u && fits; ++g) {
+        for (unsigned k = 0; k < ATTITUDE_SENSORS && fits; ++k) {
+            if ((why & ((attitude_why_t)1u << (4u * g + k))) != 0u) {
+                fits = why_append(buf, cap, &len, per_sensor[g], (char)('A' + k));
+            }
+        }
+    }
+    for (unsigned b = 0; b < 3u && fits; ++b) {
+        if ((why & (ATTITUDE_WHY_PARITY << b)) != 0u) {
+            fits = why_append(buf, cap, &len, window[b], '\0');
+        }
+    }
+    for (unsigned r = 1; r < (unsigned)ATTITUDE_REASON_COUNT && fits; ++r) {
+        if ((why & ATTITUDE_WHY_REASON(r)) != 0u) {
+            fits = why_append(buf, cap, &len, attitude_reason_name((enum attitude_reason)r), '\0');
+        }
+    }
+    if (!fits) {
+        buf[0] = '\0';
+        return ATTITUDE_ERR_BUFFER;
+    }
+    return (int)len;
 }
