@@ -31,6 +31,7 @@
 #include <stdint.h>
 
 #include "estimator/consensus.h"
+#include "estimator/integrity.h"
 #include "estimator/kalman.h"
 #include "estimator/window_stats.h"
 
@@ -85,33 +86,10 @@ enum attitude_reason {
     ATTITUDE_REASON_COUNT,
 };
 
-/*
- * Why an estimate is not `ok`: a set of reasons (DESIGN.md §6 `why`), one bit each.
- * Per sensor k (0..3 = A..D):
- *   no-target:X  a reading the part gives when it saw nothing (8190, 8191, 65535),
- *                whatever its status: never used
- *   range:X      a reading of 0 or beyond the mode's range (range_max_mm): never used
- *   flagged:X    a reading with a non-zero range status
- *   missing:X    no reading at all (the sensor did not deliver)
- *   rejected:X   a status-0 reading the estimator's outlier gate left out
- * Per window:
- *   parity       the sensors disagree with a flat plate: x_A + x_C − x_B − x_D beyond
- *                what their sd allows (estimator/integrity.h)
- *   motion       the plate moved inside the window (a step or ramp): the sd includes it
- *   drift        the sensors' offsets wander more than drift_flag_um allows
- * and one bit per enum attitude_reason value r (ATTITUDE_WHY_REASON(r); NONE has none,
- * and the summaries flagged-data and sensor-missing are said by the per-sensor bits).
- * An estimate is `ok` exactly when both angles are valid and its set is empty.
- */
-typedef uint64_t attitude_why_t;
-#define ATTITUDE_WHY_NO_TARGET(k) ((attitude_why_t)1u << (0u + (unsigned)(k)))
-#define ATTITUDE_WHY_RANGE(k)     ((attitude_why_t)1u << (4u + (unsigned)(k)))
-#define ATTITUDE_WHY_FLAGGED(k)   ((attitude_why_t)1u << (8u + (unsigned)(k)))
-#define ATTITUDE_WHY_MISSING(k)   ((attitude_why_t)1u << (12u + (unsigned)(k)))
-#define ATTITUDE_WHY_REJECTED(k)  ((attitude_why_t)1u << (16u + (unsigned)(k)))
-#define ATTITUDE_WHY_PARITY       ((attitude_why_t)1u << 20u)
-#define ATTITUDE_WHY_MOTION       ((attitude_why_t)1u << 21u)
-#define ATTITUDE_WHY_DRIFT        ((attitude_why_t)1u << 22u)
+/* The why set (attitude_why_t and its per-sensor and window bits) is defined in
+ * estimator/integrity.h; here, one bit per enum attitude_reason value r (NONE has none;
+ * the summaries flagged-data and sensor-missing appear only when no other bit says why).
+ * An estimate is `ok` exactly when both angles are valid and its set is empty. */
 #define ATTITUDE_WHY_REASON_SHIFT 32u
 #define ATTITUDE_WHY_REASON(r)    ((attitude_why_t)1u << (ATTITUDE_WHY_REASON_SHIFT + (unsigned)(r)))
 /* Longest text attitude_why_format() can write, terminator included (every bit set). */
@@ -212,6 +190,9 @@ struct attitude_state {
     struct kalman_state kalman;
     uint32_t rows;                      /* rows pushed since attitude_init */
     uint32_t kalman_rows_since_restart; /* since the filter last restarted (UINT32_MAX: never) */
+    struct integrity_config icfg;
+    struct integrity_state integrity; /* learnt drift */
+    struct integrity_window iw;       /* scratch: the last window's integrity facts */
 };
 
 /* Integrity defaults (sources in docs/estimator-design.md "Integrity"):
