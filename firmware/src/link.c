@@ -25,39 +25,6 @@ static void send(struct tof_link *link, const uint8_t *frame, int len) {
     ++link->seq;
 }
 
-static uint8_t reason_bits(const struct attitude_estimate *e) {
-    if (e->status == ATTITUDE_OK) {
-        return 0;
-    }
-    switch (e->reason) {
-    case ATTITUDE_REASON_SENSOR_MISSING:
-        return TLM_REASON_SENSOR_MISSING;
-    case ATTITUDE_REASON_ALPHA_UNOBSERVABLE:
-    case ATTITUDE_REASON_BETA_UNOBSERVABLE:
-    case ATTITUDE_REASON_UNOBSERVABLE:
-    case ATTITUDE_REASON_PAPER_TOO_FEW_ROWS:
-        return TLM_REASON_TOO_FEW_SENSORS;
-    case ATTITUDE_REASON_NO_CONVERGENCE:
-    case ATTITUDE_REASON_PAPER_NO_CONVERGENCE:
-    case ATTITUDE_REASON_PAPER_DIVERGED:
-    case ATTITUDE_REASON_PAPER_OUTSIDE_HULL:
-    case ATTITUDE_REASON_PAPER_INCONSISTENT:
-    case ATTITUDE_REASON_PAPER_NONPOSITIVE_VARIANCE:
-    case ATTITUDE_REASON_PAPER_ZERO_COVARIANCE:
-    case ATTITUDE_REASON_PAPER_ZERO_ROW_SUM:
-    case ATTITUDE_REASON_PAPER_NEGATIVE_ROW_SUM:
-        return TLM_REASON_NOT_CONVERGED;
-    case ATTITUDE_REASON_PAPER_OVERFLOW:
-        return TLM_REASON_SATURATED;
-    case ATTITUDE_REASON_DISABLED:
-        return TLM_REASON_NO_SAMPLES;
-    case ATTITUDE_REASON_FLAGGED_DATA:
-    case ATTITUDE_REASON_KALMAN_RESTARTED:
-    default:
-        return TLM_REASON_SENSOR_FLAGGED; /* any other cause of a non-ok status */
-    }
-}
-
 static void send_estimates(struct tof_link *link, const struct tof_estimate_record *record) {
     const struct attitude_output *out = &record->output;
     struct tof_app_status st;
@@ -69,24 +36,27 @@ static void send_estimates(struct tof_link *link, const struct tof_estimate_reco
         if (est->reason == ATTITUDE_REASON_DISABLED) {
             continue;
         }
-        /* The protocol's invalid estimate carries no values (docs/telemetry.md), even
-         * when one axis alone was observable; the other statuses carry all three. */
-        const bool values = est->status != ATTITUDE_INVALID;
         uint8_t used = 0;
         for (unsigned k = 0; k < TOF_SENSORS; ++k) {
             used = (uint8_t)(used | (est->counts[k].used > 0u ? 1u << k : 0u));
         }
+        /* Each value with its sd, or neither: what the estimator could not estimate has
+         * no sd either (docs/telemetry.md). */
+        const bool a = est->alpha_valid, b = est->beta_valid, d = est->distance_valid;
         const struct tlm_estimate msg = {
             .t_ms = (uint32_t)(record->t_us / 1000u),
             .window_index = sliding ? out->last_row : out->last_row / n,
             .estimator = (uint8_t)e, /* enum attitude_estimator matches enum tlm_estimator */
             .status = (uint8_t)est->status,
-            .reason = reason_bits(est),
             .sensors_used = est->status == ATTITUDE_OK ? TLM_SENSOR_MASK_ALL : used,
-            .alpha_udeg = values ? est->alpha_udeg : TLM_NO_VALUE,
-            .beta_udeg = values ? est->beta_udeg : TLM_NO_VALUE,
-            .distance_um = values ? est->distance_um : TLM_NO_VALUE,
+            .alpha_udeg = a ? est->alpha_udeg : TLM_NO_VALUE,
+            .beta_udeg = b ? est->beta_udeg : TLM_NO_VALUE,
+            .distance_um = d ? est->distance_um : TLM_NO_VALUE,
             .flatness_um = est->flatness_valid ? est->flatness_residual_um : TLM_NO_VALUE,
+            .alpha_sd_udeg = a ? est->alpha_sd_udeg : TLM_NO_VALUE,
+            .beta_sd_udeg = b ? est->beta_sd_udeg : TLM_NO_VALUE,
+            .distance_sd_um = d ? est->distance_sd_um : TLM_NO_VALUE,
+            .why = est->why, /* the estimator's bits, unchanged */
         };
         uint8_t frame[TLM_FRAME_MAX];
         send(link, frame, tlm_encode_estimate(link->seq, &msg, frame, sizeof frame));

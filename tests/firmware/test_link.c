@@ -155,6 +155,11 @@ static void test_default_windows_report_a_parallel_plate(void **state) {
     assert_int_equal(e->beta_udeg, 0);
     assert_int_equal(e->distance_um, 100000);
     assert_int_equal(e->window_index, 1);
+    /* Each value with its sd (>= 1 um or udeg, never a claimed 0), why empty when ok, and
+     * the estimator's own figures unchanged on the wire. */
+    assert_true(e->why == 0u);
+    assert_true(e->alpha_sd_udeg >= 1 && e->beta_sd_udeg >= 1 && e->distance_sd_um >= 1);
+    assert_int_equal(t.link.tx_dropped, 0); /* every estimate encoded */
     for (unsigned i = 0; i < 4; ++i) {
         assert_int_equal(t.last_health.sensor_state[i], TLM_HEALTH_HEALTHY);
     }
