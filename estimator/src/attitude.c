@@ -500,8 +500,10 @@ static void run_mean(struct attitude_state *st, struct attitude_estimate *e) {
 }
 
 /* A filter that is never reset (sliding mode) can lag a moving plate by more than its
- * window: its distance from the window's end-point estimate (the product's value plus
- * the window's ramp) counts when beyond motion_sigmas, as `motion`. */
+ * window. Its distance d from the window's end-point estimate (the product's value plus
+ * the window's lag when it moved) beyond the noise of that comparison, sqrt(d² − var),
+ * is this estimate's own lag (unbiased for the lag², so no padding when static); d beyond
+ * motion_sigmas is `motion`. */
 static int32_t kalman_lag_udeg(const struct attitude_state *st,
                                const struct consensus_axis *product, int32_t kalman_udeg,
                                int32_t kalman_sigma_udeg, unsigned axis, bool *moved) {
@@ -509,21 +511,28 @@ static int32_t kalman_lag_udeg(const struct attitude_state *st,
         return 0;
     }
     const struct integrity_window *iw = &st->iw;
-    int32_t lag = angle_sd(st, square_mm2(iw->lag_mm[axis]), axis);
-    lag = iw->lag_mm[axis] < 0 ? -lag : lag;
+    int64_t lag = 0;
+    int64_t lag_sd = 0;
+    if (iw->moved[axis]) {
+        lag = angle_sd(st, square_mm2(iw->lag_mm[axis]), axis);
+        lag = iw->lag_mm[axis] < 0 ? -lag : lag;
+        lag_sd = angle_sd(st, iw->lag_var_mm2[axis], axis);
+    }
     const int64_t delta = (int64_t)kalman_udeg - product->angle_udeg - lag;
-    const int64_t lag_sd = angle_sd(st, iw->lag_var_mm2[axis], axis);
+    const uint64_t d = fix_abs_u64(delta);
+    if (d > (uint64_t)INT32_MAX) {
+        *moved = true;
+        return INT32_MAX;
+    }
     const uint64_t var = (uint64_t)((int64_t)product->sigma_udeg * product->sigma_udeg) +
                          (uint64_t)(lag_sd * lag_sd) +
                          (uint64_t)((int64_t)kalman_sigma_udeg * kalman_sigma_udeg);
     const uint64_t k = st->cfg.motion_sigmas_q8;
-    const uint64_t d = fix_abs_u64(delta);
     /* d² > k²·var with k in Q8: compare d·256 against k·sqrt(var) */
-    if (d > (uint64_t)INT32_MAX || d * 256u > k * fix_isqrt_u64(var)) {
+    if (d * 256u > k * fix_isqrt_u64(var)) {
         *moved = true;
-        return d > (uint64_t)INT32_MAX ? INT32_MAX : (int32_t)d;
     }
-    return 0;
+    return d * d > var ? (int32_t)fix_isqrt_u64(d * d - var) : 0;
 }
 
 FIX_NOINLINE void run_kalman(struct attitude_state *st,
@@ -619,7 +628,7 @@ FIX_NOINLINE void window_end(struct attitude_state *st, struct attitude_output *
     window_compute(&st->window, &st->stats);
     const struct window_stats *w = &st->stats;
     /* the drift learning takes one window per block of N rows (every window when tumbling) */
-    integrity_window(&st->integrity, &st->icfg, &st->window, w, st->rows % cfg->window == 0u,
+    integrity_assess(&st->integrity, &st->icfg, &st->window, w, st->rows % cfg->window == 0u,
                      &st->iw);
     out->last_row = st->rows - 1u;
     out->first_row = st->rows - cfg->window;

@@ -95,6 +95,7 @@ static fix_q32_t square_q32(fix_q32_t v) {
 /* Per-sensor sums of the used readings against their row index (0 = oldest). */
 struct ramp_sums {
     int64_t n, si, sii, sx, six;
+    int64_t tail_n[2], tail_sx[2]; /* the newest N/8 and N/4 rows: a late step */
 };
 
 /* The ring pass: per-sensor reasons of the readings the window holds, and the ramp sums
@@ -103,6 +104,8 @@ static attitude_why_t scan_rows(const struct integrity_config *cfg, const struct
                                 const struct window_stats *s, struct ramp_sums r[ANGLES_SENSORS]) {
     attitude_why_t why = 0;
     uint16_t idx = w->oldest;
+    const uint16_t tail_from[2] = {(uint16_t)(w->fill - (w->fill + 7u) / 8u),
+                                   (uint16_t)(w->fill - (w->fill + 3u) / 4u)};
     for (uint16_t i = 0; i < w->fill; ++i) {
         const struct window_row *row = &w->ring[idx];
         idx = (uint16_t)(idx + 1u == w->cfg.length ? 0u : idx + 1u);
@@ -129,11 +132,30 @@ static attitude_why_t scan_rows(const struct integrity_config *cfg, const struct
                     r[k].sii += (int64_t)i * i;
                     r[k].sx += x;
                     r[k].six += (int64_t)i * x;
+                    for (unsigned t = 0; t < 2u; ++t) {
+                        if (i >= tail_from[t]) {
+                            r[k].tail_n[t]++;
+                            r[k].tail_sx[t] += x;
+                        }
+                    }
                 }
             }
         }
     }
     return why;
+}
+
+/* A late step of one sensor: the mean of its newest readings (tail t) minus the window
+ * mean (Q32 mm), and its variance s²(1/m − 1/n); 0 and 0 without tail readings. */
+static void tail_step(const struct ramp_sums *r, unsigned t, fix_q32_t mean, fix_q32_t s2,
+                      fix_q32_t *step, fix_q32_t *var) {
+    *step = 0;
+    *var = 0;
+    if (r->tail_n[t] == 0 || r->tail_n[t] >= r->n) {
+        return;
+    }
+    *step = fix_div_round_s64(r->tail_sx[t] << FIX_Q32_SHIFT, r->tail_n[t]) - mean;
+    *var = fix_muldiv_s64(s2, r->n - r->tail_n[t], r->n * r->tail_n[t], NULL);
 }
 
 /* Least-squares ramp of one sensor: the fitted value at the last row minus the mean
@@ -158,7 +180,7 @@ static void ramp(const struct ramp_sums *r, int64_t last, fix_q32_t s2, fix_q32_
     *var = fix_muldiv_s64(s2, m * m, r->n * sxx, NULL);
 }
 
-void integrity_window(struct integrity_state *st, const struct integrity_config *cfg,
+void integrity_assess(struct integrity_state *st, const struct integrity_config *cfg,
                       struct window_state *w, const struct window_stats *s, bool learn,
                       struct integrity_window *out) {
     (void)memset(out, 0, sizeof *out);
@@ -168,15 +190,16 @@ void integrity_window(struct integrity_state *st, const struct integrity_config 
 
     const fix_q32_t prior = fix_muldiv_s64(
         (int64_t)cfg->offset_stability_um * cfg->offset_stability_um, FIX_Q32_ONE, 1000000, NULL);
-    fix_q32_t lag[ANGLES_SENSORS];
-    fix_q32_t lag_var[ANGLES_SENSORS];
+    /* three motion statistics per sensor: the ramp, the newest N/8 and N/4 rows */
+    fix_q32_t lag[3][ANGLES_SENSORS];
+    fix_q32_t lag_var[3][ANGLES_SENSORS];
+    (void)memset(lag, 0, sizeof lag);
+    (void)memset(lag_var, 0, sizeof lag_var);
     fix_q32_t white_sum = 0; /* Σ of what the window sees */
     fix_q32_t base_sum = 0;  /* ... plus what is not learnt: the prior and the rounding */
     fix_q32_t total_sum = 0; /* ... plus the learnt drift: the parity residual's variance */
     for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
         const struct window_sensor_stats *ss = &s->sensor[k];
-        lag[k] = 0;
-        lag_var[k] = 0;
         if (ss->used == 0u) {
             continue;
         }
@@ -192,7 +215,9 @@ void integrity_window(struct integrity_state *st, const struct integrity_config 
             base_sum, fix_sat_add_s64(out->white_mm2[k], fix_sat_add_s64(prior, quant)));
         total_sum =
             fix_sat_add_s64(total_sum, fix_sat_add_s64(out->white_mm2[k], out->extra_mm2[k]));
-        ramp(&r[k], (int64_t)w->fill - 1, s2, &lag[k], &lag_var[k]);
+        ramp(&r[k], (int64_t)w->fill - 1, s2, &lag[0][k], &lag_var[0][k]);
+        tail_step(&r[k], 0u, ss->mean_mm, s2, &lag[1][k], &lag_var[1][k]);
+        tail_step(&r[k], 1u, ss->mean_mm, s2, &lag[2][k], &lag_var[2][k]);
     }
 
     /* slopes for the delta method, from the pair means (0: the conservative 1/(1 + t²) = 1) */
@@ -245,22 +270,33 @@ void integrity_window(struct integrity_state *st, const struct integrity_config 
         }
         fix_q32_t extra = 0;
         (void)integrity_axis_var((enum integrity_axis)ax, out->used, out->extra_mm2, &extra);
-        (void)integrity_axis_var((enum integrity_axis)ax, out->used, lag_var,
-                                 &out->lag_var_mm2[ax]);
-        int64_t lag_sum = 0;
         int64_t worst = 0;
         for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
-            lag_sum = fix_sat_add_s64(lag_sum, fix_sat_mul_s64(lag[k], c[k]));
             worst = (int64_t)c[k] * c[k] > worst ? (int64_t)c[k] * c[k] : worst;
         }
-        out->lag_mm[ax] = fix_asr_s64(lag_sum, (unsigned)unit);
+        /* the largest significant motion statistic is the lag of the window mean behind
+         * its last row; with none significant, the ramp stands (its noise, not motion) */
+        for (unsigned m = 0; m < 3u; ++m) {
+            int64_t lag_sum = 0;
+            for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
+                lag_sum = fix_sat_add_s64(lag_sum, fix_sat_mul_s64(lag[m][k], c[k]));
+            }
+            const fix_q32_t v = fix_asr_s64(lag_sum, (unsigned)unit);
+            fix_q32_t var = 0;
+            (void)integrity_axis_var((enum integrity_axis)ax, out->used, lag_var[m], &var);
+            const bool sig = var > 0 && beyond(v, var, cfg->motion_sigmas_q8);
+            if (m == 0u ||
+                (sig && (!out->moved[ax] || fix_abs_u64(v) > fix_abs_u64(out->lag_mm[ax])))) {
+                out->lag_mm[ax] = v;
+                out->lag_var_mm2[ax] = var;
+            }
+            out->moved[ax] = out->moved[ax] || sig;
+        }
         if (out->parity_failed) {
             /* the disagreement may sit in any one sensor: cover the worst */
             extra = fix_sat_add_s64(
                 extra, fix_asr_s64(fix_sat_mul_s64(parity2, worst), 2u * (unsigned)unit));
         }
-        out->moved[ax] = out->lag_var_mm2[ax] > 0 &&
-                         beyond(out->lag_mm[ax], out->lag_var_mm2[ax], cfg->motion_sigmas_q8);
         if (out->moved[ax]) {
             extra = fix_sat_add_s64(extra, square_q32(out->lag_mm[ax]));
             out->why |= ATTITUDE_WHY_MOTION;

@@ -45,6 +45,33 @@ static double rms(double sum2, uint64_t n) {
     return n > 0u ? sqrt(sum2 / (double)n) : NO_VALUE;
 }
 
+/* Calibration of one estimator's sd on one axis against the truth (issue 15): answered
+ * rows with truth, those within 3 sd and beyond 6 sd, and Σerr², Σsd². */
+struct calib_axis {
+    uint64_t n, within3, beyond6;
+    double sum2_err, sum2_sd;
+};
+
+/* Bits of the why set that are counted in the report: the per-sensor and window ones
+ * (0..22) and the reason bits (32..63). */
+#define WHY_BITS 64u
+
+static void calib_add(struct calib_axis *c, double err, double sd) {
+    ++c->n;
+    c->within3 += fabs(err) <= 3.0 * sd;
+    c->beyond6 += fabs(err) > 6.0 * sd;
+    c->sum2_err += err * err;
+    c->sum2_sd += sd * sd;
+}
+
+static double share(uint64_t k, uint64_t n) {
+    return n > 0u ? (double)k / (double)n : NO_VALUE;
+}
+
+static double calib_ratio(const struct calib_axis *c) {
+    return c->n > 0u && c->sum2_sd > 0.0 ? sqrt(c->sum2_err / c->sum2_sd) : NO_VALUE;
+}
+
 /* Per-sensor sums over a window's valid readings, for its Cramér-Rao bound. */
 struct window_truth {
     uint32_t n[4];
@@ -76,6 +103,8 @@ struct replay {
     uint64_t crb_windows;
     double last_crb_alpha, last_crb_beta; /* bound of the window just closed (NaN: none) */
     uint32_t unflagged_wrong[ATTITUDE_EST_COUNT];
+    struct calib_axis calib[ATTITUDE_EST_COUNT][2]; /* α, β */
+    uint32_t why_count[ATTITUDE_EST_COUNT][WHY_BITS];
     bool faults_stopped;
     uint64_t faults_stop_us;
     int64_t recovery_us;
@@ -191,6 +220,17 @@ static void on_estimate(void *ctx, const struct tof_estimate_record *record) {
              (row->has_beta && est->beta_valid &&
               fabs(est->beta_udeg / 1e6 - row->beta_deg) > 5.0 * r->last_crb_beta))) {
             ++r->unflagged_wrong[e];
+        }
+        for (unsigned b = 0; b < WHY_BITS; ++b) {
+            r->why_count[e][b] += (uint32_t)((est->why >> b) & 1u);
+        }
+        if (est->status != ATTITUDE_INVALID && row->has_alpha && est->alpha_valid) {
+            calib_add(&r->calib[e][0], est->alpha_udeg / 1e6 - row->alpha_deg,
+                      est->alpha_sd_udeg / 1e6);
+        }
+        if (est->status != ATTITUDE_INVALID && row->has_beta && est->beta_valid) {
+            calib_add(&r->calib[e][1], est->beta_udeg / 1e6 - row->beta_deg,
+                      est->beta_sd_udeg / 1e6);
         }
         if (row->has_alpha && est->alpha_valid) {
             err_add(est->alpha_udeg / 1e6 - row->alpha_deg, &s->n_alpha, &s->sum2_alpha,
@@ -477,6 +517,44 @@ static void json_number(FILE *f, double v) {
     }
 }
 
+/* The estimator's reason counts and, with truth, its sd calibration per axis. */
+static void write_calibration(FILE *f, const struct replay *r, unsigned e) {
+    const struct err_stats *s = &r->stats[e];
+    const uint64_t total = (uint64_t)s->status_count[0] + s->status_count[1] + s->status_count[2];
+    fputs(", \"reasons\": {", f);
+    bool first = true;
+    for (unsigned b = 0; b < WHY_BITS; ++b) {
+        char name[ATTITUDE_WHY_TEXT_MAX];
+        if (r->why_count[e][b] != 0u &&
+            attitude_why_format((attitude_why_t)1u << b, name, sizeof name) > 0) {
+            fprintf(f, "%s\"%s\": %u", first ? "" : ", ", name, r->why_count[e][b]);
+            first = false;
+        }
+    }
+    fputs("}, \"answered\": ", f);
+    json_number(f, share(s->status_count[0] + s->status_count[1], total));
+    fputs(", \"calibration\": ", f);
+    if (!r->truth_seen) {
+        fputs("null", f);
+        return;
+    }
+    fputc('{', f);
+    for (unsigned ax = 0; ax < 2u; ++ax) {
+        const struct calib_axis *c = &r->calib[e][ax];
+        fprintf(f, "%s\"%s\": {\"rows\": %llu, \"within_3sd\": ", ax ? ", " : "",
+                ax ? "beta" : "alpha", (unsigned long long)c->n);
+        json_number(f, share(c->within3, c->n));
+        fputs(", \"beyond_6sd\": ", f);
+        json_number(f, share(c->beyond6, c->n));
+        fputs(", \"rms_err_over_rms_sd\": ", f);
+        json_number(f, calib_ratio(c));
+        fputs(", \"rms_sd_deg\": ", f);
+        json_number(f, c->n > 0u ? sqrt(c->sum2_sd / (double)c->n) : NO_VALUE);
+        fputc('}', f);
+    }
+    fputc('}', f);
+}
+
 static int write_report(struct replay *r, const char *path) {
     FILE *f = fopen(path, "w");
     if (f == NULL) {
@@ -521,6 +599,7 @@ static int write_report(struct replay *r, const char *path) {
             fprintf(f, ", \"%s\": ", keys[k]);
             json_number(f, vals[k]);
         }
+        write_calibration(f, r, e);
         fprintf(f, "}%s\n", e + 1u < ATTITUDE_EST_COUNT ? "," : "");
     }
     const struct sim_i2c_stats *b = &r->sim.rig.bus.stats;
@@ -583,9 +662,37 @@ static void print_summary(struct replay *r) {
         printf("%-16s %10.4f %10s %10s %10.4f   (Cramer-Rao bound from each window's own sigma)\n",
                "bound", rms(r->crb_sum2_alpha, r->crb_windows), "", "",
                rms(r->crb_sum2_beta, r->crb_windows));
+        printf("sd calibration (answered rows; goals: >= 95 %% within 3 sd, <= 0.1 %% beyond 6 sd, "
+               "rms err / rms sd >= 0.5, >= 95 %% answered):\n");
+        printf("%-16s %9s %9s %9s %9s %9s %9s %9s\n", "estimator", "answered", "a<=3sd", "a>6sd",
+               "a_err/sd", "b<=3sd", "b>6sd", "b_err/sd");
+        for (unsigned e = 0; e < ATTITUDE_EST_COUNT; ++e) {
+            const struct err_stats *s = &r->stats[e];
+            const struct calib_axis *a = &r->calib[e][0];
+            const struct calib_axis *b = &r->calib[e][1];
+            const uint64_t total =
+                (uint64_t)s->status_count[0] + s->status_count[1] + s->status_count[2];
+            printf("%-16s %8.1f%% %8.2f%% %8.2f%% %9.3f %8.2f%% %8.2f%% %9.3f\n",
+                   attitude_estimator_name((enum attitude_estimator)e),
+                   100.0 * share(s->status_count[0] + s->status_count[1], total),
+                   100.0 * share(a->within3, a->n), 100.0 * share(a->beyond6, a->n), calib_ratio(a),
+                   100.0 * share(b->within3, b->n), 100.0 * share(b->beyond6, b->n),
+                   calib_ratio(b));
+        }
     } else {
         printf("(no ground truth in this trace: errors and bound not available)\n");
     }
+    printf("reasons (%s):", r->args->estimator);
+    bool any = false;
+    for (unsigned b = 0; b < WHY_BITS; ++b) {
+        char name[ATTITUDE_WHY_TEXT_MAX];
+        if (r->why_count[r->primary][b] != 0u &&
+            attitude_why_format((attitude_why_t)1u << b, name, sizeof name) > 0) {
+            printf(" %s %u", name, r->why_count[r->primary][b]);
+            any = true;
+        }
+    }
+    printf("%s\n", any ? "" : " none");
     const struct sim_i2c_stats *b = &r->sim.rig.bus.stats;
     printf("bus: %u transactions (%u ok), %u bus recoveries; firmware: %u reinits, %u overruns, "
            "max iteration %u us\n",

@@ -106,7 +106,7 @@ uint8_t integrity_implausible(const uint16_t range_mm[ANGLES_SENSORS], uint8_t p
 
 /* Window facts from the window's rows (w, as window_compute left it) and statistics s.
  * learn: this window ends a block of N rows, so the drift learning takes it in. */
-void integrity_window(struct integrity_state *st, const struct integrity_config *cfg,
+void integrity_assess(struct integrity_state *st, const struct integrity_config *cfg,
                       struct window_state *w, const struct window_stats *s, bool learn,
                       struct integrity_window *out);
 
