@@ -323,7 +323,7 @@ static int configure(struct replay *r) {
                 "host_sim replay: %s%s: no firmware configuration fits period_ms %u and arm_mm "
                 "%.3f (%s; the shortest period is 15 ms budget + %u ms margin)\n",
                 r->args->trace_path, where, r->period_ms, r->arm_mm,
-                bad != NULL ? bad : "estimator", VL53_IMP_MARGIN_MS);
+                bad != NULL ? bad : "no VL53L1X timing budget fits the period", VL53_IMP_MARGIN_MS);
         return -1;
     }
     const uint32_t period_us = r->period_ms * 1000u;
