@@ -237,11 +237,13 @@ void integrity_assess(struct integrity_state *st, const struct integrity_config 
         out->parity_mm = sa->mean_mm + sc->mean_mm - sb->mean_mm - sd->mean_mm;
         out->parity_failed = beyond(out->parity_mm, total_sum, cfg->parity_sigmas_q8);
         if (learn) {
-            /* mean square beyond what is not learnt, shared by four sensors, clipped at
-             * the test's limit so that one faulty window cannot teach the test to accept it */
+            /* mean square beyond what is not learnt, shared by four sensors, clipped at a
+             * residual on the test's threshold without learnt drift: a faulty window cannot
+             * teach the test to accept it, nor can a run of them (the limit does not grow
+             * with what was learnt); a larger wander stays a parity failure */
             fix_q32_t sample = fix_asr_s64(square_q32(out->parity_mm) - base_sum, 2u);
             const fix_q32_t limit = fix_asr_s64(
-                fix_muldiv_s64(total_sum, (int64_t)cfg->parity_sigmas_q8 * cfg->parity_sigmas_q8,
+                fix_muldiv_s64(base_sum, (int64_t)cfg->parity_sigmas_q8 * cfg->parity_sigmas_q8,
                                (int64_t)1 << 16, NULL),
                 2u);
             sample = sample < 0 ? 0 : (sample > limit ? limit : sample);
@@ -274,8 +276,11 @@ void integrity_assess(struct integrity_state *st, const struct integrity_config 
         for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
             worst = (int64_t)c[k] * c[k] > worst ? (int64_t)c[k] * c[k] : worst;
         }
-        /* the largest significant motion statistic is the lag of the window mean behind
-         * its last row; with none significant, the ramp stands (its noise, not motion) */
+        /* the largest motion statistic beyond INTEGRITY_MOTION_ALLOW_Q8 is taken as the lag
+         * of the window mean behind its last row and goes into the sd; beyond
+         * motion_sigmas the window is also said to have moved. With none beyond, the ramp
+         * stands (its noise, not motion, and not added) */
+        bool allow = false;
         for (unsigned m = 0; m < 3u; ++m) {
             int64_t lag_sum = 0;
             for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
@@ -284,21 +289,23 @@ void integrity_assess(struct integrity_state *st, const struct integrity_config 
             const fix_q32_t v = fix_asr_s64(lag_sum, (unsigned)unit);
             fix_q32_t var = 0;
             (void)integrity_axis_var((enum integrity_axis)ax, out->used, lag_var[m], &var);
-            const bool sig = var > 0 && beyond(v, var, cfg->motion_sigmas_q8);
-            if (m == 0u ||
-                (sig && (!out->moved[ax] || fix_abs_u64(v) > fix_abs_u64(out->lag_mm[ax])))) {
+            const bool big = var > 0 && beyond(v, var, INTEGRITY_MOTION_ALLOW_Q8);
+            if (m == 0u || (big && (!allow || fix_abs_u64(v) > fix_abs_u64(out->lag_mm[ax])))) {
                 out->lag_mm[ax] = v;
                 out->lag_var_mm2[ax] = var;
             }
-            out->moved[ax] = out->moved[ax] || sig;
+            allow = allow || big;
+            out->moved[ax] = out->moved[ax] || (big && beyond(v, var, cfg->motion_sigmas_q8));
         }
         if (out->parity_failed) {
             /* the disagreement may sit in any one sensor: cover the worst */
             extra = fix_sat_add_s64(
                 extra, fix_asr_s64(fix_sat_mul_s64(parity2, worst), 2u * (unsigned)unit));
         }
-        if (out->moved[ax]) {
+        if (allow) {
             extra = fix_sat_add_s64(extra, square_q32(out->lag_mm[ax]));
+        }
+        if (out->moved[ax]) {
             out->why |= ATTITUDE_WHY_MOTION;
         }
         out->extra_var_mm2[ax] = extra;

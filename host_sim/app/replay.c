@@ -141,6 +141,14 @@ static void write_plot_row(struct replay *r, const struct scene_row *row,
         if (row->has_beta) {
             fprintf(r->plot_data, "%.6f", row->beta_deg);
         }
+        fputc(',', r->plot_data);
+        if (est->alpha_valid) {
+            fprintf(r->plot_data, "%.6f", est->alpha_sd_udeg / 1e6);
+        }
+        fputc(',', r->plot_data);
+        if (est->beta_valid) {
+            fprintf(r->plot_data, "%.6f", est->beta_sd_udeg / 1e6);
+        }
         fputc('\n', r->plot_data);
     }
 }
@@ -373,7 +381,7 @@ static int open_outputs(struct replay *r) {
             return -1;
         }
         fputs("t_ms,estimator,alpha_deg,beta_deg,distance_mm,status,true_alpha_deg,"
-              "true_beta_deg\n",
+              "true_beta_deg,alpha_sd_deg,beta_sd_deg\n",
               r->plot_data);
     }
     return 0;

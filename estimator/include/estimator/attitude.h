@@ -199,14 +199,16 @@ struct attitude_state {
  * range 4000 mm: the VL53L1X long-distance mode's maximum (UM2356 Table 1); the
  * VL53L0X's long-range mode reaches 2000 mm, so a VL53L0X build may lower it.
  * parity and motion k = 4: two-sided Gaussian false-alarm rate 6.3e-5 per window.
- * offset stability 300 um: the 1σ wander of 2 s means of one real static VL53L0X
- * beyond its white noise over one hour (../shared/traces/external, tomisuarez2).
- * drift flag 1000 um: a learnt per-sensor drift above 1 mm 1σ. */
+ * offset stability 120 um: the excess over white noise of the change between consecutive
+ * 2 s window means of one real static VL53L0X over one hour (the tomisuarez2 log of
+ * ../shared/traces/external: 0.015 mm² beyond 0.045 mm²), drift no single window sees.
+ * drift flag 500 um: a learnt per-sensor drift above 0.5 mm 1σ, a quarter of the
+ * VL53L0X's white noise (2.1 mm 1σ on the same log). */
 #define ATTITUDE_RANGE_MAX_MM_DEFAULT        4000u
 #define ATTITUDE_PARITY_SIGMAS_Q8_DEFAULT    (4u * 256u)
 #define ATTITUDE_MOTION_SIGMAS_Q8_DEFAULT    (4u * 256u)
-#define ATTITUDE_OFFSET_STABILITY_UM_DEFAULT 300u
-#define ATTITUDE_DRIFT_FLAG_UM_DEFAULT       1000u
+#define ATTITUDE_OFFSET_STABILITY_UM_DEFAULT 120u
+#define ATTITUDE_DRIFT_FLAG_UM_DEFAULT       500u
 
 /*
  * The default configuration as an initializer, so a const configuration (the

@@ -54,6 +54,11 @@ typedef uint64_t attitude_why_t;
 #define INTEGRITY_NO_TARGET_8191  8191u
 #define INTEGRITY_NO_TARGET_65535 65535u
 
+/* A motion statistic beyond 3σ (two-sided Gaussian 0.27 %) goes into the sd as the lag
+ * of the window mean behind its last row, even below the `motion` threshold: a ramp too
+ * small to be called motion must not leave more than 3σ of lag out of the sd. */
+#define INTEGRITY_MOTION_ALLOW_Q8 (3u * 256u)
+
 /* The three axes of an estimate, as y = a·tan α, y = a·tan β and x̄. */
 enum integrity_axis { INTEGRITY_ALPHA = 0, INTEGRITY_BETA = 1, INTEGRITY_DISTANCE = 2 };
 #define INTEGRITY_AXES 3u
