@@ -393,6 +393,17 @@ const char *tof_app_error_message(const struct tof_app *app, int err) {
     return hal_err_name(err);
 }
 
+/* Not inlined: its line buffer stays off the main loop's stack (tools/stack_check.py). */
+static __attribute__((noinline)) void
+log_init_failure(const struct tof_app *app, const struct tof_platform *platform, int rc) {
+    char line[128]; /* "init failed: estimator: " and the longest attitude_error_message */
+    struct tof_text t;
+    tof_text_init(&t, line, sizeof line);
+    tof_text_str(&t, app->estimator_error != 0 ? "init failed: estimator: " : "init failed: ");
+    tof_text_str(&t, tof_app_error_message(app, rc));
+    tof_log_line(platform, line);
+}
+
 int tof_app_main(const struct tof_platform *platform, const struct tof_app_config *cfg,
                  struct tof_app *app, const struct tof_app_service *service,
                  uint32_t max_iterations) {
@@ -400,12 +411,7 @@ int tof_app_main(const struct tof_platform *platform, const struct tof_app_confi
     tof_log_line(platform, platform->board_name);
     const int rc = tof_app_init(app, platform, cfg);
     if (rc != HAL_OK) {
-        char line[128];
-        struct tof_text t;
-        tof_text_init(&t, line, sizeof line);
-        tof_text_str(&t, app->estimator_error != 0 ? "init failed: estimator: " : "init failed: ");
-        tof_text_str(&t, tof_app_error_message(app, rc));
-        tof_log_line(platform, line);
+        log_init_failure(app, platform, rc);
         return rc;
     }
     const bool has_service = service != NULL && service->ops != NULL;
