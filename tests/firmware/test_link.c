@@ -118,10 +118,16 @@ static void run_ms(uint32_t ms) {
     }
 }
 
+/* The rig's distances: NULL for the default 100 mm parallel plate. */
+static const struct sim_range_source *rig_source;
+
 static void setup_with(const struct tof_app_config *app_cfg) {
     memset(&t, 0, sizeof t);
     struct sim_rig_config cfg;
     sim_rig_default_config(&cfg); /* every sensor reads 100 mm: a parallel plate */
+    if (rig_source != NULL) {
+        cfg.source = *rig_source;
+    }
     sim_rig_init(&t.rig, &cfg);
     tof_link_init(&t.link, (struct hal_serial){.ops = &serial_ops, .ctx = &t.serial});
     t.platform = (struct tof_platform){.board_name = "test",
@@ -139,7 +145,29 @@ static void setup_with(const struct tof_app_config *app_cfg) {
 
 static int setup(void **state) {
     (void)state;
+    rig_source = NULL;
     setup_with(&tof_app_default_config);
+    return 0;
+}
+
+/* Sensor C reads 8190, the VL53L0X's no-target value (with status 0, as popular
+ * libraries log it); the others 100 mm. */
+static int no_target_next(void *ctx, unsigned sensor, uint32_t sample_index,
+                          struct sim_range *out) {
+    (void)ctx;
+    (void)sample_index;
+    *out = (struct sim_range){.distance_mm = sensor == 2u ? 8190u : 100u, .present = true};
+    return 0;
+}
+
+static const struct sim_range_source_ops no_target_ops = {.next = no_target_next};
+
+static int setup_no_target(void **state) {
+    (void)state;
+    static const struct sim_range_source source = {.ops = &no_target_ops, .ctx = NULL};
+    rig_source = &source;
+    setup_with(&tof_app_default_config);
+    rig_source = NULL;
     return 0;
 }
 
@@ -360,6 +388,51 @@ static void test_main_runs_the_link_as_a_service(void **state) {
     assert_int_equal(t.status, 1);
 }
 
+/* The estimate frame carries exactly what the estimator said: each value with its sd,
+ * the why bits unchanged, a missing value as TLM_NO_VALUE with no sd. A spy between the
+ * application and the link keeps the last record to compare with the decoded frames. */
+static struct tof_estimate_record spied;
+static unsigned spied_count;
+
+static void spy_estimate(void *ctx, const struct tof_estimate_record *record) {
+    spied = *record;
+    ++spied_count;
+    tof_link_output_ops.estimate(ctx, record);
+}
+
+static const struct tof_output_ops spy_ops = {
+    .estimate = spy_estimate, .sample = NULL, .event = NULL};
+
+static void expect_same_estimate(const struct attitude_estimate *a, const struct tlm_estimate *w) {
+    assert_int_equal(w->status, (uint8_t)a->status);
+    assert_true(w->why == a->why);
+    assert_int_equal(w->alpha_udeg, a->alpha_valid ? a->alpha_udeg : TLM_NO_VALUE);
+    assert_int_equal(w->alpha_sd_udeg, a->alpha_valid ? a->alpha_sd_udeg : TLM_NO_VALUE);
+    assert_int_equal(w->beta_udeg, a->beta_valid ? a->beta_udeg : TLM_NO_VALUE);
+    assert_int_equal(w->beta_sd_udeg, a->beta_valid ? a->beta_sd_udeg : TLM_NO_VALUE);
+    assert_int_equal(w->distance_um, a->distance_valid ? a->distance_um : TLM_NO_VALUE);
+    assert_int_equal(w->distance_sd_um, a->distance_valid ? a->distance_sd_um : TLM_NO_VALUE);
+}
+
+static void test_estimate_frames_carry_the_estimators_sd_and_why(void **state) {
+    (void)state;
+    t.platform.output = (struct tof_output){.ops = &spy_ops, .ctx = &t.link};
+    spied_count = 0;
+    /* sensor C reads the VL53L0X no-target value 8190 (setup_no_target): not ok, and why */
+    run_ms(100 * 20 + 100);
+    decode_output();
+    assert_int_equal(spied_count, 1);
+    assert_int_equal(t.link.tx_dropped, 0);
+    for (unsigned e = 0; e < ATTITUDE_EST_COUNT; ++e) {
+        if (spied.output.est[e].reason == ATTITUDE_REASON_DISABLED) {
+            continue;
+        }
+        expect_same_estimate(&spied.output.est[e], &t.last_estimate[e]);
+        assert_int_not_equal(t.last_estimate[e].status, TLM_STATUS_OK);
+        assert_true(t.last_estimate[e].why != 0u);
+    }
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup(test_default_windows_report_a_parallel_plate, setup),
@@ -370,6 +443,8 @@ int main(void) {
         cmocka_unit_test_setup(test_malformed_frames_are_counted_and_refused, setup),
         cmocka_unit_test_setup(test_estimator_errors_pass_up_unchanged, setup),
         cmocka_unit_test_setup(test_main_runs_the_link_as_a_service, setup),
+        cmocka_unit_test_setup(test_estimate_frames_carry_the_estimators_sd_and_why,
+                               setup_no_target),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
