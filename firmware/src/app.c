@@ -1,8 +1,8 @@
+/* The application: bring-up, acquisition, fault manager, estimation, one iteration at a time. */
 #include "firmware/app.h"
 
 #include <string.h>
 
-#include "firmware/link.h"
 #include "firmware/text.h"
 #include "hal/hal_err.h"
 
@@ -279,8 +279,10 @@ int tof_app_init(struct tof_app *app, const struct tof_platform *platform,
     if (rc != HAL_OK) {
         return rc;
     }
-    if (attitude_init(&app->estimator, &cfg->estimator) != ATTITUDE_ERR_NONE) {
-        return HAL_ERR_INVALID; /* attitude_error_message() names the field */
+    const int est_rc = attitude_init(&app->estimator, &cfg->estimator);
+    if (est_rc != ATTITUDE_ERR_NONE) {
+        app->estimator_error = est_rc;
+        return est_rc; /* unchanged: attitude_error_message() names the field */
     }
     /* the product consensus when it runs, else the first estimator that does */
     app->primary = ATTITUDE_EST_CONSENSUS;
@@ -357,52 +359,94 @@ void tof_app_step(struct tof_app *app, bool idle) {
 }
 
 int tof_app_set_window(struct tof_app *app, uint16_t window, bool sliding) {
-    if (window < 2u || window > ATTITUDE_WINDOW_MAX) {
-        return HAL_ERR_INVALID;
-    }
     struct attitude_config next = app->estimator.cfg;
     next.window = window;
     next.mode = sliding ? ATTITUDE_SLIDING : ATTITUDE_TUMBLING;
-    /* The rest of the configuration was accepted at init, so this cannot fail. */
-    return attitude_init(&app->estimator, &next) == ATTITUDE_ERR_NONE ? HAL_OK : HAL_ERR_STATE;
+    /* attitude_init() checks window and mode before it touches the state, and the rest
+     * of the configuration was accepted at init: a refusal changes nothing. */
+    return attitude_init(&app->estimator, &next);
 }
 
 int tof_app_set_primary(struct tof_app *app, enum attitude_estimator primary) {
     /* only an estimator that runs (selected in the configuration, built into the image) */
     if ((unsigned)primary >= (unsigned)ATTITUDE_EST_COUNT ||
         (app->estimator.cfg.estimators & ATTITUDE_EST_BIT(primary)) == 0u) {
-        return HAL_ERR_INVALID;
+        return ATTITUDE_ERR_ESTIMATORS;
     }
     app->primary = primary;
-    return HAL_OK;
+    return ATTITUDE_ERR_NONE;
 }
 
 void tof_app_set_running(struct tof_app *app, bool running) {
     app->running = running;
 }
 
+void tof_app_set_raw_output(struct tof_app *app, bool on) {
+    app->raw_output = on;
+}
+
+void tof_app_get_status(const struct tof_app *app, struct tof_app_status *out) {
+    *out = (struct tof_app_status){
+        .uptime_us = app->uptime_us,
+        .window = app->estimator.cfg.window,
+        .sliding = app->estimator.cfg.mode == ATTITUDE_SLIDING,
+        .primary = app->primary,
+        .running = app->running,
+        .raw_output = app->raw_output,
+        .period_us = app->assembler_cfg.period_us,
+    };
+}
+
+void tof_app_get_health(const struct tof_app *app, struct tof_app_health *out) {
+    memset(out, 0, sizeof *out);
+    out->uptime_us = app->uptime_us;
+    for (unsigned i = 0; i < TOF_SENSORS; ++i) {
+        out->state[i] = app->health[i].state;
+        out->losses[i] = app->health[i].losses;
+        out->read_errors[i] = app->counters.read_errors[i];
+    }
+    memcpy(out->errors_by_code, app->counters.errors_by_code, sizeof out->errors_by_code);
+    out->bus_recoveries = app->counters.bus_recoveries;
+    out->overruns = app->counters.overruns;
+    out->max_iteration_us = app->counters.max_iteration_us;
+}
+
+const char *tof_app_error_message(const struct tof_app *app, int err) {
+    if (err != 0 && err == app->estimator_error) {
+        return attitude_error_message(err);
+    }
+    return hal_err_name(err);
+}
+
+/* Not inlined: its line buffer stays off the main loop's stack (tools/stack_check.py). */
+static __attribute__((noinline)) void
+log_init_failure(const struct tof_app *app, const struct tof_platform *platform, int rc) {
+    char line[128]; /* "init failed: estimator: " and the longest attitude_error_message */
+    struct tof_text t;
+    tof_text_init(&t, line, sizeof line);
+    tof_text_str(&t, app->estimator_error != 0 ? "init failed: estimator: " : "init failed: ");
+    tof_text_str(&t, tof_app_error_message(app, rc));
+    tof_log_line(platform, line);
+}
+
 int tof_app_main(const struct tof_platform *platform, const struct tof_app_config *cfg,
-                 struct tof_app *app, struct tof_link *link, uint32_t max_iterations) {
+                 struct tof_app *app, const struct tof_app_service *service,
+                 uint32_t max_iterations) {
     tof_log_line(platform, TOF_FW_NAME " " TOF_FW_VERSION);
     tof_log_line(platform, platform->board_name);
     const int rc = tof_app_init(app, platform, cfg);
     if (rc != HAL_OK) {
-        char line[64];
-        struct tof_text t;
-        tof_text_init(&t, line, sizeof line);
-        tof_text_str(&t, "init failed: ");
-        tof_text_str(&t, hal_err_name(rc));
-        tof_log_line(platform, line);
+        log_init_failure(app, platform, rc);
         return rc;
     }
-    if (link != NULL) {
-        tof_link_bind(link, app);
-        tof_link_send_status(link);
+    const bool has_service = service != NULL && service->ops != NULL;
+    if (has_service && service->ops->start != NULL) {
+        service->ops->start(service->ctx, app);
     }
     for (uint32_t n = 0; max_iterations == 0u || n < max_iterations; ++n) {
         tof_app_step(app, true);
-        if (link != NULL) {
-            tof_link_poll(link);
+        if (has_service && service->ops->poll != NULL) {
+            service->ops->poll(service->ctx);
         }
     }
     return HAL_OK;
