@@ -60,8 +60,8 @@ struct run {
     uint64_t estimates, other_estimates, written, ok_rows;
     uint64_t unflagged_wrong;
     uint64_t faults_text, banners;
-    uint32_t acks_bad;
-    bool command_sent;
+    uint32_t acks_bad, acks_ok;
+    bool command_sent, command_needed;
     char line[128];
     size_t line_len;
     char last_fault[128];
@@ -291,12 +291,15 @@ static void on_frame(void *ctx, const struct tlm_frame *frame) {
                 .u.set_window = {.window_n = (uint16_t)r->a.window,
                                  .mode = r->a.sliding ? TLM_WINDOW_SLIDING : TLM_WINDOW_TUMBLING}};
             send_command(r, &cmd);
+            r->command_needed = true;
         }
         r->command_sent = true;
         break;
     }
     case TLM_TYPE_ACK:
-        if (msg.u.ack.result != 0u) {
+        if (msg.u.ack.result == 0u) {
+            ++r->acks_ok;
+        } else {
             ++r->acks_bad;
             fprintf(stderr, "tof_twin: the firmware refused command 0x%02x (result %u)\n",
                     msg.u.ack.command, msg.u.ack.result);
@@ -501,6 +504,12 @@ int main(int argc, char **argv) {
         rc = 1;
     }
     if (r->w.source_error != 0) {
+        rc = 1;
+    }
+    if (r->command_needed && r->acks_ok == 0u) {
+        fprintf(stderr, "tof_twin: the firmware never acknowledged the set-window command "
+                        "(--window/--mode other than the flight default 100 tumbling): its rows "
+                        "are not those of the options asked for\n");
         rc = 1;
     }
     fclose(r->est);

@@ -31,6 +31,18 @@ static uint64_t frame_ps(const struct twin *t) {
     return 10u * (uint64_t)brr * (1000000000000ull / t->sysclk_hz);
 }
 
+/* The firmware reads its receiver once per main-loop iteration (tof_link_poll), so bytes
+ * sent back to back at 115200 Bd overrun it (measured in the twin: ORE, the command lost).
+ * The twin's host side therefore sends one byte per RX_GAP_PS, as a paced sender must. */
+#define RX_GAP_PS (2000ull * 1000000ull)
+
+static uint64_t frame_ps(const struct twin *t);
+
+static uint64_t rx_gap_ps(const struct twin *t) {
+    const uint64_t f = frame_ps(t);
+    return f > RX_GAP_PS ? f : RX_GAP_PS;
+}
+
 static void update(struct twin *t) {
     struct twin_usart *u = &t->usart;
     const uint64_t now = twin_now_ps(t);
@@ -62,7 +74,7 @@ static void update(struct twin *t) {
         u->rx_head = (u->rx_head + 1u) % TWIN_USART_RXQ;
         u->rx_count--;
         u->bytes_rx++;
-        u->rx_next_ps += frame_ps(t);
+        u->rx_next_ps += rx_gap_ps(t);
     }
 }
 
@@ -85,7 +97,7 @@ bool twin_usart_send_to_mcu(struct twin *t, const uint8_t *data, unsigned len) {
         return false;
     }
     if (u->rx_count == 0u) {
-        u->rx_next_ps = twin_now_ps(t) + frame_ps(t);
+        u->rx_next_ps = twin_now_ps(t) + rx_gap_ps(t);
     }
     for (unsigned k = 0; k < len; ++k) {
         u->rxq[(u->rx_head + u->rx_count) % TWIN_USART_RXQ] = data[k];
