@@ -62,6 +62,9 @@ struct run {
     uint64_t faults_text, banners;
     uint32_t acks_bad, acks_ok;
     bool command_sent, command_needed;
+    struct tlm_command command;
+    uint64_t command_at_us;
+    unsigned command_tries;
     char line[128];
     size_t line_len;
     char last_fault[128];
@@ -290,8 +293,11 @@ static void on_frame(void *ctx, const struct tlm_frame *frame) {
                 .type = TLM_TYPE_SET_WINDOW,
                 .u.set_window = {.window_n = (uint16_t)r->a.window,
                                  .mode = r->a.sliding ? TLM_WINDOW_SLIDING : TLM_WINDOW_TUMBLING}};
-            send_command(r, &cmd);
+            r->command = cmd;
             r->command_needed = true;
+            r->command_tries = 0;
+            r->command_at_us = 0;
+            r->acks_ok = 0;
         }
         r->command_sent = true;
         break;
@@ -310,6 +316,27 @@ static void on_frame(void *ctx, const struct tlm_frame *frame) {
         break;
     default:
         break;
+    }
+}
+
+/* The firmware reads USART2 once per main-loop iteration: a command byte arriving during a
+ * long iteration overruns the receiver and the frame is lost. Like a real host, send it
+ * again until it is acknowledged (every COMMAND_RETRY_US, at most COMMAND_TRIES times). */
+#define COMMAND_RETRY_US 400000u
+#define COMMAND_TRIES    10u
+
+static void host_poll(void *ctx) {
+    struct run *r = ctx;
+    if (!r->command_needed || r->acks_ok > 0u || r->command_tries >= COMMAND_TRIES) {
+        return;
+    }
+    const uint64_t now = twin_now_us(&r->t);
+    if (r->command_tries == 0u || now - r->command_at_us >= COMMAND_RETRY_US) {
+        if (r->t.usart.rx_count == 0u) {
+            send_command(r, &r->command);
+            r->command_tries++;
+            r->command_at_us = now;
+        }
     }
 }
 
@@ -466,6 +493,8 @@ int main(int argc, char **argv) {
     r->t.rcc.hsi_broken = r->a.hsi_fail;
     r->t.i2c.spurious_berr_ppm = r->a.spurious_berr_ppm;
     r->t.usart.on_tx = on_uart_byte;
+    r->t.host_poll = host_poll;
+    r->t.host_ctx = r;
     r->t.usart.tx_ctx = r;
     tlm_decoder_init(&r->dec, TLM_ACCEPT_TELEMETRY);
     twin_reset(&r->t, true);
@@ -507,6 +536,9 @@ int main(int argc, char **argv) {
         rc = 1;
     }
     if (r->command_needed && r->acks_ok == 0u) {
+        fprintf(stderr, "tof_twin: %u tries, %llu receiver overruns, %llu bytes received\n",
+                r->command_tries, (unsigned long long)r->t.usart.overruns,
+                (unsigned long long)r->t.usart.bytes_rx);
         fprintf(stderr, "tof_twin: the firmware never acknowledged the set-window command "
                         "(--window/--mode other than the flight default 100 tumbling): its rows "
                         "are not those of the options asked for\n");

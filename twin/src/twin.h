@@ -101,6 +101,10 @@ struct twin {
     uint32_t dbgmcu_apb1fzr1;
 
     struct twin_world *world;
+    /* Called between emulation slices (at least every SysTick period): the host side's
+     * own timers (command retries). May be NULL. */
+    void (*host_poll)(void *ctx);
+    void *host_ctx;
     struct twin_stats stats;
 };
 

@@ -476,6 +476,9 @@ void twin_run(struct twin *t) {
             twin_reset(t, false);
         }
         twin_systick_update(t);
+        if (t->host_poll != NULL) {
+            t->host_poll(t->host_ctx);
+        }
         if (twin_iwdg_expiry(t) <= twin_now_ps(t)) {
             t->reset_pending = true;
             t->watchdog_reset = true;

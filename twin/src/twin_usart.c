@@ -31,10 +31,11 @@ static uint64_t frame_ps(const struct twin *t) {
     return 10u * (uint64_t)brr * (1000000000000ull / t->sysclk_hz);
 }
 
-/* The firmware reads its receiver once per main-loop iteration (tof_link_poll), so bytes
- * sent back to back at 115200 Bd overrun it (measured in the twin: ORE, the command lost).
- * The twin's host side therefore sends one byte per RX_GAP_PS, as a paced sender must. */
-#define RX_GAP_PS (2000ull * 1000000ull)
+/* The firmware reads its receiver once per main-loop iteration (tof_link_poll), and an idle
+ * iteration lasts a whole 20 ms slot (measured in the twin), so bytes sent back to back at
+ * 115200 Bd overrun it (ORE, the command lost). The twin's host side therefore sends one
+ * byte per RX_GAP_PS, longer than a slot, as a sender to this firmware must. */
+#define RX_GAP_PS (25000ull * 1000000ull)
 
 static uint64_t frame_ps(const struct twin *t);
 
