@@ -5,12 +5,18 @@
 #ifndef BOARDS_CORTEX_M_BOARD_H
 #define BOARDS_CORTEX_M_BOARD_H
 
+#include <stdint.h>
+
 #ifndef BOARD_IRQ_COUNT
 #error "BOARD_IRQ_COUNT must be defined by the board's build"
 #endif
 
 /* Called with main()'s return value: exit (QEMU) or reset (MCU). Never returns. */
 __attribute__((noreturn)) void board_exit(int status);
+
+/* Exception number of the last HardFault or unexpected exception/IRQ (startup.c), kept in
+ * .noinit across the reset that follows it. */
+extern volatile uint32_t cortex_m_fault_vector;
 
 /* Called on a fault or unexpected exception: report `what` if possible, then stop. */
 __attribute__((noreturn)) void board_fault(const char *what);

@@ -29,7 +29,13 @@ void SysTick_Handler(void) __attribute__((weak, alias("Default_Handler")));
 
 typedef void (*vector_fn)(void);
 
-/* 16 system entries, then BOARD_IRQ_COUNT external interrupts (all default). */
+/* Exception number of the last unexpected exception (IPSR), kept across the reset that
+ * follows it (.noinit); 0: none since power-on garbage was cleared by board code. */
+__attribute__((section(".noinit"))) volatile uint32_t cortex_m_fault_vector;
+
+/* 16 system entries, then BOARD_IRQ_COUNT external interrupts: every one points at
+ * Default_Handler (a zero entry would make an unexpected IRQ fetch from address 0 and fault
+ * with INVSTATE, ARMv7-M ARM B1.5.6, far from its cause). */
 __attribute__((section(".vectors"),
                used)) static const vector_fn vector_table[16 + BOARD_IRQ_COUNT] = {
     (vector_fn)(uintptr_t)__stack_top,
@@ -48,6 +54,7 @@ __attribute__((section(".vectors"),
     0,
     PendSV_Handler,
     SysTick_Handler,
+    [16 ... 16 + BOARD_IRQ_COUNT - 1] = Default_Handler,
 };
 
 void Reset_Handler(void) {
@@ -69,10 +76,27 @@ void Reset_Handler(void) {
     board_exit(main());
 }
 
-void HardFault_Handler(void) {
+void HardFault_Report(void);
+
+/* The stack may be what faulted (an overflow into the reserved addresses below RAM), so
+ * the handler first puts MSP back at the top of the stack region, then reports in C.
+ * Nothing is returned to: board_fault() resets. */
+__attribute__((naked)) void HardFault_Handler(void) {
+    __asm__ volatile("ldr r0, =__stack_top\n"
+                     "msr msp, r0\n"
+                     "ldr r1, =HardFault_Report\n"
+                     "bx r1\n");
+}
+
+void HardFault_Report(void) {
+    cortex_m_fault_vector = 3u;
     board_fault("HardFault");
 }
 
+/* Any other exception or IRQ without its own handler: record which (IPSR) and reset. */
 void Default_Handler(void) {
+    uint32_t ipsr;
+    __asm__ volatile("mrs %0, ipsr" : "=r"(ipsr));
+    cortex_m_fault_vector = ipsr & 0x1FFu;
     board_fault("unexpected exception");
 }

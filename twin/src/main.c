@@ -55,8 +55,8 @@ struct run {
     struct tlm_decoder dec;
     FILE *est, *uart;
     enum attitude_estimator primary;
-    uint32_t boots;          /* status frames seen (one per boot) */
-    int64_t boot_row_offset; /* trace row of the firmware's slot 0 in this boot */
+    uint32_t boots; /* status frames seen (one per boot) */
+
     uint64_t estimates, other_estimates, written, ok_rows;
     uint64_t unflagged_wrong;
     uint64_t faults_text, banners;
@@ -230,7 +230,7 @@ static void on_estimate(struct run *r, const struct tlm_estimate *m) {
     const unsigned n = r->a.window;
     const int64_t fw_row =
         r->a.sliding ? (int64_t)m->window_index : ((int64_t)m->window_index + 1) * (int64_t)n - 1;
-    const int64_t row = fw_row + r->boot_row_offset;
+    const int64_t row = fw_row + r->w.boot_row;
     if (row < 0 || (uint64_t)row >= r->row_count) {
         return; /* about samples past the end of the trace */
     }
@@ -277,16 +277,8 @@ static void on_frame(void *ctx, const struct tlm_frame *frame) {
     case TLM_TYPE_STATUS: {
         ++r->boots;
         const uint64_t now_us = twin_now_us(&r->t);
-        if (r->boots == 1u) {
-            twin_world_arm_origin(&r->w, now_us);
-            r->boot_row_offset = 0;
-        } else {
-            /* After a reset the firmware numbers its slots from 0 again; its slot 0 is the
-             * first whole period after the next boundary (firmware/src/app.c). */
-            const int64_t row = twin_world_row_at_ms(&r->w, now_us / 1000u);
-            r->boot_row_offset = row >= 0 ? row + 2 : 0;
-            r->command_sent = false;
-        }
+        twin_world_mark_boot(&r->w, now_us);
+        r->command_sent = false;
         if (!r->command_sent && (msg.u.status.window_n != r->a.window ||
                                  (msg.u.status.mode == TLM_WINDOW_SLIDING) != r->a.sliding)) {
             const struct tlm_command cmd = {
@@ -568,25 +560,26 @@ int main(int argc, char **argv) {
             fprintf(stderr, "tof_twin: %s: %s\n", r->a.report, strerror(errno));
             return 1;
         }
-        fprintf(f,
-                "{\"finished\": %s, \"stop\": \"%s\", \"sim_s\": %.6f, \"host_s\": %.3f,\n"
-                " \"instructions\": %" PRIu64 ", \"minsn_per_s\": %.2f, \"warps\": %" PRIu64 ",\n"
-                " \"mmio_reads\": %" PRIu64 ", \"mmio_writes\": %" PRIu64 ",\n"
-                " \"estimates\": %" PRIu64 ", \"rows_written\": %" PRIu64 ", \"ok_rows\": %" PRIu64
-                ", \"unflagged_wrong\": %" PRIu64 ",\n"
-                " \"boots\": %u, \"banners\": %" PRIu64 ", \"resets\": %u, \"watchdog_resets\": %u,"
-                " \"software_resets\": %u, \"hardfaults\": %u, \"fault_pc\": %u,\n"
-                " \"fault_lines\": %" PRIu64 ", \"last_fault\": \"%s\", \"systicks\": %u,\n"
-                " \"i2c_transfers\": %" PRIu64 ", \"spurious_berr\": %u, \"bus_recoveries\": %u,"
-                " \"commands_refused\": %u}\n",
-                finished ? "true" : "false", finished ? "" : r->t.stop_msg,
-                (double)twin_now_ps(&r->t) / 1e12, host_s, r->t.stats.instructions,
-                host_s > 0 ? minsn / host_s : 0.0, r->t.stats.warps, r->t.stats.mmio_reads,
-                r->t.stats.mmio_writes, r->estimates, r->written, r->ok_rows, r->unflagged_wrong,
-                r->boots, r->banners, r->t.stats.resets, r->t.stats.watchdog_resets,
-                r->t.stats.software_resets, r->t.stats.hardfaults, r->t.fault_pc, r->faults_text,
-                r->last_fault, r->t.stats.exceptions[15], r->w.transfers, r->t.i2c.berr_injected,
-                r->w.rig.bus.stats.recoveries, r->acks_bad);
+        fprintf(
+            f,
+            "{\"finished\": %s, \"stop\": \"%s\", \"sim_s\": %.6f, \"host_s\": %.3f,\n"
+            " \"instructions\": %" PRIu64 ", \"minsn_per_s\": %.2f, \"warps\": %" PRIu64 ",\n"
+            " \"mmio_reads\": %" PRIu64 ", \"mmio_writes\": %" PRIu64 ",\n"
+            " \"estimates\": %" PRIu64 ", \"rows_written\": %" PRIu64 ", \"ok_rows\": %" PRIu64
+            ", \"unflagged_wrong\": %" PRIu64 ",\n"
+            " \"boots\": %u, \"banners\": %" PRIu64 ", \"resets\": %u, \"watchdog_resets\": %u,"
+            " \"software_resets\": %u, \"hardfaults\": %u, \"fault_pc\": %u, \"fault_addr\": %u,\n"
+            " \"fault_lines\": %" PRIu64 ", \"last_fault\": \"%s\", \"systicks\": %u,\n"
+            " \"i2c_transfers\": %" PRIu64 ", \"spurious_berr\": %u, \"bus_recoveries\": %u,"
+            " \"commands_refused\": %u}\n",
+            finished ? "true" : "false", finished ? "" : r->t.stop_msg,
+            (double)twin_now_ps(&r->t) / 1e12, host_s, r->t.stats.instructions,
+            host_s > 0 ? minsn / host_s : 0.0, r->t.stats.warps, r->t.stats.mmio_reads,
+            r->t.stats.mmio_writes, r->estimates, r->written, r->ok_rows, r->unflagged_wrong,
+            r->boots, r->banners, r->t.stats.resets, r->t.stats.watchdog_resets,
+            r->t.stats.software_resets, r->t.stats.hardfaults, r->t.fault_pc, r->t.fault_addr,
+            r->faults_text, r->last_fault, r->t.stats.exceptions[15], r->w.transfers,
+            r->t.i2c.berr_injected, r->w.rig.bus.stats.recoveries, r->acks_bad);
         fclose(f);
     }
     free(r->rows);

@@ -63,8 +63,9 @@ struct twin {
     uint32_t *block_cache; /* per flash halfword: (size << 16) | instructions, 0 unknown */
     uint8_t *covered;      /* per flash halfword: 1 if executed (coverage) */
     bool strict;
-    bool trace_mmio; /* TOF_TWIN_TRACE_MMIO set: print every peripheral access */
-    FILE *log;       /* twin diagnostics (stderr) */
+    bool trace_blocks; /* TOF_TWIN_TRACE_BLOCKS set: print every translated block run */
+    bool trace_mmio;   /* TOF_TWIN_TRACE_MMIO set: print every peripheral access */
+    FILE *log;         /* twin diagnostics (stderr) */
 
     /* Time. */
     uint64_t cycles;      /* core clock cycles since power-on (= instructions, plus warps) */

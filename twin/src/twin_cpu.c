@@ -182,6 +182,9 @@ static void hook_block(uc_engine *uc, uint64_t address, uint32_t size, void *use
     }
     t->cycles += n;
     t->stats.instructions += n;
+    if (t->trace_blocks) {
+        fprintf(t->log, "block 0x%08x +%u\n", a, size);
+    }
     t->stats.blocks++;
     if (t->cycles >= t->next_event || t->stop != TWIN_RUNNING) {
         uc_emu_stop(uc);
@@ -192,6 +195,20 @@ static void hook_block(uc_engine *uc, uint64_t address, uint32_t size, void *use
             uc_emu_stop(uc);
         }
     }
+}
+
+/* A data access to an address nothing is mapped at: a precise bus fault at that address
+ * (the run loop takes the HardFault); BFAR keeps the address as on the M4 (B3.2.18). */
+static bool hook_unmapped(uc_engine *uc, uc_mem_type type, uint64_t address, int size,
+                          int64_t value, void *user) {
+    (void)uc;
+    (void)type;
+    (void)size;
+    (void)value;
+    struct twin *t = user;
+    t->fault_addr = (uint32_t)address;
+    t->scs.bfar = (uint32_t)address;
+    return false;
 }
 
 static void hook_intr(uc_engine *uc, uint32_t intno, void *user) {
@@ -206,6 +223,7 @@ int twin_init(struct twin *t, bool strict, FILE *log) {
     t->log = log;
     t->intr_no = -1;
     t->trace_mmio = getenv("TOF_TWIN_TRACE_MMIO") != NULL;
+    t->trace_blocks = getenv("TOF_TWIN_TRACE_BLOCKS") != NULL;
     t->flash = malloc(TWIN_FLASH_SIZE);
     t->sram = calloc(1, TWIN_SRAM_SIZE);
     t->block_cache = calloc(TWIN_FLASH_SIZE / 2u, sizeof *t->block_cache);
@@ -251,6 +269,10 @@ int twin_init(struct twin *t, bool strict, FILE *log) {
     if (err == UC_ERR_OK) {
         err = uc_hook_add(t->uc, &h, UC_HOOK_INTR, (void *)hook_intr, t, 1, 0);
     }
+    if (err == UC_ERR_OK) {
+        err = uc_hook_add(t->uc, &h, UC_HOOK_MEM_READ_UNMAPPED | UC_HOOK_MEM_WRITE_UNMAPPED,
+                          (void *)hook_unmapped, t, 1, 0);
+    }
     if (err != UC_ERR_OK) {
         fprintf(log, "tof_twin: unicorn set-up: %s\n", uc_strerror(err));
         return -1;
@@ -290,6 +312,7 @@ void twin_reset(struct twin *t, bool power_on) {
     twin_iwdg_reset(t);
     twin_scs_reset(t);
     t->nactive = 0;
+    t->irq_wait = false;
     t->reset_pending = false;
     t->watchdog_reset = false;
     /* Reset behaviour, ARMv7-M ARM B1.5.5: SP_main from vector 0, PC from vector 1,
@@ -422,8 +445,8 @@ static void take_fault(struct twin *t, uint32_t pc, const char *what) {
     t->stats.hardfaults++;
     t->fault_pc = pc;
     t->fault_what = what;
-    fprintf(t->log, "tof_twin: HardFault at pc 0x%08x, t = %llu us: %s\n", pc,
-            (unsigned long long)twin_now_us(t), what);
+    fprintf(t->log, "tof_twin: HardFault at pc 0x%08x (data address 0x%08x), t = %llu us: %s\n", pc,
+            t->fault_addr, (unsigned long long)twin_now_us(t), what);
     if (t->nactive > 0u && t->active[t->nactive - 1u] == EXC_HARDFAULT) {
         twin_stop(t, TWIN_STOP_LOCKUP, "fault inside the HardFault handler at 0x%08x (%s)", pc,
                   what);
@@ -437,6 +460,7 @@ static void take_fault(struct twin *t, uint32_t pc, const char *what) {
 
 static void deliver_pending(struct twin *t) {
     if (t->scs.pending == 0u) {
+        t->irq_wait = false;
         return;
     }
     uint32_t primask = 0;
@@ -472,6 +496,10 @@ void twin_run(struct twin *t) {
             } else {
                 t->stats.software_resets++;
                 t->rcc.csr |= 1u << 28; /* SFTRSTF */
+                if (t->trace_mmio) {
+                    fprintf(t->log, "tof_twin: software reset at t = %llu us\n",
+                            (unsigned long long)twin_now_us(t));
+                }
             }
             twin_reset(t, false);
         }

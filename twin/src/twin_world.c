@@ -23,6 +23,10 @@ static int row_next(void *ctx, unsigned sensor, uint32_t sample_index, struct si
         w->origin_ms = ms;
     }
     const int64_t row = twin_world_row_at_ms(w, ms);
+    if (w->boot_pending && ms * 1000u >= w->boot_after_us) {
+        w->boot_pending = false;
+        w->boot_row = row;
+    }
     if (row < 0) {
         *out = (struct sim_range){.present = false};
         return 0;
@@ -71,6 +75,12 @@ void twin_world_arm_origin(struct twin_world *w, uint64_t after_us) {
         w->armed = true;
         w->arm_after_us = after_us;
     }
+}
+
+void twin_world_mark_boot(struct twin_world *w, uint64_t after_us) {
+    twin_world_arm_origin(w, after_us);
+    w->boot_pending = true;
+    w->boot_after_us = after_us;
 }
 
 int64_t twin_world_row_at_ms(const struct twin_world *w, uint64_t ms) {

@@ -27,6 +27,11 @@ struct twin_world {
     uint64_t arm_after_us;
     bool origin_set;
     uint64_t origin_ms;
+    /* The firmware numbers its slots from 0 at every boot: the trace row of the current
+     * boot's slot 0 is that of the first measurement completing after its status frame. */
+    bool boot_pending;
+    uint64_t boot_after_us;
+    int64_t boot_row;
     int source_error;
     FILE *i2c_log;
     uint64_t transfers;
@@ -42,6 +47,10 @@ void twin_world_sync(struct twin_world *w, uint64_t now_us);
 /* The next measurement completing after `after_us` becomes trace row 0 (first call only;
  * later calls, after a reset of the MCU, keep the origin: the world does not rewind). */
 void twin_world_arm_origin(struct twin_world *w, uint64_t after_us);
+
+/* A (re)boot of the firmware ended at `after_us`: the next measurement completing after it
+ * is the new boot's slot 0 (w->boot_row). The first call also arms the origin. */
+void twin_world_mark_boot(struct twin_world *w, uint64_t after_us);
 
 /* Trace row of a measurement completed at simulated millisecond `ms` (-1 before row 0). */
 int64_t twin_world_row_at_ms(const struct twin_world *w, uint64_t ms);
