@@ -68,6 +68,8 @@ struct run {
     char line[128];
     size_t line_len;
     char last_fault[128];
+    struct tlm_health health; /* the last health frame */
+    uint64_t health_frames;
 };
 
 static struct run R;
@@ -305,6 +307,10 @@ static void on_frame(void *ctx, const struct tlm_frame *frame) {
         break;
     case TLM_TYPE_ESTIMATE:
         on_estimate(r, &msg.u.estimate);
+        break;
+    case TLM_TYPE_HEALTH:
+        r->health = msg.u.health;
+        ++r->health_frames;
         break;
     default:
         break;
@@ -571,7 +577,9 @@ int main(int argc, char **argv) {
             " \"software_resets\": %u, \"hardfaults\": %u, \"fault_pc\": %u, \"fault_addr\": %u,\n"
             " \"fault_lines\": %" PRIu64 ", \"last_fault\": \"%s\", \"systicks\": %u,\n"
             " \"i2c_transfers\": %" PRIu64 ", \"spurious_berr\": %u, \"bus_recoveries\": %u,"
-            " \"commands_refused\": %u}\n",
+            " \"commands_refused\": %u,\n"
+            " \"health_frames\": %" PRIu64 ", \"loop_overruns\": %u, \"loop_max_us\": %u,"
+            " \"tx_dropped\": %u, \"uart_overruns\": %" PRIu64 "}\n",
             finished ? "true" : "false", finished ? "" : r->t.stop_msg,
             (double)twin_now_ps(&r->t) / 1e12, host_s, r->t.stats.instructions,
             host_s > 0 ? minsn / host_s : 0.0, r->t.stats.warps, r->t.stats.mmio_reads,
@@ -579,7 +587,9 @@ int main(int argc, char **argv) {
             r->boots, r->banners, r->t.stats.resets, r->t.stats.watchdog_resets,
             r->t.stats.software_resets, r->t.stats.hardfaults, r->t.fault_pc, r->t.fault_addr,
             r->faults_text, r->last_fault, r->t.stats.exceptions[15], r->w.transfers,
-            r->t.i2c.berr_injected, r->w.rig.bus.stats.recoveries, r->acks_bad);
+            r->t.i2c.berr_injected, r->w.rig.bus.stats.recoveries, r->acks_bad, r->health_frames,
+            r->health.loop_overruns, r->health.loop_max_us, r->health.tx_dropped,
+            r->t.usart.overruns);
         fclose(f);
     }
     free(r->rows);

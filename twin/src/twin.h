@@ -23,11 +23,11 @@
  * 0x20018000, right after SRAM1, on the STM32L476); boot from main flash aliases it at 0
  * (RM0351 §2.6 "Boot configuration", BOOT0 = 0). */
 #define TWIN_FLASH_BASE 0x08000000u
-#define TWIN_FLASH_SIZE (1024u * 1024u)
+#define TWIN_FLASH_SIZE 0x100000u /* 1 MiB */
 #define TWIN_SRAM1_BASE 0x20000000u
-#define TWIN_SRAM1_SIZE (96u * 1024u)
+#define TWIN_SRAM1_SIZE 0x18000u /* 96 KiB */
 #define TWIN_SRAM2_BASE 0x10000000u
-#define TWIN_SRAM2_SIZE (32u * 1024u)
+#define TWIN_SRAM2_SIZE 0x8000u /* 32 KiB */
 #define TWIN_SRAM_SIZE  (TWIN_SRAM1_SIZE + TWIN_SRAM2_SIZE)
 #define TWIN_MSI_HZ     4000000u  /* MSI range 6 after reset (RM0351 §6.2.3) */
 #define TWIN_HSI16_HZ   16000000u /* HSI16 (RM0351 §6.2.2) */

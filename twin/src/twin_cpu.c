@@ -97,6 +97,7 @@ void twin_stop(struct twin *t, enum twin_stop why, const char *fmt, ...) {
     t->stop = why;
     va_list ap;
     va_start(ap, fmt);
+    /* NOLINTNEXTLINE(clang-analyzer-valist.Uninitialized): va_start just above */
     vsnprintf(t->stop_msg, sizeof t->stop_msg, fmt, ap);
     va_end(ap);
     twin_kick(t);
@@ -391,14 +392,16 @@ static bool exception_entry(struct twin *t, unsigned exc, uint32_t ret_pc) {
         return false;
     }
     if ((handler & 1u) == 0u) {
-        /* A zero (or ARM-state) vector faults with INVSTATE on the M4 (B1.5.6). */
+        /* A zero (or ARM-state) vector faults with INVSTATE on the M4 (B1.5.6): the same
+         * frame is then taken by the HardFault handler. */
         twin_violation(t, "vector table entry", handler,
                        "exception vector without the Thumb bit (zero vector?)");
-        if (exc == EXC_HARDFAULT) {
+        if (exc == EXC_HARDFAULT || !read_word(t, t->scs.vtor + 4u * EXC_HARDFAULT, &handler) ||
+            (handler & 1u) == 0u) {
             return false;
         }
-        t->nactive--;
-        return exception_entry(t, EXC_HARDFAULT, ret_pc);
+        exc = EXC_HARDFAULT;
+        t->active[t->nactive - 1u] = (uint8_t)exc;
     }
     uc_reg_write(t->uc, UC_ARM_REG_SP, &sp);
     uc_reg_write(t->uc, UC_ARM_REG_LR, &lr);

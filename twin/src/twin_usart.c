@@ -37,8 +37,6 @@ static uint64_t frame_ps(const struct twin *t) {
  * byte per RX_GAP_PS, longer than a slot, as a sender to this firmware must. */
 #define RX_GAP_PS (25000ull * 1000000ull)
 
-static uint64_t frame_ps(const struct twin *t);
-
 static uint64_t rx_gap_ps(const struct twin *t) {
     const uint64_t f = frame_ps(t);
     return f > RX_GAP_PS ? f : RX_GAP_PS;
