@@ -16,6 +16,7 @@
 #define EXC_SYSTICK        15u
 #define XPSR_ALIGN         (1u << 9) /* stacked xPSR bit 9: the frame was realigned (B1.5.7) */
 #define XPSR_T             (1u << 24)
+#define XPSR_IT_MASK       0x0600FC00u /* EPSR.ICI/IT: bits 26:25 and 15:10 (B1.4.2) */
 
 uint64_t twin_now_ps(const struct twin *t) {
     return t->base_ps + (t->cycles - t->base_cycles) * (1000000000000ull / t->sysclk_hz);
@@ -405,9 +406,19 @@ static bool exception_entry(struct twin *t, unsigned exc, uint32_t ret_pc) {
     }
     uc_reg_write(t->uc, UC_ARM_REG_SP, &sp);
     uc_reg_write(t->uc, UC_ARM_REG_LR, &lr);
+    /* The handler starts outside any IT block (B1.5.6: EPSR.IT cleared on entry); the
+     * interrupted block's IT state is in the stacked xPSR and comes back on return. Found by
+     * the twin: a SysTick taken between ITE and its instructions ran the handler with the
+     * leftover condition and skipped its BX LR. */
+    uint32_t handler_xpsr = (frame[7] & ~XPSR_IT_MASK & ~0x1FFu) | XPSR_T | exc;
+    uc_reg_write(t->uc, UC_ARM_REG_XPSR, &handler_xpsr);
     uint32_t pc = handler & ~1u;
     uc_reg_write(t->uc, UC_ARM_REG_PC, &pc);
     t->stats.exceptions[exc & 15u]++;
+    if (t->trace_mmio) {
+        fprintf(t->log, "exc entry %u ret 0x%08x sp 0x%08x nactive %u t %llu\n", exc, ret_pc, sp,
+                t->nactive, (unsigned long long)twin_now_us(t));
+    }
     return true;
 }
 
@@ -442,6 +453,9 @@ static void exception_return(struct twin *t, uint32_t exc_return) {
     uc_reg_write(t->uc, UC_ARM_REG_XPSR, &xpsr);
     uint32_t pc = frame[6] & ~1u;
     uc_reg_write(t->uc, UC_ARM_REG_PC, &pc);
+    if (t->trace_mmio) {
+        fprintf(t->log, "exc return to 0x%08x sp 0x%08x nactive %u\n", pc, sp, t->nactive);
+    }
 }
 
 static void take_fault(struct twin *t, uint32_t pc, const char *what) {
@@ -494,8 +508,13 @@ void twin_run(struct twin *t) {
             if (t->watchdog_reset) {
                 t->stats.watchdog_resets++;
                 t->rcc.csr |= 1u << 29; /* IWDGRSTF (RM0351 §6.4.29) */
-                fprintf(t->log, "tof_twin: watchdog reset at t = %llu us\n",
-                        (unsigned long long)twin_now_us(t));
+                uint32_t wpc = 0, wlr = 0;
+                uc_reg_read(t->uc, UC_ARM_REG_PC, &wpc);
+                uc_reg_read(t->uc, UC_ARM_REG_LR, &wlr);
+                fprintf(t->log,
+                        "tof_twin: watchdog reset at t = %llu us (pc 0x%08x, lr 0x%08x, "
+                        "%u exceptions active)\n",
+                        (unsigned long long)twin_now_us(t), wpc, wlr, t->nactive);
             } else {
                 t->stats.software_resets++;
                 t->rcc.csr |= 1u << 28; /* SFTRSTF */

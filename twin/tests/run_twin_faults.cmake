@@ -2,7 +2,10 @@
 # BERR of errata ES0250): it must finish (no hang, no lockup), recover the bus, and have no
 # ok estimate more than 5x its window's Cramer-Rao bound from the truth.
 file(MAKE_DIRECTORY ${OUT})
-execute_process(COMMAND ${TWIN} ${ELF} ${TRACE} --strict --faults nack=0.01,reset=0.0005,stuck=0.0005
+# Rates low enough that some windows stay ok (so "no unflagged wrong estimate" is tested
+# on ok rows), high enough for NACKs, resets and stuck buses in 100 s.
+execute_process(COMMAND ${TWIN} ${ELF} ${TRACE} --strict
+                        --faults nack=0.001,reset=0.00005,stuck=0.00005
                         --seed 7 --out ${OUT}/twin.csv --report ${OUT}/report.json
                 RESULT_VARIABLE rc ERROR_VARIABLE err)
 message("${err}")
@@ -10,7 +13,8 @@ if(NOT rc EQUAL 0)
   message(FATAL_ERROR "tof_twin fault run failed (${rc})")
 endif()
 file(READ ${OUT}/report.json rep)
-foreach(key finished unflagged_wrong rows_written bus_recoveries hardfaults)
+foreach(key finished unflagged_wrong rows_written bus_recoveries hardfaults ok_rows
+            watchdog_resets)
   string(REGEX MATCH "\"${key}\": ([a-z0-9]+)" m "${rep}")
   set(${key} ${CMAKE_MATCH_1})
 endforeach()
@@ -26,7 +30,13 @@ endif()
 if(bus_recoveries LESS 1)
   message(FATAL_ERROR "no bus recovery: the stuck-SDA fault was not exercised")
 endif()
+if(ok_rows LESS 5)
+  message(FATAL_ERROR "only ${ok_rows} ok rows: the unflagged-wrong check tests nothing")
+endif()
+if(NOT watchdog_resets EQUAL 0)
+  message(FATAL_ERROR "${watchdog_resets} watchdog resets in the fault run")
+endif()
 if(NOT hardfaults EQUAL 0)
   message(FATAL_ERROR "${hardfaults} HardFaults in the fault run")
 endif()
-message(STATUS "fault run: ${rows_written} rows, ${bus_recoveries} bus recoveries, 0 unflagged wrong")
+message(STATUS "fault run: ${rows_written} rows (${ok_rows} ok), ${bus_recoveries} bus recoveries, 0 unflagged wrong")
