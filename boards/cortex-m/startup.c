@@ -29,9 +29,11 @@ void SysTick_Handler(void) __attribute__((weak, alias("Default_Handler")));
 
 typedef void (*vector_fn)(void);
 
-/* Exception number of the last unexpected exception (IPSR), kept across the reset that
- * follows it (.noinit); 0: none since power-on garbage was cleared by board code. */
-__attribute__((section(".noinit"))) volatile uint32_t cortex_m_fault_vector;
+/* Exception number (IPSR) of the fault being reported (zeroed at boot, so a board_fault()
+ * that is not an exception prints none), and the same kept across the reset that follows
+ * (.noinit, for a debugger after the fact; garbage after power-on). */
+volatile uint32_t cortex_m_fault_vector;
+__attribute__((section(".noinit"))) volatile uint32_t cortex_m_last_fault_vector;
 
 /* 16 system entries, then BOARD_IRQ_COUNT external interrupts: every one points at
  * Default_Handler (a zero entry would make an unexpected IRQ fetch from address 0 and fault
@@ -90,6 +92,7 @@ __attribute__((naked)) void HardFault_Handler(void) {
 
 void HardFault_Report(void) {
     cortex_m_fault_vector = 3u;
+    cortex_m_last_fault_vector = 3u;
     board_fault("HardFault");
 }
 
@@ -98,5 +101,6 @@ void Default_Handler(void) {
     uint32_t ipsr;
     __asm__ volatile("mrs %0, ipsr" : "=r"(ipsr));
     cortex_m_fault_vector = ipsr & 0x1FFu;
+    cortex_m_last_fault_vector = ipsr & 0x1FFu;
     board_fault("unexpected exception");
 }
