@@ -14,6 +14,7 @@
 #include <cmocka.h>
 
 #include "estimator/kalman.h"
+#include "kalman_form.h" /* white-box: the forms' private state */
 
 #define TEST_PI 3.14159265358979323846
 #define Q32     4294967296.0
@@ -323,7 +324,7 @@ static void test_fast_solve_matches_double(void **state) {
             struct kalman_rows rows;
             kalman_push_row(&kf, z, 0x0F, &rows);
             if (row == 0) {
-                d.x[0] = kf.f.info.x0_mm; /* the warm-up's prior mean */
+                d.x[0] = kalman_info_of(&kf)->x0_mm; /* the warm-up's prior mean */
             }
             for (unsigned s = 0; s < 4; ++s) {
                 dkf_update(&d, s, z[s], (double)kf.r[s] / Q32);
@@ -345,9 +346,9 @@ static void test_fast_solve_matches_double(void **state) {
             }
         }
         /* the run stayed uniform and took the fast solve from its first rows */
-        assert_true(kf.f.info.uniform && kf.f.info.fast_ready);
-        assert_int_equal(kf.f.info.n, 300);
-        assert_true(kf.f.info.n_fast <= 2u);
+        assert_true(kalman_info_of(&kf)->uniform && kalman_info_of(&kf)->fast_ready);
+        assert_int_equal(kalman_info_of(&kf)->n, 300);
+        assert_true(kalman_info_of(&kf)->n_fast <= 2u);
     }
     print_message("fast solve vs double: x within %.2g mm\n", worst);
 }
@@ -373,7 +374,7 @@ static void test_fast_solve_hands_large_slopes_to_general(void **state) {
         struct kalman_rows rows;
         kalman_push_row(&kf, z, 0x0F, &rows);
         if (row == 0) {
-            d.x[0] = kf.f.info.x0_mm;
+            d.x[0] = kalman_info_of(&kf)->x0_mm;
         }
         for (unsigned s = 0; s < 4; ++s) {
             dkf_update(&d, s, z[s], (double)kf.r[s] / Q32);
@@ -412,7 +413,7 @@ static void test_information_form_sums_halve(void **state) {
     c.initial_noise_mm2[2] = (int64_t)9 << 32; /* unequal weights */
     assert_int_equal(kalman_init(&kf, &c), KALMAN_OK);
     kf.started = true; /* prior mean 0: every deviation is the reading itself */
-    const int32_t e_start = kf.f.info.e;
+    const int32_t e_start = kalman_info_of(&kf)->e;
     struct dkf d;
     dkf_init(&d);
     static const uint16_t base[4] = {65000, 65300, 65500, 65200};
@@ -425,7 +426,7 @@ static void test_information_form_sums_halve(void **state) {
         struct kalman_rows rows;
         kalman_push_row(&kf, z, 0x0F, &rows);
     }
-    assert_true(kf.f.info.e < e_start); /* the sums halved */
+    assert_true(kalman_info_of(&kf)->e < e_start); /* the sums halved */
     fix_q32_t p[3][3];
     kalman_covariance(&kf, p);
     for (unsigned a = 0; a < 3; ++a) {
@@ -435,8 +436,8 @@ static void test_information_form_sums_halve(void **state) {
             assert_true(fabs((double)p[a][b] / Q32 - d.p[a][b]) < 1e-5 * scale + 16.0 / Q32);
         }
     }
-    print_message("sums halved %d times; x within %.2g mm of double\n", e_start - kf.f.info.e,
-                  fabs((double)kf.x[0] / Q32 - d.x[0]));
+    print_message("sums halved %d times; x within %.2g mm of double\n",
+                  e_start - kalman_info_of(&kf)->e, fabs((double)kf.x[0] / Q32 - d.x[0]));
 }
 
 static void test_long_run_stays_positive_definite(void **state) {
@@ -457,9 +458,9 @@ static void test_long_run_stays_positive_definite(void **state) {
         }
         push(x, (uint8_t)(1 + (int)(urand() * 15)), &rows); /* random subsets */
         for (unsigned a = 0; a < 3; ++a) {
-            assert_true(kf.f.cov.p[a][a] > 0);
+            assert_true(kalman_cov_of(&kf)->p[a][a] > 0);
             for (unsigned b = 0; b < 3; ++b) {
-                assert_true(kf.f.cov.p[a][b] == kf.f.cov.p[b][a]);
+                assert_true(kalman_cov_of(&kf)->p[a][b] == kalman_cov_of(&kf)->p[b][a]);
             }
         }
     }
@@ -468,7 +469,7 @@ static void test_long_run_stays_positive_definite(void **state) {
     double p[3][3];
     for (unsigned a = 0; a < 3; ++a) {
         for (unsigned b = 0; b < 3; ++b) {
-            p[a][b] = (double)kf.f.cov.p[a][b] / Q32;
+            p[a][b] = (double)kalman_cov_of(&kf)->p[a][b] / Q32;
         }
     }
     assert_true(p[0][0] * p[1][1] - p[0][1] * p[1][0] > 0);
@@ -663,8 +664,8 @@ static void test_extreme_noise_and_long_outage(void **state) {
         push(x, 0x00, &rows);
     }
     for (unsigned a = 0; a < 3; ++a) {
-        assert_true(kf.f.cov.p[a][a] > 0);
-        assert_true(kf.f.cov.p[a][a] <= KALMAN_P0_MM2_Q32 << 4);
+        assert_true(kalman_cov_of(&kf)->p[a][a] > 0);
+        assert_true(kalman_cov_of(&kf)->p[a][a] <= KALMAN_P0_MM2_Q32 << 4);
     }
     /* and the readings coming back are used again */
     const uint16_t r[4] = {0, 65535, 65535, 0};
