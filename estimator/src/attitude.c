@@ -104,10 +104,12 @@ int attitude_init(struct attitude_state *st, const struct attitude_config *cfg) 
     kcfg.gate_floor_mm = cfg->gate_floor_mm;
     kcfg.warmup_rows = cfg->kalman_warmup_rows;
     kcfg.noise_shift = cfg->kalman_noise_shift;
+    kcfg.process_noise_auto = cfg->kalman_process_noise_auto;
     switch (kalman_init(&st->kalman, &kcfg)) {
     case KALMAN_OK:
         break;
     case KALMAN_ERR_PROCESS_NOISE:
+    case KALMAN_ERR_AUTO:
         return ATTITUDE_ERR_KALMAN_PROCESS_NOISE;
     case KALMAN_ERR_MEASUREMENT_NOISE:
         return ATTITUDE_ERR_KALMAN_MEASUREMENT_NOISE;

@@ -40,12 +40,15 @@ int kalman_init(struct kalman_state *k, const struct kalman_config *cfg) {
     if (cfg->noise_shift > 8u) {
         return KALMAN_ERR_NOISE_SHIFT;
     }
+    if (cfg->process_noise_auto && KALMAN_TRACKING_BUILT == 0) {
+        return KALMAN_ERR_AUTO;
+    }
     (void)memset(k, 0, sizeof *k);
     k->cfg = *cfg;
     const uint64_t q2 = (uint64_t)cfg->gate_sigmas_q8 * cfg->gate_sigmas_q8;
     k->gate_s_max = q2 == 0u ? 0u : UINT64_MAX / q2;
     k->process_noise = cfg->process_noise_mm2[0] != 0 || cfg->process_noise_mm2[1] != 0 ||
-                       cfg->process_noise_mm2[2] != 0;
+                       cfg->process_noise_mm2[2] != 0 || cfg->process_noise_auto;
     for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
         k->r[s] = cfg->initial_noise_mm2[s];
     }
@@ -252,6 +255,11 @@ void kalman_push_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENS
                      uint8_t valid_in, struct kalman_rows *out) {
     out->count = 0;
     const uint8_t valid_mask = (uint8_t)(valid_in & ANGLES_ALL_SENSORS);
+#if KALMAN_TRACKING_BUILT
+    if (k->cfg.process_noise_auto && kalman_track_adapt(k, range_mm, valid_mask)) {
+        r_changed(k);
+    }
+#endif
     if (!k->started) {
         (void)memcpy(k->warm_range[k->warm_rows], range_mm, sizeof k->warm_range[0]);
         k->warm_valid[k->warm_rows] = valid_mask;
@@ -306,7 +314,7 @@ void kalman_flush(struct kalman_state *k, struct kalman_rows *out) {
 
 void kalman_track_noise(struct kalman_state *k, unsigned sensor, fix_q32_t var_mm2,
                         uint16_t count) {
-    if (count < 2u || sensor >= ANGLES_SENSORS) {
+    if (count < 2u || sensor >= ANGLES_SENSORS || k->cfg.process_noise_auto) {
         return;
     }
     /* Bounded like a configured R: a window variance beyond σ = 1024 mm (readings 0 and
@@ -321,6 +329,12 @@ void kalman_track_noise(struct kalman_state *k, unsigned sensor, fix_q32_t var_m
         k->r[sensor] += fix_asr_s64(v - k->r[sensor], k->cfg.noise_shift);
     }
     r_changed(k);
+}
+
+void kalman_process_noise(const struct kalman_state *k, fix_q32_t q[KALMAN_STATES]) {
+    for (unsigned i = 0; i < KALMAN_STATES; ++i) {
+        q[i] = k->cfg.process_noise_mm2[i];
+    }
 }
 
 void kalman_estimate(const struct kalman_state *k, int32_t arm_um, struct kalman_result *out) {

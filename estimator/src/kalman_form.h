@@ -60,6 +60,15 @@ struct kalman_cov {
     int32_t rb_pe;
     int64_t rb[ANGLES_SENSORS];
     int32_t hph_max[ANGLES_SENSORS]; /* 4 R in those units (−1: R too large for them) */
+    /* process_noise_auto (kalman_track.c): moving averages, Q32 mm², of the samples of
+     * q_x̄ and q_t and of each sensor's squared consecutive difference */
+    int64_t ema_q[2];
+    int64_t ema_d[ANGLES_SENSORS];
+    uint16_t last_mm[ANGLES_SENSORS]; /* the previous row's readings (last_valid) */
+    uint16_t n_q;                     /* rows sampled so far (saturating), for the start's gain */
+    uint16_t n_d;
+    uint8_t last_valid;
+    uint8_t adapt_rows; /* rows until Q and R are set from the averages */
 };
 
 /* The forms share the state's storage (struct kalman_state's `form`); may_alias: that
@@ -145,6 +154,10 @@ uint8_t kalman_track_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_
                          uint8_t valid_mask, bool gate, uint8_t *rejected);
 void kalman_track_covariance(const struct kalman_state *k,
                              fix_q32_t p[KALMAN_STATES][KALMAN_STATES]);
+/* process_noise_auto: one row's samples of Q and R before its prediction (valid_mask: the
+ * readings to use); true when it set a new R (the caller then updates what depends on R). */
+bool kalman_track_adapt(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENSORS],
+                        uint8_t valid_mask);
 
 /* --- the information form (kalman_info.c, kalman_info_fast.c) --- */
 

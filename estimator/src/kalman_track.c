@@ -492,3 +492,103 @@ void kalman_track_covariance(const struct kalman_state *k,
                              fix_q32_t p[KALMAN_STATES][KALMAN_STATES]) {
     (void)memcpy(p, kalman_cov_of_c(k)->p, sizeof kalman_cov_of_c(k)->p);
 }
+
+/* --- process noise and R from the data (process_noise_auto) -----------------------------
+ * Covariance matching on the innovations (Mehra 1972; Myers & Tapley 1976): before a row
+ * with all four readings, the transformed innovations
+ *     u_x̄ = (z_A + z_B + z_C + z_D)/4 − x̄,  u_α = (z_C − z_A)/2 − θ_α,  u_β = (z_B − z_D)/2 − θ_β
+ * have variances P_ii + Q_ii + ρ_i (P before the row's prediction, ρ the readings' share:
+ * ΣR/16, (R_A + R_C)/4, (R_B + R_D)/4), so u_i² − P_ii − ρ_i samples Q_ii without bias
+ * where the filter's P is its true error covariance, which holds at the true Q: the fixed
+ * point of the iteration. Both slopes share one q (as --process-noise QD,QT does).
+ * R comes from what the motion barely touches: the difference of a sensor's consecutive
+ * readings has variance 2R + hQhᵀ = 2R + Q_x̄ + Q_t (h has entries ±1), so
+ * R = (E[d²] − Q_x̄ − Q_t)/2. Each expectation is a running mean, gain 1/2^⌊log2 n⌋ over
+ * the first samples and 2^-KALMAN_ADAPT_SHIFT after; Q and R are set from them every
+ * KALMAN_ADAPT_ROWS rows, Q within [0, P0] and R within [1/12 mm², 2^20 mm²]. A sample
+ * farther than 2^10 mm from the prediction (a jump, an outlier) is not used. Cost: about a
+ * dozen 64-bit products per row. */
+#define KALMAN_ADAPT_SHIFT 9u /* about 512 rows of memory */
+#define KALMAN_ADAPT_ROWS  16u
+
+/* mean += (v − mean) · gain, the gain from the samples so far */
+static void adapt_mean(int64_t *mean, int64_t v, uint16_t n) {
+    const unsigned g = fix_bitlen_u64(n) - 1u; /* n >= 1 */
+    const unsigned sh = g < KALMAN_ADAPT_SHIFT ? g : KALMAN_ADAPT_SHIFT;
+    *mean += fix_floor_shr_s64(v - *mean, sh);
+}
+
+/* u² (Q32 mm²) of a Q32 innovation, false when |u| >= 2^10 mm */
+static bool adapt_square(int64_t u, int64_t *sq) {
+    if (u >= ((int64_t)1 << 42) || u <= -((int64_t)1 << 42)) {
+        return false;
+    }
+    const int64_t u16 = fix_floor_shr_s64(u, 16u); /* |u16| < 2^26 */
+    *sq = u16 * u16;
+    return true;
+}
+
+static int64_t adapt_clamp(int64_t v, int64_t lo, int64_t hi) {
+    return v < lo ? lo : (v > hi ? hi : v);
+}
+
+bool kalman_track_adapt(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENSORS],
+                        uint8_t valid_mask) {
+    struct kalman_cov *cv = kalman_cov_of(k);
+    const fix_q32_t *r = k->r;
+    if (k->started && valid_mask == ANGLES_ALL_SENSORS) {
+        const int64_t za = (int64_t)range_mm[ANGLES_A] << FIX_Q32_SHIFT;
+        const int64_t zb = (int64_t)range_mm[ANGLES_B] << FIX_Q32_SHIFT;
+        const int64_t zc = (int64_t)range_mm[ANGLES_C] << FIX_Q32_SHIFT;
+        const int64_t zd = (int64_t)range_mm[ANGLES_D] << FIX_Q32_SHIFT;
+        int64_t sx;
+        int64_t sa;
+        int64_t sb;
+        if (adapt_square((za + zb + zc + zd) / 4 - k->x[0], &sx) &&
+            adapt_square((zc - za) / 2 - k->x[1], &sa) &&
+            adapt_square((zb - zd) / 2 - k->x[2], &sb)) {
+            const int64_t qx = sx - cv->p[0][0] - (r[0] + r[1] + r[2] + r[3]) / 16;
+            const int64_t qa = sa - cv->p[1][1] - (r[ANGLES_A] + r[ANGLES_C]) / 4;
+            const int64_t qb = sb - cv->p[2][2] - (r[ANGLES_B] + r[ANGLES_D]) / 4;
+            cv->n_q = cv->n_q < UINT16_MAX ? (uint16_t)(cv->n_q + 1u) : UINT16_MAX;
+            adapt_mean(&cv->ema_q[0], qx, cv->n_q);
+            adapt_mean(&cv->ema_q[1], (qa + qb) / 2, cv->n_q);
+        }
+    }
+    const uint8_t both = (uint8_t)(valid_mask & cv->last_valid);
+    if (both != 0u) {
+        cv->n_d = cv->n_d < UINT16_MAX ? (uint16_t)(cv->n_d + 1u) : UINT16_MAX;
+    }
+    for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
+        if ((both & (1u << s)) != 0u) {
+            const int32_t d = (int32_t)range_mm[s] - (int32_t)cv->last_mm[s];
+            if (d < 1024 && d > -1024) {
+                adapt_mean(&cv->ema_d[s], ((int64_t)d * d) << FIX_Q32_SHIFT, cv->n_d);
+            }
+        }
+        cv->last_mm[s] = range_mm[s];
+    }
+    cv->last_valid = valid_mask;
+    if (++cv->adapt_rows < KALMAN_ADAPT_ROWS) {
+        return false;
+    }
+    cv->adapt_rows = 0;
+    bool r_set = false;
+    if (cv->n_q != 0u) {
+        const int64_t qx = adapt_clamp(cv->ema_q[0], 0, KALMAN_P0_MM2_Q32);
+        const int64_t qt = adapt_clamp(cv->ema_q[1], 0, KALMAN_P0_MM2_Q32);
+        k->cfg.process_noise_mm2[0] = qx;
+        k->cfg.process_noise_mm2[1] = qt;
+        k->cfg.process_noise_mm2[2] = qt;
+    }
+    if (cv->n_d != 0u) {
+        const int64_t qh = k->cfg.process_noise_mm2[0] + k->cfg.process_noise_mm2[1];
+        for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
+            if (cv->ema_d[s] != 0) {
+                k->r[s] = adapt_clamp((cv->ema_d[s] - qh) / 2, KALMAN_R_MIN_Q32, KALMAN_R_MAX_Q32);
+                r_set = true;
+            }
+        }
+    }
+    return r_set;
+}

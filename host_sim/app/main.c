@@ -19,7 +19,7 @@ static void usage(FILE *f) {
           "  host_sim replay TRACE.csv [--estimator consensus|consensus-paper|kalman|mean]\n"
           "                  [--window N] [--mode tumbling|sliding] [--out EST.csv]\n"
           "                  [--report REPORT.json] [--plot FIG.png] [--faults SPEC] [--seed S]\n"
-          "                  [--quiet]\n"
+          "                  [--process-noise QD,QT|auto] [--quiet]\n"
           "  host_sim scenario NAME [--seed S] --trace-out TRACE.csv\n"
           "  host_sim camera --frames K --range-mm R ... (see docs/pose.md)\n"
           "  host_sim campaign [--trace T.csv] [--seed S] [--markdown FILE.md]\n"

@@ -86,9 +86,9 @@
 /* Words of storage for the form's private state (estimator/src/kalman_form.h lays it out
  * and checks at compile time that it fits). */
 #if KALMAN_INFORMATION_BUILT
-#define KALMAN_FORM_WORDS 21u
+#define KALMAN_FORM_WORDS 28u
 #else
-#define KALMAN_FORM_WORDS 20u
+#define KALMAN_FORM_WORDS 28u
 #endif
 
 enum kalman_error {
@@ -98,6 +98,7 @@ enum kalman_error {
     KALMAN_ERR_MEASUREMENT_NOISE = -2, /* an initial R not in [1/12 mm², 2^20 mm²] */
     KALMAN_ERR_WARMUP = -3,            /* warmup_rows outside 1..KALMAN_WARMUP_MAX */
     KALMAN_ERR_NOISE_SHIFT = -4,       /* noise_shift above 8 */
+    KALMAN_ERR_AUTO = -5,              /* process_noise_auto without KALMAN_TRACKING_BUILT */
 };
 
 struct kalman_config {
@@ -107,6 +108,8 @@ struct kalman_config {
     uint16_t gate_floor_mm;  /* never reject |e| <= this */
     uint8_t warmup_rows;     /* rows buffered at each (re)start */
     uint8_t noise_shift;     /* R tracking gain 2^-shift (0: replace each window) */
+    bool process_noise_auto; /* Q and R learned from the data (kalman_form.h, "auto"): Q
+                                starts at process_noise_mm2, R at initial_noise_mm2 */
 };
 
 struct kalman_state {
@@ -155,6 +158,10 @@ int kalman_init(struct kalman_state *k, const struct kalman_config *cfg);
  * the start of a static window. */
 void kalman_reset(struct kalman_state *k);
 
+/* The process noise per row in use (Q32 mm²: x̄, a·tan α, a·tan β): the configured one,
+ * or with process_noise_auto the one learned so far. */
+void kalman_process_noise(const struct kalman_state *k, fix_q32_t q[KALMAN_STATES]);
+
 /* One row. Covariance form: predict (P += Q), then one scalar update per valid
  * reading, A..D. Information form: every valid reading gated against the state
  * before the row, the accepted ones added, one solve.
@@ -175,7 +182,8 @@ bool kalman_update(struct kalman_state *k, unsigned sensor, uint16_t range_mm, b
 void kalman_covariance(const struct kalman_state *k, fix_q32_t p[KALMAN_STATES][KALMAN_STATES]);
 
 /* Feeds the gated sample variance (Q32 mm²) of `count` readings of a sensor in
- * the last window to its R (first time: replace; then track). count < 2: ignored. */
+ * the last window to its R (first time: replace; then track). count < 2: ignored, and
+ * ignored with process_noise_auto, which learns R from consecutive readings instead. */
 void kalman_track_noise(struct kalman_state *k, unsigned sensor, fix_q32_t var_mm2, uint16_t count);
 
 /* Current estimate, angles through atan of the state over a, and P. */
