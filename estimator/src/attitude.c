@@ -505,7 +505,9 @@ bool attitude_push_sample(struct attitude_state *st, const uint16_t range_mm[ATT
     }
     if (cfg->mode == ATTITUDE_TUMBLING && st->rows % cfg->window == 0u) {
         window_clear(&st->window);
-        kalman_reset(&st->kalman);
+        if (!st->kalman.process_noise) { /* with Q > 0 the filter tracks across windows */
+            kalman_reset(&st->kalman);
+        }
     }
     struct window_row *newest = window_push(&st->window, ranges, present_mask, valid_mask);
     if (kalman_on) {

@@ -52,23 +52,25 @@ struct kalman_info {
  * taken from p brows rows ago; R in those units while rb_valid (exponent rb_pe). */
 struct kalman_cov {
     fix_q32_t p[KALMAN_STATES][KALMAN_STATES];
-    bool bvalid;
-    uint8_t brows;
+    int64_t rb[ANGLES_SENSORS];
     int32_t be;
     int32_t bm[6];
-    bool rb_valid;
     int32_t rb_pe;
-    int64_t rb[ANGLES_SENSORS];
-    int32_t hph_max[ANGLES_SENSORS]; /* 4 R in those units (−1: R too large for them) */
-    /* process_noise_auto (kalman_track.c): moving averages, Q32 mm², of the samples of
-     * q_x̄ and q_t and of each sensor's squared consecutive difference */
-    int64_t ema_q[2];
-    int64_t ema_d[ANGLES_SENSORS];
+    int32_t gain[ANGLES_SENSORS][KALMAN_STATES]; /* each update's gain, Q31 (steady state) */
+    /* process_noise_auto (kalman_track.c): running means of the samples of q_x̄ and q_t
+     * (Q24 mm²) and of each sensor's squared consecutive difference (Q16 mm²) */
+    int32_t mean_q[2];
+    int32_t mean_d[ANGLES_SENSORS];
     uint16_t last_mm[ANGLES_SENSORS]; /* the previous row's readings (last_valid) */
     uint16_t n_q;                     /* rows sampled so far (saturating), for the start's gain */
     uint16_t n_d;
     uint8_t last_valid;
-    uint8_t adapt_rows; /* rows until Q and R are set from the averages */
+    uint8_t adapt_rows; /* rows until Q and R are set from the means */
+    uint8_t brows;
+    bool bvalid;
+    bool rb_valid;
+    bool steady;          /* the gains above are at the fixed point: kalman_track_row */
+    bool predict_pending; /* kalman_track_predict() done, P += Q not yet applied */
 };
 
 /* The forms share the state's storage (struct kalman_state's `form`); may_alias: that

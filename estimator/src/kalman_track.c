@@ -9,6 +9,8 @@
 static void diffuse_covariance(struct kalman_state *k) {
     struct kalman_cov *cv = kalman_cov_of(k);
     cv->bvalid = false;
+    cv->steady = false;
+    cv->predict_pending = false;
     (void)memset(cv->p, 0, sizeof cv->p);
     for (unsigned i = 0; i < KALMAN_STATES; ++i) {
         cv->p[i][i] = KALMAN_P0_MM2_Q32;
@@ -159,11 +161,6 @@ static void block_refresh_r(struct kalman_state *k, int32_t e) {
         } else {
             cv->rb[s] = r * ((int64_t)1 << (unsigned)(-e));
         }
-        /* the block path's bound hᵀPh <= 4 R in block units, as an int32 (an R too large
-         * for the block: −1, never) */
-        const int64_t rb = cv->rb[s];
-        cv->hph_max[s] =
-            rb >= BLOCK_R_TOO_LARGE ? -1 : (rb >= (INT32_MAX / 4) ? INT32_MAX : (int32_t)(4 * rb));
     }
     cv->rb_pe = e;
     cv->rb_valid = true;
@@ -338,10 +335,12 @@ static int block_update(struct kalman_state *k, struct pblock *b, unsigned senso
     /* e in [−2^39, 2^39) (128 mm) exactly when its high word is in [−128, 127]; then e24
      * below fits int32 and |k e24| < 2^62 */
     const uint32_t e_hi = (uint32_t)((uint64_t)e >> 32) + 128u;
-    if (hph < BLOCK_MIN_HPH || hph > cv->hph_max[sensor] || e_hi > 255u) {
+    const int64_t r_b = cv->rb[sensor];
+    /* hᵀPh <= 4 R (hph >= 1 here: hph > 4 r_b exactly when (hph − 1)/4 >= r_b); an R too
+     * large for the block units never takes this path */
+    if (hph < BLOCK_MIN_HPH || ((hph - 1) >> 2) >= r_b || r_b >= BLOCK_R_TOO_LARGE || e_hi > 255u) {
         return BLOCK_NOT_POSSIBLE;
     }
-    const int64_t r_b = cv->rb[sensor];
     const int64_t s_b = hph + r_b; /* in [2^21, 2^62) */
     if (s_b < ((int64_t)1 << 30)) {
         /* small s: check |g_i| < s (1 − 2^-8), so every gain is below 1 (for s >= 2^30
@@ -377,6 +376,9 @@ static int block_update(struct kalman_state *k, struct pblock *b, unsigned senso
     const int32_t k0 = shr_to_s32((int64_t)g[0] * rm, gain_shift);
     const int32_t k1 = shr_to_s32((int64_t)g[1] * rm, gain_shift);
     const int32_t k2 = shr_to_s32((int64_t)g[2] * rm, gain_shift);
+    cv->gain[sensor][0] = k0; /* for the steady state (kalman_track_row) */
+    cv->gain[sensor][1] = k1;
+    cv->gain[sensor][2] = k2;
     /* x += k e: Q31 x Q24 = Q55 -> Q32 */
     k->x[0] += fix_round_shr_s64((int64_t)k0 * e24, 23u);
     k->x[1] += fix_round_shr_s64((int64_t)k1 * e24, 23u);
@@ -395,8 +397,8 @@ static int block_update(struct kalman_state *k, struct pblock *b, unsigned senso
  * otherwise; p is current on return. Returns the sensors accepted; *rejected gets those
  * gated out; *proven is set when the block shows P positive definite. */
 static uint8_t update_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENSORS],
-                          uint8_t valid_mask, bool gate, uint8_t *rejected, bool *ovf,
-                          bool *proven) {
+                          uint8_t valid_mask, bool gate, uint8_t *rejected, bool *ovf, bool *proven,
+                          uint8_t *by_block) {
     struct kalman_cov *cv = kalman_cov_of(k);
     struct pblock b;
     b.dec[0] = 0;
@@ -426,6 +428,7 @@ static uint8_t update_row(struct kalman_state *k, const uint16_t range_mm[ANGLES
             }
         } else {
             dirty = dirty || res != 0;
+            *by_block = (uint8_t)(*by_block | (1u << s));
         }
         if (res != 0) {
             used = (uint8_t)(used | (1u << s));
@@ -458,7 +461,8 @@ static void check_covariance(struct kalman_state *k, bool ovf, bool proven) {
     }
 }
 
-void kalman_track_predict(struct kalman_state *k) {
+/* P += Q, each diagonal bounded. */
+static void add_process_noise(struct kalman_state *k) {
     struct kalman_cov *cv = kalman_cov_of(k);
     cv->bvalid = false; /* p changes outside the block */
     for (unsigned i = 0; i < KALMAN_STATES; ++i) {
@@ -469,21 +473,113 @@ void kalman_track_predict(struct kalman_state *k) {
     }
 }
 
+/* The prediction is applied by the row that follows it (kalman_track_row): a steady row
+ * leaves P at its fixed point, so it needs none. */
+void kalman_track_predict(struct kalman_state *k) {
+    struct kalman_cov *cv = kalman_cov_of(k);
+    if (cv->predict_pending) {
+        add_process_noise(k); /* the previous one, whose row had no reading */
+    }
+    cv->predict_pending = true;
+}
+
 void kalman_track_reset(struct kalman_state *k) {
     diffuse_covariance(k);
 }
 
 void kalman_track_r_changed(struct kalman_state *k) {
     kalman_cov_of(k)->rb_valid = false;
+    kalman_cov_of(k)->steady = false; /* the fixed point moved */
+}
+
+/* --- the steady state -------------------------------------------------------------------
+ * With Q > 0 and R constant, P converges to the fixed point of the Riccati recursion, and
+ * with it the four scalar updates' gains: once a row with all four readings (every one a
+ * block update, none gated out) leaves P settled (below), its gains are kept and the following rows
+ * with all four readings are x += k_s e_s alone, A..D, P left at that fixed point (tests/reference:
+ * the ratio to the optimal filter is unchanged to three decimals). Anything else ends it: a reading
+ * missing, one outside the gate's sure-accept bound (the row then runs in full, gated
+ * exactly), an R or Q change, a reset. */
+#define STEADY_TOL_SHIFT 8u
+
+/* One steady row, all four readings; false (x unchanged) when one may be gated out or
+ * is 128 mm or more from its prediction. */
+static bool steady_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENSORS], bool gate) {
+    const struct kalman_cov *cv = kalman_cov_of_c(k);
+    const fix_q32_t x0 = k->x[0];
+    const fix_q32_t x1 = k->x[1];
+    const fix_q32_t x2 = k->x[2];
+    const bool gated = gate && k->cfg.gate_sigmas_q8 != 0u;
+    for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
+        const unsigned j = kalman_h_index(s);
+        const fix_q32_t pred = kalman_h_minus(s) ? k->x[0] - k->x[j] : k->x[0] + k->x[j];
+        const fix_q32_t e = ((fix_q32_t)range_mm[s] << FIX_Q32_SHIFT) - pred;
+        const uint32_t e_hi = (uint32_t)((uint64_t)e >> 32) + 128u;
+        const int32_t e24 = shr_to_s32(e + 128, 8u);
+        if (e_hi > 255u || (gated && (uint64_t)((int64_t)e24 * e24) > k->gate_accept[s])) {
+            k->x[0] = x0;
+            k->x[1] = x1;
+            k->x[2] = x2;
+            return false;
+        }
+        for (unsigned i = 0; i < KALMAN_STATES; ++i) {
+            k->x[i] += fix_round_shr_s64((int64_t)cv->gain[s][i] * e24, 23u);
+        }
+    }
+    return true;
+}
+
+/* P settled: every entry moved by at most 2^-STEADY_TOL_SHIFT of the smallest non-zero Q
+ * since the row before (`before`, packed upper triangle). Near the fixed point a row
+ * moves P by about Q/P of its remaining distance (the recursion contracts by 1 − Q/P per
+ * row, P ≈ √(QR) in the scalar case), so the distance left is below 2^-STEADY_TOL_SHIFT
+ * of P: the kept gains are within that of the fixed point's, costing the estimate's
+ * variance only that squared. */
+static bool settled(const struct kalman_state *k, const fix_q32_t before[6]) {
+    const struct kalman_cov *cv = kalman_cov_of_c(k);
+    const fix_q32_t *q = k->cfg.process_noise_mm2;
+    uint64_t q_min = UINT64_MAX;
+    for (unsigned i = 0; i < KALMAN_STATES; ++i) {
+        q_min = q[i] != 0 && (uint64_t)q[i] < q_min ? (uint64_t)q[i] : q_min;
+    }
+    const uint64_t tol = q_min >> STEADY_TOL_SHIFT;
+    const fix_q32_t now[6] = {cv->p[0][0], cv->p[0][1], cv->p[0][2],
+                              cv->p[1][1], cv->p[1][2], cv->p[2][2]};
+    for (unsigned i = 0; i < 6u; ++i) {
+        if (fix_abs_u64(now[i] - before[i]) > tol) {
+            return false;
+        }
+    }
+    return true;
 }
 
 uint8_t kalman_track_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENSORS],
                          uint8_t valid_mask, bool gate, uint8_t *rejected) {
+    struct kalman_cov *cv = kalman_cov_of(k);
+    if (cv->steady && valid_mask == ANGLES_ALL_SENSORS && steady_row(k, range_mm, gate)) {
+        cv->predict_pending = false;
+        *rejected = 0;
+        return ANGLES_ALL_SENSORS;
+    }
+    cv->steady = false;
+    const fix_q32_t before[6] = {cv->p[0][0], cv->p[0][1], cv->p[0][2],
+                                 cv->p[1][1], cv->p[1][2], cv->p[2][2]};
+    if (cv->predict_pending) {
+        add_process_noise(k);
+        cv->predict_pending = false;
+    }
     bool ovf = false;
     bool proven;
-    const uint8_t used = update_row(k, range_mm, valid_mask, gate, rejected, &ovf, &proven);
+    uint8_t by_block = 0;
+    const uint8_t used =
+        update_row(k, range_mm, valid_mask, gate, rejected, &ovf, &proven, &by_block);
     if (used != 0u) {
+        const uint32_t restarts = k->numeric_restarts;
         check_covariance(k, ovf, proven); /* once per row: a failure restarts P before the next */
+        const fix_q32_t *q = k->cfg.process_noise_mm2;
+        cv->steady = by_block == ANGLES_ALL_SENSORS && used == ANGLES_ALL_SENSORS &&
+                     k->numeric_restarts == restarts && (q[0] | q[1] | q[2]) != 0 &&
+                     settled(k, before);
     }
     return used;
 }
@@ -505,31 +601,32 @@ void kalman_track_covariance(const struct kalman_state *k,
  * readings has variance 2R + hQhᵀ = 2R + Q_x̄ + Q_t (h has entries ±1), so
  * R = (E[d²] − Q_x̄ − Q_t)/2. Each expectation is a running mean, gain 1/2^⌊log2 n⌋ over
  * the first samples and 2^-KALMAN_ADAPT_SHIFT after; Q and R are set from them every
- * KALMAN_ADAPT_ROWS rows, Q within [0, P0] and R within [1/12 mm², 2^20 mm²]. A sample
- * farther than 2^10 mm from the prediction (a jump, an outlier) is not used. Cost: about a
- * dozen 64-bit products per row. */
+ * KALMAN_ADAPT_ROWS rows. Each Q sample is bounded to ±64 mm² per row (a jump or an
+ * outlier counts as that much motion, no more), so Q stays within [0, 64 mm²]; a
+ * difference of 128 mm or more is not used (a jump), so R stays below 2^13 mm². Cost: about a
+ * dozen 64-bit operations per row. */
 #define KALMAN_ADAPT_SHIFT 9u /* about 512 rows of memory */
 #define KALMAN_ADAPT_ROWS  16u
 
-/* mean += (v − mean) · gain, the gain from the samples so far */
-static void adapt_mean(int64_t *mean, int64_t v, uint16_t n) {
+/* mean += (v − mean) · gain, the gain from the samples so far (|v|, |mean| < 2^30) */
+static void adapt_mean(int32_t *mean, int32_t v, uint16_t n) {
     const unsigned g = fix_bitlen_u64(n) - 1u; /* n >= 1 */
     const unsigned sh = g < KALMAN_ADAPT_SHIFT ? g : KALMAN_ADAPT_SHIFT;
-    *mean += fix_floor_shr_s64(v - *mean, sh);
+    const int64_t step = (int64_t)v - *mean;
+    /* rounded: a floor would bias the mean by half a unit times 2^shift */
+    *mean += (int32_t)(sh == 0u ? step : fix_round_shr_s64(step, sh));
 }
 
-/* u² (Q32 mm²) of a Q32 innovation, false when |u| >= 2^10 mm */
-static bool adapt_square(int64_t u, int64_t *sq) {
-    if (u >= ((int64_t)1 << 42) || u <= -((int64_t)1 << 42)) {
-        return false;
+/* One sample of Q_ii in Q24 mm²: u² − P_ii − ρ (all Q32), bounded to ±2^6 mm² (a larger
+ * one is a jump or an outlier, not process noise) */
+static int32_t adapt_sample(int64_t u, int64_t p_rho) {
+    const int64_t lim = (int64_t)1 << 38; /* 64 mm² in Q32, and |u| below 8 mm */
+    if (u >= ((int64_t)1 << 35) || u <= -((int64_t)1 << 35)) {
+        return (int32_t)(lim >> 8);
     }
-    const int64_t u16 = fix_floor_shr_s64(u, 16u); /* |u16| < 2^26 */
-    *sq = u16 * u16;
-    return true;
-}
-
-static int64_t adapt_clamp(int64_t v, int64_t lo, int64_t hi) {
-    return v < lo ? lo : (v > hi ? hi : v);
+    const int64_t u16 = fix_floor_shr_s64(u, 16u); /* |u16| < 2^19 */
+    const int64_t v = u16 * u16 - p_rho;
+    return (int32_t)((v > lim ? lim : (v < -lim ? -lim : v)) >> 8);
 }
 
 bool kalman_track_adapt(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENSORS],
@@ -541,30 +638,24 @@ bool kalman_track_adapt(struct kalman_state *k, const uint16_t range_mm[ANGLES_S
         const int64_t zb = (int64_t)range_mm[ANGLES_B] << FIX_Q32_SHIFT;
         const int64_t zc = (int64_t)range_mm[ANGLES_C] << FIX_Q32_SHIFT;
         const int64_t zd = (int64_t)range_mm[ANGLES_D] << FIX_Q32_SHIFT;
-        int64_t sx;
-        int64_t sa;
-        int64_t sb;
-        if (adapt_square((za + zb + zc + zd) / 4 - k->x[0], &sx) &&
-            adapt_square((zc - za) / 2 - k->x[1], &sa) &&
-            adapt_square((zb - zd) / 2 - k->x[2], &sb)) {
-            const int64_t qx = sx - cv->p[0][0] - (r[0] + r[1] + r[2] + r[3]) / 16;
-            const int64_t qa = sa - cv->p[1][1] - (r[ANGLES_A] + r[ANGLES_C]) / 4;
-            const int64_t qb = sb - cv->p[2][2] - (r[ANGLES_B] + r[ANGLES_D]) / 4;
-            cv->n_q = cv->n_q < UINT16_MAX ? (uint16_t)(cv->n_q + 1u) : UINT16_MAX;
-            adapt_mean(&cv->ema_q[0], qx, cv->n_q);
-            adapt_mean(&cv->ema_q[1], (qa + qb) / 2, cv->n_q);
-        }
+        const int32_t qx = adapt_sample(fix_floor_shr_s64(za + zb + zc + zd, 2u) - k->x[0],
+                                        cv->p[0][0] + ((r[0] + r[1] + r[2] + r[3]) >> 4));
+        const int32_t qa = adapt_sample(fix_floor_shr_s64(zc - za, 1u) - k->x[1],
+                                        cv->p[1][1] + ((r[ANGLES_A] + r[ANGLES_C]) >> 2));
+        const int32_t qb = adapt_sample(fix_floor_shr_s64(zb - zd, 1u) - k->x[2],
+                                        cv->p[2][2] + ((r[ANGLES_B] + r[ANGLES_D]) >> 2));
+        cv->n_q = cv->n_q < UINT16_MAX ? (uint16_t)(cv->n_q + 1u) : UINT16_MAX;
+        adapt_mean(&cv->mean_q[0], qx, cv->n_q);
+        adapt_mean(&cv->mean_q[1], (qa + qb) / 2, cv->n_q);
     }
     const uint8_t both = (uint8_t)(valid_mask & cv->last_valid);
-    if (both != 0u) {
-        cv->n_d = cv->n_d < UINT16_MAX ? (uint16_t)(cv->n_d + 1u) : UINT16_MAX;
+    if (both != 0u && cv->n_d < UINT16_MAX) {
+        cv->n_d++;
     }
     for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
-        if ((both & (1u << s)) != 0u) {
-            const int32_t d = (int32_t)range_mm[s] - (int32_t)cv->last_mm[s];
-            if (d < 1024 && d > -1024) {
-                adapt_mean(&cv->ema_d[s], ((int64_t)d * d) << FIX_Q32_SHIFT, cv->n_d);
-            }
+        const int32_t d = (int32_t)range_mm[s] - (int32_t)cv->last_mm[s];
+        if ((both & (1u << s)) != 0u && d < 128 && d > -128) {
+            adapt_mean(&cv->mean_d[s], (d * d) << 16, cv->n_d);
         }
         cv->last_mm[s] = range_mm[s];
     }
@@ -573,21 +664,19 @@ bool kalman_track_adapt(struct kalman_state *k, const uint16_t range_mm[ANGLES_S
         return false;
     }
     cv->adapt_rows = 0;
-    bool r_set = false;
+    fix_q32_t *q = k->cfg.process_noise_mm2;
     if (cv->n_q != 0u) {
-        const int64_t qx = adapt_clamp(cv->ema_q[0], 0, KALMAN_P0_MM2_Q32);
-        const int64_t qt = adapt_clamp(cv->ema_q[1], 0, KALMAN_P0_MM2_Q32);
-        k->cfg.process_noise_mm2[0] = qx;
-        k->cfg.process_noise_mm2[1] = qt;
-        k->cfg.process_noise_mm2[2] = qt;
+        q[0] = cv->mean_q[0] > 0 ? (int64_t)cv->mean_q[0] << 8 : 0;
+        q[1] = cv->mean_q[1] > 0 ? (int64_t)cv->mean_q[1] << 8 : 0;
+        q[2] = q[1];
+        cv->steady = false; /* the fixed point moved */
     }
-    if (cv->n_d != 0u) {
-        const int64_t qh = k->cfg.process_noise_mm2[0] + k->cfg.process_noise_mm2[1];
-        for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
-            if (cv->ema_d[s] != 0) {
-                k->r[s] = adapt_clamp((cv->ema_d[s] - qh) / 2, KALMAN_R_MIN_Q32, KALMAN_R_MAX_Q32);
-                r_set = true;
-            }
+    bool r_set = false;
+    for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
+        if (cv->mean_d[s] > 0) {
+            const int64_t v = (((int64_t)cv->mean_d[s] << 16) - q[0] - q[1]) / 2;
+            k->r[s] = v < KALMAN_R_MIN_Q32 ? KALMAN_R_MIN_Q32 : v; /* below 2^20 mm² */
+            r_set = true;
         }
     }
     return r_set;

@@ -12,7 +12,8 @@
  *              row on every state), one filter over the whole workload as sliding
  *              windows run it (no restart; the warm-up rows excluded)
  *   sample_track  (fixed only) `sample` with the facade's Kalman filter tracking (the
- *              same Q, tumbling windows)
+ *              same Q, tumbling windows: with Q > 0 the filter is not restarted at a
+ *              window's start, and R follows each window's statistics)
  *   window     (fixed only) the whole window-end work of all four estimators
  * `fixed` is the product's estimator; `float` the plain single-precision baseline
  * in tests/bench/float_baseline.c. tools/bench_report.py collects the lines.

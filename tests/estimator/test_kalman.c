@@ -220,7 +220,9 @@ static void dkf_update(struct dkf *d, unsigned s, double z, double r) {
  * the covariance form (Q > 0, its block updates and exact Joseph updates mixed). Unequal
  * noise, readings dropped at random, the B/D pair missing for the first 60 rows (the β
  * axis is the prior alone) and again later, every R changed in mid-run (the sums' units
- * follow). P within 1e-6 relative + 16 LSB of Q32, the state within 1e-5 mm. */
+ * follow). P within 1e-6 relative + 16 LSB of Q32, the state within 1e-5 mm; in the
+ * tracking form's steady state (its gains kept once P settled within 2^-12 of its trace)
+ * P within 1e-3 relative, the state within 1e-3 mm. */
 static void test_forms_match_double(void **state) {
     (void)state;
     double worst_x[2] = {0, 0}, worst_p[2] = {0, 0}; /* info, cov */
@@ -277,14 +279,18 @@ static void test_forms_match_double(void **state) {
                     const double scale = sqrt(d.p[a][a] * d.p[b][b]);
                     const double rel = fabs(pf - d.p[a][b]) / (scale + 16.0 / Q32 * 1e6);
                     worst_p[!info] = rel > worst_p[!info] ? rel : worst_p[!info];
-                    if (fabs(pf - d.p[a][b]) > 1e-6 * scale + 16.0 / Q32 || p[a][b] != p[b][a]) {
+                    /* a steady row (kalman_track.c) keeps the P that settled within 2^-12
+                     * of its trace: 1e-3 of the scale then, 1e-6 otherwise */
+                    const bool steady = !info && kalman_cov_of(&kf)->steady;
+                    const double tol_p = steady ? 1e-3 : 1e-6;
+                    if (fabs(pf - d.p[a][b]) > tol_p * scale + 16.0 / Q32 || p[a][b] != p[b][a]) {
                         fail_msg("trial %d (%s) row %d P[%u][%u]: %.9g, double %.9g", trial,
                                  info ? "info" : "cov", row, a, b, pf, d.p[a][b]);
                     }
                 }
                 const double dxa = fabs((double)kf.x[a] / Q32 - d.x[a]);
                 worst_x[!info] = dxa > worst_x[!info] ? dxa : worst_x[!info];
-                if (dxa > 1e-5) {
+                if (dxa > (!info && kalman_cov_of(&kf)->steady ? 1e-3 : 1e-5)) {
                     fail_msg("trial %d (%s) row %d x[%u]: %.9f, double %.9f", trial,
                              info ? "info" : "cov", row, a, (double)kf.x[a] / Q32, d.x[a]);
                 }

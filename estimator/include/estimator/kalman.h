@@ -85,11 +85,7 @@
 
 /* Words of storage for the form's private state (estimator/src/kalman_form.h lays it out
  * and checks at compile time that it fits). */
-#if KALMAN_INFORMATION_BUILT
-#define KALMAN_FORM_WORDS 28u
-#else
-#define KALMAN_FORM_WORDS 28u
-#endif
+#define KALMAN_FORM_WORDS 29u /* the tracking form, the larger */
 
 enum kalman_error {
     KALMAN_OK = 0,
