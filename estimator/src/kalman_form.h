@@ -49,26 +49,27 @@ struct kalman_info {
 
 /* The tracking form's state (any Q; kalman_track.c): P, and the steady-state updates' form
  * of P ("the block update"): mantissas P ≈ bm · 2^be (packed upper triangle) while bvalid,
- * taken from p brows rows ago; R in those units while rb_valid (exponent rb_pe). */
+ * taken from p brows rows ago. */
 struct kalman_cov {
     fix_q32_t p[KALMAN_STATES][KALMAN_STATES];
-    int64_t rb[ANGLES_SENSORS];
     int32_t be;
     int32_t bm[6];
-    int32_t rb_pe;
     int32_t gain[ANGLES_SENSORS][KALMAN_STATES]; /* each update's gain, Q31 (steady state) */
     /* process_noise_auto (kalman_track.c): running means of the samples of q_x̄ and q_t
-     * (Q24 mm²) and of each sensor's squared consecutive difference (Q16 mm²) */
+     * (Q24 mm² per row) and of each sensor's squared consecutive difference (Q16 mm²); the
+     * block sums of y_x̄, y_α, y_β (this block's and the one before) */
     int32_t mean_q[2];
     int32_t mean_d[ANGLES_SENSORS];
+    int32_t blk_sum[KALMAN_STATES];
+    int32_t blk_prev[KALMAN_STATES];
     uint16_t last_mm[ANGLES_SENSORS]; /* the previous row's readings (last_valid) */
-    uint16_t n_q;                     /* rows sampled so far (saturating), for the start's gain */
-    uint16_t n_d;
+    uint16_t n_q;                     /* blocks sampled so far (saturating) */
+    uint16_t n_d;                     /* rows sampled so far (saturating) */
     uint8_t last_valid;
-    uint8_t adapt_rows; /* rows until Q and R are set from the means */
+    uint8_t blk_rows;
+    bool blk_prev_valid;
     uint8_t brows;
     bool bvalid;
-    bool rb_valid;
     bool steady;          /* the gains above are at the fixed point: kalman_track_row */
     bool predict_pending; /* kalman_track_predict() done, P += Q not yet applied */
 };

@@ -149,21 +149,16 @@ struct pblock {
  * leaves such a measurement to the exact update. (Found by tests/fuzz.) */
 #define BLOCK_R_TOO_LARGE ((int64_t)1 << 61)
 
-/* R in block units, for the current exponent. */
-static void block_refresh_r(struct kalman_state *k, int32_t e) {
-    struct kalman_cov *cv = kalman_cov_of(k);
-    for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
-        const int64_t r = k->r[s];
-        if (e >= 0) {
-            cv->rb[s] = fix_floor_shr_s64(r, (unsigned)e);
-        } else if (r >= (BLOCK_R_TOO_LARGE >> (unsigned)(-e))) {
-            cv->rb[s] = BLOCK_R_TOO_LARGE;
-        } else {
-            cv->rb[s] = r * ((int64_t)1 << (unsigned)(-e));
-        }
+/* R of `sensor` in block units (exponent e), at most BLOCK_R_TOO_LARGE. */
+static int64_t block_r(const struct kalman_state *k, unsigned sensor, int32_t e) {
+    const int64_t r = k->r[sensor];
+    if (e >= 0) {
+        return fix_floor_shr_s64(r, (unsigned)e);
     }
-    cv->rb_pe = e;
-    cv->rb_valid = true;
+    if (r >= (BLOCK_R_TOO_LARGE >> (unsigned)(-e))) {
+        return BLOCK_R_TOO_LARGE;
+    }
+    return r * ((int64_t)1 << (unsigned)(-e));
 }
 
 /* p_ij · 2^-e rounded, as a block mantissa (|p_ij| <= max P_ii < 2^(28 + e)). */
@@ -204,9 +199,6 @@ static bool block_from_p(struct kalman_state *k) {
     cv->be = e;
     cv->brows = 0;
     cv->bvalid = true;
-    if (!cv->rb_valid || cv->rb_pe != e) {
-        block_refresh_r(k, e);
-    }
     return true;
 }
 
@@ -218,9 +210,6 @@ static bool block_ready(struct kalman_state *k) {
         const int32_t *m = cv->bm;
         const int32_t top = m[0] > m[3] ? (m[0] > m[5] ? m[0] : m[5]) : (m[3] > m[5] ? m[3] : m[5]);
         if (top >= ((int32_t)1 << (BLOCK_TOP_BITS - 1))) {
-            if (!cv->rb_valid) {
-                block_refresh_r(k, cv->be);
-            }
             return true;
         }
     }
@@ -335,7 +324,7 @@ static int block_update(struct kalman_state *k, struct pblock *b, unsigned senso
     /* e in [−2^39, 2^39) (128 mm) exactly when its high word is in [−128, 127]; then e24
      * below fits int32 and |k e24| < 2^62 */
     const uint32_t e_hi = (uint32_t)((uint64_t)e >> 32) + 128u;
-    const int64_t r_b = cv->rb[sensor];
+    const int64_t r_b = block_r(k, sensor, cv->be);
     /* hᵀPh <= 4 R (hph >= 1 here: hph > 4 r_b exactly when (hph − 1)/4 >= r_b); an R too
      * large for the block units never takes this path */
     if (hph < BLOCK_MIN_HPH || ((hph - 1) >> 2) >= r_b || r_b >= BLOCK_R_TOO_LARGE || e_hi > 255u) {
@@ -488,7 +477,6 @@ void kalman_track_reset(struct kalman_state *k) {
 }
 
 void kalman_track_r_changed(struct kalman_state *k) {
-    kalman_cov_of(k)->rb_valid = false;
     kalman_cov_of(k)->steady = false; /* the fixed point moved */
 }
 
@@ -590,64 +578,87 @@ void kalman_track_covariance(const struct kalman_state *k,
 }
 
 /* --- process noise and R from the data (process_noise_auto) -----------------------------
- * Covariance matching on the innovations (Mehra 1972; Myers & Tapley 1976): before a row
- * with all four readings, the transformed innovations
- *     u_x̄ = (z_A + z_B + z_C + z_D)/4 − x̄,  u_α = (z_C − z_A)/2 − θ_α,  u_β = (z_B − z_D)/2 − θ_β
- * have variances P_ii + Q_ii + ρ_i (P before the row's prediction, ρ the readings' share:
- * ΣR/16, (R_A + R_C)/4, (R_B + R_D)/4), so u_i² − P_ii − ρ_i samples Q_ii without bias
- * where the filter's P is its true error covariance, which holds at the true Q: the fixed
- * point of the iteration. Both slopes share one q (as --process-noise QD,QT does).
- * R comes from what the motion barely touches: the difference of a sensor's consecutive
- * readings has variance 2R + hQhᵀ = 2R + Q_x̄ + Q_t (h has entries ±1), so
- * R = (E[d²] − Q_x̄ − Q_t)/2. Each expectation is a running mean, gain 1/2^⌊log2 n⌋ over
- * the first samples and 2^-KALMAN_ADAPT_SHIFT after; Q and R are set from them every
- * KALMAN_ADAPT_ROWS rows. Each Q sample is bounded to ±64 mm² per row (a jump or an
- * outlier counts as that much motion, no more), so Q stays within [0, 64 mm²]; a
- * difference of 128 mm or more is not used (a jump), so R stays below 2^13 mm². Cost: about a
- * dozen 64-bit operations per row. */
-#define KALMAN_ADAPT_SHIFT 9u /* about 512 rows of memory */
-#define KALMAN_ADAPT_ROWS  16u
+ * What each state does over time is read off the readings themselves, not the filter's
+ * innovations (whose variance hides a small q under R: the slow-motion case needs ~10^7
+ * rows that way). Per row with all four readings, the transformed sums
+ *     y_x̄ = z_A + z_B + z_C + z_D = 4 x̄ + noise,  y_α = z_C − z_A = 2 θ_α + noise,
+ *     y_β = z_B − z_D = 2 θ_β + noise
+ * are summed over blocks of B = KALMAN_ADAPT_BLOCK rows. For a random walk of intensity
+ * q_y per row plus white noise of variance w_y per row, the difference D of two
+ * consecutive block sums has E[D²] = q_y · B(2B² + 1)/3 + 2B · w_y (the Allan variance of
+ * the block means, times B²: each increment of the walk enters D with weight
+ * min(t, 2B − t)). With w_x̄ = ΣR, w_α = R_A + R_C, w_β = R_B + R_D and q_y = 16 q_x̄,
+ * 4 q_t, 4 q_t, one block gives a sample of q_x̄ and of q_t (both slopes share it, as
+ * --process-noise QD,QT does); their running means set Q at each block's end (Q at least
+ * 0, a sample bounded to ±64 mm² per row, a block difference of 2^15 mm or more, a jump,
+ * not used).
+ * R comes from what the motion barely touches: the difference d of a sensor's consecutive
+ * readings has E[d²] = 2R + hQhᵀ = 2R + Q_x̄ + Q_t (h has entries ±1), so
+ * R = (E[d²] − Q_x̄ − Q_t)/2, at least 1/12 mm² (a difference of 128 mm or more, a jump,
+ * not used). Running means: gain 1/2^⌊log2 n⌋ over the first samples, then 2^-6 per
+ * block for q (about 2,000 rows) and 2^-9 per row for R. Cost: about 20 instructions a
+ * row and a few 64-bit divisions a block. */
+#define KALMAN_ADAPT_BLOCK   32u
+#define KALMAN_ADAPT_Q_SHIFT 6u
+#define KALMAN_ADAPT_R_SHIFT 9u
+/* B(2B² + 1)/3 for B = 32 */
+#define KALMAN_ADAPT_Q_WEIGHT 21856
 
 /* mean += (v − mean) · gain, the gain from the samples so far (|v|, |mean| < 2^30) */
-static void adapt_mean(int32_t *mean, int32_t v, uint16_t n) {
+static void adapt_mean(int32_t *mean, int32_t v, uint16_t n, unsigned max_shift) {
     const unsigned g = fix_bitlen_u64(n) - 1u; /* n >= 1 */
-    const unsigned sh = g < KALMAN_ADAPT_SHIFT ? g : KALMAN_ADAPT_SHIFT;
+    const unsigned sh = g < max_shift ? g : max_shift;
     const int64_t step = (int64_t)v - *mean;
     /* rounded: a floor would bias the mean by half a unit times 2^shift */
     *mean += (int32_t)(sh == 0u ? step : fix_round_shr_s64(step, sh));
 }
 
-/* One sample of Q_ii in Q24 mm²: u² − P_ii − ρ (all Q32), bounded to ±2^6 mm² (a larger
- * one is a jump or an outlier, not process noise) */
-static int32_t adapt_sample(int64_t u, int64_t p_rho) {
-    const int64_t lim = (int64_t)1 << 38; /* 64 mm² in Q32, and |u| below 8 mm */
-    if (u >= ((int64_t)1 << 35) || u <= -((int64_t)1 << 35)) {
-        return (int32_t)(lim >> 8);
+/* One block's sample of q_y in Q16 mm² per row: (D² − 2B w)/(B(2B² + 1)/3), w in Q32. */
+static int64_t adapt_q_sample(int32_t d, int64_t w_q32) {
+    const int64_t d2 = ((int64_t)d * d) << 16; /* |d| < 2^15: below 2^46 */
+    const int64_t noise = (int64_t)(2u * KALMAN_ADAPT_BLOCK) * (w_q32 >> 16);
+    return (d2 - noise) / KALMAN_ADAPT_Q_WEIGHT;
+}
+
+static int32_t adapt_bound(int64_t v) {
+    const int64_t lim = (int64_t)1 << 30; /* 64 mm² in Q24 */
+    return (int32_t)(v > lim ? lim : (v < -lim ? -lim : v));
+}
+
+/* The end of a block of full rows: samples of q from the difference to the block before. */
+static void adapt_block(struct kalman_state *k) {
+    struct kalman_cov *cv = kalman_cov_of(k);
+    const fix_q32_t *r = k->r;
+    int32_t d[KALMAN_STATES];
+    bool usable = cv->blk_prev_valid;
+    for (unsigned j = 0; j < KALMAN_STATES; ++j) {
+        d[j] = cv->blk_sum[j] - cv->blk_prev[j];
+        usable = usable && d[j] < 32768 && d[j] > -32768;
+        cv->blk_prev[j] = cv->blk_sum[j];
+        cv->blk_sum[j] = 0;
     }
-    const int64_t u16 = fix_floor_shr_s64(u, 16u); /* |u16| < 2^19 */
-    const int64_t v = u16 * u16 - p_rho;
-    return (int32_t)((v > lim ? lim : (v < -lim ? -lim : v)) >> 8);
+    cv->blk_prev_valid = true;
+    cv->blk_rows = 0;
+    if (!usable) {
+        return;
+    }
+    const int64_t qx = adapt_q_sample(d[0], r[0] + r[1] + r[2] + r[3]);
+    const int64_t qa = adapt_q_sample(d[1], r[ANGLES_A] + r[ANGLES_C]);
+    const int64_t qb = adapt_q_sample(d[2], r[ANGLES_B] + r[ANGLES_D]);
+    cv->n_q = cv->n_q < UINT16_MAX ? (uint16_t)(cv->n_q + 1u) : UINT16_MAX;
+    /* Q16 of q_y to Q24 of the state: x̄ q_y/16, slopes q_y/4 (their mean) */
+    adapt_mean(&cv->mean_q[0], adapt_bound(qx * 16), cv->n_q, KALMAN_ADAPT_Q_SHIFT);
+    adapt_mean(&cv->mean_q[1], adapt_bound((qa + qb) * 32), cv->n_q, KALMAN_ADAPT_Q_SHIFT);
+    fix_q32_t *q = k->cfg.process_noise_mm2;
+    q[0] = cv->mean_q[0] > 0 ? (int64_t)cv->mean_q[0] << 8 : 0;
+    q[1] = cv->mean_q[1] > 0 ? (int64_t)cv->mean_q[1] << 8 : 0;
+    q[2] = q[1];
+    cv->steady = false; /* the fixed point moved */
 }
 
 bool kalman_track_adapt(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENSORS],
                         uint8_t valid_mask) {
     struct kalman_cov *cv = kalman_cov_of(k);
-    const fix_q32_t *r = k->r;
-    if (k->started && valid_mask == ANGLES_ALL_SENSORS) {
-        const int64_t za = (int64_t)range_mm[ANGLES_A] << FIX_Q32_SHIFT;
-        const int64_t zb = (int64_t)range_mm[ANGLES_B] << FIX_Q32_SHIFT;
-        const int64_t zc = (int64_t)range_mm[ANGLES_C] << FIX_Q32_SHIFT;
-        const int64_t zd = (int64_t)range_mm[ANGLES_D] << FIX_Q32_SHIFT;
-        const int32_t qx = adapt_sample(fix_floor_shr_s64(za + zb + zc + zd, 2u) - k->x[0],
-                                        cv->p[0][0] + ((r[0] + r[1] + r[2] + r[3]) >> 4));
-        const int32_t qa = adapt_sample(fix_floor_shr_s64(zc - za, 1u) - k->x[1],
-                                        cv->p[1][1] + ((r[ANGLES_A] + r[ANGLES_C]) >> 2));
-        const int32_t qb = adapt_sample(fix_floor_shr_s64(zb - zd, 1u) - k->x[2],
-                                        cv->p[2][2] + ((r[ANGLES_B] + r[ANGLES_D]) >> 2));
-        cv->n_q = cv->n_q < UINT16_MAX ? (uint16_t)(cv->n_q + 1u) : UINT16_MAX;
-        adapt_mean(&cv->mean_q[0], qx, cv->n_q);
-        adapt_mean(&cv->mean_q[1], (qa + qb) / 2, cv->n_q);
-    }
     const uint8_t both = (uint8_t)(valid_mask & cv->last_valid);
     if (both != 0u && cv->n_d < UINT16_MAX) {
         cv->n_d++;
@@ -655,27 +666,37 @@ bool kalman_track_adapt(struct kalman_state *k, const uint16_t range_mm[ANGLES_S
     for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
         const int32_t d = (int32_t)range_mm[s] - (int32_t)cv->last_mm[s];
         if ((both & (1u << s)) != 0u && d < 128 && d > -128) {
-            adapt_mean(&cv->mean_d[s], (d * d) << 16, cv->n_d);
+            adapt_mean(&cv->mean_d[s], (d * d) << 16, cv->n_d, KALMAN_ADAPT_R_SHIFT);
         }
         cv->last_mm[s] = range_mm[s];
     }
     cv->last_valid = valid_mask;
-    if (++cv->adapt_rows < KALMAN_ADAPT_ROWS) {
+    if (valid_mask != ANGLES_ALL_SENSORS) {
+        /* a block is consecutive full rows: start again */
+        cv->blk_rows = 0;
+        cv->blk_prev_valid = false;
+        for (unsigned j = 0; j < KALMAN_STATES; ++j) {
+            cv->blk_sum[j] = 0;
+        }
         return false;
     }
-    cv->adapt_rows = 0;
-    fix_q32_t *q = k->cfg.process_noise_mm2;
-    if (cv->n_q != 0u) {
-        q[0] = cv->mean_q[0] > 0 ? (int64_t)cv->mean_q[0] << 8 : 0;
-        q[1] = cv->mean_q[1] > 0 ? (int64_t)cv->mean_q[1] << 8 : 0;
-        q[2] = q[1];
-        cv->steady = false; /* the fixed point moved */
+    const int32_t za = range_mm[ANGLES_A];
+    const int32_t zb = range_mm[ANGLES_B];
+    const int32_t zc = range_mm[ANGLES_C];
+    const int32_t zd = range_mm[ANGLES_D];
+    cv->blk_sum[0] += za + zb + zc + zd; /* 32 rows: below 2^23 */
+    cv->blk_sum[1] += zc - za;
+    cv->blk_sum[2] += zb - zd;
+    if (++cv->blk_rows < KALMAN_ADAPT_BLOCK) {
+        return false;
     }
+    adapt_block(k);
+    const fix_q32_t *q = k->cfg.process_noise_mm2;
     bool r_set = false;
     for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
         if (cv->mean_d[s] > 0) {
             const int64_t v = (((int64_t)cv->mean_d[s] << 16) - q[0] - q[1]) / 2;
-            k->r[s] = v < KALMAN_R_MIN_Q32 ? KALMAN_R_MIN_Q32 : v; /* below 2^20 mm² */
+            k->r[s] = v < KALMAN_R_MIN_Q32 ? KALMAN_R_MIN_Q32 : v; /* below 2^13 mm² */
             r_set = true;
         }
     }

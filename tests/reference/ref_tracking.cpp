@@ -11,8 +11,9 @@
  *                        kalman_track.c: about 2e-3 mm; the estimates' own error is
  *                        0.15 mm or more in every scenario)
  *   at the optimum       RMS(α), RMS(β) of the fixed filter over RMS of the optimal one,
- *                        per scenario: ≤ 1.05 with the true q, ≤ 1.10 with `auto`
- *                        (which also learns R, from consecutive readings)
+ *                        per scenario (three seeds each): ≤ 1.05 with the true q,
+ *                        ≤ 1.10 with `auto` (which starts from Q = 0 and R = 4 mm² and
+ *                        learns both: kalman_track.c)
  *   auto converging      a scenario whose q_t grows 40x halfway: the second half within
  *                        1.10 of the optimal filter that knows the new q
  *
@@ -232,13 +233,8 @@ void test_at_the_optimum(void **state) {
                       "%.3g) |\n",
                       sc.name, opt_rms[0], r_true[0], r_auto[0], opt_rms[1], r_true[1], r_auto[1],
                       q_end[0], q_end[1], sc.qd, sc.qt);
-        assert_true(worst_true <= 1.05); /* the goal */
-        /* The goal for `auto` is 1.10; it is NOT met on every scenario yet (slow motion:
-         * about 1.3, docs/estimator-benchmark.md). Asserted here: no worse than 1.5. */
-        if (worst_auto > 1.10) {
-            print_message("GOAL MISSED: %s, auto/optimal %.3f > 1.10\n", sc.name, worst_auto);
-        }
-        assert_true(worst_auto <= 1.5);
+        assert_true(worst_true <= 1.05); /* the goals */
+        assert_true(worst_auto <= 1.10);
     }
 }
 
@@ -256,9 +252,8 @@ void test_auto_converges_after_a_q_change(void **state) {
                       axis, ratio, fa.q_end[1], kChange.qt_after);
         assert_true(ratio <= 1.10);
     }
-    /* the learned q_t rose towards the new one (covariance matching converges slowly from
-     * below: the filter's own P follows its Q) */
-    assert_true(fa.q_end[1] > kChange.qt_after / 4 && fa.q_end[1] < kChange.qt_after * 2);
+    /* the learned q_t followed the change (x40) to within a factor 2 */
+    assert_true(fa.q_end[1] > kChange.qt_after / 2 && fa.q_end[1] < kChange.qt_after * 2);
 }
 
 } // namespace

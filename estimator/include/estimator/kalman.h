@@ -85,7 +85,7 @@
 
 /* Words of storage for the form's private state (estimator/src/kalman_form.h lays it out
  * and checks at compile time that it fits). */
-#define KALMAN_FORM_WORDS 29u /* the tracking form, the larger */
+#define KALMAN_FORM_WORDS 27u /* the tracking form, the larger */
 
 enum kalman_error {
     KALMAN_OK = 0,
