@@ -234,24 +234,19 @@ static bool block_healthy(const struct kalman_state *k) {
 
 /* P −= dec · 2^(e − 31), one rounding per entry; dec starts again from 0. */
 static void block_apply(struct kalman_state *k, struct pblock *b) {
+    /* the packed upper triangle's row and column (a loop: cold code, half the bytes) */
+    static const uint8_t row_of[6] = {0u, 0u, 0u, 1u, 1u, 2u};
+    static const uint8_t col_of[6] = {0u, 1u, 2u, 1u, 2u, 2u};
     struct kalman_cov *cv = kalman_cov_of(k);
     const int32_t sh_signed = 31 - cv->be;
     const unsigned sh = (unsigned)sh_signed; /* in [1, 61] */
-    cv->p[0][0] -= fix_round_shr_s64(b->dec[0], sh);
-    cv->p[0][1] -= fix_round_shr_s64(b->dec[1], sh);
-    cv->p[0][2] -= fix_round_shr_s64(b->dec[2], sh);
-    cv->p[1][1] -= fix_round_shr_s64(b->dec[3], sh);
-    cv->p[1][2] -= fix_round_shr_s64(b->dec[4], sh);
-    cv->p[2][2] -= fix_round_shr_s64(b->dec[5], sh);
-    cv->p[1][0] = cv->p[0][1];
-    cv->p[2][0] = cv->p[0][2];
-    cv->p[2][1] = cv->p[1][2];
-    b->dec[0] = 0;
-    b->dec[1] = 0;
-    b->dec[2] = 0;
-    b->dec[3] = 0;
-    b->dec[4] = 0;
-    b->dec[5] = 0;
+    for (unsigned i = 0; i < 6u; ++i) {
+        const unsigned r = row_of[i];
+        const unsigned c = col_of[i];
+        cv->p[r][c] -= fix_round_shr_s64(b->dec[i], sh);
+        cv->p[c][r] = cv->p[r][c];
+        b->dec[i] = 0;
+    }
 }
 
 /* The decrease t = g_i k_j of one entry: exactly into dec, rounded into the mantissa. */
@@ -642,13 +637,16 @@ static void adapt_block(struct kalman_state *k) {
     if (!usable) {
         return;
     }
-    const int64_t qx = adapt_q_sample(d[0], r[0] + r[1] + r[2] + r[3]);
-    const int64_t qa = adapt_q_sample(d[1], r[ANGLES_A] + r[ANGLES_C]);
-    const int64_t qb = adapt_q_sample(d[2], r[ANGLES_B] + r[ANGLES_D]);
+    const int64_t w[KALMAN_STATES] = {r[0] + r[1] + r[2] + r[3], r[ANGLES_A] + r[ANGLES_C],
+                                      r[ANGLES_B] + r[ANGLES_D]};
+    int64_t qy[KALMAN_STATES];
+    for (unsigned j = 0; j < KALMAN_STATES; ++j) {
+        qy[j] = adapt_q_sample(d[j], w[j]);
+    }
     cv->n_q = cv->n_q < UINT16_MAX ? (uint16_t)(cv->n_q + 1u) : UINT16_MAX;
     /* Q16 of q_y to Q24 of the state: x̄ q_y/16, slopes q_y/4 (their mean) */
-    adapt_mean(&cv->mean_q[0], adapt_bound(qx * 16), cv->n_q, KALMAN_ADAPT_Q_SHIFT);
-    adapt_mean(&cv->mean_q[1], adapt_bound((qa + qb) * 32), cv->n_q, KALMAN_ADAPT_Q_SHIFT);
+    adapt_mean(&cv->mean_q[0], adapt_bound(qy[0] * 16), cv->n_q, KALMAN_ADAPT_Q_SHIFT);
+    adapt_mean(&cv->mean_q[1], adapt_bound((qy[1] + qy[2]) * 32), cv->n_q, KALMAN_ADAPT_Q_SHIFT);
     fix_q32_t *q = k->cfg.process_noise_mm2;
     q[0] = cv->mean_q[0] > 0 ? (int64_t)cv->mean_q[0] << 8 : 0;
     q[1] = cv->mean_q[1] > 0 ? (int64_t)cv->mean_q[1] << 8 : 0;
