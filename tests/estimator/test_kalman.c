@@ -13,6 +13,8 @@
 #include <string.h>
 #include <cmocka.h>
 
+#include "test_rand.h"
+
 #include "estimator/kalman.h"
 #include "kalman_form.h" /* white-box: the forms' private state */
 
@@ -21,21 +23,12 @@
 
 static struct kalman_state kf;
 
-static uint64_t rs = 0x243F6A8885A308D3u;
+static struct test_rng rng = {0x243F6A8885A308D3u}; /* tests/common/test_rand.h */
 static double urand(void) {
-    rs ^= rs << 13;
-    rs ^= rs >> 7;
-    rs ^= rs << 17;
-    return (double)(rs >> 11) / 9007199254740992.0;
+    return test_urand(&rng);
 }
 static double gauss(void) {
-    double u, v, s;
-    do {
-        u = 2 * urand() - 1;
-        v = 2 * urand() - 1;
-        s = u * u + v * v;
-    } while (s >= 1 || s == 0);
-    return u * sqrt(-2 * log(s) / s);
+    return test_gauss(&rng);
 }
 
 static struct kalman_config default_config(void) {
