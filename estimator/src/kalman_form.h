@@ -89,9 +89,9 @@ union KALMAN_MAY_ALIAS kalman_forms {
     struct kalman_cov cov;
 #endif
 };
-_Static_assert(sizeof(union kalman_forms) <= sizeof(((struct kalman_state *)0)->form),
+/* (the storage is uint64_t words: aligned for every member, all of at most 64 bits) */
+_Static_assert(sizeof(union kalman_forms) <= sizeof(uint64_t) * KALMAN_FORM_WORDS,
                "KALMAN_FORM_WORDS (estimator/kalman.h) too small for the built forms");
-_Static_assert(_Alignof(union kalman_forms) <= _Alignof(uint64_t), "form storage alignment");
 
 #if KALMAN_INFORMATION_BUILT
 static inline struct kalman_info *kalman_info_of(struct kalman_state *k) {

@@ -499,7 +499,8 @@ static bool steady_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SE
         const fix_q32_t e = ((fix_q32_t)range_mm[s] << FIX_Q32_SHIFT) - pred;
         const uint32_t e_hi = (uint32_t)((uint64_t)e >> 32) + 128u;
         const int32_t e24 = shr_to_s32(e + 128, 8u);
-        if (e_hi > 255u || (gated && (uint64_t)((int64_t)e24 * e24) > k->gate_accept[s])) {
+        const int64_t e24_sq = (int64_t)e24 * e24;
+        if (e_hi > 255u || (gated && (uint64_t)e24_sq > k->gate_accept[s])) {
             k->x[0] = x0;
             k->x[1] = x1;
             k->x[2] = x2;
