@@ -2,9 +2,11 @@
 """Plot a host_sim replay like Fig. 5 / Fig. 7 of the first paper.
 
 Input: the long-format CSV host_sim writes next to the figure
-(t_ms,estimator,alpha_deg,beta_deg,distance_mm,status,true_alpha_deg,true_beta_deg),
-one row per estimate per estimator. Output: a PNG with alpha and beta estimates
-and truth against time (top), and their errors (bottom), one line per estimator.
+(t_ms,estimator,alpha_deg,beta_deg,distance_mm,status,true_alpha_deg,true_beta_deg,
+alpha_sd_deg,beta_sd_deg; columns found by name, the sd ones optional), one row per
+estimate per estimator. Output: a PNG with alpha and beta estimates and truth against
+time (top), and their errors (bottom), one line per estimator, each with a shaded band
+of ±2 sd (the estimate's own standard deviation) where the file has it.
 
 Usage: plot_replay.py DATA.csv FIG.png [--title TEXT]
 """
@@ -46,10 +48,18 @@ def load(path):
                     tb = parse_float(row["true_beta_deg"])
                 except ValueError as e:
                     fail(f"{path}:{line}: {e}")
-                s = series.setdefault(row["estimator"], {"t": [], "a": [], "b": []})
+                try:
+                    sa = parse_float(row.get("alpha_sd_deg"))
+                    sb = parse_float(row.get("beta_sd_deg"))
+                except ValueError as e:
+                    fail(f"{path}:{line}: {e}")
+                s = series.setdefault(row["estimator"],
+                                      {"t": [], "a": [], "b": [], "sa": [], "sb": []})
                 s["t"].append(t)
                 s["a"].append(a)
                 s["b"].append(b)
+                s["sa"].append(sa)
+                s["sb"].append(sb)
                 if ta is not None or tb is not None:
                     truth[t] = (ta, tb)
     except OSError as e:
@@ -72,18 +82,30 @@ def main(argv):
             tt = sorted(truth)
             top.plot(tt, [truth[t][tkey] for t in tt], "k-", lw=2.0, label="truth", zorder=1)
         for est, s in series.items():
-            pts = [(t, v) for t, v in zip(s["t"], s[key]) if v is not None]
+            pts = [(t, v, sd) for t, v, sd in zip(s["t"], s[key], s["s" + key])
+                   if v is not None]
             if not pts:
                 continue
-            top.plot([p[0] for p in pts], [p[1] for p in pts], ".-", ms=3, lw=0.8, label=est)
+            line, = top.plot([p[0] for p in pts], [p[1] for p in pts], ".-", ms=3, lw=0.8,
+                             label=est)
+            band = [p for p in pts if p[2] is not None]
+            if band:  # ±2 sd around the estimate
+                top.fill_between([p[0] for p in band], [p[1] - 2 * p[2] for p in band],
+                                 [p[1] + 2 * p[2] for p in band], color=line.get_color(),
+                                 alpha=0.15, lw=0)
             if truth:
-                errs = [(t, v - truth[t][tkey]) for t, v in pts
+                errs = [(t, v - truth[t][tkey], sd) for t, v, sd in pts
                         if t in truth and truth[t][tkey] is not None]
                 bottom.plot([e[0] for e in errs], [e[1] for e in errs], ".-", ms=3, lw=0.8,
-                            label=est)
+                            label=est, color=line.get_color())
+                eband = [e for e in errs if e[2] is not None]
+                if eband:  # the error should stay inside its ±2 sd band about 95 % of the time
+                    bottom.fill_between([e[0] for e in eband], [e[1] - 2 * e[2] for e in eband],
+                                        [e[1] + 2 * e[2] for e in eband],
+                                        color=line.get_color(), alpha=0.15, lw=0)
         top.set_ylabel(f"{name} [deg]")
         top.grid(True, alpha=0.3)
-        bottom.set_ylabel(f"{name} error [deg]")
+        bottom.set_ylabel(f"{name} error [deg] (band: ±2 sd)")
         bottom.set_xlabel("time [s]")
         bottom.grid(True, alpha=0.3)
         bottom.axhline(0.0, color="k", lw=0.5)

@@ -50,6 +50,11 @@ const char *attitude_error_message(int err) {
         return "kalman_noise_shift above 8";
     case ATTITUDE_ERR_NULL:
         return "NULL state or config";
+    case ATTITUDE_ERR_INTEGRITY:
+        return "an integrity field out of range (range_max_mm 1..8189, parity/motion sigmas "
+               "1..16 x 256, drift_shift 1..8)";
+    case ATTITUDE_ERR_BUFFER:
+        return "buffer too small";
     default:
         return "unknown attitude error";
     }
@@ -82,8 +87,20 @@ int attitude_init(struct attitude_state *st, const struct attitude_config *cfg) 
     if (cfg->paper_max_iterations == 0u) {
         return ATTITUDE_ERR_PAPER_ITERATIONS;
     }
+    const struct integrity_config icfg = {.arm_um = cfg->arm_um,
+                                          .range_max_mm = cfg->range_max_mm,
+                                          .parity_sigmas_q8 = cfg->parity_sigmas_q8,
+                                          .motion_sigmas_q8 = cfg->motion_sigmas_q8,
+                                          .offset_stability_um = cfg->offset_stability_um,
+                                          .drift_flag_um = cfg->drift_flag_um,
+                                          .drift_shift = cfg->drift_shift};
+    if (!integrity_config_valid(&icfg)) {
+        return ATTITUDE_ERR_INTEGRITY;
+    }
     (void)memset(st, 0, sizeof *st);
     st->cfg = *cfg;
+    st->icfg = icfg;
+    integrity_init(&st->integrity);
     st->kalman_rows_since_restart = UINT32_MAX;
     const struct window_config wcfg = {.arm_um = cfg->arm_um,
                                        .length = cfg->window,
@@ -135,7 +152,7 @@ static bool beta_observable(uint8_t s) {
     return bd || (ac && (s & (bit_b | bit_d)) != 0u);
 }
 
-/* Sets status and reason from observability and the window counts. */
+/* Sets validity, status and reason from observability; settle() adds the integrity. */
 static void finish_status(struct attitude_estimate *e, bool alpha_ok, bool beta_ok) {
     e->alpha_valid = alpha_ok;
     e->beta_valid = beta_ok;
@@ -180,6 +197,81 @@ static void finish_status(struct attitude_estimate *e, bool alpha_ok, bool beta_
         e->status = ATTITUDE_OK;
         e->reason = ATTITUDE_REASON_NONE;
     }
+}
+
+/* sqrt(a² + b²) of two 1σ in µdeg, saturating, at least 1 (a claimed sd is never 0). */
+static int32_t hypot_udeg(int32_t a, int32_t b) {
+    const uint64_t a2 = (uint64_t)((int64_t)a * a);
+    const uint64_t b2 = (uint64_t)((int64_t)b * b);
+    const uint64_t sum = a2 > UINT64_MAX - b2 ? UINT64_MAX : a2 + b2;
+    const uint32_t root = fix_isqrt_u64(sum);
+    return root == 0u ? 1 : (root > (uint32_t)INT32_MAX ? INT32_MAX : (int32_t)root);
+}
+
+/* An angle's 1σ from its y = a·tan variance (Q32 mm²) at the window's slope. */
+static int32_t angle_sd(const struct attitude_state *st, fix_q32_t var_mm2, unsigned axis) {
+    return fix_angle_sigma_udeg(var_mm2, st->cfg.arm_um, st->iw.tan_q32[axis]);
+}
+
+/*
+ * The integrity of one estimate (docs/estimator-design.md "Integrity"): the why set from
+ * the window's facts and the estimator's own counts and reason, the sd from the
+ * estimator's white-noise 1σ (white_*) and what the window adds (drift, prior, rounding,
+ * a failed parity, motion), and the status: ok only with both angles and an empty set.
+ */
+static void settle(const struct attitude_state *st, struct attitude_estimate *e,
+                   int32_t white_alpha_udeg, int32_t white_beta_udeg, fix_q32_t white_dist_mm2,
+                   int32_t extra_alpha_udeg, int32_t extra_beta_udeg, attitude_why_t own) {
+    const struct integrity_window *iw = &st->iw;
+    attitude_why_t why = iw->why | own;
+    for (unsigned k = 0; k < ATTITUDE_SENSORS; ++k) {
+        if (e->counts[k].rejected != 0u) {
+            why |= ATTITUDE_WHY_REJECTED(k);
+        }
+    }
+    if (e->reason != ATTITUDE_REASON_NONE && e->reason != ATTITUDE_REASON_FLAGGED_DATA &&
+        e->reason != ATTITUDE_REASON_SENSOR_MISSING) {
+        why |= ATTITUDE_WHY_REASON(e->reason);
+    }
+    e->alpha_sd_udeg = 0;
+    e->beta_sd_udeg = 0;
+    e->distance_sd_um = 0;
+    if (e->alpha_valid) {
+        e->alpha_sd_udeg = hypot_udeg(
+            hypot_udeg(white_alpha_udeg, angle_sd(st, iw->extra_var_mm2[INTEGRITY_ALPHA], 0u)),
+            extra_alpha_udeg);
+    }
+    if (e->beta_valid) {
+        e->beta_sd_udeg = hypot_udeg(
+            hypot_udeg(white_beta_udeg, angle_sd(st, iw->extra_var_mm2[INTEGRITY_BETA], 1u)),
+            extra_beta_udeg);
+    }
+    if (e->distance_valid) {
+        const fix_q32_t var =
+            fix_sat_add_s64(white_dist_mm2, iw->extra_var_mm2[INTEGRITY_DISTANCE]);
+        /* sqrt of Q32 mm² is Q16 mm: µm = root · 1000 / 2^16, rounded, at least 1 */
+        const uint64_t um = ((uint64_t)fix_isqrt_u64((uint64_t)var) * 1000u + 32768u) >> 16;
+        e->distance_sd_um = um == 0u ? 1 : (um > (uint64_t)INT32_MAX ? INT32_MAX : (int32_t)um);
+    }
+    if (e->status == ATTITUDE_OK && why != 0u) { /* never upgraded, only downgraded */
+        e->status = ATTITUDE_DEGRADED;
+        e->reason = ATTITUDE_REASON_FLAGGED_DATA;
+    }
+    if (e->status != ATTITUDE_OK && why == 0u) { /* a not-ok estimate always says why */
+        why = ATTITUDE_WHY_REASON(e->reason);
+    }
+    e->why = e->status == ATTITUDE_OK ? 0u : why;
+}
+
+/* v² in Q32 mm² for v in Q32 mm, saturating. */
+static fix_q32_t square_mm2(fix_q32_t v) {
+    return fix_s128_to_s64(fix_s128_shr_round(fix_s128_mul(v, v), FIX_Q32_SHIFT), NULL);
+}
+
+static fix_q32_t window_white_dist(const struct attitude_state *st) {
+    fix_q32_t var = 0;
+    (void)integrity_axis_var(INTEGRITY_DISTANCE, st->iw.used, st->iw.white_mm2, &var);
+    return var;
 }
 
 /* Mean distance: the midpoint of each complete opposite pair, averaged. */
@@ -260,6 +352,7 @@ FIX_NOINLINE void run_product(struct attitude_state *st, struct consensus_produc
         e->reason = ATTITUDE_REASON_NO_CONVERGENCE;
     }
     finish_status(e, res->alpha.status == CONSENSUS_OK, res->beta.status == CONSENSUS_OK);
+    settle(st, e, res->alpha.sigma_udeg, res->beta.sigma_udeg, window_white_dist(st), 0, 0, 0u);
 }
 
 static enum attitude_reason paper_reason(enum consensus_status s) {
@@ -337,6 +430,51 @@ FIX_NOINLINE void run_paper(struct attitude_state *st,
         }
     }
     finish_status(e, alpha_ok, beta_ok);
+    /* A converged paper value is Σ d_i v_i / Σ d_i with every d_i > 0 (consensus.h): a
+     * convex combination, whose variance cannot exceed the largest of its terms' */
+    const fix_q32_t *v = st->iw.white_mm2;
+    const fix_q32_t pairs[6] = {v[0] + v[1],
+                                v[0] + v[3],
+                                v[1] + v[2],
+                                v[2] + v[3],
+                                fix_asr_s64(v[0] + v[2], 2u),
+                                fix_asr_s64(v[1] + v[3], 2u)};
+    fix_q32_t worst = 0;
+    for (unsigned i = 0; i < 6u; ++i) {
+        worst = pairs[i] > worst ? pairs[i] : worst;
+    }
+    settle(st, e, angle_sd(st, worst, 0u), angle_sd(st, worst, 1u), window_white_dist(st), 0, 0,
+           0u);
+}
+
+/* White variance (Q32 mm² of y = a·tan) of the plain mean of the estimates available on
+ * one axis: Σ_k c_k² V_k with c the average of their sensor coefficients (units 1/2). */
+static fix_q32_t mean_white_var(const struct attitude_state *st, const struct window_axis_stats *ax,
+                                bool beta) {
+    /* α1 = (B − A)/a, α2 = (D − A)/a, α3 = (C − B)/a, α4 = (C − D)/a, α5 = (C − A)/2a;
+     * β1 = (A − D)/a, β2 = (C − D)/a, β3 = (B − A)/a, β4 = (B − C)/a, β5 = (B − D)/2a */
+    static const int8_t coef[2][ANGLES_PER_AXIS][ATTITUDE_SENSORS] = {
+        {{-2, 2, 0, 0}, {-2, 0, 0, 2}, {0, -2, 2, 0}, {0, 0, 2, -2}, {-1, 0, 1, 0}},
+        {{2, 0, 0, -2}, {0, 0, 2, -2}, {-2, 2, 0, 0}, {0, 2, -2, 0}, {0, 1, 0, -1}},
+    };
+    int32_t c[ATTITUDE_SENSORS] = {0, 0, 0, 0};
+    int32_t n = 0;
+    for (unsigned i = 0; i < ANGLES_PER_AXIS; ++i) {
+        if (ax->count[i] != 0u) {
+            n++;
+            for (unsigned k = 0; k < ATTITUDE_SENSORS; ++k) {
+                c[k] += coef[beta ? 1 : 0][i][k];
+            }
+        }
+    }
+    if (n == 0) {
+        return 0;
+    }
+    fix_q32_t sum = 0;
+    for (unsigned k = 0; k < ATTITUDE_SENSORS; ++k) {
+        sum = fix_sat_add_s64(sum, fix_sat_mul_s64(st->iw.white_mm2[k], (int64_t)c[k] * c[k]));
+    }
+    return fix_div_round_s64(sum, 4 * (int64_t)n * n);
 }
 
 static int32_t mean_of_angles(const struct window_axis_stats *ax) {
@@ -359,9 +497,49 @@ static void run_mean(struct attitude_state *st, struct attitude_estimate *e) {
     e->beta_udeg = mean_of_angles(&w->beta);
     e->distance_valid = pair_midpoints_um(w, &e->distance_um);
     finish_status(e, alpha_observable(s), beta_observable(s));
+    settle(st, e, angle_sd(st, mean_white_var(st, &w->alpha, false), 0u),
+           angle_sd(st, mean_white_var(st, &w->beta, true), 1u), window_white_dist(st), 0, 0, 0u);
 }
 
-FIX_NOINLINE void run_kalman(struct attitude_state *st, struct attitude_estimate *e) {
+/* A filter that is never reset (sliding mode) can lag a moving plate by more than its
+ * window. Its distance d from the window's end-point estimate (the product's value plus
+ * the window's lag when it moved) beyond the noise of that comparison, sqrt(d² − var),
+ * is this estimate's own lag (unbiased for the lag², so no padding when static); d beyond
+ * motion_sigmas is `motion`. */
+static int32_t kalman_lag_udeg(const struct attitude_state *st,
+                               const struct consensus_axis *product, int32_t kalman_udeg,
+                               int32_t kalman_sigma_udeg, unsigned axis, bool *moved) {
+    if (product == NULL || product->status != CONSENSUS_OK) {
+        return 0;
+    }
+    const struct integrity_window *iw = &st->iw;
+    int64_t lag = 0;
+    int64_t lag_sd = 0;
+    if (iw->moved[axis]) {
+        lag = angle_sd(st, square_mm2(iw->lag_mm[axis]), axis);
+        lag = iw->lag_mm[axis] < 0 ? -lag : lag;
+        lag_sd = angle_sd(st, iw->lag_var_mm2[axis], axis);
+    }
+    const int64_t delta = (int64_t)kalman_udeg - product->angle_udeg - lag;
+    const uint64_t d = fix_abs_u64(delta);
+    if (d > (uint64_t)INT32_MAX) {
+        *moved = true;
+        return INT32_MAX;
+    }
+    const uint64_t var = (uint64_t)((int64_t)product->sigma_udeg * product->sigma_udeg) +
+                         (uint64_t)(lag_sd * lag_sd) +
+                         (uint64_t)((int64_t)kalman_sigma_udeg * kalman_sigma_udeg);
+    const uint64_t k = st->cfg.motion_sigmas_q8;
+    /* d² > k²·var with k in Q8: compare d·256 against k·sqrt(var) */
+    if (d * 256u > k * fix_isqrt_u64(var)) {
+        *moved = true;
+    }
+    return d * d > var ? (int32_t)fix_isqrt_u64(d * d - var) : 0;
+}
+
+FIX_NOINLINE void run_kalman(struct attitude_state *st,
+                             const struct consensus_product_result *product,
+                             struct attitude_estimate *e) {
     const struct window_stats *w = &st->stats;
     common_fields(w, e);
     /* the filter's own outcomes for the rows of this window */
@@ -389,6 +567,18 @@ FIX_NOINLINE void run_kalman(struct attitude_state *st, struct attitude_estimate
         e->reason = ATTITUDE_REASON_KALMAN_RESTARTED;
     }
     finish_status(e, ke.alpha_observable, ke.beta_observable);
+    int32_t lag_a = 0;
+    int32_t lag_b = 0;
+    attitude_why_t own = 0;
+    if (st->cfg.mode == ATTITUDE_SLIDING && product != NULL) {
+        bool moved = false;
+        lag_a =
+            kalman_lag_udeg(st, &product->alpha, ke.alpha_udeg, ke.alpha_sigma_udeg, 0u, &moved);
+        lag_b = kalman_lag_udeg(st, &product->beta, ke.beta_udeg, ke.beta_sigma_udeg, 1u, &moved);
+        own = moved ? ATTITUDE_WHY_MOTION : 0u;
+    }
+    const fix_q32_t p00 = ke.p_mm2[0][0] > 0 ? ke.p_mm2[0][0] : window_white_dist(st);
+    settle(st, e, ke.alpha_sigma_udeg, ke.beta_sigma_udeg, p00, lag_a, lag_b, own);
 }
 
 static void disabled(struct attitude_estimate *e, const struct window_stats *w) {
@@ -396,6 +586,7 @@ static void disabled(struct attitude_estimate *e, const struct window_stats *w) 
     e->reason = ATTITUDE_REASON_DISABLED;
     finish_status(e, false, false);
     e->reason = ATTITUDE_REASON_DISABLED;
+    e->why = ATTITUDE_WHY_REASON(ATTITUDE_REASON_DISABLED);
 }
 
 /* After a restart the filter's estimate no longer contains the window's earlier
@@ -438,6 +629,9 @@ FIX_NOINLINE void window_end(struct attitude_state *st, struct attitude_output *
         (cfg->estimators & ATTITUDE_EST_BUILT & ATTITUDE_EST_BIT(ATTITUDE_EST_KALMAN)) != 0u;
     window_compute(&st->window, &st->stats);
     const struct window_stats *w = &st->stats;
+    /* the drift learning takes one window per block of N rows (every window when tumbling) */
+    integrity_assess(&st->integrity, &st->icfg, &st->window, w, st->rows % cfg->window == 0u,
+                     &st->iw);
     out->last_row = st->rows - 1u;
     out->first_row = st->rows - cfg->window;
     out->rows = cfg->window;
@@ -464,7 +658,7 @@ FIX_NOINLINE void window_end(struct attitude_state *st, struct attitude_output *
         disabled(&out->est[ATTITUDE_EST_PAPER], w);
     }
     if (kalman_on) {
-        run_kalman(st, &out->est[ATTITUDE_EST_KALMAN]);
+        run_kalman(st, need_product ? &product : NULL, &out->est[ATTITUDE_EST_KALMAN]);
     } else {
         disabled(&out->est[ATTITUDE_EST_KALMAN], w);
     }
@@ -500,6 +694,9 @@ bool attitude_push_sample(struct attitude_state *st, const uint16_t range_mm[ATT
             }
         }
     }
+    /* 0, no-target values and readings beyond the mode's range are never used, whatever
+     * their status: the window answers from the other sensors */
+    valid_mask &= (uint8_t)~integrity_implausible(ranges, present_mask, cfg->range_max_mm);
     if (st->kalman_rows_since_restart < UINT32_MAX) {
         st->kalman_rows_since_restart++;
     }
@@ -594,4 +791,58 @@ const char *attitude_reason_name(enum attitude_reason r) {
         return "unknown";
     }
     return names[r];
+}
+
+/* Appends "+name" (no '+' first) with an optional ":X" sensor letter; false when full. */
+static bool why_append(char *buf, size_t cap, size_t *len, const char *name, char sensor) {
+    size_t need = (*len != 0u ? 1u : 0u) + strlen(name) + (sensor != '\0' ? 2u : 0u);
+    if (*len + need + 1u > cap) {
+        return false;
+    }
+    if (*len != 0u) {
+        buf[(*len)++] = '+';
+    }
+    for (const char *c = name; *c != '\0'; ++c) {
+        buf[(*len)++] = *c;
+    }
+    if (sensor != '\0') {
+        buf[(*len)++] = ':';
+        buf[(*len)++] = sensor;
+    }
+    buf[*len] = '\0';
+    return true;
+}
+
+int attitude_why_format(attitude_why_t why, char *buf, size_t cap) {
+    static const char *const per_sensor[5] = {"no-target", "range", "flagged", "missing",
+                                              "rejected"};
+    static const char *const window[3] = {"parity", "motion", "drift"};
+    if (buf == NULL || cap == 0u) {
+        return buf == NULL ? ATTITUDE_ERR_NULL : ATTITUDE_ERR_BUFFER;
+    }
+    size_t len = 0;
+    buf[0] = '\0';
+    bool fits = true;
+    for (unsigned g = 0; g < 5u && fits; ++g) {
+        for (unsigned k = 0; k < ATTITUDE_SENSORS && fits; ++k) {
+            if ((why & ((attitude_why_t)1u << (4u * g + k))) != 0u) {
+                fits = why_append(buf, cap, &len, per_sensor[g], (char)('A' + k));
+            }
+        }
+    }
+    for (unsigned b = 0; b < 3u && fits; ++b) {
+        if ((why & (ATTITUDE_WHY_PARITY << b)) != 0u) {
+            fits = why_append(buf, cap, &len, window[b], '\0');
+        }
+    }
+    for (unsigned r = 1; r < (unsigned)ATTITUDE_REASON_COUNT && fits; ++r) {
+        if ((why & ATTITUDE_WHY_REASON(r)) != 0u) {
+            fits = why_append(buf, cap, &len, attitude_reason_name((enum attitude_reason)r), '\0');
+        }
+    }
+    if (!fits) {
+        buf[0] = '\0';
+        return ATTITUDE_ERR_BUFFER;
+    }
+    return (int)len;
 }

@@ -15,6 +15,7 @@
 #include "scene/trace.h"
 #include "sim/sim_fault.h"
 #include "sim/sim_replay.h"
+#include "i2c_log.h"
 
 /* "No value" in tables and JSON (printed as nan / null). */
 #define NO_VALUE ((double)NAN)
@@ -45,6 +46,33 @@ static double rms(double sum2, uint64_t n) {
     return n > 0u ? sqrt(sum2 / (double)n) : NO_VALUE;
 }
 
+/* Calibration of one estimator's sd on one axis against the truth (issue 15): answered
+ * rows with truth, those within 3 sd and beyond 6 sd, and Σerr², Σsd². */
+struct calib_axis {
+    uint64_t n, within3, beyond6;
+    double sum2_err, sum2_sd;
+};
+
+/* Bits of the why set that are counted in the report: the per-sensor and window ones
+ * (0..22) and the reason bits (32..63). */
+#define WHY_BITS 64u
+
+static void calib_add(struct calib_axis *c, double err, double sd) {
+    ++c->n;
+    c->within3 += fabs(err) <= 3.0 * sd;
+    c->beyond6 += fabs(err) > 6.0 * sd;
+    c->sum2_err += err * err;
+    c->sum2_sd += sd * sd;
+}
+
+static double share(uint64_t k, uint64_t n) {
+    return n > 0u ? (double)k / (double)n : NO_VALUE;
+}
+
+static double calib_ratio(const struct calib_axis *c) {
+    return c->n > 0u && c->sum2_sd > 0.0 ? sqrt(c->sum2_err / c->sum2_sd) : NO_VALUE;
+}
+
 /* Per-sensor sums over a window's valid readings, for its Cramér-Rao bound. */
 struct window_truth {
     uint32_t n[4];
@@ -65,6 +93,7 @@ struct replay {
     struct tof_app app;
     enum attitude_estimator primary;
     FILE *est_out;
+    struct i2c_log_file i2c_log;
     FILE *plot_data;
     char plot_data_path[4096];
     struct err_stats stats[ATTITUDE_EST_COUNT];
@@ -76,11 +105,15 @@ struct replay {
     uint64_t crb_windows;
     double last_crb_alpha, last_crb_beta; /* bound of the window just closed (NaN: none) */
     uint32_t unflagged_wrong[ATTITUDE_EST_COUNT];
+    struct calib_axis calib[ATTITUDE_EST_COUNT][2]; /* α, β */
+    uint32_t why_count[ATTITUDE_EST_COUNT][WHY_BITS];
     bool faults_stopped;
     uint64_t faults_stop_us;
     int64_t recovery_us;
     uint32_t health_events, reinit_events, bus_recovery_events, overrun_events;
-    int failed; /* an output or data error: stop and report */
+    int failed;            /* an output or data error: stop and report */
+    uint64_t partial_rows; /* tumbling: rows after the last whole window (no estimate) */
+    char time_base[96];
 };
 
 static struct replay R;
@@ -109,6 +142,14 @@ static void write_plot_row(struct replay *r, const struct scene_row *row,
         fputc(',', r->plot_data);
         if (row->has_beta) {
             fprintf(r->plot_data, "%.6f", row->beta_deg);
+        }
+        fputc(',', r->plot_data);
+        if (est->alpha_valid) {
+            fprintf(r->plot_data, "%.6f", est->alpha_sd_udeg / 1e6);
+        }
+        fputc(',', r->plot_data);
+        if (est->beta_valid) {
+            fprintf(r->plot_data, "%.6f", est->beta_sd_udeg / 1e6);
         }
         fputc('\n', r->plot_data);
     }
@@ -190,6 +231,17 @@ static void on_estimate(void *ctx, const struct tof_estimate_record *record) {
               fabs(est->beta_udeg / 1e6 - row->beta_deg) > 5.0 * r->last_crb_beta))) {
             ++r->unflagged_wrong[e];
         }
+        for (unsigned b = 0; b < WHY_BITS; ++b) {
+            r->why_count[e][b] += (uint32_t)((est->why >> b) & 1u);
+        }
+        if (est->status != ATTITUDE_INVALID && row->has_alpha && est->alpha_valid) {
+            calib_add(&r->calib[e][0], est->alpha_udeg / 1e6 - row->alpha_deg,
+                      est->alpha_sd_udeg / 1e6);
+        }
+        if (est->status != ATTITUDE_INVALID && row->has_beta && est->beta_valid) {
+            calib_add(&r->calib[e][1], est->beta_udeg / 1e6 - row->beta_deg,
+                      est->beta_sd_udeg / 1e6);
+        }
         if (row->has_alpha && est->alpha_valid) {
             err_add(est->alpha_udeg / 1e6 - row->alpha_deg, &s->n_alpha, &s->sum2_alpha,
                     &s->sum_abs_alpha, &s->max_alpha);
@@ -241,20 +293,6 @@ static void on_event(void *ctx, const struct tof_event *ev) {
 static const struct tof_output_ops replay_output_ops = {
     .estimate = on_estimate, .sample = on_sample, .event = on_event};
 
-static bool parse_meta_double(const char *text, double *out) {
-    if (text == NULL) {
-        return false;
-    }
-    errno = 0;
-    char *end = NULL;
-    const double v = strtod(text, &end);
-    if (errno != 0 || end == text || *end != '\0' || !isfinite(v)) {
-        return false;
-    }
-    *out = v;
-    return true;
-}
-
 static int open_inputs(struct replay *r) {
     FILE *f = fopen(r->args->trace_path, "rb");
     if (f == NULL) {
@@ -265,22 +303,18 @@ static int open_inputs(struct replay *r) {
         fprintf(stderr, "host_sim replay: %s\n", trace_reader_error(&r->reader));
         return -1;
     }
-    const char *arm = trace_reader_meta(&r->reader, "arm_mm");
-    if (!parse_meta_double(arm, &r->arm_mm) || r->arm_mm < 1.0 || r->arm_mm > 1000.0) {
-        fprintf(stderr, "host_sim replay: %s: arm_mm '%s' is not a length in 1..1000 mm\n",
-                r->args->trace_path, arm != NULL ? arm : "");
+    /* The reader parsed and checked both (arm_mm > 0, period_ms 1..2^32-1). */
+    r->arm_mm = r->reader.meta.arm_mm;
+    if (r->arm_mm < 1.0 || r->arm_mm > 1000.0) {
+        fprintf(stderr, "host_sim replay: %s:%lu: arm_mm %g is not a length in 1..1000 mm\n",
+                r->args->trace_path, trace_reader_meta_line(&r->reader, "arm_mm"), r->arm_mm);
         return -1;
     }
-    r->period_ms = 20;
-    const char *period = trace_reader_meta(&r->reader, "period_ms");
-    if (period != NULL) {
-        uint64_t p = 0;
-        if (!cli_parse_u64(period, 1, 10000, &p)) {
-            fprintf(stderr, "host_sim replay: %s: period_ms '%s' is not an integer 1..10000\n",
-                    r->args->trace_path, period);
-            return -1;
-        }
-        r->period_ms = (uint32_t)p;
+    r->period_ms = trace_reader_timing(&r->reader)->period_ms; /* or TRACE_DEFAULT_PERIOD_MS */
+    if (r->period_ms > 10000u) {
+        fprintf(stderr, "host_sim replay: %s:%lu: period_ms %u is not an integer 1..10000\n",
+                r->args->trace_path, trace_reader_meta_line(&r->reader, "period_ms"), r->period_ms);
+        return -1;
     }
     scene_row_stream_init(&r->stream, scene_pull_trace, &r->reader);
     return 0;
@@ -291,11 +325,15 @@ static int configure(struct replay *r) {
     if (tof_app_config_for_replay(&r->app_cfg, arm_um, r->period_ms, (uint16_t)r->args->window,
                                   r->args->sliding) != HAL_OK) {
         const char *bad = tof_app_config_check(&r->app_cfg);
+        char where[64] = ": period_ms (default: the trace has none)";
+        if (r->reader.timing.period_from_meta) {
+            snprintf(where, sizeof where, ":%lu", trace_reader_meta_line(&r->reader, "period_ms"));
+        }
         fprintf(stderr,
-                "host_sim replay: %s: no firmware configuration fits period_ms %u and arm_mm "
+                "host_sim replay: %s%s: no firmware configuration fits period_ms %u and arm_mm "
                 "%.3f (%s; the shortest period is 15 ms budget + %u ms margin)\n",
-                r->args->trace_path, r->period_ms, r->arm_mm, bad != NULL ? bad : "estimator",
-                VL53_IMP_MARGIN_MS);
+                r->args->trace_path, where, r->period_ms, r->arm_mm,
+                bad != NULL ? bad : "no VL53L1X timing budget fits the period", VL53_IMP_MARGIN_MS);
         return -1;
     }
     if (tof_app_config_process_noise(&r->app_cfg, r->args->process_noise_um2_per_s[0],
@@ -331,6 +369,7 @@ static int configure(struct replay *r) {
         .gpio = r->sim.rig.hal_gpio,
         .time = r->sim.rig.time,
         .output = {.ops = &replay_output_ops, .ctx = r},
+        .sensor_pads_at_avdd = true, /* as the NUCLEO boards it simulates */
     };
     for (unsigned i = 0; i < 4; ++i) {
         r->platform.xshut_pin[i] = SIM_RIG_XSHUT_PIN(i);
@@ -340,6 +379,10 @@ static int configure(struct replay *r) {
 }
 
 static int open_outputs(struct replay *r) {
+    if (r->args->i2c_log_path != NULL &&
+        i2c_log_open(&r->i2c_log, r->args->i2c_log_path, &r->sim.rig.bus) != 0) {
+        return -1;
+    }
     if (r->args->out_path != NULL) {
         r->est_out = fopen(r->args->out_path, "w");
         if (r->est_out == NULL || fputs(TOF_EST_CSV_HEADER, r->est_out) == EOF) {
@@ -355,7 +398,7 @@ static int open_outputs(struct replay *r) {
             return -1;
         }
         fputs("t_ms,estimator,alpha_deg,beta_deg,distance_mm,status,true_alpha_deg,"
-              "true_beta_deg\n",
+              "true_beta_deg,alpha_sd_deg,beta_sd_deg\n",
               r->plot_data);
     }
     return 0;
@@ -382,6 +425,18 @@ static void track_fault_stop(struct replay *r) {
             r->recovery_us = (int64_t)(sim_clock_now(&r->sim.rig.clock) - r->faults_stop_us);
         }
     }
+}
+
+/* The time base in words: where the period the replay runs at came from. */
+static const char *time_base(struct replay *r) {
+    if (r->reader.timing.period_from_meta) {
+        snprintf(r->time_base, sizeof r->time_base, "period_ms %u from the trace (line %lu)",
+                 r->period_ms, trace_reader_meta_line(&r->reader, "period_ms"));
+    } else {
+        snprintf(r->time_base, sizeof r->time_base,
+                 "period_ms %u, the default (the trace has no period_ms)", r->period_ms);
+    }
+    return r->time_base;
 }
 
 /* Run the firmware until every trace row has become a sample (or the source failed). */
@@ -424,12 +479,105 @@ static int run(struct replay *r) {
     }
 }
 
+/*
+ * What the trace's length and time stamps mean for the windows (DESIGN.md §6: windows
+ * are counted in rows, t_ms labels them): a trace shorter than one window is an error;
+ * a trailing partial window and irregular time stamps are warnings on stderr (and in
+ * the report). Returns 0 or -1.
+ */
+static int check_trace_shape(struct replay *r) {
+    const uint64_t rows = r->stream.next_index;
+    const unsigned n = r->args->window;
+    const char *path = r->args->trace_path;
+    if (rows < n) {
+        fprintf(stderr,
+                "host_sim replay: %s: %llu rows, fewer than one window of %u rows (--window): "
+                "no estimate possible\n",
+                path, (unsigned long long)rows, n);
+        return -1;
+    }
+    r->partial_rows = r->args->sliding ? 0u : rows % n;
+    if (r->partial_rows > 0u) {
+        fprintf(stderr,
+                "host_sim replay: warning: %s: the last %llu rows (up to line %lu) are a partial "
+                "window of %u and give no estimate\n",
+                path, (unsigned long long)r->partial_rows, r->reader.last_row_line, n);
+    }
+    const struct trace_timing *tm = trace_reader_timing(&r->reader);
+    for (unsigned i = 0; i < tm->note_count; ++i) {
+        const struct trace_timing_note *note = &tm->notes[i];
+        if (note->kind == TRACE_TIME_REPEAT) {
+            fprintf(stderr,
+                    "host_sim replay: warning: %s:%lu: t_ms %lu repeats the previous row's\n", path,
+                    note->line, (unsigned long)note->t_ms);
+        } else {
+            fprintf(stderr,
+                    "host_sim replay: warning: %s:%lu: t_ms %lu is %lu ms after the previous "
+                    "row's %lu, more than two periods\n",
+                    path, note->line, (unsigned long)note->t_ms,
+                    (unsigned long)(note->t_ms - note->prev_t_ms), (unsigned long)note->prev_t_ms);
+        }
+    }
+    const uint64_t irregular = tm->repeats + tm->jumps;
+    if (irregular > 0u) {
+        if (irregular > tm->note_count) {
+            fprintf(stderr, "host_sim replay: warning: %s: %llu more irregular time stamps\n", path,
+                    (unsigned long long)(irregular - tm->note_count));
+        }
+        fprintf(stderr,
+                "host_sim replay: warning: %s: %llu repeated t_ms and %llu jumps of more than "
+                "two periods (largest %lu ms, line %lu); time base: %s; windows are counted in "
+                "rows, t_ms only labels them\n",
+                path, (unsigned long long)tm->repeats, (unsigned long long)tm->jumps,
+                (unsigned long)tm->max_jump_ms, tm->max_jump_line, time_base(r));
+    }
+    return 0;
+}
+
 static void json_number(FILE *f, double v) {
     if (isfinite(v)) {
         fprintf(f, "%.6g", v);
     } else {
         fputs("null", f);
     }
+}
+
+/* The estimator's reason counts and, with truth, its sd calibration per axis. */
+static void write_calibration(FILE *f, const struct replay *r, unsigned e) {
+    const struct err_stats *s = &r->stats[e];
+    const uint64_t total = (uint64_t)s->status_count[0] + s->status_count[1] + s->status_count[2];
+    fputs(", \"reasons\": {", f);
+    bool first = true;
+    for (unsigned b = 0; b < WHY_BITS; ++b) {
+        char name[ATTITUDE_WHY_TEXT_MAX];
+        if (r->why_count[e][b] != 0u &&
+            attitude_why_format((attitude_why_t)1u << b, name, sizeof name) > 0) {
+            fprintf(f, "%s\"%s\": %u", first ? "" : ", ", name, r->why_count[e][b]);
+            first = false;
+        }
+    }
+    fputs("}, \"answered\": ", f);
+    json_number(f, share(s->status_count[0] + s->status_count[1], total));
+    fputs(", \"calibration\": ", f);
+    if (!r->truth_seen) {
+        fputs("null", f);
+        return;
+    }
+    fputc('{', f);
+    for (unsigned ax = 0; ax < 2u; ++ax) {
+        const struct calib_axis *c = &r->calib[e][ax];
+        fprintf(f, "%s\"%s\": {\"rows\": %llu, \"within_3sd\": ", ax ? ", " : "",
+                ax ? "beta" : "alpha", (unsigned long long)c->n);
+        json_number(f, share(c->within3, c->n));
+        fputs(", \"beyond_6sd\": ", f);
+        json_number(f, share(c->beyond6, c->n));
+        fputs(", \"rms_err_over_rms_sd\": ", f);
+        json_number(f, calib_ratio(c));
+        fputs(", \"rms_sd_deg\": ", f);
+        json_number(f, c->n > 0u ? sqrt(c->sum2_sd / (double)c->n) : NO_VALUE);
+        fputc('}', f);
+    }
+    fputc('}', f);
 }
 
 static int write_report(struct replay *r, const char *path) {
@@ -444,6 +592,14 @@ static int write_report(struct replay *r, const char *path) {
             r->args->sliding ? "sliding" : "tumbling");
     fprintf(f, "  \"primary\": \"%s\",\n  \"estimates\": %llu,\n  \"truth\": %s,\n",
             r->args->estimator, (unsigned long long)r->estimates, r->truth_seen ? "true" : "false");
+    const struct trace_timing *tm = trace_reader_timing(&r->reader);
+    fprintf(f,
+            "  \"time_base\": {\"period_ms\": %u, \"source\": \"%s\", \"t_ms_repeats\": %llu, "
+            "\"t_ms_jumps\": %llu, \"max_jump_ms\": %lu, \"max_jump_line\": %lu},\n"
+            "  \"partial_window_rows\": %llu,\n",
+            r->period_ms, tm->period_from_meta ? "trace" : "default",
+            (unsigned long long)tm->repeats, (unsigned long long)tm->jumps,
+            (unsigned long)tm->max_jump_ms, tm->max_jump_line, (unsigned long long)r->partial_rows);
     fputs("  \"crb_alpha_deg\": ", f);
     json_number(f, rms(r->crb_sum2_alpha, r->crb_windows));
     fputs(",\n  \"crb_beta_deg\": ", f);
@@ -468,6 +624,7 @@ static int write_report(struct replay *r, const char *path) {
             fprintf(f, ", \"%s\": ", keys[k]);
             json_number(f, vals[k]);
         }
+        write_calibration(f, r, e);
         fprintf(f, "}%s\n", e + 1u < ATTITUDE_EST_COUNT ? "," : "");
     }
     const struct sim_i2c_stats *b = &r->sim.rig.bus.stats;
@@ -512,6 +669,7 @@ static void print_summary(struct replay *r) {
            r->args->trace_path, (unsigned long long)r->stream.next_index, r->args->window,
            r->args->sliding ? "sliding" : "tumbling", (unsigned long long)r->estimates,
            r->args->estimator);
+    printf("time base: %s; windows counted in rows\n", time_base(r));
     printf("%-16s %10s %10s %10s %10s %10s %10s %6s %6s %6s\n", "estimator", "rms_a[deg]",
            "mae_a[deg]", "max_a[deg]", "rms_b[deg]", "mae_b[deg]", "max_b[deg]", "ok", "degr",
            "inval");
@@ -529,9 +687,37 @@ static void print_summary(struct replay *r) {
         printf("%-16s %10.4f %10s %10s %10.4f   (Cramer-Rao bound from each window's own sigma)\n",
                "bound", rms(r->crb_sum2_alpha, r->crb_windows), "", "",
                rms(r->crb_sum2_beta, r->crb_windows));
+        printf("sd calibration (answered rows; goals: >= 95 %% within 3 sd, <= 0.1 %% beyond 6 sd, "
+               "rms err / rms sd >= 0.5, >= 95 %% answered):\n");
+        printf("%-16s %9s %9s %9s %9s %9s %9s %9s\n", "estimator", "answered", "a<=3sd", "a>6sd",
+               "a_err/sd", "b<=3sd", "b>6sd", "b_err/sd");
+        for (unsigned e = 0; e < ATTITUDE_EST_COUNT; ++e) {
+            const struct err_stats *s = &r->stats[e];
+            const struct calib_axis *a = &r->calib[e][0];
+            const struct calib_axis *b = &r->calib[e][1];
+            const uint64_t total =
+                (uint64_t)s->status_count[0] + s->status_count[1] + s->status_count[2];
+            printf("%-16s %8.1f%% %8.2f%% %8.2f%% %9.3f %8.2f%% %8.2f%% %9.3f\n",
+                   attitude_estimator_name((enum attitude_estimator)e),
+                   100.0 * share(s->status_count[0] + s->status_count[1], total),
+                   100.0 * share(a->within3, a->n), 100.0 * share(a->beyond6, a->n), calib_ratio(a),
+                   100.0 * share(b->within3, b->n), 100.0 * share(b->beyond6, b->n),
+                   calib_ratio(b));
+        }
     } else {
         printf("(no ground truth in this trace: errors and bound not available)\n");
     }
+    printf("reasons (%s):", r->args->estimator);
+    bool any = false;
+    for (unsigned b = 0; b < WHY_BITS; ++b) {
+        char name[ATTITUDE_WHY_TEXT_MAX];
+        if (r->why_count[r->primary][b] != 0u &&
+            attitude_why_format((attitude_why_t)1u << b, name, sizeof name) > 0) {
+            printf(" %s %u", name, r->why_count[r->primary][b]);
+            any = true;
+        }
+    }
+    printf("%s\n", any ? "" : " none");
     const struct sim_i2c_stats *b = &r->sim.rig.bus.stats;
     printf("bus: %u transactions (%u ok), %u bus recoveries; firmware: %u reinits, %u overruns, "
            "max iteration %u us\n",
@@ -602,8 +788,14 @@ int replay_execute(const struct replay_args *args, struct replay_result *result)
     if (rc == 0) {
         rc = run(&R);
     }
+    if (rc == 0) {
+        rc = check_trace_shape(&R);
+    }
     if (R.est_out != NULL && fclose(R.est_out) != 0 && rc == 0) {
         fprintf(stderr, "host_sim replay: %s: write failed\n", args->out_path);
+        rc = -1;
+    }
+    if (i2c_log_close(&R.i2c_log, &R.sim.rig.bus) != 0 && rc == 0) {
         rc = -1;
     }
     if (R.reader.file != NULL) {

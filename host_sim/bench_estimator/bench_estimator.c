@@ -61,6 +61,9 @@ struct acc {
     double max_fixdbl;       /* max |fixed − double| (deg), α and β */
     uint32_t compared;       /* windows with a double comparison */
     uint32_t reasons[ATTITUDE_REASON_COUNT]; /* reason of every window */
+    uint32_t ok;                             /* windows with status ok */
+    double sd2_a, sd2_b;                     /* Σ sd² over valid α / β windows (issue 15) */
+    uint32_t within3, beyond6;               /* |err| <= 3 sd, > 6 sd, both axes counted */
 };
 
 /* Paper Table I: per-estimate window-mean errors on the table1 scenario. */
@@ -396,6 +399,10 @@ static void account(struct acc *a, const struct attitude_estimate *e, double ta,
         a->se_a += err * err;
         a->ae_a += fabs(err);
         a->crb2_a += crb_a * crb_a;
+        const double sd = udeg_to_deg(e->alpha_sd_udeg);
+        a->sd2_a += sd * sd;
+        a->within3 += fabs(err) <= 3.0 * sd;
+        a->beyond6 += fabs(err) > 6.0 * sd;
         if (fabs(err) / crb_a > a->worst_ratio_a) {
             a->worst_ratio_a = fabs(err) / crb_a;
         }
@@ -406,7 +413,12 @@ static void account(struct acc *a, const struct attitude_estimate *e, double ta,
         a->se_b += err * err;
         a->ae_b += fabs(err);
         a->crb2_b += crb_b * crb_b;
+        const double sd = udeg_to_deg(e->beta_sd_udeg);
+        a->sd2_b += sd * sd;
+        a->within3 += fabs(err) <= 3.0 * sd;
+        a->beyond6 += fabs(err) > 6.0 * sd;
     }
+    a->ok += e->status == ATTITUDE_OK;
 }
 
 static void fixdbl(struct acc *a, const struct attitude_estimate *e, const bool ok[2],
@@ -611,6 +623,7 @@ int main(int argc, char **argv) {
     struct table1 t1;
     memset(&t1, 0, sizeof t1);
     static uint32_t paper_reasons[N_SCENARIOS][ATTITUDE_REASON_COUNT];
+    static struct acc sd_rows[N_SCENARIOS][ATTITUDE_EST_COUNT];
     double paper_worst[N_SCENARIOS][2];
     uint32_t paper_seen[ATTITUDE_REASON_COUNT] = {0};
     int status = 0;
@@ -637,6 +650,9 @@ int main(int argc, char **argv) {
                    a->max_fixdbl);
         }
         (void)crb_rms;
+        for (int o = 0; o < ATTITUDE_EST_COUNT; ++o) {
+            sd_rows[s][o] = acc[order[o]];
+        }
         paper_worst[s][0] = acc[ATTITUDE_EST_PAPER].worst_ratio_a;
         paper_worst[s][1] = acc[ATTITUDE_EST_PAPER].product_at_worst;
         for (int r = 0; r < ATTITUDE_REASON_COUNT; ++r) {
@@ -673,6 +689,25 @@ int main(int argc, char **argv) {
     printf("| scenario | paper worst | product in that window |\n|---|---|---|\n");
     for (size_t s = 0; s < N_SCENARIOS; ++s) {
         printf("| %s | %.2f | %.2f |\n", scenarios[s].label, paper_worst[s][0], paper_worst[s][1]);
+    }
+
+    printf("\n## Standard deviations against the Cramer-Rao bound (issue 15)\n\n");
+    printf("sd/CRB = RMS of each estimate's alpha_sd over RMS of the window's bound (the sd\n"
+           "includes the default offset-stability prior, which the bound does not); err/sd =\n"
+           "RMS alpha error / RMS alpha_sd; <=3sd, >6sd: shares of the answered angles (alpha\n"
+           "and beta) within 3 sd and beyond 6 sd; ok%%: windows with status ok.\n\n");
+    printf("| scenario | estimator | ok%% | sd/CRB a | sd/CRB b | err/sd a | err/sd b | <=3sd%% | "
+           ">6sd%% |\n|---|---|---|---|---|---|---|---|---|\n");
+    for (size_t s = 0; s < N_SCENARIOS; ++s) {
+        for (int o = 0; o < ATTITUDE_EST_COUNT; ++o) {
+            const struct acc *a = &sd_rows[s][o];
+            const double n = (double)a->valid_alpha + a->valid_beta;
+            printf("| %s | %s | %.1f | %.3f | %.3f | %.3f | %.3f | %.2f | %.3f |\n",
+                   o == 0 ? scenarios[s].label : "", attitude_estimator_name(order[o]),
+                   100.0 * a->ok / (a->windows ? a->windows : 1), sqrt(a->sd2_a / a->crb2_a),
+                   sqrt(a->sd2_b / a->crb2_b), sqrt(a->se_a / a->sd2_a), sqrt(a->se_b / a->sd2_b),
+                   n > 0 ? 100.0 * a->within3 / n : DNAN, n > 0 ? 100.0 * a->beyond6 / n : DNAN);
+        }
     }
 
     printf("\n## Shape of the paper's Table I (scenario 1, a = 30 mm)\n\n");

@@ -26,8 +26,11 @@
  *     window distances within the readings' range;
  *   - a Kalman "restarted" reason only when the filter restarted inside the window,
  *     and never an ok Kalman estimate across a restart;
- *   - oracle: a window of N identical complete valid rows gives consensus ok at
- *     atan((x_C − x_A)/2a) and atan((x_B − x_D)/2a) (±6 µdeg), mean ok at the mean
+ *   - integrity (issue 15): ok exactly when the why set is empty, never ok from a
+ *     window holding a reading of 0, a no-target value or one beyond range_max_mm,
+ *     an sd >= 1 beside every value (>= the estimator's own sigma), none beside none;
+ *   - oracle: a window of N identical complete valid rows gives consensus answered at
+ *     atan((x_C − x_A)/2a) and atan((x_B − x_D)/2a) (±6 µdeg), mean answered at the mean
  *     of the five exact per-row angles, and the paper rule invalid with
  *     "paper-nonpositive-variance" (all covariances are 0).
  *
@@ -98,11 +101,18 @@ static bool warmup_ok(uint8_t w) {
     return w >= 1u && w <= 8u;
 }
 
+/* The integrity fields (attitude.h, attitude_error_message). */
+static bool integrity_ok(const struct attitude_config *c) {
+    return c->range_max_mm >= 1u && c->range_max_mm <= 8189u && c->parity_sigmas_q8 >= 256u &&
+           c->parity_sigmas_q8 <= 4096u && c->motion_sigmas_q8 >= 256u &&
+           c->motion_sigmas_q8 <= 4096u && c->drift_shift >= 1u && c->drift_shift <= 8u;
+}
+
 static bool config_valid(const struct attitude_config *c) {
     return arm_ok(c->arm_um) && window_ok(c->window) && mode_ok(c->mode) &&
            estimators_ok(c->estimators) && tolerance_ok(c->consensus_tolerance_udeg) &&
            c->paper_max_iterations != 0u && measurement_noise_ok(c) &&
-           warmup_ok(c->kalman_warmup_rows) && c->kalman_noise_shift <= 8u;
+           warmup_ok(c->kalman_warmup_rows) && c->kalman_noise_shift <= 8u && integrity_ok(c);
 }
 
 /* The field an error names must really be invalid. */
@@ -126,6 +136,8 @@ static bool error_names_invalid_field(int err, const struct attitude_config *c) 
         return !warmup_ok(c->kalman_warmup_rows);
     case ATTITUDE_ERR_KALMAN_NOISE_SHIFT:
         return c->kalman_noise_shift > 8u;
+    case ATTITUDE_ERR_INTEGRITY:
+        return !integrity_ok(c);
     default:
         return false; /* PROCESS_NOISE cannot be invalid for a uint32 field; NULL not passed */
     }
@@ -150,6 +162,12 @@ static void config_raw(struct fuzz_input *in, struct attitude_config *c) {
     c->kalman_gate_sigmas_q8 = fuzz_u16(in);
     c->kalman_warmup_rows = fuzz_u8(in);
     c->kalman_noise_shift = fuzz_u8(in);
+    c->range_max_mm = fuzz_u16(in);
+    c->parity_sigmas_q8 = fuzz_u16(in);
+    c->motion_sigmas_q8 = fuzz_u16(in);
+    c->offset_stability_um = fuzz_u16(in);
+    c->drift_flag_um = fuzz_u16(in);
+    c->drift_shift = fuzz_u8(in);
 }
 
 /* Every field inside its valid range, spread over the range. */
@@ -174,6 +192,12 @@ static void config_guided(struct fuzz_input *in, struct attitude_config *c) {
     c->kalman_gate_sigmas_q8 = fuzz_u16(in);
     c->kalman_warmup_rows = (uint8_t)fuzz_range_u32(in, 1u, 8u);
     c->kalman_noise_shift = (uint8_t)fuzz_range_u32(in, 0u, 8u);
+    c->range_max_mm = (uint16_t)fuzz_range_u32(in, 1u, 8189u);
+    c->parity_sigmas_q8 = (uint16_t)fuzz_range_u32(in, 256u, 4096u);
+    c->motion_sigmas_q8 = (uint16_t)fuzz_range_u32(in, 256u, 4096u);
+    c->offset_stability_um = fuzz_u16(in);
+    c->drift_flag_um = fuzz_u16(in);
+    c->drift_shift = (uint8_t)fuzz_range_u32(in, 1u, 8u);
 }
 
 /* --- checks of one output ------------------------------------------------------------ */
@@ -195,16 +219,23 @@ static bool angle_ok(int32_t udeg) {
     return udeg >= -FIX_UDEG_90 && udeg <= FIX_UDEG_90;
 }
 
-/* Flagged and missing readings of sensor k over the last n rows, from the harness's ring. */
-static void fed_counts(unsigned k, uint16_t n, uint16_t *flagged, uint16_t *missing) {
+/* A reading no part gives as a measurement: 0, no-target values, beyond the range. */
+static bool implausible(uint16_t mm) {
+    return mm == 0u || mm > h.cfg.range_max_mm;
+}
+
+/* Flagged (non-zero status or implausible) and missing readings of sensor k over the last
+ * n rows, from the harness's ring; *bad: some present reading was implausible. */
+static void fed_counts(unsigned k, uint16_t n, uint16_t *flagged, uint16_t *missing, bool *bad) {
     *flagged = 0;
     *missing = 0;
     for (uint32_t r = h.rows - n; r < h.rows; ++r) {
         const struct row *row = &h.ring[r % ATTITUDE_WINDOW_MAX];
         if (!row->present[k]) {
             ++*missing;
-        } else if (row->status[k] != 0u) {
+        } else if (row->status[k] != 0u || implausible(row->range[k])) {
             ++*flagged;
+            *bad = *bad || implausible(row->range[k]);
         }
     }
 }
@@ -221,11 +252,12 @@ static void check_estimate(const struct attitude_output *out, enum attitude_esti
     FUZZ_CHECK((unsigned)e->reason < (unsigned)ATTITUDE_REASON_COUNT);
     bool any_unused_reading = false;
     bool sensor_unused = false;
+    bool implausible_seen = false;
     for (unsigned k = 0; k < ATTITUDE_SENSORS; ++k) {
         const struct attitude_sensor_counts *c = &e->counts[k];
         uint16_t flagged;
         uint16_t missing;
-        fed_counts(k, n, &flagged, &missing);
+        fed_counts(k, n, &flagged, &missing, &implausible_seen);
         FUZZ_CHECK(c->flagged == flagged);
         FUZZ_CHECK(c->missing == missing);
         const uint32_t total = (uint32_t)c->used + c->flagged + c->missing + c->rejected;
@@ -257,6 +289,18 @@ static void check_estimate(const struct attitude_output *out, enum attitude_esti
             FUZZ_CHECK(e->status != ATTITUDE_OK);
         }
     }
+    /* issue 15: ok exactly when nothing is wrong, never from a window holding a reading
+     * no part gives as valid; an sd beside every value and none beside no value */
+    FUZZ_CHECK((e->status == ATTITUDE_OK) == (e->why == 0u));
+    if (implausible_seen) {
+        FUZZ_CHECK(e->status != ATTITUDE_OK);
+    }
+    FUZZ_CHECK(e->alpha_valid ? e->alpha_sd_udeg >= 1 : e->alpha_sd_udeg == 0);
+    FUZZ_CHECK(e->beta_valid ? e->beta_sd_udeg >= 1 : e->beta_sd_udeg == 0);
+    FUZZ_CHECK(e->distance_valid ? e->distance_sd_um >= 1 : e->distance_sd_um == 0);
+    FUZZ_CHECK(e->alpha_sd_udeg >= e->alpha_sigma_udeg && e->beta_sd_udeg >= e->beta_sigma_udeg);
+    const attitude_why_t window_bits =
+        ATTITUDE_WHY_PARITY | ATTITUDE_WHY_MOTION | ATTITUDE_WHY_DRIFT;
     switch (e->status) {
     case ATTITUDE_OK:
         FUZZ_CHECK(e->reason == ATTITUDE_REASON_NONE);
@@ -274,7 +318,7 @@ static void check_estimate(const struct attitude_output *out, enum attitude_esti
         if (e->reason == ATTITUDE_REASON_SENSOR_MISSING) {
             FUZZ_CHECK(sensor_unused);
         } else if (e->reason == ATTITUDE_REASON_FLAGGED_DATA) {
-            FUZZ_CHECK(any_unused_reading);
+            FUZZ_CHECK(any_unused_reading || (e->why & window_bits) != 0u);
         }
         break;
     default:
@@ -303,7 +347,7 @@ static void check_constant_window(const struct attitude_output *out) {
     const int32_t arm = h.cfg.arm_um;
     if (enabled(ATTITUDE_EST_CONSENSUS)) {
         const struct attitude_estimate *e = &out->est[ATTITUDE_EST_CONSENSUS];
-        FUZZ_CHECK(e->status == ATTITUDE_OK);
+        FUZZ_CHECK(e->status != ATTITUDE_INVALID); /* ok unless the integrity objects */
         const int32_t alpha = angles_pair_udeg(r->range[ANGLES_C], r->range[ANGLES_A], arm, 2u);
         const int32_t beta = angles_pair_udeg(r->range[ANGLES_B], r->range[ANGLES_D], arm, 2u);
         FUZZ_CHECK(e->alpha_udeg - alpha <= 6 && alpha - e->alpha_udeg <= 6);
@@ -324,7 +368,7 @@ static void check_constant_window(const struct attitude_output *out) {
             sa += s.alpha_udeg[i];
             sb += s.beta_udeg[i];
         }
-        FUZZ_CHECK(e->status == ATTITUDE_OK);
+        FUZZ_CHECK(e->status != ATTITUDE_INVALID);
         FUZZ_CHECK(e->alpha_udeg == (int32_t)fix_div_round_s64(sa, 5));
         FUZZ_CHECK(e->beta_udeg == (int32_t)fix_div_round_s64(sb, 5));
     }
@@ -345,6 +389,8 @@ static void check_same(const struct attitude_output *a, const struct attitude_ou
         FUZZ_CHECK(x->beta_iterations == y->beta_iterations);
         FUZZ_CHECK(x->flatness_valid == y->flatness_valid);
         FUZZ_CHECK(x->flatness_residual_um == y->flatness_residual_um);
+        FUZZ_CHECK(x->alpha_sd_udeg == y->alpha_sd_udeg && x->beta_sd_udeg == y->beta_sd_udeg);
+        FUZZ_CHECK(x->distance_sd_um == y->distance_sd_um && x->why == y->why);
         FUZZ_CHECK(memcmp(x->counts, y->counts, sizeof x->counts) == 0);
     }
 }
@@ -353,7 +399,7 @@ static void check_same(const struct attitude_output *a, const struct attitude_ou
 
 static bool row_complete_valid(const struct row *r) {
     for (unsigned k = 0; k < ATTITUDE_SENSORS; ++k) {
-        if (!r->present[k] || r->status[k] != 0u) {
+        if (!r->present[k] || r->status[k] != 0u || implausible(r->range[k])) {
             return false;
         }
     }

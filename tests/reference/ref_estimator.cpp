@@ -428,7 +428,8 @@ void run_scene(const Scene &sc, int n, int windows) {
                     present[k] = false;
                 }
                 row.r[static_cast<size_t>(k)] = present[k] ? r[k] : 0;
-                if (present[k] && status[k] == 0) {
+                /* a reading of 0 or beyond the mode's range is never used (issue 15) */
+                if (present[k] && status[k] == 0 && r[k] != 0 && r[k] <= cfg.range_max_mm) {
                     row.valid = static_cast<uint8_t>(row.valid | (1u << k));
                 }
             }

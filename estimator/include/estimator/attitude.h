@@ -27,9 +27,11 @@
 #define ESTIMATOR_ATTITUDE_H
 
 #include <stdbool.h>
+#include <stddef.h>
 #include <stdint.h>
 
 #include "estimator/consensus.h"
+#include "estimator/integrity.h"
 #include "estimator/kalman.h"
 #include "estimator/window_stats.h"
 
@@ -84,6 +86,15 @@ enum attitude_reason {
     ATTITUDE_REASON_COUNT,
 };
 
+/* The why set (attitude_why_t and its per-sensor and window bits) is defined in
+ * estimator/integrity.h; here, one bit per enum attitude_reason value r (NONE has none;
+ * the summaries flagged-data and sensor-missing appear only when no other bit says why).
+ * An estimate is `ok` exactly when both angles are valid and its set is empty. */
+#define ATTITUDE_WHY_REASON_SHIFT 32u
+#define ATTITUDE_WHY_REASON(r)    ((attitude_why_t)1u << (ATTITUDE_WHY_REASON_SHIFT + (unsigned)(r)))
+/* Longest text attitude_why_format() can write, terminator included (every bit set). */
+#define ATTITUDE_WHY_TEXT_MAX 544u
+
 /* Errors of attitude_init, one per configuration field (negative). */
 enum attitude_error {
     ATTITUDE_ERR_NONE = 0,
@@ -100,6 +111,8 @@ enum attitude_error {
     ATTITUDE_ERR_KALMAN_WARMUP = -9,            /* kalman_warmup_rows outside 1..8 */
     ATTITUDE_ERR_KALMAN_NOISE_SHIFT = -10,      /* kalman_noise_shift above 8 */
     ATTITUDE_ERR_NULL = -11,                    /* a NULL pointer */
+    ATTITUDE_ERR_INTEGRITY = -12, /* an integrity field out of range (estimator/integrity.h) */
+    ATTITUDE_ERR_BUFFER = -13,    /* attitude_why_format: the buffer is too small */
 };
 
 struct attitude_config {
@@ -120,6 +133,13 @@ struct attitude_config {
     uint8_t kalman_noise_shift;                          /* R tracking gain 2^-shift per window */
     bool kalman_process_noise_auto; /* Q (from kalman_process_noise_um2) and R learned by
                                        the filter (estimator/kalman.h) */
+    /* Integrity (estimator/integrity.h, docs/estimator-design.md "Integrity"): */
+    uint16_t range_max_mm;        /* a reading above this is `range:X` (the mode's range) */
+    uint16_t parity_sigmas_q8;    /* parity test threshold k·256 (false-alarm rate there) */
+    uint16_t motion_sigmas_q8;    /* motion test threshold k·256 */
+    uint16_t offset_stability_um; /* prior 1σ of each sensor's offset, not learnable */
+    uint16_t drift_flag_um;       /* learnt per-sensor drift 1σ above this: `drift` */
+    uint8_t drift_shift;          /* drift learning gain 2^-shift per block of N rows */
 };
 
 /* Counts over the rows of the window, per sensor. */
@@ -139,8 +159,18 @@ struct attitude_estimate {
     int32_t alpha_udeg;       /* rotation about z, micro-degrees */
     int32_t beta_udeg;        /* rotation about y, micro-degrees */
     int32_t distance_um;      /* mean distance x̄, micrometres */
-    int32_t alpha_sigma_udeg; /* predicted 1σ (consensus, kalman); 0: not provided */
+    int32_t alpha_sigma_udeg; /* white-noise 1σ the estimator itself predicts (consensus,
+                                 kalman); 0: not provided. alpha_sd_udeg is the honest one */
     int32_t beta_sigma_udeg;
+    /* One standard deviation of the error against the attitude at the row's time: the
+     * window's white noise, the learnt drift, the offset-stability prior, the 1 mm
+     * quantisation and any motion inside the window (docs/estimator-design.md
+     * "Integrity"). Meaningful only with the matching *_valid flag, then >= 1; an axis
+     * that cannot be observed has no sd (the field reads 0, never a claimed sd of 0). */
+    int32_t alpha_sd_udeg;
+    int32_t beta_sd_udeg;
+    int32_t distance_sd_um;
+    attitude_why_t why;        /* the reasons for anything not ok (empty when ok) */
     uint16_t alpha_iterations; /* consensus iterations (0 for kalman and mean) */
     uint16_t beta_iterations;
     bool flatness_valid;          /* some row had all four readings */
@@ -162,7 +192,25 @@ struct attitude_state {
     struct kalman_state kalman;
     uint32_t rows;                      /* rows pushed since attitude_init */
     uint32_t kalman_rows_since_restart; /* since the filter last restarted (UINT32_MAX: never) */
+    struct integrity_config icfg;
+    struct integrity_state integrity; /* learnt drift */
+    struct integrity_window iw;       /* scratch: the last window's integrity facts */
 };
+
+/* Integrity defaults (sources in docs/estimator-design.md "Integrity"):
+ * range 4000 mm: the VL53L1X long-distance mode's maximum (UM2356 Table 1); the
+ * VL53L0X's long-range mode reaches 2000 mm, so a VL53L0X build may lower it.
+ * parity and motion k = 4: two-sided Gaussian false-alarm rate 6.3e-5 per window.
+ * offset stability 120 um: the excess over white noise of the change between consecutive
+ * 2 s window means of one real static VL53L0X over one hour (the tomisuarez2 log of
+ * ../shared/traces/external: 0.015 mm² beyond 0.045 mm²), drift no single window sees.
+ * drift flag 500 um: a learnt per-sensor drift above 0.5 mm 1σ, a quarter of the
+ * VL53L0X's white noise (2.1 mm 1σ on the same log). */
+#define ATTITUDE_RANGE_MAX_MM_DEFAULT        4000u
+#define ATTITUDE_PARITY_SIGMAS_Q8_DEFAULT    (4u * 256u)
+#define ATTITUDE_MOTION_SIGMAS_Q8_DEFAULT    (4u * 256u)
+#define ATTITUDE_OFFSET_STABILITY_UM_DEFAULT 120u
+#define ATTITUDE_DRIFT_FLAG_UM_DEFAULT       500u
 
 /*
  * The default configuration as an initializer, so a const configuration (the
@@ -181,6 +229,11 @@ struct attitude_state {
         .gate_sigmas_q8 = 5u * 256u, .gate_floor_mm = 3, .kalman_process_noise_um2 = {0, 0, 0},    \
         .kalman_initial_noise_um2 = {4000000u, 4000000u, 4000000u, 4000000u},                      \
         .kalman_gate_sigmas_q8 = 5u * 256u, .kalman_warmup_rows = 5, .kalman_noise_shift = 2,      \
+        .range_max_mm = ATTITUDE_RANGE_MAX_MM_DEFAULT,                                             \
+        .parity_sigmas_q8 = ATTITUDE_PARITY_SIGMAS_Q8_DEFAULT,                                     \
+        .motion_sigmas_q8 = ATTITUDE_MOTION_SIGMAS_Q8_DEFAULT,                                     \
+        .offset_stability_um = ATTITUDE_OFFSET_STABILITY_UM_DEFAULT,                               \
+        .drift_flag_um = ATTITUDE_DRIFT_FLAG_UM_DEFAULT, .drift_shift = 4,                         \
     }
 
 /* Fills cfg with ATTITUDE_CONFIG_DEFAULT. */
@@ -209,5 +262,14 @@ const char *attitude_estimator_name(enum attitude_estimator e);
 const char *attitude_status_name(enum attitude_status s);
 /* Short kebab-case name of a reason ("paper-diverged", ...), or "unknown". */
 const char *attitude_reason_name(enum attitude_reason r);
+
+/*
+ * Writes the names of the reasons in `why`, joined by '+', into buf (cap bytes,
+ * always NUL-terminated): per-sensor names first (no-target:A .. rejected:D), then
+ * parity, motion, drift, then the attitude_reason names; "" when why is empty.
+ * Returns the length written, or ATTITUDE_ERR_BUFFER (buf then holds "") when cap is
+ * too small (ATTITUDE_WHY_TEXT_MAX always suffices), ATTITUDE_ERR_NULL for a NULL buf.
+ */
+int attitude_why_format(attitude_why_t why, char *buf, size_t cap);
 
 #endif /* ESTIMATOR_ATTITUDE_H */

@@ -1,0 +1,124 @@
+/*
+ * Integrity of a window (issue 15): which readings a part cannot give as valid, whether
+ * the four sensors agree with a flat plate (the parity test), whether the plate moved
+ * inside the window, and what one window cannot see: the learnt drift of the sensors'
+ * offsets, a stated offset-stability prior and the 1 mm quantisation. The facade
+ * (estimator/attitude.h) turns these facts into each estimator's standard deviation and
+ * `why` set; docs/estimator-design.md "Integrity" derives every term and says which are
+ * learnt and which are prior.
+ *
+ * Units: per-sensor quantities in Q32 mm / mm²; axis quantities as y = a·tan α,
+ * a·tan β (mm) and x̄ (mm), so one coefficient table serves every estimator. Integer
+ * only, no heap, every loop bounded by the window length.
+ */
+#ifndef ESTIMATOR_INTEGRITY_H
+#define ESTIMATOR_INTEGRITY_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "estimator/angles.h"
+#include "estimator/fixmath.h"
+#include "estimator/window_stats.h"
+
+/*
+ * Why an estimate is not `ok`: a set of reasons (DESIGN.md §6 `why`), one bit each.
+ * Per sensor k (0..3 = A..D):
+ *   no-target:X  a reading the part gives when it saw nothing (8190, 8191, 65535),
+ *                whatever its status: never used
+ *   range:X      a reading of 0 or beyond the mode's range (range_max_mm): never used
+ *   flagged:X    a reading with a non-zero range status
+ *   missing:X    no reading at all (the sensor did not deliver)
+ *   rejected:X   a status-0 reading the estimator's outlier gate left out
+ * Per window:
+ *   parity       the sensors disagree with a flat plate: x_A + x_C − x_B − x_D beyond
+ *                what their sd allows; the sd then covers that disagreement in any one
+ *   motion       the plate moved inside the window (a step or ramp): the sd includes it
+ *   drift        the learnt drift of the sensors' offsets exceeds drift_flag_um
+ * and one bit per enum attitude_reason value r (ATTITUDE_WHY_REASON(r), attitude.h).
+ */
+typedef uint64_t attitude_why_t;
+#define ATTITUDE_WHY_NO_TARGET(k) ((attitude_why_t)1u << (0u + (unsigned)(k)))
+#define ATTITUDE_WHY_RANGE(k)     ((attitude_why_t)1u << (4u + (unsigned)(k)))
+#define ATTITUDE_WHY_FLAGGED(k)   ((attitude_why_t)1u << (8u + (unsigned)(k)))
+#define ATTITUDE_WHY_MISSING(k)   ((attitude_why_t)1u << (12u + (unsigned)(k)))
+#define ATTITUDE_WHY_REJECTED(k)  ((attitude_why_t)1u << (16u + (unsigned)(k)))
+#define ATTITUDE_WHY_PARITY       ((attitude_why_t)1u << 20u)
+#define ATTITUDE_WHY_MOTION       ((attitude_why_t)1u << 21u)
+#define ATTITUDE_WHY_DRIFT        ((attitude_why_t)1u << 22u)
+
+/* The readings no VL53 part gives as a measurement (UM2039 / UM2356: 8190 and 8191 are
+ * the VL53L0X's "no target" / out-of-range values, which popular Arduino libraries log
+ * with status 0; 65535 is an unanswered or saturated 16-bit read). */
+#define INTEGRITY_NO_TARGET_8190  8190u
+#define INTEGRITY_NO_TARGET_8191  8191u
+#define INTEGRITY_NO_TARGET_65535 65535u
+
+/* A motion statistic beyond 3σ (two-sided Gaussian 0.27 %) goes into the sd as the lag
+ * of the window mean behind its last row, even below the `motion` threshold: a ramp too
+ * small to be called motion must not leave more than 3σ of lag out of the sd. */
+#define INTEGRITY_MOTION_ALLOW_Q8 (3u * 256u)
+
+/* The three axes of an estimate, as y = a·tan α, y = a·tan β and x̄. */
+enum integrity_axis { INTEGRITY_ALPHA = 0, INTEGRITY_BETA = 1, INTEGRITY_DISTANCE = 2 };
+#define INTEGRITY_AXES 3u
+
+struct integrity_config {
+    int32_t arm_um;
+    uint16_t range_max_mm;        /* a reading above this is implausible (`range:X`) */
+    uint16_t parity_sigmas_q8;    /* parity threshold k·256 */
+    uint16_t motion_sigmas_q8;    /* motion threshold k·256 */
+    uint16_t offset_stability_um; /* prior per-sensor offset 1σ (not learnable) */
+    uint16_t drift_flag_um;       /* learnt drift 1σ above this: `drift` */
+    uint8_t drift_shift;          /* learning gain 2^-shift per block, after a start-up mean */
+};
+
+/* What is learnt across windows: the per-sensor drift variance from the parity
+ * residual's mean square beyond the white noise the windows themselves predict. */
+struct integrity_state {
+    fix_q32_t drift_mm2; /* per-sensor drift variance, Q32 mm² */
+    uint16_t blocks;     /* blocks learnt, saturating at 2^drift_shift */
+};
+
+/* The facts of one window, common to every estimator. */
+struct integrity_window {
+    attitude_why_t why;                  /* per-sensor bits (no-target, range, flagged, missing)
+                                            and parity, motion, drift */
+    uint8_t used;                        /* sensors with a used reading (the window's set) */
+    fix_q32_t white_mm2[ANGLES_SENSORS]; /* var of each sensor's window mean: s²/n */
+    fix_q32_t extra_mm2[ANGLES_SENSORS]; /* drift + prior + quantisation per sensor mean */
+    fix_q32_t tan_q32[2];                /* slopes for the delta method (0 if unknown) */
+    fix_q32_t parity_mm;                 /* x_A + x_C − x_B − x_D of the means (all four) */
+    bool parity_failed;
+    fix_q32_t lag_mm[INTEGRITY_AXES];        /* end-of-window minus window-mean, LS ramp */
+    fix_q32_t lag_var_mm2[INTEGRITY_AXES];   /* its white-noise variance */
+    bool moved[INTEGRITY_AXES];              /* lag beyond motion_sigmas: `motion` */
+    fix_q32_t extra_var_mm2[INTEGRITY_AXES]; /* what each axis adds to a window estimator's
+                                               white variance: drift, prior, quantisation,
+                                               a failed parity and a detected motion */
+};
+
+/* Config fields as attitude_init checks them: true when usable. */
+bool integrity_config_valid(const struct integrity_config *cfg);
+
+/* Starts the learning from nothing. */
+void integrity_init(struct integrity_state *st);
+
+/* The readings of one sample a part cannot give as valid: bit k set when present[k]
+ * and range_mm[k] is 0, a no-target value or above range_max_mm. */
+uint8_t integrity_implausible(const uint16_t range_mm[ANGLES_SENSORS], uint8_t present_mask,
+                              uint16_t range_max_mm);
+
+/* Window facts from the window's rows (w, as window_compute left it) and statistics s.
+ * learn: this window ends a block of N rows, so the drift learning takes it in. */
+void integrity_assess(struct integrity_state *st, const struct integrity_config *cfg,
+                      struct window_state *w, const struct window_stats *s, bool learn,
+                      struct integrity_window *out);
+
+/* Variance (Q32 mm², saturating) of the axis' least-squares combination of the sensor
+ * means over the set `used` (DESIGN.md §2: y_α = (x_C − x_A)/2 with all four, ...), for
+ * per-sensor variances v[]; false (and 0) when `used` does not observe the axis. */
+bool integrity_axis_var(enum integrity_axis axis, uint8_t used, const fix_q32_t v[ANGLES_SENSORS],
+                        fix_q32_t *var_mm2);
+
+#endif /* ESTIMATOR_INTEGRITY_H */

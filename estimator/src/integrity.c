@@ -1,0 +1,313 @@
+/* Window integrity: plausibility, parity, motion and drift facts (see estimator/integrity.h). */
+#include "estimator/integrity.h"
+
+#include <string.h>
+
+/* 1/12 mm² (the variance of 1 mm rounding) and 1/4 mm² in Q32. */
+#define Q32_TWELFTH ((fix_q32_t)357913941)
+#define Q32_QUARTER ((fix_q32_t)1 << 30)
+
+bool integrity_config_valid(const struct integrity_config *cfg) {
+    return cfg->range_max_mm != 0u && cfg->range_max_mm < INTEGRITY_NO_TARGET_8190 &&
+           cfg->parity_sigmas_q8 >= 256u && cfg->parity_sigmas_q8 <= 16u * 256u &&
+           cfg->motion_sigmas_q8 >= 256u && cfg->motion_sigmas_q8 <= 16u * 256u &&
+           cfg->drift_shift != 0u && cfg->drift_shift <= 8u;
+}
+
+void integrity_init(struct integrity_state *st) {
+    (void)memset(st, 0, sizeof *st);
+}
+
+static bool implausible(uint16_t mm, uint16_t range_max_mm) {
+    return mm == 0u || mm > range_max_mm; /* 8190, 8191, 65535 lie above any valid max */
+}
+
+uint8_t integrity_implausible(const uint16_t range_mm[ANGLES_SENSORS], uint8_t present_mask,
+                              uint16_t range_max_mm) {
+    uint8_t m = 0;
+    for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
+        if ((present_mask & (1u << k)) != 0u && implausible(range_mm[k], range_max_mm)) {
+            m = (uint8_t)(m | (1u << k));
+        }
+    }
+    return m;
+}
+
+/* Least-squares coefficients of an axis over a sensor set, in units of 1/2 (α, β: y =
+ * Σ c_k m_k / 2) or 1/4 (x̄: Σ c_k m_k / 4); returns the log2 of that unit, or -1 when
+ * the set does not observe the axis. DESIGN.md §2: α needs A and C (y = (x_C − x_A)/2),
+ * or one of them with B and D (their midpoint stands for x̄); β likewise. */
+static int axis_coeffs(enum integrity_axis axis, uint8_t used, int8_t c[ANGLES_SENSORS]) {
+    static const int8_t table[9][ANGLES_SENSORS] = {
+        {-1, 0, 1, 0}, {0, -1, 2, -1}, {-2, 1, 0, 1}, /* α: A+C, C+B+D, A+B+D */
+        {0, 1, 0, -1}, {-1, 2, -1, 0}, {1, 0, 1, -2}, /* β: B+D, A+B+C, A+C+D */
+        {1, 1, 1, 1},  {2, 0, 2, 0},   {0, 2, 0, 2},  /* x̄: all, A+C, B+D */
+    };
+    const bool a = (used & ANGLES_BIT(ANGLES_A)) != 0u;
+    const bool b = (used & ANGLES_BIT(ANGLES_B)) != 0u;
+    const bool cc = (used & ANGLES_BIT(ANGLES_C)) != 0u;
+    const bool d = (used & ANGLES_BIT(ANGLES_D)) != 0u;
+    int row = -1;
+    int unit = 1;
+    if (axis == INTEGRITY_ALPHA) {
+        row = (a && cc) ? 0 : (cc && b && d) ? 1 : (a && b && d) ? 2 : -1;
+    } else if (axis == INTEGRITY_BETA) {
+        row = (b && d) ? 3 : (a && b && cc) ? 4 : (a && cc && d) ? 5 : -1;
+    } else {
+        unit = 2;
+        row = (a && b && cc && d) ? 6 : (a && cc) ? 7 : (b && d) ? 8 : -1;
+    }
+    if (row < 0) {
+        return -1;
+    }
+    (void)memcpy(c, table[row], sizeof table[row]);
+    return unit;
+}
+
+bool integrity_axis_var(enum integrity_axis axis, uint8_t used, const fix_q32_t v[ANGLES_SENSORS],
+                        fix_q32_t *var_mm2) {
+    int8_t c[ANGLES_SENSORS];
+    const int unit = axis_coeffs(axis, used, c);
+    *var_mm2 = 0;
+    if (unit < 0) {
+        return false;
+    }
+    fix_q32_t sum = 0;
+    for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
+        sum = fix_sat_add_s64(sum, fix_sat_mul_s64(v[k], (int64_t)c[k] * c[k]));
+    }
+    *var_mm2 = fix_asr_s64(sum, 2u * (unsigned)unit);
+    return true;
+}
+
+/* v² > k²·var for v in Q32 mm, var in Q32 mm², k in Q8: exact in 128 bits. */
+static bool beyond(fix_q32_t v, fix_q32_t var, uint16_t k_q8) {
+    const fix_s128 v2 = fix_s128_mul(v, v);                                          /* Q64 */
+    const fix_s128 lim = fix_s128_shl(fix_s128_mul((int64_t)k_q8 * k_q8, var), 16u); /* Q64 */
+    return fix_s128_cmp(v2, lim) > 0;
+}
+
+/* v² in Q32 mm² from Q32 mm, saturating. */
+static fix_q32_t square_q32(fix_q32_t v) {
+    return fix_s128_to_s64(fix_s128_shr_round(fix_s128_mul(v, v), FIX_Q32_SHIFT), NULL);
+}
+
+/* Per-sensor sums of the used readings against their row index (0 = oldest). */
+struct ramp_sums {
+    int64_t n, si, sii, sx, six;
+    int64_t tail_n[2], tail_sx[2]; /* the newest N/8 and N/4 rows: a late step */
+};
+
+/* The ring pass: per-sensor reasons of the readings the window holds, and the ramp sums
+ * of the readings the window statistics used (valid and inside the gate). */
+static attitude_why_t scan_rows(const struct integrity_config *cfg, const struct window_state *w,
+                                const struct window_stats *s, struct ramp_sums r[ANGLES_SENSORS]) {
+    attitude_why_t why = 0;
+    uint16_t idx = w->oldest;
+    const uint16_t tail_from[2] = {(uint16_t)(w->fill - (w->fill + 7u) / 8u),
+                                   (uint16_t)(w->fill - (w->fill + 3u) / 4u)};
+    for (uint16_t i = 0; i < w->fill; ++i) {
+        const struct window_row *row = &w->ring[idx];
+        idx = (uint16_t)(idx + 1u == w->cfg.length ? 0u : idx + 1u);
+        const uint8_t present = window_row_present(row);
+        const uint8_t valid = window_row_valid(row);
+        for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
+            const uint8_t bit = (uint8_t)(1u << k);
+            const uint16_t x = row->range_mm[k];
+            if ((present & bit) == 0u) {
+                why |= ATTITUDE_WHY_MISSING(k);
+            } else if (x == INTEGRITY_NO_TARGET_8190 || x == INTEGRITY_NO_TARGET_8191 ||
+                       x == INTEGRITY_NO_TARGET_65535) {
+                why |= ATTITUDE_WHY_NO_TARGET(k);
+            } else if (implausible(x, cfg->range_max_mm)) {
+                why |= ATTITUDE_WHY_RANGE(k);
+            } else if ((valid & bit) == 0u) {
+                why |= ATTITUDE_WHY_FLAGGED(k);
+            } else {
+                int32_t dev = 2 * (int32_t)x - s->sensor[k].median_x2_mm;
+                dev = dev < 0 ? -dev : dev;
+                if (s->sensor[k].gate_x2_mm == 0 || dev <= s->sensor[k].gate_x2_mm) {
+                    r[k].n++;
+                    r[k].si += i;
+                    r[k].sii += (int64_t)i * i;
+                    r[k].sx += x;
+                    r[k].six += (int64_t)i * x;
+                    for (unsigned t = 0; t < 2u; ++t) {
+                        if (i >= tail_from[t]) {
+                            r[k].tail_n[t]++;
+                            r[k].tail_sx[t] += x;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    return why;
+}
+
+/* A late step of one sensor: the mean of its newest readings (tail t) minus the window
+ * mean (Q32 mm), and its variance s²(1/m − 1/n); 0 and 0 without tail readings. */
+static void tail_step(const struct ramp_sums *r, unsigned t, fix_q32_t mean, fix_q32_t s2,
+                      fix_q32_t *step, fix_q32_t *var) {
+    *step = 0;
+    *var = 0;
+    if (r->tail_n[t] == 0 || r->tail_n[t] >= r->n) {
+        return;
+    }
+    *step = fix_div_round_s64(r->tail_sx[t] << FIX_Q32_SHIFT, r->tail_n[t]) - mean;
+    *var = fix_muldiv_s64(s2, r->n - r->tail_n[t], r->n * r->tail_n[t], NULL);
+}
+
+/* Least-squares ramp of one sensor: the fitted value at the last row minus the mean
+ * (Q32 mm), and its variance for per-reading variance s2 (Q32 mm²). Fewer than three
+ * readings or one index only: no ramp can be told from noise, 0 and 0. */
+static void ramp(const struct ramp_sums *r, int64_t last, fix_q32_t s2, fix_q32_t *lag,
+                 fix_q32_t *var) {
+    *lag = 0;
+    *var = 0;
+    if (r->n < 3) {
+        return;
+    }
+    const int64_t sxx = r->n * r->sii - r->si * r->si; /* n Σ(i − ī)², < 2^40 */
+    if (sxx <= 0) {
+        return;
+    }
+    const int64_t sxy = r->n * r->six - r->si * r->sx; /* |.| < 2^50 */
+    const int64_t m = r->n * last - r->si;             /* n (i_L − ī), < 2^17 */
+    /* lag = slope (i_L − ī) = sxy m / (n sxx); var = s² (i_L − ī)² / Σ(i − ī)² */
+    const fix_s128 num = fix_s128_shl(fix_s128_mul(sxy, m), FIX_Q32_SHIFT);
+    *lag = fix_s128_div_s64(num, r->n * sxx, NULL);
+    *var = fix_muldiv_s64(s2, m * m, r->n * sxx, NULL);
+}
+
+void integrity_assess(struct integrity_state *st, const struct integrity_config *cfg,
+                      struct window_state *w, const struct window_stats *s, bool learn,
+                      struct integrity_window *out) {
+    (void)memset(out, 0, sizeof *out);
+    struct ramp_sums r[ANGLES_SENSORS];
+    (void)memset(r, 0, sizeof r);
+    out->why = scan_rows(cfg, w, s, r);
+
+    const fix_q32_t prior = fix_muldiv_s64(
+        (int64_t)cfg->offset_stability_um * cfg->offset_stability_um, FIX_Q32_ONE, 1000000, NULL);
+    /* three motion statistics per sensor: the ramp, the newest N/8 and N/4 rows */
+    fix_q32_t lag[3][ANGLES_SENSORS];
+    fix_q32_t lag_var[3][ANGLES_SENSORS];
+    (void)memset(lag, 0, sizeof lag);
+    (void)memset(lag_var, 0, sizeof lag_var);
+    fix_q32_t white_sum = 0; /* Σ of what the window sees */
+    fix_q32_t base_sum = 0;  /* ... plus what is not learnt: the prior and the rounding */
+    fix_q32_t total_sum = 0; /* ... plus the learnt drift: the parity residual's variance */
+    for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
+        const struct window_sensor_stats *ss = &s->sensor[k];
+        if (ss->used == 0u) {
+            continue;
+        }
+        out->used = (uint8_t)(out->used | (1u << k));
+        /* a window of identical readings still has the rounding's 1/12 mm² */
+        const fix_q32_t s2 = ss->var_mm2 > Q32_TWELFTH ? ss->var_mm2 : Q32_TWELFTH;
+        out->white_mm2[k] = fix_div_round_s64(s2, ss->used);
+        /* noise under half a step does not dither the rounding: the mean keeps its error */
+        const fix_q32_t quant = ss->var_mm2 < Q32_QUARTER ? Q32_TWELFTH : 0;
+        out->extra_mm2[k] = fix_sat_add_s64(fix_sat_add_s64(st->drift_mm2, prior), quant);
+        white_sum = fix_sat_add_s64(white_sum, out->white_mm2[k]);
+        base_sum = fix_sat_add_s64(
+            base_sum, fix_sat_add_s64(out->white_mm2[k], fix_sat_add_s64(prior, quant)));
+        total_sum =
+            fix_sat_add_s64(total_sum, fix_sat_add_s64(out->white_mm2[k], out->extra_mm2[k]));
+        ramp(&r[k], (int64_t)w->fill - 1, s2, &lag[0][k], &lag_var[0][k]);
+        tail_step(&r[k], 0u, ss->mean_mm, s2, &lag[1][k], &lag_var[1][k]);
+        tail_step(&r[k], 1u, ss->mean_mm, s2, &lag[2][k], &lag_var[2][k]);
+    }
+
+    /* slopes for the delta method, from the pair means (0: the conservative 1/(1 + t²) = 1) */
+    const struct window_sensor_stats *sa = &s->sensor[ANGLES_A];
+    const struct window_sensor_stats *sb = &s->sensor[ANGLES_B];
+    const struct window_sensor_stats *sc = &s->sensor[ANGLES_C];
+    const struct window_sensor_stats *sd = &s->sensor[ANGLES_D];
+    if (sa->used != 0u && sc->used != 0u) {
+        out->tan_q32[0] = fix_muldiv_s64(sc->mean_mm - sa->mean_mm, 500, cfg->arm_um, NULL);
+    }
+    if (sb->used != 0u && sd->used != 0u) {
+        out->tan_q32[1] = fix_muldiv_s64(sb->mean_mm - sd->mean_mm, 500, cfg->arm_um, NULL);
+    }
+
+    /* parity: a flat plate gives x_A + x_C − x_B − x_D = 0 whatever its attitude */
+    if (out->used == ANGLES_ALL_SENSORS) {
+        out->parity_mm = sa->mean_mm + sc->mean_mm - sb->mean_mm - sd->mean_mm;
+        out->parity_failed = beyond(out->parity_mm, total_sum, cfg->parity_sigmas_q8);
+        if (learn) {
+            /* mean square beyond what is not learnt, shared by four sensors, clipped at a
+             * residual on the test's threshold without learnt drift: a faulty window cannot
+             * teach the test to accept it, nor can a run of them (the limit does not grow
+             * with what was learnt); a larger wander stays a parity failure */
+            fix_q32_t sample = fix_asr_s64(square_q32(out->parity_mm) - base_sum, 2u);
+            const fix_q32_t limit = fix_asr_s64(
+                fix_muldiv_s64(base_sum, (int64_t)cfg->parity_sigmas_q8 * cfg->parity_sigmas_q8,
+                               (int64_t)1 << 16, NULL),
+                2u);
+            sample = sample < 0 ? 0 : (sample > limit ? limit : sample);
+            const uint16_t cap = (uint16_t)(1u << cfg->drift_shift);
+            if (st->blocks < cap) {
+                st->blocks++;
+            }
+            st->drift_mm2 += fix_div_round_s64(sample - st->drift_mm2, st->blocks);
+        }
+    }
+    if (out->parity_failed) {
+        out->why |= ATTITUDE_WHY_PARITY;
+    }
+    const int64_t flag_um = cfg->drift_flag_um;
+    if (st->drift_mm2 > fix_muldiv_s64(flag_um * flag_um, FIX_Q32_ONE, 1000000, NULL)) {
+        out->why |= ATTITUDE_WHY_DRIFT;
+    }
+
+    /* per axis: what a window estimator's white variance misses */
+    const fix_q32_t parity2 = square_q32(out->parity_mm);
+    for (unsigned ax = 0; ax < INTEGRITY_AXES; ++ax) {
+        int8_t c[ANGLES_SENSORS];
+        const int unit = axis_coeffs((enum integrity_axis)ax, out->used, c);
+        if (unit < 0) {
+            continue;
+        }
+        fix_q32_t extra = 0;
+        (void)integrity_axis_var((enum integrity_axis)ax, out->used, out->extra_mm2, &extra);
+        int64_t worst = 0;
+        for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
+            worst = (int64_t)c[k] * c[k] > worst ? (int64_t)c[k] * c[k] : worst;
+        }
+        /* the largest motion statistic beyond INTEGRITY_MOTION_ALLOW_Q8 is taken as the lag
+         * of the window mean behind its last row and goes into the sd; beyond
+         * motion_sigmas the window is also said to have moved. With none beyond, the ramp
+         * stands (its noise, not motion, and not added) */
+        bool allow = false;
+        for (unsigned m = 0; m < 3u; ++m) {
+            int64_t lag_sum = 0;
+            for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
+                lag_sum = fix_sat_add_s64(lag_sum, fix_sat_mul_s64(lag[m][k], c[k]));
+            }
+            const fix_q32_t v = fix_asr_s64(lag_sum, (unsigned)unit);
+            fix_q32_t var = 0;
+            (void)integrity_axis_var((enum integrity_axis)ax, out->used, lag_var[m], &var);
+            const bool big = var > 0 && beyond(v, var, INTEGRITY_MOTION_ALLOW_Q8);
+            if (m == 0u || (big && (!allow || fix_abs_u64(v) > fix_abs_u64(out->lag_mm[ax])))) {
+                out->lag_mm[ax] = v;
+                out->lag_var_mm2[ax] = var;
+            }
+            allow = allow || big;
+            out->moved[ax] = out->moved[ax] || (big && beyond(v, var, cfg->motion_sigmas_q8));
+        }
+        if (out->parity_failed) {
+            /* the disagreement may sit in any one sensor: cover the worst */
+            extra = fix_sat_add_s64(
+                extra, fix_asr_s64(fix_sat_mul_s64(parity2, worst), 2u * (unsigned)unit));
+        }
+        if (allow) {
+            extra = fix_sat_add_s64(extra, square_q32(out->lag_mm[ax]));
+        }
+        if (out->moved[ax]) {
+            out->why |= ATTITUDE_WHY_MOTION;
+        }
+        out->extra_var_mm2[ax] = extra;
+    }
+}
