@@ -41,7 +41,7 @@ const char *attitude_error_message(int err) {
         return "paper_max_iterations is 0";
     case ATTITUDE_ERR_KALMAN_PROCESS_NOISE:
         return "kalman_process_noise_um2 too large, or not 0 in an image built without the "
-               "covariance form";
+               "tracking form";
     case ATTITUDE_ERR_KALMAN_MEASUREMENT_NOISE:
         return "kalman_initial_noise_um2 below 83334 (1/12 mm², the 1 mm rounding)";
     case ATTITUDE_ERR_KALMAN_WARMUP:
@@ -121,10 +121,12 @@ int attitude_init(struct attitude_state *st, const struct attitude_config *cfg) 
     kcfg.gate_floor_mm = cfg->gate_floor_mm;
     kcfg.warmup_rows = cfg->kalman_warmup_rows;
     kcfg.noise_shift = cfg->kalman_noise_shift;
+    kcfg.process_noise_auto = cfg->kalman_process_noise_auto;
     switch (kalman_init(&st->kalman, &kcfg)) {
     case KALMAN_OK:
         break;
     case KALMAN_ERR_PROCESS_NOISE:
+    case KALMAN_ERR_AUTO:
         return ATTITUDE_ERR_KALMAN_PROCESS_NOISE;
     case KALMAN_ERR_MEASUREMENT_NOISE:
         return ATTITUDE_ERR_KALMAN_MEASUREMENT_NOISE;
@@ -700,7 +702,9 @@ bool attitude_push_sample(struct attitude_state *st, const uint16_t range_mm[ATT
     }
     if (cfg->mode == ATTITUDE_TUMBLING && st->rows % cfg->window == 0u) {
         window_clear(&st->window);
-        kalman_reset(&st->kalman);
+        if (!st->kalman.process_noise) { /* with Q > 0 the filter tracks across windows */
+            kalman_reset(&st->kalman);
+        }
     }
     struct window_row *newest = window_push(&st->window, ranges, present_mask, valid_mask);
     if (kalman_on) {

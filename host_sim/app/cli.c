@@ -41,6 +41,47 @@ static const char *option_value(const char *cmd, int argc, char **argv, int *i) 
     return argv[*i];
 }
 
+/* One intensity in mm²/s, plain decimal (digits, one optional point and fraction), as
+ * whole µm²/s; false when it is not exactly that or exceeds 2^32 − 1 µm²/s. */
+static bool parse_intensity(const char *text, size_t len, uint32_t *um2_per_s) {
+    uint64_t whole = 0;
+    uint64_t frac = 0;
+    unsigned frac_digits = 0;
+    bool point = false;
+    bool digit = false;
+    for (size_t i = 0; i < len; ++i) {
+        const char c = text[i];
+        if (c == '.' && !point) {
+            point = true;
+        } else if (c >= '0' && c <= '9') {
+            digit = true;
+            if (!point) {
+                whole = whole * 10u + (uint64_t)(c - '0');
+                if (whole > 5000u) {
+                    return false;
+                }
+            } else if (frac_digits < 6u) {
+                frac = frac * 10u + (uint64_t)(c - '0');
+                frac_digits++;
+            } else if (c != '0') {
+                return false; /* finer than 1 µm²/s */
+            }
+        } else {
+            return false;
+        }
+    }
+    while (frac_digits < 6u) {
+        frac *= 10u;
+        frac_digits++;
+    }
+    const uint64_t v = whole * 1000000u + frac;
+    if (!digit || v > UINT32_MAX) {
+        return false;
+    }
+    *um2_per_s = (uint32_t)v;
+    return true;
+}
+
 static bool known_estimator(const char *name) {
     for (size_t k = 0; cli_estimator_names[k] != NULL; ++k) {
         if (strcmp(cli_estimator_names[k], name) == 0) {
@@ -77,6 +118,8 @@ static const char replay_help[] =
     "  --faults-until ROW   stop injecting faults at trace row ROW (>= 1)\n"
     "  --seed S             seed of the fault injection (default 1)\n"
     "  --i2c-log BUS.csv    every bus transaction: t_us,addr,write,read,result (docs/driver.md)\n"
+    "  --process-noise Q    Kalman random-walk intensities QD,QT in mm²/s (x̄; a·tan α and\n"
+    "                       a·tan β; Q per row = q·period), or auto (learned); default 0\n"
     "  --quiet              no summary table on stdout\n"
     "  --help, -h           this text\n"
     "exit status: 0 done, 1 bad input or a failed run, 2 bad command line\n";
@@ -187,6 +230,22 @@ int cli_parse_replay(int argc, char **argv, struct replay_args *out) {
             }
             if (!cli_parse_u64(v, 1, UINT32_MAX, &out->faults_until_row)) {
                 return usage_error(cmd, "--faults-until: expected a row number >= 1", v);
+            }
+        } else if (strcmp(arg, "--process-noise") == 0) {
+            if ((v = option_value(cmd, argc, argv, &i)) == NULL) {
+                return -1;
+            }
+            const char *comma = strchr(v, ',');
+            if (strcmp(v, "auto") == 0) {
+                out->process_noise_auto = true;
+            } else if (comma == NULL ||
+                       !parse_intensity(v, (size_t)(comma - v), &out->process_noise_um2_per_s[0]) ||
+                       !parse_intensity(comma + 1, strlen(comma + 1),
+                                        &out->process_noise_um2_per_s[1])) {
+                return usage_error(cmd,
+                                   "--process-noise: expected QD,QT (mm²/s, decimals up to "
+                                   "4294.967295, at most 6 places) or auto",
+                                   v);
             }
         } else if (strcmp(arg, "--quiet") == 0) {
             out->quiet = true;

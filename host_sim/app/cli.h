@@ -4,6 +4,7 @@
  *   host_sim replay TRACE.csv --estimator NAME [--window N] [--mode tumbling|sliding]
  *                             [--out EST.csv] [--report REPORT.json] [--plot FIG.png]
  *                             [--faults SPEC] [--seed S] [--i2c-log BUS.csv]
+ *                             [--process-noise QD,QT | --process-noise auto]
  *   host_sim scenario NAME [--seed S] --trace-out TRACE.csv
  *   host_sim camera ...      (synthetic ToF camera + pose pipeline; see docs/pose.md)
  */
@@ -27,6 +28,10 @@ struct replay_args {
     uint64_t seed;
     bool quiet;                /* --quiet: no summary table on stdout */
     uint64_t faults_until_row; /* --faults-until ROW: injection stops there (0: never) */
+    /* --process-noise QD,QT: random-walk intensities of x̄ and of a·tan α, a·tan β in
+     * µm²/s (given in mm²/s); --process-noise auto: learned by the filter */
+    uint32_t process_noise_um2_per_s[2];
+    bool process_noise_auto;
     const char *i2c_log_path;  /* --i2c-log BUS.csv: every bus transaction (NULL: none) */
 };
 

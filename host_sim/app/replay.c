@@ -336,6 +336,16 @@ static int configure(struct replay *r) {
                 bad != NULL ? bad : "no VL53L1X timing budget fits the period", VL53_IMP_MARGIN_MS);
         return -1;
     }
+    if (tof_app_config_process_noise(&r->app_cfg, r->args->process_noise_um2_per_s[0],
+                                     r->args->process_noise_um2_per_s[1],
+                                     r->args->process_noise_auto) != HAL_OK) {
+        fprintf(stderr,
+                "host_sim replay: --process-noise: %u,%u µm²/s do not give a Q per row in "
+                "(0, 4294 mm²] at period_ms %u of %s\n",
+                r->args->process_noise_um2_per_s[0], r->args->process_noise_um2_per_s[1],
+                r->period_ms, r->args->trace_path);
+        return -1;
+    }
     const uint32_t period_us = r->period_ms * 1000u;
     for (unsigned e = 0; e < ATTITUDE_EST_COUNT; ++e) {
         if (strcmp(attitude_estimator_name((enum attitude_estimator)e), r->args->estimator) == 0) {

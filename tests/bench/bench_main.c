@@ -8,6 +8,12 @@
  *   kalman     one four-measurement Kalman update, run as the firmware runs it by
  *              default (tumbling windows: the filter restarts at each window's first
  *              row; the warm-up rows, buffered and then processed at once, excluded)
+ *   kalman_track  the same row with process noise (the tracking form, Q = 0.01 mm² per
+ *              row on every state), one filter over the whole workload as sliding
+ *              windows run it (no restart; the warm-up rows excluded)
+ *   sample_track  (fixed only) `sample` with the facade's Kalman filter tracking (the
+ *              same Q, tumbling windows: with Q > 0 the filter is not restarted at a
+ *              window's start, and R follows each window's statistics)
  *   window     (fixed only) the whole window-end work of all four estimators
  * `fixed` is the product's estimator; `float` the plain single-precision baseline
  * in tests/bench/float_baseline.c. tools/bench_report.py collects the lines.
@@ -26,11 +32,17 @@
 
 #define BENCH_WINDOWS 10u
 #define BENCH_N       100u
+/* The tracking benchmarks' process noise per row: 0.01 mm² (0.5 mm²/s at 20 ms). */
+#define BENCH_Q_Q32 ((fix_q32_t)42949673)
+#define BENCH_Q_UM2 10000u
 
 static struct attitude_state est;
 static struct kalman_state kal;
+static struct kalman_state kal_track;
+static struct attitude_state est_track;
 static struct flt_window fwin;
 static struct flt_kalman fkal;
+static struct flt_kalman fkal_track;
 static volatile float float_sink; /* keeps the float results alive */
 static volatile int32_t fixed_sink;
 
@@ -96,12 +108,22 @@ static void bench_fixed(const char *cpu) {
         .warmup_rows = 5,
         .noise_shift = 2,
     };
-    if (kalman_init(&kal, &kcfg) != KALMAN_OK) {
+    struct kalman_config tcfg = kcfg;
+    tcfg.process_noise_mm2[0] = BENCH_Q_Q32;
+    tcfg.process_noise_mm2[1] = BENCH_Q_Q32;
+    tcfg.process_noise_mm2[2] = BENCH_Q_Q32;
+    struct attitude_config track_cfg = cfg;
+    for (unsigned i = 0; i < KALMAN_STATES; ++i) {
+        track_cfg.kalman_process_noise_um2[i] = BENCH_Q_UM2;
+    }
+    if (kalman_init(&kal, &kcfg) != KALMAN_OK || kalman_init(&kal_track, &tcfg) != KALMAN_OK ||
+        attitude_init(&est_track, &track_cfg) != ATTITUDE_ERR_NONE) {
         semihost_write_stdout("bench: kalman_init failed\n", 26);
         semihost_exit(1);
     }
     uint64_t sample_total = 0, window_total = 0, consensus_total = 0, kalman_total = 0;
-    uint32_t samples = 0, windows = 0, kalman_rows = 0;
+    uint64_t track_total = 0, sample_track_total = 0;
+    uint32_t samples = 0, windows = 0, kalman_rows = 0, track_rows = 0, track_samples = 0;
     const uint8_t status[4] = {0, 0, 0, 0};
     const bool present[4] = {true, true, true, true};
     lcg_state = 12345u;
@@ -132,6 +154,20 @@ static void bench_fixed(const char *cpu) {
                 kalman_total += measured(k0, k1);
                 ++kalman_rows;
             }
+            const uint32_t k2 = insn_counter_ticks();
+            kalman_push_row(&kal_track, range, 0x0Fu, &rows);
+            const uint32_t k3 = insn_counter_ticks();
+            if (w > 0u || i >= kcfg.warmup_rows) {
+                track_total += measured(k2, k3);
+                ++track_rows;
+            }
+            const uint32_t s0 = insn_counter_ticks();
+            const bool track_ready = attitude_push_sample(&est_track, range, status, present, &out);
+            const uint32_t s1 = insn_counter_ticks();
+            if (!track_ready) {
+                sample_track_total += measured(s0, s1);
+                ++track_samples;
+            }
         }
         /* The product consensus of this window, from its statistics. */
         struct consensus_product_input in;
@@ -154,13 +190,18 @@ static void bench_fixed(const char *cpu) {
     report(cpu, "fixed", "sample", sample_total, samples);
     report(cpu, "fixed", "consensus", consensus_total, BENCH_WINDOWS);
     report(cpu, "fixed", "kalman", kalman_total, kalman_rows);
+    report(cpu, "fixed", "kalman_track", track_total, track_rows);
+    report(cpu, "fixed", "sample_track", sample_track_total, track_samples);
     report(cpu, "fixed", "window", window_total, windows);
 }
 
 static void bench_float(const char *cpu) {
-    uint64_t sample_total = 0, consensus_total = 0, kalman_total = 0;
+    uint64_t sample_total = 0, consensus_total = 0, kalman_total = 0, track_total = 0;
     uint32_t samples = 0;
     lcg_state = 12345u;
+    flt_kalman_init(&fkal_track, 30.0f, 4.0f);
+    /* the same Q per row as the fixed benchmark, in the float state's units (tan²) */
+    flt_kalman_set_process_noise(&fkal_track, 0.01f, 0.01f / 900.0f, 0.01f / 900.0f);
     for (unsigned w = 0; w < BENCH_WINDOWS; ++w) {
         flt_window_init(&fwin, 30.0f);
         flt_kalman_init(&fkal, 30.0f, 4.0f);
@@ -174,6 +215,10 @@ static void bench_float(const char *cpu) {
             const uint32_t t2 = insn_counter_ticks();
             sample_total += measured(t0, t1) + measured(t1, t2);
             kalman_total += measured(t1, t2);
+            const uint32_t t3 = insn_counter_ticks();
+            flt_kalman_update(&fkal_track, range);
+            const uint32_t t4 = insn_counter_ticks();
+            track_total += measured(t3, t4);
             ++samples;
         }
         struct flt_result res;
@@ -181,11 +226,12 @@ static void bench_float(const char *cpu) {
         flt_consensus(&fwin, 0.001f, &res);
         const uint32_t c1 = insn_counter_ticks();
         consensus_total += measured(c0, c1);
-        float_sink = res.alpha_deg + fkal.x[1];
+        float_sink = res.alpha_deg + fkal.x[1] + fkal_track.x[1];
     }
     report(cpu, "float", "sample", sample_total, samples);
     report(cpu, "float", "consensus", consensus_total, BENCH_WINDOWS);
     report(cpu, "float", "kalman", kalman_total, samples);
+    report(cpu, "float", "kalman_track", track_total, samples);
 }
 
 int main(void) {

@@ -117,7 +117,16 @@ void flt_kalman_init(struct flt_kalman *k, float arm_mm, float r_mm2) {
     }
 }
 
+void flt_kalman_set_process_noise(struct flt_kalman *k, float q_mean, float q_alpha, float q_beta) {
+    k->q[0] = q_mean;
+    k->q[1] = q_alpha;
+    k->q[2] = q_beta;
+}
+
 void flt_kalman_update(struct flt_kalman *k, const uint16_t range_mm[4]) {
+    for (unsigned i = 0; i < 3; ++i) {
+        k->p[i][i] += k->q[i];
+    }
     /* Rows of H (Eq. 5): A [1 -a 0], B [1 0 a], C [1 a 0], D [1 0 -a]. */
     const float a = k->arm_mm;
     const float h[4][3] = {{1.0f, -a, 0.0f}, {1.0f, 0.0f, a}, {1.0f, a, 0.0f}, {1.0f, 0.0f, -a}};

@@ -21,6 +21,7 @@ struct flt_kalman {
     float x[3];    /* x̄, tan α, tan β */
     float p[3][3]; /* covariance */
     float r[4];    /* measurement noise per sensor, mm² */
+    float q[3];    /* process noise per update (x̄ mm², tan² α, tan² β); 0: static */
     float arm_mm;
 };
 
@@ -41,7 +42,11 @@ void flt_consensus(const struct flt_window *w, float tol_deg, struct flt_result 
 /* Start the filter at a diffuse prior. */
 void flt_kalman_init(struct flt_kalman *k, float arm_mm, float r_mm2);
 
-/* One four-measurement update (identity dynamics, scalar updates, Joseph form). */
+/* Process noise added to P's diagonal before each update (the tracking filter). */
+void flt_kalman_set_process_noise(struct flt_kalman *k, float q_mean, float q_alpha, float q_beta);
+
+/* One four-measurement update (identity dynamics: P += Q, then scalar updates, Joseph
+ * form). */
 void flt_kalman_update(struct flt_kalman *k, const uint16_t range_mm[4]);
 
 #endif /* TESTS_BENCH_FLOAT_BASELINE_H */

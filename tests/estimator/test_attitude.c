@@ -13,6 +13,8 @@
 #include <string.h>
 #include <cmocka.h>
 
+#include "test_rand.h"
+
 #include "estimator/attitude.h"
 
 #define TEST_PI 3.14159265358979323846
@@ -22,21 +24,9 @@ static struct attitude_state st2;
 static struct attitude_output out;
 static struct attitude_output out2;
 
-static uint64_t rs = 0x9E3779B97F4A7C15u;
-static double urand(void) {
-    rs ^= rs << 13;
-    rs ^= rs >> 7;
-    rs ^= rs << 17;
-    return (double)(rs >> 11) / 9007199254740992.0;
-}
+static struct test_rng rng = {0x9E3779B97F4A7C15u}; /* tests/common/test_rand.h */
 static double gauss(void) {
-    double u, v, s;
-    do {
-        u = 2 * urand() - 1;
-        v = 2 * urand() - 1;
-        s = u * u + v * v;
-    } while (s >= 1 || s == 0);
-    return u * sqrt(-2 * log(s) / s);
+    return test_gauss(&rng);
 }
 
 static const uint8_t all_ok[4] = {0, 0, 0, 0};

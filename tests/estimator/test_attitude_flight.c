@@ -3,8 +3,9 @@
  * kalman, cmake/toolchain/board-nucleo-l476rg.cmake; this test compiles attitude.c with
  * that definition): the default selects exactly the built estimators, a configuration
  * selecting one that is not built is refused, and the built ones estimate a tilted
- * plate as in the full build while the others read "disabled". Its Kalman filter has no
- * covariance form (KALMAN_COVARIANCE_BUILT = 0): a process noise is refused.
+ * plate as in the full build while the others read "disabled". Its Kalman filter has only
+ * the tracking form (KALMAN_TRACKING_BUILT = 1, KALMAN_INFORMATION_BUILT = 0): it runs
+ * Q = 0 and a process noise alike, and with Q > 0 follows a plate that moves.
  */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -21,7 +22,8 @@
     (ATTITUDE_EST_BIT(ATTITUDE_EST_CONSENSUS) | ATTITUDE_EST_BIT(ATTITUDE_EST_KALMAN))
 
 _Static_assert(ATTITUDE_EST_BUILT == FLIGHT_SET, "compiled with the flight estimator set");
-_Static_assert(KALMAN_COVARIANCE_BUILT == 0, "compiled without the covariance form");
+_Static_assert(KALMAN_TRACKING_BUILT == 1 && KALMAN_INFORMATION_BUILT == 0,
+               "compiled with the tracking form only");
 
 static struct attitude_state st;
 static struct attitude_output out;
@@ -93,22 +95,44 @@ static void test_built_estimators_run_others_disabled(void **state) {
     }
 }
 
-static void test_process_noise_refused(void **state) {
+/* A plate stepping from α = 0 to α = 3° halfway through a sliding run: with Q > 0 the
+ * tracking form follows it within a few dozen rows. */
+static void test_process_noise_tracks_a_step(void **state) {
     (void)state;
     struct attitude_config cfg;
     attitude_config_default(&cfg);
-    cfg.kalman_process_noise_um2[1] = 1u;
-    assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_KALMAN_PROCESS_NOISE);
-    assert_string_equal(attitude_error_message(ATTITUDE_ERR_KALMAN_PROCESS_NOISE),
-                        "kalman_process_noise_um2 too large, or not 0 in an image built without "
-                        "the covariance form");
-    cfg.kalman_process_noise_um2[1] = 0u;
+    cfg.kalman_process_noise_um2[0] = 10000u; /* 0.01 mm² per row */
+    cfg.kalman_process_noise_um2[1] = 10000u;
+    cfg.kalman_process_noise_um2[2] = 10000u;
+    cfg.mode = ATTITUDE_SLIDING;
     assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_NONE);
+    const uint8_t status[4] = {0, 0, 0, 0};
+    const bool present[4] = {true, true, true, true};
+    int32_t last_alpha = 0;
+    for (unsigned i = 0; i < 600; ++i) {
+        const double ta = tan((i < 300 ? 0.0 : 3.0) * TEST_PI / 180);
+        const double x[4] = {300 - 30 * ta, 300.0, 300 + 30 * ta, 300.0};
+        uint16_t r[4];
+        for (unsigned k = 0; k < 4; ++k) {
+            /* whole millimetres, dithered between the two neighbours in proportion */
+            const double f = x[k] - floor(x[k]);
+            const double u = ((double)((i * 37u + k * 11u) % 100u) + 0.5) / 100.0;
+            r[k] = (uint16_t)(floor(x[k]) + (u < f ? 1 : 0));
+        }
+        if (attitude_push_sample(&st, r, status, present, &out)) {
+            last_alpha = out.est[ATTITUDE_EST_KALMAN].alpha_udeg;
+            if (i == 299u) {
+                assert_true(labs((long)last_alpha) < 300000L);
+            }
+        }
+    }
+    print_message("alpha after the step %ld udeg\n", (long)last_alpha);
+    assert_true(labs((long)last_alpha - 3000000L) < 300000L);
 }
 
 int main(void) {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_process_noise_refused),
+        cmocka_unit_test(test_process_noise_tracks_a_step),
         cmocka_unit_test(test_default_selects_the_built_set),
         cmocka_unit_test(test_unbuilt_estimator_refused),
         cmocka_unit_test(test_built_estimators_run_others_disabled),

@@ -14,16 +14,15 @@
 #include <string.h>
 #include <cmocka.h>
 
+#include "test_rand.h"
+
 #include "estimator/consensus.h"
 
 #define TEST_PI 3.14159265358979323846
 
-static uint64_t rs = 88172645463325252u;
+static struct test_rng rng = {88172645463325252u}; /* tests/common/test_rand.h */
 static double urand(void) {
-    rs ^= rs << 13;
-    rs ^= rs >> 7;
-    rs ^= rs << 17;
-    return (double)(rs >> 11) / 9007199254740992.0;
+    return test_urand(&rng);
 }
 
 static int64_t to_q32(double v) {

@@ -12,6 +12,8 @@
 #include <stdlib.h>
 #include <cmocka.h>
 
+#include "test_rand.h"
+
 #include "estimator/fixmath.h"
 
 #define TEST_PI 3.14159265358979323846
@@ -23,13 +25,9 @@ static i128 to_i128(fix_s128 v) {
     return (i128)(((unsigned __int128)v.hi << 64) | v.lo);
 }
 
-static uint64_t lcg_state = 0x9E3779B97F4A7C15u;
+static struct test_rng rng = {0x9E3779B97F4A7C15u}; /* tests/common/test_rand.h */
 static uint64_t next_u64(void) {
-    /* xorshift64*: deterministic test inputs */
-    lcg_state ^= lcg_state >> 12;
-    lcg_state ^= lcg_state << 25;
-    lcg_state ^= lcg_state >> 27;
-    return lcg_state * 0x2545F4914F6CDD1Du;
+    return test_u64(&rng);
 }
 static int64_t next_s64_bits(unsigned bits) {
     const uint64_t v = next_u64() >> (64u - bits);

@@ -13,28 +13,22 @@
 #include <string.h>
 #include <cmocka.h>
 
+#include "test_rand.h"
+
 #include "estimator/kalman.h"
+#include "kalman_form.h" /* white-box: the forms' private state */
 
 #define TEST_PI 3.14159265358979323846
 #define Q32     4294967296.0
 
 static struct kalman_state kf;
 
-static uint64_t rs = 0x243F6A8885A308D3u;
+static struct test_rng rng = {0x243F6A8885A308D3u}; /* tests/common/test_rand.h */
 static double urand(void) {
-    rs ^= rs << 13;
-    rs ^= rs >> 7;
-    rs ^= rs << 17;
-    return (double)(rs >> 11) / 9007199254740992.0;
+    return test_urand(&rng);
 }
 static double gauss(void) {
-    double u, v, s;
-    do {
-        u = 2 * urand() - 1;
-        v = 2 * urand() - 1;
-        s = u * u + v * v;
-    } while (s >= 1 || s == 0);
-    return u * sqrt(-2 * log(s) / s);
+    return test_gauss(&rng);
 }
 
 static struct kalman_config default_config(void) {
@@ -219,7 +213,9 @@ static void dkf_update(struct dkf *d, unsigned s, double z, double r) {
  * the covariance form (Q > 0, its block updates and exact Joseph updates mixed). Unequal
  * noise, readings dropped at random, the B/D pair missing for the first 60 rows (the β
  * axis is the prior alone) and again later, every R changed in mid-run (the sums' units
- * follow). P within 1e-6 relative + 16 LSB of Q32, the state within 1e-5 mm. */
+ * follow). P within 1e-6 relative + 16 LSB of Q32, the state within 1e-5 mm; in the
+ * tracking form's steady state (its gains kept once P settled within 2^-12 of its trace)
+ * P within 1e-3 relative, the state within 1e-3 mm. */
 static void test_forms_match_double(void **state) {
     (void)state;
     double worst_x[2] = {0, 0}, worst_p[2] = {0, 0}; /* info, cov */
@@ -276,14 +272,18 @@ static void test_forms_match_double(void **state) {
                     const double scale = sqrt(d.p[a][a] * d.p[b][b]);
                     const double rel = fabs(pf - d.p[a][b]) / (scale + 16.0 / Q32 * 1e6);
                     worst_p[!info] = rel > worst_p[!info] ? rel : worst_p[!info];
-                    if (fabs(pf - d.p[a][b]) > 1e-6 * scale + 16.0 / Q32 || p[a][b] != p[b][a]) {
+                    /* a steady row (kalman_track.c) keeps the P that settled within 2^-12
+                     * of its trace: 1e-3 of the scale then, 1e-6 otherwise */
+                    const bool steady = !info && kalman_cov_of(&kf)->steady;
+                    const double tol_p = steady ? 1e-3 : 1e-6;
+                    if (fabs(pf - d.p[a][b]) > tol_p * scale + 16.0 / Q32 || p[a][b] != p[b][a]) {
                         fail_msg("trial %d (%s) row %d P[%u][%u]: %.9g, double %.9g", trial,
                                  info ? "info" : "cov", row, a, b, pf, d.p[a][b]);
                     }
                 }
                 const double dxa = fabs((double)kf.x[a] / Q32 - d.x[a]);
                 worst_x[!info] = dxa > worst_x[!info] ? dxa : worst_x[!info];
-                if (dxa > 1e-5) {
+                if (dxa > (!info && kalman_cov_of(&kf)->steady ? 1e-3 : 1e-5)) {
                     fail_msg("trial %d (%s) row %d x[%u]: %.9f, double %.9f", trial,
                              info ? "info" : "cov", row, a, (double)kf.x[a] / Q32, d.x[a]);
                 }
@@ -323,7 +323,7 @@ static void test_fast_solve_matches_double(void **state) {
             struct kalman_rows rows;
             kalman_push_row(&kf, z, 0x0F, &rows);
             if (row == 0) {
-                d.x[0] = kf.f.info.x0_mm; /* the warm-up's prior mean */
+                d.x[0] = kalman_info_of(&kf)->x0_mm; /* the warm-up's prior mean */
             }
             for (unsigned s = 0; s < 4; ++s) {
                 dkf_update(&d, s, z[s], (double)kf.r[s] / Q32);
@@ -345,9 +345,9 @@ static void test_fast_solve_matches_double(void **state) {
             }
         }
         /* the run stayed uniform and took the fast solve from its first rows */
-        assert_true(kf.f.info.uniform && kf.f.info.fast_ready);
-        assert_int_equal(kf.f.info.n, 300);
-        assert_true(kf.f.info.n_fast <= 2u);
+        assert_true(kalman_info_of(&kf)->uniform && kalman_info_of(&kf)->fast_ready);
+        assert_int_equal(kalman_info_of(&kf)->n, 300);
+        assert_true(kalman_info_of(&kf)->n_fast <= 2u);
     }
     print_message("fast solve vs double: x within %.2g mm\n", worst);
 }
@@ -373,7 +373,7 @@ static void test_fast_solve_hands_large_slopes_to_general(void **state) {
         struct kalman_rows rows;
         kalman_push_row(&kf, z, 0x0F, &rows);
         if (row == 0) {
-            d.x[0] = kf.f.info.x0_mm;
+            d.x[0] = kalman_info_of(&kf)->x0_mm;
         }
         for (unsigned s = 0; s < 4; ++s) {
             dkf_update(&d, s, z[s], (double)kf.r[s] / Q32);
@@ -412,7 +412,7 @@ static void test_information_form_sums_halve(void **state) {
     c.initial_noise_mm2[2] = (int64_t)9 << 32; /* unequal weights */
     assert_int_equal(kalman_init(&kf, &c), KALMAN_OK);
     kf.started = true; /* prior mean 0: every deviation is the reading itself */
-    const int32_t e_start = kf.f.info.e;
+    const int32_t e_start = kalman_info_of(&kf)->e;
     struct dkf d;
     dkf_init(&d);
     static const uint16_t base[4] = {65000, 65300, 65500, 65200};
@@ -425,7 +425,7 @@ static void test_information_form_sums_halve(void **state) {
         struct kalman_rows rows;
         kalman_push_row(&kf, z, 0x0F, &rows);
     }
-    assert_true(kf.f.info.e < e_start); /* the sums halved */
+    assert_true(kalman_info_of(&kf)->e < e_start); /* the sums halved */
     fix_q32_t p[3][3];
     kalman_covariance(&kf, p);
     for (unsigned a = 0; a < 3; ++a) {
@@ -435,8 +435,8 @@ static void test_information_form_sums_halve(void **state) {
             assert_true(fabs((double)p[a][b] / Q32 - d.p[a][b]) < 1e-5 * scale + 16.0 / Q32);
         }
     }
-    print_message("sums halved %d times; x within %.2g mm of double\n", e_start - kf.f.info.e,
-                  fabs((double)kf.x[0] / Q32 - d.x[0]));
+    print_message("sums halved %d times; x within %.2g mm of double\n",
+                  e_start - kalman_info_of(&kf)->e, fabs((double)kf.x[0] / Q32 - d.x[0]));
 }
 
 static void test_long_run_stays_positive_definite(void **state) {
@@ -457,9 +457,9 @@ static void test_long_run_stays_positive_definite(void **state) {
         }
         push(x, (uint8_t)(1 + (int)(urand() * 15)), &rows); /* random subsets */
         for (unsigned a = 0; a < 3; ++a) {
-            assert_true(kf.f.cov.p[a][a] > 0);
+            assert_true(kalman_cov_of(&kf)->p[a][a] > 0);
             for (unsigned b = 0; b < 3; ++b) {
-                assert_true(kf.f.cov.p[a][b] == kf.f.cov.p[b][a]);
+                assert_true(kalman_cov_of(&kf)->p[a][b] == kalman_cov_of(&kf)->p[b][a]);
             }
         }
     }
@@ -468,7 +468,7 @@ static void test_long_run_stays_positive_definite(void **state) {
     double p[3][3];
     for (unsigned a = 0; a < 3; ++a) {
         for (unsigned b = 0; b < 3; ++b) {
-            p[a][b] = (double)kf.f.cov.p[a][b] / Q32;
+            p[a][b] = (double)kalman_cov_of(&kf)->p[a][b] / Q32;
         }
     }
     assert_true(p[0][0] * p[1][1] - p[0][1] * p[1][0] > 0);
@@ -663,8 +663,8 @@ static void test_extreme_noise_and_long_outage(void **state) {
         push(x, 0x00, &rows);
     }
     for (unsigned a = 0; a < 3; ++a) {
-        assert_true(kf.f.cov.p[a][a] > 0);
-        assert_true(kf.f.cov.p[a][a] <= KALMAN_P0_MM2_Q32 << 4);
+        assert_true(kalman_cov_of(&kf)->p[a][a] > 0);
+        assert_true(kalman_cov_of(&kf)->p[a][a] <= KALMAN_P0_MM2_Q32 << 4);
     }
     /* and the readings coming back are used again */
     const uint16_t r[4] = {0, 65535, 65535, 0};

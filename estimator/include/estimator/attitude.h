@@ -105,7 +105,7 @@ enum attitude_error {
     ATTITUDE_ERR_TOLERANCE = -5,            /* consensus_tolerance_udeg outside [1, 10000000] */
     ATTITUDE_ERR_PAPER_ITERATIONS = -6,     /* paper_max_iterations is 0 */
     ATTITUDE_ERR_KALMAN_PROCESS_NOISE = -7, /* kalman_process_noise_um2 above 2^32, or not 0
-                                               without KALMAN_COVARIANCE_BUILT */
+                                               (or auto) without KALMAN_TRACKING_BUILT */
     ATTITUDE_ERR_KALMAN_MEASUREMENT_NOISE = -8, /* a kalman_initial_noise_um2 below the
                                                    1/12 mm² of 1 mm rounding */
     ATTITUDE_ERR_KALMAN_WARMUP = -9,            /* kalman_warmup_rows outside 1..8 */
@@ -131,6 +131,8 @@ struct attitude_config {
     uint16_t kalman_gate_sigmas_q8;                      /* innovation gate k; 0: off */
     uint8_t kalman_warmup_rows;                          /* robust start: rows buffered */
     uint8_t kalman_noise_shift;                          /* R tracking gain 2^-shift per window */
+    bool kalman_process_noise_auto; /* Q (from kalman_process_noise_um2) and R learned by
+                                       the filter (estimator/kalman.h) */
     /* Integrity (estimator/integrity.h, docs/estimator-design.md "Integrity"): */
     uint16_t range_max_mm;        /* a reading above this is `range:X` (the mode's range) */
     uint16_t parity_sigmas_q8;    /* parity test threshold k·256 (false-alarm rate there) */

@@ -73,20 +73,28 @@
 /* Diffuse prior: σ = 4096 mm on each state (P0 = 2^24 mm²). */
 #define KALMAN_P0_MM2_Q32 ((int64_t)1 << 56)
 
-/* Whether the covariance form (Q > 0) is built: a flight image that runs the static
- * protocol only defines it 0 (with TOF_BOARD_DEFINITIONS) and kalman_init() then
- * refuses a non-zero Q. */
-#ifndef KALMAN_COVARIANCE_BUILT
-#define KALMAN_COVARIANCE_BUILT 1
+/* The forms an image contains (cmake/TofOptions.cmake, TOF_KALMAN_FORMS; both by default):
+ * the tracking (covariance) form runs any Q, and Q = 0 too when it is the only one built;
+ * the information form runs Q = 0, and an image with only it refuses a non-zero Q. */
+#ifndef KALMAN_TRACKING_BUILT
+#define KALMAN_TRACKING_BUILT 1
 #endif
+#ifndef KALMAN_INFORMATION_BUILT
+#define KALMAN_INFORMATION_BUILT 1
+#endif
+
+/* Words of storage for the form's private state (estimator/src/kalman_form.h lays it out
+ * and checks at compile time that it fits). */
+#define KALMAN_FORM_WORDS 27u /* the tracking form, the larger */
 
 enum kalman_error {
     KALMAN_OK = 0,
     KALMAN_ERR_PROCESS_NOISE = -1,     /* a Q entry negative or above P0, or non-zero
-                                          without KALMAN_COVARIANCE_BUILT */
+                                          without KALMAN_TRACKING_BUILT */
     KALMAN_ERR_MEASUREMENT_NOISE = -2, /* an initial R not in [1/12 mm², 2^20 mm²] */
     KALMAN_ERR_WARMUP = -3,            /* warmup_rows outside 1..KALMAN_WARMUP_MAX */
     KALMAN_ERR_NOISE_SHIFT = -4,       /* noise_shift above 8 */
+    KALMAN_ERR_AUTO = -5,              /* process_noise_auto without KALMAN_TRACKING_BUILT */
 };
 
 struct kalman_config {
@@ -96,44 +104,8 @@ struct kalman_config {
     uint16_t gate_floor_mm;  /* never reject |e| <= this */
     uint8_t warmup_rows;     /* rows buffered at each (re)start */
     uint8_t noise_shift;     /* R tracking gain 2^-shift (0: replace each window) */
-};
-
-/* The information form's state (Q = 0; kalman.c): per sensor the weight of one reading
- * (≈ 2^e / R in units of 2^-e mm⁻²) and the exact sums of the accepted readings' weights
- * and of weight · (z − x0_mm); while every row since the start accepted all four readings
- * with the same weights (a uniform run), also the rows and the per-sensor sums of the
- * deviations, and the run's constant coefficients of the fast solve. */
-struct kalman_info {
-    int32_t e;
-    int32_t x0_mm;
-    int32_t w[ANGLES_SENSORS];
-    uint64_t a[ANGLES_SENSORS];
-    int64_t z[ANGLES_SENSORS];
-    uint16_t rows_to_check; /* rows until the sums' headroom is checked again */
-    bool uniform;
-    bool fast_ready;                /* the coefficients below are set for this run */
-    uint32_t n;                     /* rows of the uniform run */
-    uint32_t n_fast;                /* from this row on the fast solve's prior term is exact */
-    int64_t dsum[ANGLES_SENSORS];   /* Σ (z − x0_mm) over the run, whole mm */
-    int32_t pi[ANGLES_SENSORS];     /* w_s / (w_m + w_p) of its axis, Q31 */
-    int32_t kappa;                  /* the α pair's share of x̄, Q31 (β: 1/2 − κ) */
-    int32_t inv_q16[KALMAN_STATES]; /* 1/d0, 1/W_α, 1/W_β without the prior, mm² Q16 */
-};
-
-/* The covariance form's state (Q > 0): P, and the steady-state updates' form of P
- * (kalman.c, "the block update"): mantissas P ≈ bm · 2^be (packed upper triangle)
- * while bvalid, taken from p brows rows ago; R in those units while rb_valid
- * (exponent rb_pe). */
-struct kalman_cov {
-    fix_q32_t p[KALMAN_STATES][KALMAN_STATES];
-    bool bvalid;
-    uint8_t brows;
-    int32_t be;
-    int32_t bm[6];
-    bool rb_valid;
-    int32_t rb_pe;
-    int64_t rb[ANGLES_SENSORS];
-    int32_t hph_max[ANGLES_SENSORS]; /* 4 R in those units (−1: R too large for them) */
+    bool process_noise_auto; /* Q and R learned from the data (kalman_form.h, "auto"): Q
+                                starts at process_noise_mm2, R at initial_noise_mm2 */
 };
 
 struct kalman_state {
@@ -150,11 +122,10 @@ struct kalman_state {
     uint32_t numeric_restarts;            /* definiteness failures alone (covariance form) */
     uint64_t gate_s_max;                  /* s up to which s·k² fits 64 bits (fast gate) */
     uint64_t gate_accept[ANGLES_SENSORS]; /* e24² below this: inside the gate for any s >= R */
-    bool process_noise;                   /* some Q entry is non-zero: the covariance form */
-    union {                               /* the form process_noise selects */
-        struct kalman_info info;
-        struct kalman_cov cov;
-    } f;
+    bool process_noise;                   /* some Q entry is non-zero: the tracking form */
+    struct {                              /* the running form's state (kalman_form.h) */
+        uint64_t words[KALMAN_FORM_WORDS];
+    } form;
 };
 
 /* Outcome of one kalman_push_row(): the rows it processed, oldest first (a
@@ -183,6 +154,10 @@ int kalman_init(struct kalman_state *k, const struct kalman_config *cfg);
  * the start of a static window. */
 void kalman_reset(struct kalman_state *k);
 
+/* The process noise per row in use (Q32 mm²: x̄, a·tan α, a·tan β): the configured one,
+ * or with process_noise_auto the one learned so far. */
+void kalman_process_noise(const struct kalman_state *k, fix_q32_t q[KALMAN_STATES]);
+
 /* One row. Covariance form: predict (P += Q), then one scalar update per valid
  * reading, A..D. Information form: every valid reading gated against the state
  * before the row, the accepted ones added, one solve.
@@ -203,7 +178,8 @@ bool kalman_update(struct kalman_state *k, unsigned sensor, uint16_t range_mm, b
 void kalman_covariance(const struct kalman_state *k, fix_q32_t p[KALMAN_STATES][KALMAN_STATES]);
 
 /* Feeds the gated sample variance (Q32 mm²) of `count` readings of a sensor in
- * the last window to its R (first time: replace; then track). count < 2: ignored. */
+ * the last window to its R (first time: replace; then track). count < 2: ignored, and
+ * ignored with process_noise_auto, which learns R from consecutive readings instead. */
 void kalman_track_noise(struct kalman_state *k, unsigned sensor, fix_q32_t var_mm2, uint16_t count);
 
 /* Current estimate, angles through atan of the state over a, and P. */

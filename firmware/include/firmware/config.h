@@ -41,4 +41,14 @@ const char *tof_app_config_check(const struct tof_app_config *cfg);
 int tof_app_config_for_replay(struct tof_app_config *cfg, int32_t arm_um, uint32_t period_ms,
                               uint16_t window, bool sliding);
 
+/*
+ * The Kalman filter's process noise as random-walk intensities (DESIGN.md §6,
+ * --process-noise): qd of x̄ and qt of a·tan α and a·tan β, µm²/s, turned into Q per row
+ * (q · period, the period of cfg->timing, rounded to whole µm²); `automatic`: the filter
+ * learns Q (starting there) and R itself. HAL_ERR_INVALID when a non-zero intensity
+ * rounds to 0 per row or a Q per row exceeds 2^32 µm².
+ */
+int tof_app_config_process_noise(struct tof_app_config *cfg, uint32_t qd_um2_per_s,
+                                 uint32_t qt_um2_per_s, bool automatic);
+
 #endif /* FIRMWARE_CONFIG_H */

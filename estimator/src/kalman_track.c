@@ -1,0 +1,703 @@
+/* The Kalman filter's tracking form (any Q, the covariance form): see estimator/kalman.h. */
+#include <string.h>
+
+#include "kalman_form.h"
+
+/* Rows of Eq. 5 with the slopes scaled by a: A [1, −1, 0], B [1, 0, 1], C [1, 1, 0],
+ * D [1, 0, −1]: h = e0 + σ e_j (update_exact, block_update). */
+
+static void diffuse_covariance(struct kalman_state *k) {
+    struct kalman_cov *cv = kalman_cov_of(k);
+    cv->bvalid = false;
+    cv->steady = false;
+    cv->predict_pending = false;
+    (void)memset(cv->p, 0, sizeof cv->p);
+    for (unsigned i = 0; i < KALMAN_STATES; ++i) {
+        cv->p[i][i] = KALMAN_P0_MM2_Q32;
+    }
+}
+
+/* Necessary conditions for positive definiteness that fixed-point failures
+ * break first: a positive diagonal and every correlation strictly inside ±1.
+ * |P_ij| < min(P_ii, P_jj) already implies P_ij² < P_ii P_jj (the common case, two
+ * comparisons); only the rest needs the exact 128-bit products. */
+static bool covariance_healthy(const fix_q32_t p[KALMAN_STATES][KALMAN_STATES]) {
+    for (unsigned i = 0; i < KALMAN_STATES; ++i) {
+        if (p[i][i] <= 0) {
+            return false;
+        }
+    }
+    for (unsigned i = 0; i < KALMAN_STATES; ++i) {
+        for (unsigned j = i + 1u; j < KALMAN_STATES; ++j) {
+            if (p[i][j] != p[j][i]) {
+                return false;
+            }
+            const uint64_t c = fix_abs_u64(p[i][j]);
+            if (c < (uint64_t)p[i][i] && c < (uint64_t)p[j][j]) {
+                continue;
+            }
+            if (fix_s128_cmp(fix_s128_mul(p[i][j], p[i][j]), fix_s128_mul(p[i][i], p[j][j])) >= 0) {
+                return false;
+            }
+        }
+    }
+    return true;
+}
+
+/* The general update: the Joseph form P − k gᵀ − g kᵀ + s k kᵀ with the Q30 gain,
+ * every entry from exact 128-bit products with one rounding. */
+static void joseph_update(struct kalman_state *k, const fix_q32_t g[KALMAN_STATES], fix_q32_t s,
+                          fix_q32_t e, bool *ovf) {
+    struct kalman_cov *cv = kalman_cov_of(k);
+    fix_q30_t gain[KALMAN_STATES];
+    for (unsigned i = 0; i < KALMAN_STATES; ++i) {
+        gain[i] = fix_muldiv_s64(g[i], FIX_Q30_ONE, s, ovf);
+    }
+    for (unsigned i = 0; i < KALMAN_STATES; ++i) {
+        /* A gain far above 1 (a direction an ill-conditioned P barely resolves) times a
+         * large innovation can throw the state out of any physical range, and then the
+         * predictions h·x out of int64: flagged (the covariance restarts), the state kept
+         * within ±KALMAN_X_LIMIT_Q32. (Found by tests/fuzz.) */
+        const int64_t dx = fix_mul_shr_s64(gain[i], e, FIX_Q30_SHIFT, ovf);
+        if (dx > 0 ? k->x[i] > KALMAN_X_LIMIT_Q32 - dx : k->x[i] < -KALMAN_X_LIMIT_Q32 - dx) {
+            *ovf = true;
+        } else {
+            k->x[i] += dx;
+        }
+    }
+    for (unsigned i = 0; i < KALMAN_STATES; ++i) {
+        const fix_q32_t sk_i = fix_mul_shr_s64(s, gain[i], FIX_Q30_SHIFT, ovf);
+        for (unsigned j = i; j < KALMAN_STATES; ++j) {
+            const fix_s128 t1 =
+                fix_s128_add(fix_s128_mul(gain[i], g[j]), fix_s128_mul(g[i], gain[j]));
+            const fix_s128 t2 = fix_s128_mul(sk_i, gain[j]);
+            const int64_t d =
+                fix_s128_to_s64(fix_s128_shr_round(fix_s128_sub(t1, t2), FIX_Q30_SHIFT), ovf);
+            cv->p[i][j] -= d;
+            cv->p[j][i] = cv->p[i][j];
+        }
+    }
+}
+
+/* One scalar update on the full Q32 covariance (the exact Joseph form), with the gate;
+ * no definiteness check. */
+static bool update_exact(struct kalman_state *k, unsigned sensor, fix_q32_t z_mm, bool gate,
+                         bool *ovf) {
+    struct kalman_cov *cv = kalman_cov_of(k);
+    const unsigned j = kalman_h_index(sensor);
+    const bool minus = kalman_h_minus(sensor);
+    fix_q32_t g[KALMAN_STATES];
+    for (unsigned i = 0; i < KALMAN_STATES; ++i) {
+        g[i] = minus ? cv->p[i][0] - cv->p[i][j] : cv->p[i][0] + cv->p[i][j];
+    }
+    const fix_q32_t hph = minus ? g[0] - g[j] : g[0] + g[j];
+    const fix_q32_t pred = minus ? k->x[0] - k->x[j] : k->x[0] + k->x[j];
+    const fix_q32_t s = hph + k->r[sensor];
+    const fix_q32_t e = z_mm - pred;
+    if (gate && k->cfg.gate_sigmas_q8 != 0u && kalman_gated_out(k, e, s)) {
+        return false;
+    }
+    joseph_update(k, g, s, e, ovf);
+    return true;
+}
+
+/* --- the block update ------------------------------------------------------------------
+ * Once every state is observed, P is well scaled and the Joseph form's 128-bit products
+ * are wasted. P is then also held as 32-bit mantissas sharing one exponent, bm · 2^be
+ * (taken from p with the largest diagonal in [2^27, 2^28), afresh every 16 rows, when
+ * that diagonal has shrunk below 2^27, and after anything else changed p). The updates
+ * run on the mantissas with 32x32 -> 64 products; the exact products they subtract are
+ * summed in 64 bits and applied to the Q32 covariance at the end of the row, one rounding
+ * per entry, so p keeps its full precision. Conditions (else the exact update on p):
+ * every diagonal at least 2^-10 of the largest, the measurement's prior variance hᵀPh
+ * between 2^-6 of the largest diagonal and 4 R (the directions the update touches are
+ * resolved by the mantissas: this excludes the diffuse start), every gain |k_i| below 1,
+ * |e| below 128 mm.
+ *
+ * Precision: the gain k = g/s in Q31 (Newton reciprocal of s, relative error < 2^-28)
+ * and P' = P − g kᵀ (upper triangle, mirrored). Its difference from the Joseph form with
+ * the same gain, P − g kᵀ − k gᵀ + s k kᵀ, is (g − s k)kᵀ = −s d kᵀ with d = k − g/s the
+ * gain error: at most 2^-27 |g||k| per entry, below 2^-27 of the entry's own decrease.
+ * g comes from the mantissas, within a few units (2^-27 of the largest diagonal each) of
+ * p, which moves each decrease by a few units times |k|. Along h the posterior variance
+ * R (s − R)/s is at least 2^-9 of the largest diagonal (hᵀPh >= 2^-6 of it, s <= 5 R),
+ * so the update keeps P positive definite wherever the exact one does. tests/reference
+ * compares P with double within 1e-6 relative + 64 LSB. */
+
+#define BLOCK_TOP_BITS     28                 /* largest diagonal mantissa in [2^27, 2^28) */
+#define BLOCK_MIN_DIAG     ((int32_t)1 << 17) /* every diagonal >= 2^-10 of the largest */
+#define BLOCK_MIN_HPH      ((int32_t)1 << 21) /* hᵀPh >= 2^-6 of the largest diagonal */
+#define BLOCK_NOT_POSSIBLE 2
+
+/* The exact sum of what a row's block updates subtracted from each entry (packed
+ * upper triangle 00 01 02 11 12 22), in units of 2^(e − 31). */
+struct pblock {
+    int64_t dec[6];
+};
+
+/* Rows a block may live before it is taken afresh from p: its mantissas drift from p by
+ * up to one half unit of rounding per update (p itself receives the exact sums), and
+ * that drift moves the later decreases by |k| units each (tests/reference: 16 rows keep
+ * P within 6 LSB of its exact-block value, 64 rows within 26). */
+#define BLOCK_MAX_ROWS 16u
+/* Margin of the cheap definiteness check on the mantissas, in block units: larger than
+ * that drift (4 updates x 16 rows x 1/2) plus the rounding of taking the block. */
+#define BLOCK_CHECK_MARGIN ((int32_t)1 << 10)
+
+/* R in block units when it is this large or larger: it does not fit the block's s = hᵀPh + R
+ * below 2^62 (R up to 2^52 scaled by up to 2^30 would overflow int64), so block_update()
+ * leaves such a measurement to the exact update. (Found by tests/fuzz.) */
+#define BLOCK_R_TOO_LARGE ((int64_t)1 << 61)
+
+/* R of `sensor` in block units (exponent e), at most BLOCK_R_TOO_LARGE. */
+static int64_t block_r(const struct kalman_state *k, unsigned sensor, int32_t e) {
+    const int64_t r = k->r[sensor];
+    if (e >= 0) {
+        return fix_floor_shr_s64(r, (unsigned)e);
+    }
+    if (r >= (BLOCK_R_TOO_LARGE >> (unsigned)(-e))) {
+        return BLOCK_R_TOO_LARGE;
+    }
+    return r * ((int64_t)1 << (unsigned)(-e));
+}
+
+/* p_ij · 2^-e rounded, as a block mantissa (|p_ij| <= max P_ii < 2^(28 + e)). */
+FIX_INLINE int32_t to_block(int64_t v, int32_t e) {
+    if (e > 0) {
+        return shr_to_s32(v + ((int64_t)1 << (unsigned)(e - 1)), (unsigned)e);
+    }
+    return (int32_t)(v * ((int64_t)1 << (unsigned)(-e)));
+}
+
+/* The block of the current p (cv->bm, cv->be); false when P is not well scaled for it. */
+static bool block_from_p(struct kalman_state *k) {
+    struct kalman_cov *cv = kalman_cov_of(k);
+    cv->bvalid = false;
+    const int64_t d0 = cv->p[0][0];
+    const int64_t d1 = cv->p[1][1];
+    const int64_t d2 = cv->p[2][2];
+    if (d0 <= 0 || d1 <= 0 || d2 <= 0) {
+        return false;
+    }
+    const int64_t hi = d0 > d1 ? (d0 > d2 ? d0 : d2) : (d1 > d2 ? d1 : d2);
+    const int32_t e = (int32_t)fix_bitlen_u64((uint64_t)hi) - BLOCK_TOP_BITS;
+    if (e < -30 || e > 30) {
+        return false; /* diffuse (P above 2^26 mm²) or below 2^-30 mm² */
+    }
+    /* |P_ij| <= max P_ii (the last check), so every mantissa fits; the diagonal floor
+     * keeps every state resolved */
+    int32_t *m = cv->bm;
+    m[0] = to_block(d0, e);
+    m[3] = to_block(d1, e);
+    m[5] = to_block(d2, e);
+    if (m[0] < BLOCK_MIN_DIAG || m[3] < BLOCK_MIN_DIAG || m[5] < BLOCK_MIN_DIAG) {
+        return false;
+    }
+    m[1] = to_block(cv->p[0][1], e);
+    m[2] = to_block(cv->p[0][2], e);
+    m[4] = to_block(cv->p[1][2], e);
+    cv->be = e;
+    cv->brows = 0;
+    cv->bvalid = true;
+    return true;
+}
+
+/* The block for the next row: kept while it is fresh and its largest diagonal still has
+ * 26 bits, else taken afresh from p. */
+static bool block_ready(struct kalman_state *k) {
+    struct kalman_cov *cv = kalman_cov_of(k);
+    if (cv->bvalid && cv->brows < BLOCK_MAX_ROWS) {
+        const int32_t *m = cv->bm;
+        const int32_t top = m[0] > m[3] ? (m[0] > m[5] ? m[0] : m[5]) : (m[3] > m[5] ? m[3] : m[5]);
+        if (top >= ((int32_t)1 << (BLOCK_TOP_BITS - 1))) {
+            return true;
+        }
+    }
+    return block_from_p(k);
+}
+
+/* True when the mantissas prove p positive definite (kalman.h's check) with a margin
+ * for their drift from p; false means "not proven" (then p itself is checked). */
+static bool block_healthy(const struct kalman_state *k) {
+    const struct kalman_cov *cv = kalman_cov_of_c(k);
+    const int32_t *m = cv->bm;
+    const int32_t mg = BLOCK_CHECK_MARGIN;
+    const int32_t d0 = m[0] - mg;
+    const int32_t d1 = m[3] - mg;
+    const int32_t d2 = m[5] - mg;
+    const int32_t a01 = m[1] < 0 ? -m[1] : m[1];
+    const int32_t a02 = m[2] < 0 ? -m[2] : m[2];
+    const int32_t a12 = m[4] < 0 ? -m[4] : m[4];
+    return d0 > 0 && d1 > 0 && d2 > 0 && a01 + mg < d0 && a01 + mg < d1 && a02 + mg < d0 &&
+           a02 + mg < d2 && a12 + mg < d1 && a12 + mg < d2;
+}
+
+/* P −= dec · 2^(e − 31), one rounding per entry; dec starts again from 0. */
+static void block_apply(struct kalman_state *k, struct pblock *b) {
+    /* the packed upper triangle's row and column (a loop: cold code, half the bytes) */
+    static const uint8_t row_of[6] = {0u, 0u, 0u, 1u, 1u, 2u};
+    static const uint8_t col_of[6] = {0u, 1u, 2u, 1u, 2u, 2u};
+    struct kalman_cov *cv = kalman_cov_of(k);
+    const int32_t sh_signed = 31 - cv->be;
+    const unsigned sh = (unsigned)sh_signed; /* in [1, 61] */
+    for (unsigned i = 0; i < 6u; ++i) {
+        const unsigned r = row_of[i];
+        const unsigned c = col_of[i];
+        cv->p[r][c] -= fix_round_shr_s64(b->dec[i], sh);
+        cv->p[c][r] = cv->p[r][c];
+        b->dec[i] = 0;
+    }
+}
+
+/* The decrease t = g_i k_j of one entry: exactly into dec, rounded into the mantissa. */
+FIX_INLINE void block_sub(struct kalman_state *k, struct pblock *b, unsigned idx, int64_t t) {
+    struct kalman_cov *cv = kalman_cov_of(k);
+    b->dec[idx] += t;
+    /* round(t / 2^31), |t| < 2^62: the floor is the two's complement bits (hi << 1) |
+     * (lo >> 31), the rounding bit is bit 30 */
+    const uint64_t u = (uint64_t)t;
+    const uint32_t lo = (uint32_t)u;
+    const uint32_t hi = (uint32_t)(u >> 32);
+    const uint32_t q = ((hi << 1) | (lo >> 31)) + ((lo >> 30) & 1u);
+    const uint32_t mantissa = (uint32_t)cv->bm[idx] - q;
+    cv->bm[idx] = (int32_t)mantissa;
+}
+
+/* One scalar update on the block: 1 accepted, 0 gated out, BLOCK_NOT_POSSIBLE when the
+ * conditions above fail (nothing changed). */
+static int block_update(struct kalman_state *k, struct pblock *b, unsigned sensor, fix_q32_t z_mm,
+                        bool gate) {
+    struct kalman_cov *cv = kalman_cov_of(k);
+    int32_t *m = cv->bm;
+    /* The int32 sums below rely on |m| <= max P_ii < 2^28, true of a block when it is
+     * taken; a nearly singular P can lose it inside a row (the updates overshoot and a
+     * diagonal turns negative: found by tests/fuzz). Such a row goes on exactly, and the
+     * definiteness check at its end sees what happened. Each m + 2^28 is below 2^29
+     * exactly when its bits from 29 up are clear, so one test of their OR checks all six
+     * (a sixth of a row's cost as a loop of compares). */
+    const uint32_t bias = (uint32_t)1 << BLOCK_TOP_BITS;
+    const uint32_t any_high = ((uint32_t)m[0] + bias) | ((uint32_t)m[1] + bias) |
+                              ((uint32_t)m[2] + bias) | ((uint32_t)m[3] + bias) |
+                              ((uint32_t)m[4] + bias) | ((uint32_t)m[5] + bias);
+    if ((any_high >> (BLOCK_TOP_BITS + 1)) != 0u) {
+        return BLOCK_NOT_POSSIBLE;
+    }
+    int32_t g[KALMAN_STATES]; /* |g_i| <= 2 max P_ii < 2^29 */
+    int32_t hph;
+    fix_q32_t pred;
+    switch (sensor) {
+    case ANGLES_A: /* h = [1, −1, 0] */
+        g[0] = m[0] - m[1];
+        g[1] = m[1] - m[3];
+        g[2] = m[2] - m[4];
+        hph = g[0] - g[1];
+        pred = k->x[0] - k->x[1];
+        break;
+    case ANGLES_B: /* h = [1, 0, 1] */
+        g[0] = m[0] + m[2];
+        g[1] = m[1] + m[4];
+        g[2] = m[2] + m[5];
+        hph = g[0] + g[2];
+        pred = k->x[0] + k->x[2];
+        break;
+    case ANGLES_C: /* h = [1, 1, 0] */
+        g[0] = m[0] + m[1];
+        g[1] = m[1] + m[3];
+        g[2] = m[2] + m[4];
+        hph = g[0] + g[1];
+        pred = k->x[0] + k->x[1];
+        break;
+    default: /* D: h = [1, 0, −1] */
+        g[0] = m[0] - m[2];
+        g[1] = m[1] - m[4];
+        g[2] = m[2] - m[5];
+        hph = g[0] - g[2];
+        pred = k->x[0] - k->x[2];
+        break;
+    }
+    const fix_q32_t e = z_mm - pred;
+    /* e in [−2^39, 2^39) (128 mm) exactly when its high word is in [−128, 127]; then e24
+     * below fits int32 and |k e24| < 2^62 */
+    const uint32_t e_hi = (uint32_t)((uint64_t)e >> 32) + 128u;
+    const int64_t r_b = block_r(k, sensor, cv->be);
+    /* hᵀPh <= 4 R (hph >= 1 here: hph > 4 r_b exactly when (hph − 1)/4 >= r_b); an R too
+     * large for the block units never takes this path */
+    if (hph < BLOCK_MIN_HPH || ((hph - 1) >> 2) >= r_b || r_b >= BLOCK_R_TOO_LARGE || e_hi > 255u) {
+        return BLOCK_NOT_POSSIBLE;
+    }
+    const int64_t s_b = hph + r_b; /* in [2^21, 2^62) */
+    if (s_b < ((int64_t)1 << 30)) {
+        /* small s: check |g_i| < s (1 − 2^-8), so every gain is below 1 (for s >= 2^30
+         * it holds already: |g_i| < 2^29) */
+        const int32_t limit = (int32_t)(s_b - (s_b >> 8));
+        for (unsigned i = 0; i < KALMAN_STATES; ++i) {
+            if (g[i] >= limit || g[i] <= -limit) {
+                return BLOCK_NOT_POSSIBLE;
+            }
+        }
+    }
+    const int32_t e24 = shr_to_s32(e + 128, 8u); /* innovation in Q24, rounded */
+    const int64_t e24_sq = (int64_t)e24 * e24;
+    if (gate && k->cfg.gate_sigmas_q8 != 0u && (uint64_t)e24_sq > k->gate_accept[sensor]) {
+        /* not surely inside: the gate on the exact s */
+        const fix_q32_t s = (cv->be >= 0 ? (int64_t)hph * ((int64_t)1 << (unsigned)cv->be)
+                                         : fix_floor_shr_s64(hph, (unsigned)(-cv->be))) +
+                            k->r[sensor];
+        if (kalman_gated_out(k, e, s)) {
+            return 0;
+        }
+    }
+    /* s_b = sm · 2^es, sm in [2^30, 2^31); rm ≈ 2^61 / sm (relative error < 2^-28) */
+    int32_t es;
+    const uint32_t sm = fix_norm31_inline((uint64_t)s_b, &es);
+    if (es < -9 || es > 31) {
+        return BLOCK_NOT_POSSIBLE; /* unreachable: 2^21 <= s_b < 2^62 */
+    }
+    const int32_t rm = fix_recip31_inline(sm);
+    /* gains in Q31: k = g · 2^31 / s_b = g · rm / 2^(30 + es), |k| < 1 */
+    const int32_t gain_shift_signed = 30 + es;
+    const unsigned gain_shift = (unsigned)gain_shift_signed; /* in [20, 61] */
+    const int32_t k0 = shr_to_s32((int64_t)g[0] * rm, gain_shift);
+    const int32_t k1 = shr_to_s32((int64_t)g[1] * rm, gain_shift);
+    const int32_t k2 = shr_to_s32((int64_t)g[2] * rm, gain_shift);
+    cv->gain[sensor][0] = k0; /* for the steady state (kalman_track_row) */
+    cv->gain[sensor][1] = k1;
+    cv->gain[sensor][2] = k2;
+    /* x += k e: Q31 x Q24 = Q55 -> Q32 */
+    k->x[0] += fix_round_shr_s64((int64_t)k0 * e24, 23u);
+    k->x[1] += fix_round_shr_s64((int64_t)k1 * e24, 23u);
+    k->x[2] += fix_round_shr_s64((int64_t)k2 * e24, 23u);
+    /* P −= g kᵀ: exactly into dec, rounded to the block unit for the row's next update */
+    block_sub(k, b, 0u, (int64_t)g[0] * k0);
+    block_sub(k, b, 1u, (int64_t)g[0] * k1);
+    block_sub(k, b, 2u, (int64_t)g[0] * k2);
+    block_sub(k, b, 3u, (int64_t)g[1] * k1);
+    block_sub(k, b, 4u, (int64_t)g[1] * k2);
+    block_sub(k, b, 5u, (int64_t)g[2] * k2);
+    return 1;
+}
+
+/* The valid readings of one row, A..D: block updates while they apply, exact ones
+ * otherwise; p is current on return. Returns the sensors accepted; *rejected gets those
+ * gated out; *proven is set when the block shows P positive definite. */
+static uint8_t update_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENSORS],
+                          uint8_t valid_mask, bool gate, uint8_t *rejected, bool *ovf, bool *proven,
+                          uint8_t *by_block) {
+    struct kalman_cov *cv = kalman_cov_of(k);
+    struct pblock b;
+    b.dec[0] = 0;
+    b.dec[1] = 0;
+    b.dec[2] = 0;
+    b.dec[3] = 0;
+    b.dec[4] = 0;
+    b.dec[5] = 0;
+    bool have = block_ready(k);
+    bool dirty = false;
+    uint8_t used = 0;
+    *rejected = 0;
+    for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
+        if ((valid_mask & (1u << s)) == 0u) {
+            continue;
+        }
+        const fix_q32_t z = (fix_q32_t)range_mm[s] << FIX_Q32_SHIFT;
+        int res = have ? block_update(k, &b, s, z, gate) : BLOCK_NOT_POSSIBLE;
+        if (res == BLOCK_NOT_POSSIBLE) {
+            if (dirty) {
+                block_apply(k, &b);
+                dirty = false;
+            }
+            res = update_exact(k, s, z, gate, ovf) ? 1 : 0;
+            if (res != 0) {
+                have = block_from_p(k);
+            }
+        } else {
+            dirty = dirty || res != 0;
+            *by_block = (uint8_t)(*by_block | (1u << s));
+        }
+        if (res != 0) {
+            used = (uint8_t)(used | (1u << s));
+        } else {
+            *rejected = (uint8_t)(*rejected | (1u << s));
+        }
+    }
+    if (dirty) {
+        block_apply(k, &b);
+    }
+    if (cv->bvalid) {
+        cv->brows++;
+    }
+    /* The mantissas prove p only while a block unit is at least one LSB of p (be >= 0):
+     * finer units leave p's own rounding (half an LSB per entry) outside the margin, and
+     * a P of a few LSB (sliding windows, Q = 0, long runs) could round to singular
+     * unseen. (Found by tests/fuzz.) */
+    *proven = cv->bvalid && cv->be >= 0 && block_healthy(k);
+    return used;
+}
+
+/* After a failed check or an overflow: forget the covariance, keep the state; counted,
+ * never silent. */
+static void check_covariance(struct kalman_state *k, bool ovf, bool proven) {
+    struct kalman_cov *cv = kalman_cov_of(k);
+    if (ovf || (!proven && !covariance_healthy(cv->p))) {
+        diffuse_covariance(k);
+        k->numeric_restarts++;
+        k->restarts++;
+    }
+}
+
+/* P += Q, each diagonal bounded. */
+static void add_process_noise(struct kalman_state *k) {
+    struct kalman_cov *cv = kalman_cov_of(k);
+    cv->bvalid = false; /* p changes outside the block */
+    for (unsigned i = 0; i < KALMAN_STATES; ++i) {
+        if (cv->p[i][i] < KALMAN_P_MAX_Q32) { /* a long outage saturates here, never overflows */
+            const int64_t grown = cv->p[i][i] + k->cfg.process_noise_mm2[i];
+            cv->p[i][i] = grown < KALMAN_P_MAX_Q32 ? grown : KALMAN_P_MAX_Q32;
+        }
+    }
+}
+
+/* The prediction is applied by the row that follows it (kalman_track_row): a steady row
+ * leaves P at its fixed point, so it needs none. */
+void kalman_track_predict(struct kalman_state *k) {
+    struct kalman_cov *cv = kalman_cov_of(k);
+    if (cv->predict_pending) {
+        add_process_noise(k); /* the previous one, whose row had no reading */
+    }
+    cv->predict_pending = true;
+}
+
+void kalman_track_reset(struct kalman_state *k) {
+    diffuse_covariance(k);
+}
+
+void kalman_track_r_changed(struct kalman_state *k) {
+    kalman_cov_of(k)->steady = false; /* the fixed point moved */
+}
+
+/* --- the steady state -------------------------------------------------------------------
+ * With Q > 0 and R constant, P converges to the fixed point of the Riccati recursion, and
+ * with it the four scalar updates' gains: once a row with all four readings (every one a
+ * block update, none gated out) leaves P settled (below), its gains are kept and the following rows
+ * with all four readings are x += k_s e_s alone, A..D, P left at that fixed point (tests/reference:
+ * the ratio to the optimal filter is unchanged to three decimals). Anything else ends it: a reading
+ * missing, one outside the gate's sure-accept bound (the row then runs in full, gated
+ * exactly), an R or Q change, a reset. */
+#define STEADY_TOL_SHIFT 8u
+
+/* One steady row, all four readings; false (x unchanged) when one may be gated out or
+ * is 128 mm or more from its prediction. */
+static bool steady_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENSORS], bool gate) {
+    const struct kalman_cov *cv = kalman_cov_of_c(k);
+    const fix_q32_t x0 = k->x[0];
+    const fix_q32_t x1 = k->x[1];
+    const fix_q32_t x2 = k->x[2];
+    const bool gated = gate && k->cfg.gate_sigmas_q8 != 0u;
+    for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
+        const unsigned j = kalman_h_index(s);
+        const fix_q32_t pred = kalman_h_minus(s) ? k->x[0] - k->x[j] : k->x[0] + k->x[j];
+        const fix_q32_t e = ((fix_q32_t)range_mm[s] << FIX_Q32_SHIFT) - pred;
+        const uint32_t e_hi = (uint32_t)((uint64_t)e >> 32) + 128u;
+        const int32_t e24 = shr_to_s32(e + 128, 8u);
+        const int64_t e24_sq = (int64_t)e24 * e24;
+        if (e_hi > 255u || (gated && (uint64_t)e24_sq > k->gate_accept[s])) {
+            k->x[0] = x0;
+            k->x[1] = x1;
+            k->x[2] = x2;
+            return false;
+        }
+        for (unsigned i = 0; i < KALMAN_STATES; ++i) {
+            k->x[i] += fix_round_shr_s64((int64_t)cv->gain[s][i] * e24, 23u);
+        }
+    }
+    return true;
+}
+
+/* P settled: every entry moved by at most 2^-STEADY_TOL_SHIFT of the smallest non-zero Q
+ * since the row before (`before`, packed upper triangle). Near the fixed point a row
+ * moves P by about Q/P of its remaining distance (the recursion contracts by 1 − Q/P per
+ * row, P ≈ √(QR) in the scalar case), so the distance left is below 2^-STEADY_TOL_SHIFT
+ * of P: the kept gains are within that of the fixed point's, costing the estimate's
+ * variance only that squared. */
+static bool settled(const struct kalman_state *k, const fix_q32_t before[6]) {
+    const struct kalman_cov *cv = kalman_cov_of_c(k);
+    const fix_q32_t *q = k->cfg.process_noise_mm2;
+    uint64_t q_min = UINT64_MAX;
+    for (unsigned i = 0; i < KALMAN_STATES; ++i) {
+        q_min = q[i] != 0 && (uint64_t)q[i] < q_min ? (uint64_t)q[i] : q_min;
+    }
+    const uint64_t tol = q_min >> STEADY_TOL_SHIFT;
+    const fix_q32_t now[6] = {cv->p[0][0], cv->p[0][1], cv->p[0][2],
+                              cv->p[1][1], cv->p[1][2], cv->p[2][2]};
+    for (unsigned i = 0; i < 6u; ++i) {
+        if (fix_abs_u64(now[i] - before[i]) > tol) {
+            return false;
+        }
+    }
+    return true;
+}
+
+uint8_t kalman_track_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENSORS],
+                         uint8_t valid_mask, bool gate, uint8_t *rejected) {
+    struct kalman_cov *cv = kalman_cov_of(k);
+    if (cv->steady && valid_mask == ANGLES_ALL_SENSORS && steady_row(k, range_mm, gate)) {
+        cv->predict_pending = false;
+        *rejected = 0;
+        return ANGLES_ALL_SENSORS;
+    }
+    cv->steady = false;
+    const fix_q32_t before[6] = {cv->p[0][0], cv->p[0][1], cv->p[0][2],
+                                 cv->p[1][1], cv->p[1][2], cv->p[2][2]};
+    if (cv->predict_pending) {
+        add_process_noise(k);
+        cv->predict_pending = false;
+    }
+    bool ovf = false;
+    bool proven;
+    uint8_t by_block = 0;
+    const uint8_t used =
+        update_row(k, range_mm, valid_mask, gate, rejected, &ovf, &proven, &by_block);
+    if (used != 0u) {
+        const uint32_t restarts = k->numeric_restarts;
+        check_covariance(k, ovf, proven); /* once per row: a failure restarts P before the next */
+        const fix_q32_t *q = k->cfg.process_noise_mm2;
+        cv->steady = by_block == ANGLES_ALL_SENSORS && used == ANGLES_ALL_SENSORS &&
+                     k->numeric_restarts == restarts && (q[0] | q[1] | q[2]) != 0 &&
+                     settled(k, before);
+    }
+    return used;
+}
+
+void kalman_track_covariance(const struct kalman_state *k,
+                             fix_q32_t p[KALMAN_STATES][KALMAN_STATES]) {
+    (void)memcpy(p, kalman_cov_of_c(k)->p, sizeof kalman_cov_of_c(k)->p);
+}
+
+/* --- process noise and R from the data (process_noise_auto) -----------------------------
+ * What each state does over time is read off the readings themselves, not the filter's
+ * innovations (whose variance hides a small q under R: the slow-motion case needs ~10^7
+ * rows that way). Per row with all four readings, the transformed sums
+ *     y_x̄ = z_A + z_B + z_C + z_D = 4 x̄ + noise,  y_α = z_C − z_A = 2 θ_α + noise,
+ *     y_β = z_B − z_D = 2 θ_β + noise
+ * are summed over blocks of B = KALMAN_ADAPT_BLOCK rows. For a random walk of intensity
+ * q_y per row plus white noise of variance w_y per row, the difference D of two
+ * consecutive block sums has E[D²] = q_y · B(2B² + 1)/3 + 2B · w_y (the Allan variance of
+ * the block means, times B²: each increment of the walk enters D with weight
+ * min(t, 2B − t)). With w_x̄ = ΣR, w_α = R_A + R_C, w_β = R_B + R_D and q_y = 16 q_x̄,
+ * 4 q_t, 4 q_t, one block gives a sample of q_x̄ and of q_t (both slopes share it, as
+ * --process-noise QD,QT does); their running means set Q at each block's end (Q at least
+ * 0, a sample bounded to ±64 mm² per row, a block difference of 2^15 mm or more, a jump,
+ * not used).
+ * R comes from what the motion barely touches: the difference d of a sensor's consecutive
+ * readings has E[d²] = 2R + hQhᵀ = 2R + Q_x̄ + Q_t (h has entries ±1), so
+ * R = (E[d²] − Q_x̄ − Q_t)/2, at least 1/12 mm² (a difference of 128 mm or more, a jump,
+ * not used). Running means: gain 1/2^⌊log2 n⌋ over the first samples, then 2^-6 per
+ * block for q (about 2,000 rows) and 2^-9 per row for R. Cost: about 20 instructions a
+ * row and a few 64-bit divisions a block. */
+#define KALMAN_ADAPT_BLOCK   32u
+#define KALMAN_ADAPT_Q_SHIFT 6u
+#define KALMAN_ADAPT_R_SHIFT 9u
+/* B(2B² + 1)/3 for B = 32 */
+#define KALMAN_ADAPT_Q_WEIGHT 21856
+
+/* mean += (v − mean) · gain, the gain from the samples so far (|v|, |mean| < 2^30) */
+static void adapt_mean(int32_t *mean, int32_t v, uint16_t n, unsigned max_shift) {
+    const unsigned g = fix_bitlen_u64(n) - 1u; /* n >= 1 */
+    const unsigned sh = g < max_shift ? g : max_shift;
+    const int64_t step = (int64_t)v - *mean;
+    /* rounded: a floor would bias the mean by half a unit times 2^shift */
+    *mean += (int32_t)(sh == 0u ? step : fix_round_shr_s64(step, sh));
+}
+
+/* One block's sample of q_y in Q16 mm² per row: (D² − 2B w)/(B(2B² + 1)/3), w in Q32. */
+static int64_t adapt_q_sample(int32_t d, int64_t w_q32) {
+    const int64_t d2 = ((int64_t)d * d) << 16; /* |d| < 2^15: below 2^46 */
+    const int64_t noise = (int64_t)(2u * KALMAN_ADAPT_BLOCK) * (w_q32 >> 16);
+    return (d2 - noise) / KALMAN_ADAPT_Q_WEIGHT;
+}
+
+static int32_t adapt_bound(int64_t v) {
+    const int64_t lim = (int64_t)1 << 30; /* 64 mm² in Q24 */
+    return (int32_t)(v > lim ? lim : (v < -lim ? -lim : v));
+}
+
+/* The end of a block of full rows: samples of q from the difference to the block before. */
+static void adapt_block(struct kalman_state *k) {
+    struct kalman_cov *cv = kalman_cov_of(k);
+    const fix_q32_t *r = k->r;
+    int32_t d[KALMAN_STATES];
+    bool usable = cv->blk_prev_valid;
+    for (unsigned j = 0; j < KALMAN_STATES; ++j) {
+        d[j] = cv->blk_sum[j] - cv->blk_prev[j];
+        usable = usable && d[j] < 32768 && d[j] > -32768;
+        cv->blk_prev[j] = cv->blk_sum[j];
+        cv->blk_sum[j] = 0;
+    }
+    cv->blk_prev_valid = true;
+    cv->blk_rows = 0;
+    if (!usable) {
+        return;
+    }
+    const int64_t w[KALMAN_STATES] = {r[0] + r[1] + r[2] + r[3], r[ANGLES_A] + r[ANGLES_C],
+                                      r[ANGLES_B] + r[ANGLES_D]};
+    int64_t qy[KALMAN_STATES];
+    for (unsigned j = 0; j < KALMAN_STATES; ++j) {
+        qy[j] = adapt_q_sample(d[j], w[j]);
+    }
+    cv->n_q = cv->n_q < UINT16_MAX ? (uint16_t)(cv->n_q + 1u) : UINT16_MAX;
+    /* Q16 of q_y to Q24 of the state: x̄ q_y/16, slopes q_y/4 (their mean) */
+    adapt_mean(&cv->mean_q[0], adapt_bound(qy[0] * 16), cv->n_q, KALMAN_ADAPT_Q_SHIFT);
+    adapt_mean(&cv->mean_q[1], adapt_bound((qy[1] + qy[2]) * 32), cv->n_q, KALMAN_ADAPT_Q_SHIFT);
+    fix_q32_t *q = k->cfg.process_noise_mm2;
+    q[0] = cv->mean_q[0] > 0 ? (int64_t)cv->mean_q[0] << 8 : 0;
+    q[1] = cv->mean_q[1] > 0 ? (int64_t)cv->mean_q[1] << 8 : 0;
+    q[2] = q[1];
+    cv->steady = false; /* the fixed point moved */
+}
+
+bool kalman_track_adapt(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENSORS],
+                        uint8_t valid_mask) {
+    struct kalman_cov *cv = kalman_cov_of(k);
+    const uint8_t both = (uint8_t)(valid_mask & cv->last_valid);
+    if (both != 0u && cv->n_d < UINT16_MAX) {
+        cv->n_d++;
+    }
+    for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
+        const int32_t d = (int32_t)range_mm[s] - (int32_t)cv->last_mm[s];
+        if ((both & (1u << s)) != 0u && d < 128 && d > -128) {
+            adapt_mean(&cv->mean_d[s], (d * d) << 16, cv->n_d, KALMAN_ADAPT_R_SHIFT);
+        }
+        cv->last_mm[s] = range_mm[s];
+    }
+    cv->last_valid = valid_mask;
+    if (valid_mask != ANGLES_ALL_SENSORS) {
+        /* a block is consecutive full rows: start again */
+        cv->blk_rows = 0;
+        cv->blk_prev_valid = false;
+        for (unsigned j = 0; j < KALMAN_STATES; ++j) {
+            cv->blk_sum[j] = 0;
+        }
+        return false;
+    }
+    const int32_t za = range_mm[ANGLES_A];
+    const int32_t zb = range_mm[ANGLES_B];
+    const int32_t zc = range_mm[ANGLES_C];
+    const int32_t zd = range_mm[ANGLES_D];
+    cv->blk_sum[0] += za + zb + zc + zd; /* 32 rows: below 2^23 */
+    cv->blk_sum[1] += zc - za;
+    cv->blk_sum[2] += zb - zd;
+    if (++cv->blk_rows < KALMAN_ADAPT_BLOCK) {
+        return false;
+    }
+    adapt_block(k);
+    const fix_q32_t *q = k->cfg.process_noise_mm2;
+    bool r_set = false;
+    for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
+        if (cv->mean_d[s] > 0) {
+            const int64_t v = (((int64_t)cv->mean_d[s] << 16) - q[0] - q[1]) / 2;
+            k->r[s] = v < KALMAN_R_MIN_Q32 ? KALMAN_R_MIN_Q32 : v; /* below 2^13 mm² */
+            r_set = true;
+        }
+    }
+    return r_set;
+}
