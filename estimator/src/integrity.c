@@ -92,16 +92,11 @@ static fix_q32_t square_q32(fix_q32_t v) {
     return fix_s128_to_s64(fix_s128_shr_round(fix_s128_mul(v, v), FIX_Q32_SHIFT), NULL);
 }
 
-/* Per-sensor sums of the used readings against their row index (0 = oldest). */
-struct ramp_sums {
-    int64_t n, si, sii, sx, six;
-    int64_t tail_n[2], tail_sx[2]; /* the newest N/8 and N/4 rows: a late step */
-};
-
 /* The ring pass: per-sensor reasons of the readings the window holds, and the ramp sums
  * of the readings the window statistics used (valid and inside the gate). */
 static attitude_why_t scan_rows(const struct integrity_config *cfg, const struct window_state *w,
-                                const struct window_stats *s, struct ramp_sums r[ANGLES_SENSORS]) {
+                                const struct window_stats *s,
+                                struct integrity_ramp_sums r[ANGLES_SENSORS]) {
     attitude_why_t why = 0;
     uint16_t idx = w->oldest;
     const uint16_t tail_from[2] = {(uint16_t)(w->fill - (w->fill + 7u) / 8u),
@@ -129,9 +124,9 @@ static attitude_why_t scan_rows(const struct integrity_config *cfg, const struct
                 if (s->sensor[k].gate_x2_mm == 0 || dev <= s->sensor[k].gate_x2_mm) {
                     r[k].n++;
                     r[k].si += i;
-                    r[k].sii += (int64_t)i * i;
+                    r[k].sii += (int32_t)i * i;
                     r[k].sx += x;
-                    r[k].six += (int64_t)i * x;
+                    r[k].six += (int32_t)i * x;
                     for (unsigned t = 0; t < 2u; ++t) {
                         if (i >= tail_from[t]) {
                             r[k].tail_n[t]++;
@@ -147,54 +142,54 @@ static attitude_why_t scan_rows(const struct integrity_config *cfg, const struct
 
 /* A late step of one sensor: the mean of its newest readings (tail t) minus the window
  * mean (Q32 mm), and its variance s²(1/m − 1/n); 0 and 0 without tail readings. */
-static void tail_step(const struct ramp_sums *r, unsigned t, fix_q32_t mean, fix_q32_t s2,
+static void tail_step(const struct integrity_ramp_sums *r, unsigned t, fix_q32_t mean, fix_q32_t s2,
                       fix_q32_t *step, fix_q32_t *var) {
     *step = 0;
     *var = 0;
     if (r->tail_n[t] == 0 || r->tail_n[t] >= r->n) {
         return;
     }
-    *step = fix_div_round_s64(r->tail_sx[t] << FIX_Q32_SHIFT, r->tail_n[t]) - mean;
-    *var = fix_muldiv_s64(s2, r->n - r->tail_n[t], r->n * r->tail_n[t], NULL);
+    *step = fix_div_round_s64((int64_t)r->tail_sx[t] << FIX_Q32_SHIFT, r->tail_n[t]) - mean;
+    *var = fix_muldiv_s64(s2, r->n - r->tail_n[t], (int64_t)r->n * r->tail_n[t], NULL);
 }
 
 /* Least-squares ramp of one sensor: the fitted value at the last row minus the mean
  * (Q32 mm), and its variance for per-reading variance s2 (Q32 mm²). Fewer than three
  * readings or one index only: no ramp can be told from noise, 0 and 0. */
-static void ramp(const struct ramp_sums *r, int64_t last, fix_q32_t s2, fix_q32_t *lag,
+static void ramp(const struct integrity_ramp_sums *r, int64_t last, fix_q32_t s2, fix_q32_t *lag,
                  fix_q32_t *var) {
     *lag = 0;
     *var = 0;
     if (r->n < 3) {
         return;
     }
-    const int64_t sxx = r->n * r->sii - r->si * r->si; /* n Σ(i − ī)², < 2^40 */
+    const int64_t n = r->n;
+    const int64_t sxx = n * r->sii - (int64_t)r->si * r->si; /* n Σ(i − ī)², < 2^40 */
     if (sxx <= 0) {
         return;
     }
-    const int64_t sxy = r->n * r->six - r->si * r->sx; /* |.| < 2^50 */
-    const int64_t m = r->n * last - r->si;             /* n (i_L − ī), < 2^17 */
+    const int64_t sxy = n * r->six - (int64_t)r->si * r->sx; /* |.| < 2^50 */
+    const int64_t m = n * last - r->si;                      /* n (i_L − ī), < 2^17 */
     /* lag = slope (i_L − ī) = sxy m / (n sxx); var = s² (i_L − ī)² / Σ(i − ī)² */
     const fix_s128 num = fix_s128_shl(fix_s128_mul(sxy, m), FIX_Q32_SHIFT);
-    *lag = fix_s128_div_s64(num, r->n * sxx, NULL);
-    *var = fix_muldiv_s64(s2, m * m, r->n * sxx, NULL);
+    *lag = fix_s128_div_s64(num, n * sxx, NULL);
+    *var = fix_muldiv_s64(s2, m * m, n * sxx, NULL);
 }
 
 void integrity_assess(struct integrity_state *st, const struct integrity_config *cfg,
                       struct window_state *w, const struct window_stats *s, bool learn,
                       struct integrity_window *out) {
     (void)memset(out, 0, sizeof *out);
-    struct ramp_sums r[ANGLES_SENSORS];
-    (void)memset(r, 0, sizeof r);
+    struct integrity_ramp_sums *r =
+        out->ramp; /* zeroed above; in out, not on the window-end stack */
     out->why = scan_rows(cfg, w, s, r);
 
     const fix_q32_t prior = fix_muldiv_s64(
         (int64_t)cfg->offset_stability_um * cfg->offset_stability_um, FIX_Q32_ONE, 1000000, NULL);
-    /* three motion statistics per sensor: the ramp, the newest N/8 and N/4 rows */
-    fix_q32_t lag[3][ANGLES_SENSORS];
-    fix_q32_t lag_var[3][ANGLES_SENSORS];
-    (void)memset(lag, 0, sizeof lag);
-    (void)memset(lag_var, 0, sizeof lag_var);
+    /* three motion statistics per sensor: the ramp, the newest N/8 and N/4 rows (kept in
+     * out, not on the window-end stack) */
+    fix_q32_t(*lag)[ANGLES_SENSORS] = out->motion_mm;
+    fix_q32_t(*lag_var)[ANGLES_SENSORS] = out->motion_var_mm2;
     fix_q32_t white_sum = 0; /* Σ of what the window sees */
     fix_q32_t base_sum = 0;  /* ... plus what is not learnt: the prior and the rounding */
     fix_q32_t total_sum = 0; /* ... plus the learnt drift: the parity residual's variance */
@@ -209,7 +204,9 @@ void integrity_assess(struct integrity_state *st, const struct integrity_config 
         out->white_mm2[k] = fix_div_round_s64(s2, ss->used);
         /* noise under half a step does not dither the rounding: the mean keeps its error */
         const fix_q32_t quant = ss->var_mm2 < Q32_QUARTER ? Q32_TWELFTH : 0;
-        out->extra_mm2[k] = fix_sat_add_s64(fix_sat_add_s64(st->drift_mm2, prior), quant);
+        /* the learnt drift is a mean of unbiased samples that may be negative: never below 0 */
+        const fix_q32_t drift = st->drift_mm2 > 0 ? st->drift_mm2 : 0;
+        out->extra_mm2[k] = fix_sat_add_s64(fix_sat_add_s64(drift, prior), quant);
         white_sum = fix_sat_add_s64(white_sum, out->white_mm2[k]);
         base_sum = fix_sat_add_s64(
             base_sum, fix_sat_add_s64(out->white_mm2[k], fix_sat_add_s64(prior, quant)));
@@ -246,7 +243,11 @@ void integrity_assess(struct integrity_state *st, const struct integrity_config 
                 fix_muldiv_s64(base_sum, (int64_t)cfg->parity_sigmas_q8 * cfg->parity_sigmas_q8,
                                (int64_t)1 << 16, NULL),
                 2u);
-            sample = sample < 0 ? 0 : (sample > limit ? limit : sample);
+            /* negative samples are kept: clipping them at 0 would learn drift from white
+             * noise alone (E[max(0, W(χ² − 1))] = 0.48 W); only the upper clip remains, and
+             * a floor of −base/4 bounds one window's pull downwards */
+            const fix_q32_t floor = -fix_asr_s64(base_sum, 2u);
+            sample = sample < floor ? floor : (sample > limit ? limit : sample);
             const uint16_t cap = (uint16_t)(1u << cfg->drift_shift);
             if (st->blocks < cap) {
                 st->blocks++;

@@ -76,8 +76,17 @@ struct integrity_config {
 /* What is learnt across windows: the per-sensor drift variance from the parity
  * residual's mean square beyond the white noise the windows themselves predict. */
 struct integrity_state {
-    fix_q32_t drift_mm2; /* per-sensor drift variance, Q32 mm² */
-    uint16_t blocks;     /* blocks learnt, saturating at 2^drift_shift */
+    fix_q32_t
+        drift_mm2;   /* per-sensor drift variance, Q32 mm² (an unbiased mean: may dip below 0) */
+    uint16_t blocks; /* blocks learnt, saturating at 2^drift_shift */
+};
+
+/* Per-sensor sums of the used readings of a window against their row index (0 = the
+ * oldest), for the motion statistics. int32 suffices: i < 256 and a used reading is
+ * plausible (<= 8189 mm), so Σi² < 5.6e6, Σx < 2.1e6 and Σi·x < 5.4e8. */
+struct integrity_ramp_sums {
+    int32_t n, si, sii, sx, six;
+    int32_t tail_n[2], tail_sx[2]; /* the newest N/8 and N/4 rows: a late step */
 };
 
 /* The facts of one window, common to every estimator. */
@@ -90,12 +99,15 @@ struct integrity_window {
     fix_q32_t tan_q32[2];                /* slopes for the delta method (0 if unknown) */
     fix_q32_t parity_mm;                 /* x_A + x_C − x_B − x_D of the means (all four) */
     bool parity_failed;
-    fix_q32_t lag_mm[INTEGRITY_AXES];        /* end-of-window minus window-mean, LS ramp */
-    fix_q32_t lag_var_mm2[INTEGRITY_AXES];   /* its white-noise variance */
-    bool moved[INTEGRITY_AXES];              /* lag beyond motion_sigmas: `motion` */
-    fix_q32_t extra_var_mm2[INTEGRITY_AXES]; /* what each axis adds to a window estimator's
-                                               white variance: drift, prior, quantisation,
-                                               a failed parity and a detected motion */
+    fix_q32_t lag_mm[INTEGRITY_AXES];                /* end-of-window minus window-mean, LS ramp */
+    fix_q32_t lag_var_mm2[INTEGRITY_AXES];           /* its white-noise variance */
+    bool moved[INTEGRITY_AXES];                      /* lag beyond motion_sigmas: `motion` */
+    struct integrity_ramp_sums ramp[ANGLES_SENSORS]; /* scratch of the motion statistics */
+    fix_q32_t motion_mm[3][ANGLES_SENSORS];          /* per sensor: ramp lag, newest N/8 and N/4 */
+    fix_q32_t motion_var_mm2[3][ANGLES_SENSORS];     /* ... and their white-noise variances */
+    fix_q32_t extra_var_mm2[INTEGRITY_AXES];         /* what each axis adds to a window estimator's
+                                                       white variance: drift, prior, quantisation,
+                                                       a failed parity and a detected motion */
 };
 
 /* Config fields as attitude_init checks them: true when usable. */
