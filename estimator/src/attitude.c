@@ -197,11 +197,14 @@ static void finish_status(struct attitude_estimate *e, bool alpha_ok, bool beta_
     }
 }
 
-/* sqrt(a² + b²) of two 1σ in µdeg, saturating, at least 1 (a claimed sd is never 0). */
-static int32_t hypot_udeg(int32_t a, int32_t b) {
+/* sqrt(a² + b² + c²) of three 1σ in µdeg, saturating, at least 1 (a claimed sd is never
+ * 0): one square root for the three parts of an angle's sd. */
+static int32_t hypot3_udeg(int32_t a, int32_t b, int32_t c) {
     const uint64_t a2 = (uint64_t)((int64_t)a * a);
     const uint64_t b2 = (uint64_t)((int64_t)b * b);
-    const uint64_t sum = a2 > UINT64_MAX - b2 ? UINT64_MAX : a2 + b2;
+    const uint64_t c2 = (uint64_t)((int64_t)c * c);
+    uint64_t sum = a2 > UINT64_MAX - b2 ? UINT64_MAX : a2 + b2;
+    sum = sum > UINT64_MAX - c2 ? UINT64_MAX : sum + c2;
     const uint32_t root = fix_isqrt_u64(sum);
     return root == 0u ? 1 : (root > (uint32_t)INT32_MAX ? INT32_MAX : (int32_t)root);
 }
@@ -235,14 +238,10 @@ static void settle(const struct attitude_state *st, struct attitude_estimate *e,
     e->beta_sd_udeg = 0;
     e->distance_sd_um = 0;
     if (e->alpha_valid) {
-        e->alpha_sd_udeg = hypot_udeg(
-            hypot_udeg(white_alpha_udeg, angle_sd(st, iw->extra_var_mm2[INTEGRITY_ALPHA], 0u)),
-            extra_alpha_udeg);
+        e->alpha_sd_udeg = hypot3_udeg(white_alpha_udeg, st->extra_udeg[0], extra_alpha_udeg);
     }
     if (e->beta_valid) {
-        e->beta_sd_udeg = hypot_udeg(
-            hypot_udeg(white_beta_udeg, angle_sd(st, iw->extra_var_mm2[INTEGRITY_BETA], 1u)),
-            extra_beta_udeg);
+        e->beta_sd_udeg = hypot3_udeg(white_beta_udeg, st->extra_udeg[1], extra_beta_udeg);
     }
     if (e->distance_valid) {
         const fix_q32_t var =
@@ -630,6 +629,9 @@ FIX_NOINLINE void window_end(struct attitude_state *st, struct attitude_output *
     /* the drift learning takes one window per block of N rows (every window when tumbling) */
     integrity_assess(&st->integrity, &st->icfg, &st->window, w, st->rows % cfg->window == 0u,
                      &st->iw);
+    /* what the window adds to every estimator's angles, as 1σ: computed once */
+    st->extra_udeg[0] = angle_sd(st, st->iw.extra_var_mm2[INTEGRITY_ALPHA], 0u);
+    st->extra_udeg[1] = angle_sd(st, st->iw.extra_var_mm2[INTEGRITY_BETA], 1u);
     out->last_row = st->rows - 1u;
     out->first_row = st->rows - cfg->window;
     out->rows = cfg->window;

@@ -193,6 +193,7 @@ struct attitude_state {
     struct integrity_config icfg;
     struct integrity_state integrity; /* learnt drift */
     struct integrity_window iw;       /* scratch: the last window's integrity facts */
+    int32_t extra_udeg[2];            /* ... what they add to α and β, as 1σ in µdeg */
 };
 
 /* Integrity defaults (sources in docs/estimator-design.md "Integrity"):

@@ -117,9 +117,19 @@ bool integrity_config_valid(const struct integrity_config *cfg);
 void integrity_init(struct integrity_state *st);
 
 /* The readings of one sample a part cannot give as valid: bit k set when present[k]
- * and range_mm[k] is 0, a no-target value or above range_max_mm. */
-uint8_t integrity_implausible(const uint16_t range_mm[ANGLES_SENSORS], uint8_t present_mask,
-                              uint16_t range_max_mm);
+ * and range_mm[k] is 0, a no-target value or above range_max_mm (< 8190, so the no-target
+ * values are above it). Inline: it runs on every sample. 0 − 1 wraps to 65535, so one
+ * unsigned comparison per reading says 0 or above the max. */
+static inline uint8_t integrity_implausible(const uint16_t range_mm[ANGLES_SENSORS],
+                                            uint8_t present_mask, uint16_t range_max_mm) {
+    uint8_t m = 0;
+    for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
+        if ((uint16_t)(range_mm[k] - 1u) >= range_max_mm) {
+            m = (uint8_t)(m | (1u << k));
+        }
+    }
+    return (uint8_t)(m & present_mask);
+}
 
 /* Window facts from the window's rows (w, as window_compute left it) and statistics s.
  * learn: this window ends a block of N rows, so the drift learning takes it in. */
