@@ -5,7 +5,7 @@
 
 /* 1/12 mm² (the variance of 1 mm rounding) and 1/4 mm² in Q32. */
 #define Q32_TWELFTH ((fix_q32_t)357913941)
-#define Q32_QUARTER ((fix_q32_t)1 << 30)
+#define Q32_QUARTER ((fix_q32_t)1073741824)
 
 bool integrity_config_valid(const struct integrity_config *cfg) {
     return cfg->range_max_mm != 0u && cfg->range_max_mm < INTEGRITY_NO_TARGET_8190 &&
@@ -41,12 +41,36 @@ static int axis_coeffs(enum integrity_axis axis, uint8_t used, int8_t c[ANGLES_S
     int row = -1;
     int unit = 1;
     if (axis == INTEGRITY_ALPHA) {
-        row = (a && cc) ? 0 : (cc && b && d) ? 1 : (a && b && d) ? 2 : -1;
+        if (a && cc) {
+            row = 0;
+        } else if (cc && b && d) {
+            row = 1;
+        } else if (a && b && d) {
+            row = 2;
+        } else {
+            row = -1;
+        }
     } else if (axis == INTEGRITY_BETA) {
-        row = (b && d) ? 3 : (a && b && cc) ? 4 : (a && cc && d) ? 5 : -1;
+        if (b && d) {
+            row = 3;
+        } else if (a && b && cc) {
+            row = 4;
+        } else if (a && cc && d) {
+            row = 5;
+        } else {
+            row = -1;
+        }
     } else {
         unit = 2;
-        row = (a && b && cc && d) ? 6 : (a && cc) ? 7 : (b && d) ? 8 : -1;
+        if (a && b && cc && d) {
+            row = 6;
+        } else if (a && cc) {
+            row = 7;
+        } else if (b && d) {
+            row = 8;
+        } else {
+            row = -1;
+        }
     }
     if (row < 0) {
         return -1;
@@ -73,8 +97,9 @@ bool integrity_axis_var(enum integrity_axis axis, uint8_t used, const fix_q32_t 
 
 /* v² > k²·var for v in Q32 mm, var in Q32 mm², k in Q8: exact in 128 bits. */
 static bool beyond(fix_q32_t v, fix_q32_t var, uint16_t k_q8) {
-    const fix_s128 v2 = fix_s128_mul(v, v);                                          /* Q64 */
-    const fix_s128 lim = fix_s128_shl(fix_s128_mul((int64_t)k_q8 * k_q8, var), 16u); /* Q64 */
+    const fix_s128 v2 = fix_s128_mul(v, v); /* Q64 */
+    const fix_s128 lim =
+        fix_s128_shl(fix_s128_mul((int64_t)k_q8 * (int64_t)k_q8, var), 16u); /* Q64 */
     return fix_s128_cmp(v2, lim) > 0;
 }
 
@@ -90,8 +115,10 @@ static attitude_why_t scan_rows(const struct integrity_config *cfg, const struct
                                 struct integrity_ramp_sums r[ANGLES_SENSORS]) {
     attitude_why_t why = 0;
     uint16_t idx = w->oldest;
-    const int32_t tail8 = (int32_t)w->fill - (int32_t)((w->fill + 7u) / 8u);
-    const int32_t tail4 = (int32_t)w->fill - (int32_t)((w->fill + 3u) / 4u);
+    const uint32_t eighth = ((uint32_t)w->fill + 7u) / 8u;
+    const uint32_t quarter = ((uint32_t)w->fill + 3u) / 4u;
+    const int32_t tail8 = (int32_t)w->fill - (int32_t)eighth;
+    const int32_t tail4 = (int32_t)w->fill - (int32_t)quarter;
     int32_t centre[ANGLES_SENSORS];
     int32_t half[ANGLES_SENSORS];
     for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
@@ -151,7 +178,7 @@ static attitude_why_t scan_rows(const struct integrity_config *cfg, const struct
 /* (v µm)² in Q32 mm²: v² · 2^32 / 10^6 as v² · round(2^52 / 10^6) / 2^20 (relative error
  * below 10^-10, and no division at the window end). */
 static fix_q32_t um2_to_q32(uint16_t v) {
-    return fix_mul_shr_s64((int64_t)v * v, 4503599627, 20u, NULL);
+    return fix_mul_shr_s64((int64_t)v * (int64_t)v, (int64_t)4503599627, 20u, NULL);
 }
 
 /* v / d for v >= 0 and d in [1, 65535]: the cheap divider (no 64-bit division). */
@@ -195,9 +222,11 @@ static void ramp(const struct integrity_ramp_sums *r, int64_t last, fix_q32_t s2
     const int64_t m = n * last - r->si;                      /* n (i_L − ī), < 2^17 */
     /* den = n·sxx = dm·2^e, rm ≈ 2^61/dm: x / den · 2^32 = x · rm / 2^(29 + e), e >= -26 */
     int32_t e = 0;
-    const uint32_t dm = fix_norm31((uint64_t)(n * sxx), &e);
+    const int64_t den = n * sxx;
+    const uint32_t dm = fix_norm31((uint64_t)den, &e);
     const int64_t rm = fix_recip31(dm);
-    const unsigned shift = (unsigned)(29 + e);
+    const int32_t shift_s = 29 + e;
+    const unsigned shift = (unsigned)shift_s;
     /* lag = slope (i_L − ī) = sxy m / (n sxx); var = s² (i_L − ī)² / Σ(i − ī)² = s² m²/(n sxx) */
     *lag = fix_mul_shr_s64(sxy * m, rm, shift, NULL);          /* sxy m < 2^55 */
     const int64_t q = fix_mul_shr_s64(m * m, rm, shift, NULL); /* m²/(n sxx) in Q32, <= 2^34 */
@@ -267,7 +296,8 @@ void integrity_assess(struct integrity_state *st, const struct integrity_config 
              * with what was learnt); a larger wander stays a parity failure */
             fix_q32_t sample = fix_asr_s64(square_q32(out->parity_mm) - base_sum, 2u);
             const fix_q32_t limit = fix_asr_s64(
-                fix_mul_shr_s64(base_sum, (int64_t)cfg->parity_sigmas_q8 * cfg->parity_sigmas_q8,
+                fix_mul_shr_s64(base_sum,
+                                (int64_t)cfg->parity_sigmas_q8 * (int64_t)cfg->parity_sigmas_q8,
                                 16u, NULL),
                 2u);
             /* negative samples are kept: clipping them at 0 would learn drift from white

@@ -85,8 +85,13 @@ struct integrity_state {
  * oldest), for the motion statistics. int32 suffices: i < 256 and a used reading is
  * plausible (<= 8189 mm), so Σi² < 5.6e6, Σx < 2.1e6 and Σi·x < 5.4e8. */
 struct integrity_ramp_sums {
-    int32_t n, si, sii, sx, six;
-    int32_t tail_n[2], tail_sx[2]; /* the newest N/8 and N/4 rows: a late step */
+    int32_t n;
+    int32_t si;
+    int32_t sii;
+    int32_t sx;
+    int32_t six;
+    int32_t tail_n[2]; /* the newest N/8 and N/4 rows: a late step */
+    int32_t tail_sx[2];
 };
 
 /* The facts of one window, common to every estimator. */
