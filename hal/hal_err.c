@@ -26,6 +26,8 @@ const char *hal_err_name(int err) {
         return "CORRUPT";
     case HAL_ERR_IO:
         return "IO";
+    case HAL_ERR_DEVICE:
+        return "DEVICE";
     default:
         return "UNKNOWN";
     }

@@ -8,6 +8,8 @@ CSV), counts malformed frames, and optionally plots the estimates.
 
     tof_telemetry.py --file capture.bin [--csv [--type estimate|raw]] [--plot out.png]
     tof_telemetry.py --port /dev/ttyACM0 [--baud 115200] [--duration S] [--send CMD]...
+    tof_telemetry.py --port /dev/ttyACM0 --live [--plot last.png]   (estimates with
+                                                  +-2 sd bands, redrawn as frames arrive)
     tof_telemetry.py --write-commands cmds.bin --send CMD [--send CMD]...
 
 Commands for --send: "set-window N [tumbling|sliding]", "estimator NAME"
@@ -32,7 +34,7 @@ HEADER_SIZE = 5
 CRC_SIZE = 2
 FRAME_OVERHEAD = HEADER_SIZE + CRC_SIZE
 MAX_PAYLOAD = 192
-PROTOCOL_VERSION = 1
+PROTOCOL_VERSION = 2
 
 ACCEPT_COMMANDS = 1
 ACCEPT_TELEMETRY = 2
@@ -52,10 +54,10 @@ T_RAW_STREAM = 0x86
 
 # type -> (name, direction, payload length)
 TYPES = {
-    T_ESTIMATE: ("estimate", ACCEPT_TELEMETRY, 28),
+    T_ESTIMATE: ("estimate", ACCEPT_TELEMETRY, 47),
     T_RAW_SAMPLE: ("raw", ACCEPT_TELEMETRY, 17),
     T_HEALTH: ("health", ACCEPT_TELEMETRY, 144),
-    T_ACK: ("ack", ACCEPT_TELEMETRY, 3),
+    T_ACK: ("ack", ACCEPT_TELEMETRY, 4),
     T_STATUS: ("status", ACCEPT_TELEMETRY, 16),
     T_SET_WINDOW: ("set-window", ACCEPT_COMMANDS, 3),
     T_SELECT_ESTIMATOR: ("select-estimator", ACCEPT_COMMANDS, 1),
@@ -69,9 +71,17 @@ RESULTS = ["ok", "unknown-type", "bad-length", "out-of-range", "state"]
 R_OK, R_UNKNOWN_TYPE, R_BAD_LENGTH, R_OUT_OF_RANGE = 0, 1, 2, 3
 ESTIMATORS = ["consensus", "consensus-paper", "kalman", "mean"]
 STATUSES = ["ok", "degraded", "invalid"]
-REASONS = ["sensor-missing", "sensor-flagged", "too-few-sensors", "not-flat",
-           "not-converged", "no-samples", "saturated"]
-REASON_ALL = 0x7F
+# The estimate's why set: the estimator's attitude_why_t bits, unchanged on the wire
+# (estimator/integrity.h, estimator/attitude.h; named as attitude_why_format() names them).
+WHY_PER_SENSOR = ["no-target", "range", "flagged", "missing", "rejected"]  # bit 4*g + k
+WHY_WINDOW = ["parity", "motion", "drift"]                                 # bits 20..22
+WHY_REASON_SHIFT = 32  # bit 32 + r for enum attitude_reason r (r = 0, "none", has no bit)
+ATTITUDE_REASONS = [
+    "none", "flagged-data", "sensor-missing", "kalman-restarted", "alpha-unobservable",
+    "beta-unobservable", "unobservable", "disabled", "no-convergence", "paper-too-few-rows",
+    "paper-nonpositive-variance", "paper-zero-covariance", "paper-zero-row-sum",
+    "paper-negative-row-sum", "paper-overflow", "paper-diverged", "paper-no-convergence",
+    "paper-outside-hull", "paper-inconsistent"]
 HEALTH_STATES = ["healthy", "suspect", "lost", "recovering"]
 MODES = ["tumbling", "sliding"]
 SENSORS = "ABCD"
@@ -223,19 +233,30 @@ class Decoder:
 
 # --- message payloads: parse with the firmware's validation rules -----------
 
+ESTIMATE_FORMAT = "<IIBBBiiiiiiiQ"  # docs/telemetry.md 5.1
+
+
+def _value_and_sd_agree(value, sd):
+    """A value and its sd are present together; a present sd is >= 1, never 0."""
+    return (value == NO_VALUE) == (sd == NO_VALUE) and (sd == NO_VALUE or sd >= 1)
+
+
 def _estimate(p):
-    (t_ms, window, estimator, status, reason, sensors,
-     alpha, beta, distance, flatness) = struct.unpack("<IIBBBBiiii", p)
+    (t_ms, window, estimator, status, sensors, alpha, beta, distance, flatness,
+     alpha_sd, beta_sd, distance_sd, why) = struct.unpack(ESTIMATE_FORMAT, p)
     ok = status == 0
-    invalid = status == 2
-    valid = (estimator < len(ESTIMATORS) and status < len(STATUSES)
-             and not reason & ~REASON_ALL and not sensors & ~0x0F
-             and ok == (reason == 0)
-             and not (ok and (sensors != 0x0F or flatness == NO_VALUE))
-             and all((v == NO_VALUE) == invalid for v in (alpha, beta, distance)))
+    both = alpha != NO_VALUE and beta != NO_VALUE
+    valid = (estimator < len(ESTIMATORS) and status < len(STATUSES) and not sensors & ~0x0F
+             and _value_and_sd_agree(alpha, alpha_sd) and _value_and_sd_agree(beta, beta_sd)
+             and _value_and_sd_agree(distance, distance_sd)
+             and ok == (why == 0)
+             and (not ok or (sensors == 0x0F and flatness != NO_VALUE and both
+                             and distance != NO_VALUE))
+             and (ok or (status == 2) == (not both)))
     return valid, {"t_ms": t_ms, "window": window, "estimator": estimator, "status": status,
-                   "reason": reason, "sensors": sensors, "alpha_udeg": alpha, "beta_udeg": beta,
-                   "distance_um": distance, "flatness_um": flatness}
+                   "sensors": sensors, "alpha_udeg": alpha, "beta_udeg": beta,
+                   "distance_um": distance, "flatness_um": flatness, "alpha_sd_udeg": alpha_sd,
+                   "beta_sd_udeg": beta_sd, "distance_sd_um": distance_sd, "why": why}
 
 
 def _raw(p):
@@ -267,8 +288,11 @@ def _health(p):
 
 
 def _ack(p):
-    echo_seq, command, result = struct.unpack("<BBB", p)
-    return result < len(RESULTS), {"echo_seq": echo_seq, "command": command, "result": result}
+    # error: the firmware's own negative code behind a nack, unchanged (an attitude_error
+    # of estimator/attitude.h for set-window and select-estimator); 0 in an ack.
+    echo_seq, command, result, error = struct.unpack("<BBBb", p)
+    valid = result < len(RESULTS) and error <= 0 and (result != R_OK or error == 0)
+    return valid, {"echo_seq": echo_seq, "command": command, "result": result, "error": error}
 
 
 def _status(p):
@@ -330,9 +354,33 @@ def opt(value, fmt):
     return "none" if value == NO_VALUE else fmt(value)
 
 
-def reason_text(reason):
-    names = [REASONS[b] for b in range(len(REASONS)) if reason & (1 << b)]
-    return "+".join(names) if names else "none"
+def why_names(why):
+    """The reasons in a why set, in attitude_why_format()'s order: per-sensor names
+    ("no-target:A"), then parity, motion, drift, then the estimator's reasons. A bit the
+    estimator does not define is named "bit-N", never dropped."""
+    names, known = [], 0
+    for g, name in enumerate(WHY_PER_SENSOR):
+        for k in range(4):
+            bit = 1 << (4 * g + k)
+            known |= bit
+            if why & bit:
+                names.append("%s:%s" % (name, SENSORS[k]))
+    for b, name in enumerate(WHY_WINDOW):
+        bit = 1 << (20 + b)
+        known |= bit
+        if why & bit:
+            names.append(name)
+    for r in range(1, len(ATTITUDE_REASONS)):
+        bit = 1 << (WHY_REASON_SHIFT + r)
+        known |= bit
+        if why & bit:
+            names.append(ATTITUDE_REASONS[r])
+    names += ["bit-%d" % b for b in range(64) if why & ~known & (1 << b)]
+    return names
+
+
+def why_text(why, empty="none"):
+    return "+".join(why_names(why)) or empty
 
 
 def sensors_text(mask):
@@ -349,13 +397,17 @@ def format_message(ftype, seq, m):
     head = "seq=%d " % seq
     if ftype == T_ESTIMATE:
         return head + (
-            "estimate t_ms=%d window=%d estimator=%s status=%s reason=%s sensors=%s "
-            "alpha_deg=%s beta_deg=%s distance_mm=%s flatness_um=%s" % (
+            "estimate t_ms=%d window=%d estimator=%s status=%s why=%s sensors=%s "
+            "alpha_deg=%s beta_deg=%s distance_mm=%s alpha_sd_deg=%s beta_sd_deg=%s "
+            "distance_sd_mm=%s flatness_um=%s" % (
                 m["t_ms"], m["window"], ESTIMATORS[m["estimator"]], STATUSES[m["status"]],
-                reason_text(m["reason"]), sensors_text(m["sensors"]),
+                why_text(m["why"]), sensors_text(m["sensors"]),
                 opt(m["alpha_udeg"], lambda v: fixed(v, 6)),
                 opt(m["beta_udeg"], lambda v: fixed(v, 6)),
                 opt(m["distance_um"], lambda v: fixed(v, 3)),
+                opt(m["alpha_sd_udeg"], lambda v: fixed(v, 6)),
+                opt(m["beta_sd_udeg"], lambda v: fixed(v, 6)),
+                opt(m["distance_sd_um"], lambda v: fixed(v, 3)),
                 opt(m["flatness_um"], str)))
     if ftype == T_RAW_SAMPLE:
         present = [m["present"] & (1 << i) for i in range(4)]
@@ -377,9 +429,9 @@ def format_message(ftype, seq, m):
             parts.append("%s=%d" % (key, m[key]))
         return head + " ".join(parts)
     if ftype == T_ACK:
-        return head + "%s echo_seq=%d command=%s result=%s" % (
+        return head + "%s echo_seq=%d command=%s result=%s error=%d" % (
             "ack" if m["result"] == 0 else "nack", m["echo_seq"], command_name(m["command"]),
-            RESULTS[m["result"]])
+            RESULTS[m["result"]], m["error"])
     if ftype == T_STATUS:
         return head + (
             "status fw=%d.%d.%d protocol=%d uptime_ms=%d window_n=%d mode=%s estimator=%s "
@@ -461,17 +513,20 @@ def encode_commands(texts, first_seq=0):
 
 # --- output sinks -------------------------------------------------------------
 
-ESTIMATE_CSV = ["t_ms", "alpha_deg", "beta_deg", "distance_mm", "status", "estimator", "window",
-                "reason", "sensors", "flatness_um", "seq"]
+# EST.csv's columns first (DESIGN.md section 6), then what only telemetry has.
+ESTIMATE_CSV = ["t_ms", "alpha_deg", "beta_deg", "distance_mm", "status", "alpha_sd_deg",
+                "beta_sd_deg", "distance_sd_mm", "why", "estimator", "window", "sensors",
+                "flatness_um", "seq"]
 RAW_CSV = ["t_ms", "a_mm", "b_mm", "c_mm", "d_mm", "a_st", "b_st", "c_st", "d_st", "seq"]
 
 
 class Printer:
     """Turns decoder events into output lines and collects estimates to plot."""
 
-    def __init__(self, out, csv_type=None):
+    def __init__(self, out, csv_type=None, on_estimate=None):
         self.out = out
         self.csv_type = csv_type
+        self.on_estimate = on_estimate  # called with each valid estimate (the live plot)
         self.estimates = []
         self.last_seq = None
         self.lost_frames = 0
@@ -501,17 +556,17 @@ class Printer:
             return
         if ftype == T_ESTIMATE:
             self.estimates.append(fields)
+            if self.on_estimate is not None:
+                self.on_estimate(fields)
         if self.csv_type is None:
             self.out.write(format_message(ftype, seq, fields) + "\n")
         elif self.csv_type == "estimate" and ftype == T_ESTIMATE:
             m = fields
-            invalid = m["status"] == 2
-            row = [str(m["t_ms"]),
-                   "" if invalid else fixed(m["alpha_udeg"], 6),
-                   "" if invalid else fixed(m["beta_udeg"], 6),
-                   "" if invalid else fixed(m["distance_um"], 3),
-                   STATUSES[m["status"]], ESTIMATORS[m["estimator"]], str(m["window"]),
-                   reason_text(m["reason"]), sensors_text(m["sensors"]),
+            cell = lambda key, digits: opt(m[key], lambda v: fixed(v, digits)).replace("none", "")
+            row = [str(m["t_ms"]), cell("alpha_udeg", 6), cell("beta_udeg", 6),
+                   cell("distance_um", 3), STATUSES[m["status"]], cell("alpha_sd_udeg", 6),
+                   cell("beta_sd_udeg", 6), cell("distance_sd_um", 3), why_text(m["why"], ""),
+                   ESTIMATORS[m["estimator"]], str(m["window"]), sensors_text(m["sensors"]),
                    "" if m["flatness_um"] == NO_VALUE else str(m["flatness_um"]), str(seq)]
             self.out.write(",".join(row) + "\n")
         elif self.csv_type == "raw" and ftype == T_RAW_SAMPLE:
@@ -524,59 +579,146 @@ class Printer:
             self.out.write(",".join(row) + "\n")
 
 
+def _series(estimates, est_id, value_key, sd_key):
+    """(t [s], value, sd) of one estimator's estimates where the value was estimated."""
+    rows = [e for e in estimates if e["estimator"] == est_id and e[value_key] != NO_VALUE]
+    return ([e["t_ms"] / 1000.0 for e in rows], [e[value_key] / 1e6 for e in rows],
+            [e[sd_key] / 1e6 for e in rows])
+
+
+def draw_estimates(axes, estimates, title=None):
+    """Alpha and beta of each estimator with a +-2 sd band around each line, degraded
+    estimates marked, invalid ones as grey lines. axes = (ax_alpha, ax_beta)."""
+    colours = ["C0", "C1", "C2", "C3"]
+    for ax in axes:
+        ax.clear()
+    for est_id, name in enumerate(ESTIMATORS):
+        for ax, key in zip(axes, ("alpha", "beta")):
+            t, v, sd = _series(estimates, est_id, key + "_udeg", key + "_sd_udeg")
+            if not t:
+                continue
+            ax.plot(t, v, ".-", markersize=3, color=colours[est_id], label=name)
+            ax.fill_between(t, [x - 2 * s for x, s in zip(v, sd)],
+                            [x + 2 * s for x, s in zip(v, sd)], color=colours[est_id],
+                            alpha=0.2, linewidth=0, label="%s +-2 sd" % name)
+            deg = [(e["t_ms"] / 1000.0, e[key + "_udeg"] / 1e6) for e in estimates
+                   if e["estimator"] == est_id and e["status"] == 1]
+            if deg:
+                ax.plot([d[0] for d in deg], [d[1] for d in deg], "x", color="red",
+                        markersize=4)
+    invalid = [e["t_ms"] / 1000.0 for e in estimates if e["status"] == 2]
+    for ax in axes:
+        for t in invalid:
+            ax.axvline(t, color="grey", alpha=0.3, linewidth=0.8)
+        ax.grid(True, alpha=0.3)
+    axes[0].set_ylabel("alpha [deg]")
+    axes[1].set_ylabel("beta [deg]")
+    axes[1].set_xlabel("t [s]")
+    axes[0].set_title(title or "Estimates (%d; %d invalid as grey lines, degraded as red x); "
+                      "bands +-2 sd" % (len(estimates), len(invalid)))
+    if estimates:
+        axes[0].legend(fontsize="x-small", ncol=2)
+
+
 def plot_estimates(estimates, path):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, (ax_angle, ax_dist) = plt.subplots(2, 1, sharex=True, figsize=(10, 6))
-    degraded_label = "degraded"
-    for est_id, name in enumerate(ESTIMATORS):
-        rows = [e for e in estimates if e["estimator"] == est_id and e["status"] != 2]
-        if not rows:
-            continue
-        t = [e["t_ms"] / 1000.0 for e in rows]
-        ax_angle.plot(t, [e["alpha_udeg"] / 1e6 for e in rows], ".-", markersize=3,
-                      label="alpha " + name)
-        ax_angle.plot(t, [e["beta_udeg"] / 1e6 for e in rows], ".--", markersize=3,
-                      label="beta " + name)
-        ax_dist.plot(t, [e["distance_um"] / 1000.0 for e in rows], ".-", markersize=3, label=name)
-        degraded = [e for e in rows if e["status"] == 1]
-        if degraded:
-            ax_angle.plot([e["t_ms"] / 1000.0 for e in degraded],
-                          [e["alpha_udeg"] / 1e6 for e in degraded], "x", color="red",
-                          label=degraded_label)
-            degraded_label = None  # one legend entry for all estimators
-    invalid = [e["t_ms"] / 1000.0 for e in estimates if e["status"] == 2]
-    for t in invalid:
-        ax_angle.axvline(t, color="grey", alpha=0.3, linewidth=0.8)
-    ax_angle.set_ylabel("angle [deg]")
-    ax_angle.set_title("Estimates (%d; %d invalid, grey lines)" % (len(estimates), len(invalid)))
-    ax_angle.legend(fontsize="small")
-    ax_angle.grid(True, alpha=0.3)
-    ax_dist.set_ylabel("distance [mm]")
-    ax_dist.set_xlabel("t [s]")
-    ax_dist.legend(fontsize="small")
-    ax_dist.grid(True, alpha=0.3)
+    fig, axes = plt.subplots(2, 1, sharex=True, figsize=(10, 6))
+    draw_estimates(axes, estimates)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+class LivePlot:
+    """--live: a window with the estimates and their +-2 sd bands, redrawn as frames arrive
+    (at most every `interval` seconds). With a non-interactive backend (Agg: tests, no
+    display) it draws into the figure all the same; save() writes it out."""
+
+    def __init__(self, interval=0.25, last=None, clock=time.monotonic):
+        import matplotlib
+        import matplotlib.pyplot as plt
+        self.plt = plt
+        self.interactive = matplotlib.get_backend().lower() not in ("agg", "pdf", "svg", "ps")
+        if self.interactive:
+            plt.ion()
+        self.fig, self.axes = plt.subplots(2, 1, sharex=True, figsize=(10, 6))
+        self.interval = interval
+        self.last = last  # keep only the newest `last` estimates on screen (None: all)
+        self.clock = clock
+        self.estimates = []
+        self.pending = 0
+        self.redraws = 0
+        self.drawn_at = None
+
+    def add(self, estimate):
+        self.estimates.append(estimate)
+        if self.last is not None and len(self.estimates) > self.last:
+            del self.estimates[:len(self.estimates) - self.last]
+        self.pending += 1
+
+    def tick(self, force=False):
+        """Redraw if there is something new and the interval has passed (or forced)."""
+        now = self.clock()
+        if not self.pending or (not force and self.drawn_at is not None
+                                and now - self.drawn_at < self.interval):
+            return False
+        draw_estimates(self.axes, self.estimates)
+        self.fig.canvas.draw()
+        if self.interactive:
+            self.plt.pause(0.001)
+        self.pending = 0
+        self.drawn_at = now
+        self.redraws += 1
+        return True
+
+    def closed(self):
+        return self.interactive and not self.plt.fignum_exists(self.fig.number)
+
+    def save(self, path):
+        self.tick(force=True)
+        self.fig.savefig(path, dpi=110)
 
 
 # --- sources --------------------------------------------------------------------
 
-def run_stream(chunks, decoder, printer, idle_flush=None):
-    """Decode chunks (bytes; b"" means the line was idle) until exhausted."""
+def run_stream(chunks, decoder, printer, idle_flush=None, live=None):
+    """Decode chunks (bytes; b"" means the line was idle) until exhausted; a live plot
+    is redrawn between chunks, and the stream ends if its window is closed."""
     for chunk in chunks:
         if chunk:
             events = decoder.feed(chunk)
         elif idle_flush and decoder.pending():
             events = decoder.flush()
         else:
-            continue
+            events = []
         for event in events:
             printer.handle(event, decoder.counters)
+        if live is not None:
+            live.tick()
+            if live.closed():
+                break
     for event in decoder.flush():
         printer.handle(event, decoder.counters)
+    if live is not None:
+        live.tick(force=True)
+
+
+def stream_chunks(f, size=4096, idle_s=0.2, duration=None, clock=time.monotonic):
+    """Chunks from a file-like object as they arrive (a pty, a pipe, a growing capture):
+    b"" after an idle gap, the end at EOF or after `duration` seconds."""
+    deadline = None if duration is None else clock() + duration
+    while deadline is None or clock() < deadline:
+        data = f.read(size)
+        if data is None:  # non-blocking and nothing yet
+            time.sleep(idle_s / 4)
+            yield b""
+            continue
+        if not data:
+            return
+        yield data
 
 
 def file_chunks(path, size=65536):
@@ -618,7 +760,13 @@ def main(argv=None):
     ap.add_argument("--csv", action="store_true", help="CSV instead of one line per message")
     ap.add_argument("--type", choices=["estimate", "raw"], default="estimate",
                     help="message type written as CSV (estimate)")
-    ap.add_argument("--plot", metavar="PNG", help="plot the estimates over time into PNG")
+    ap.add_argument("--plot", metavar="PNG", help="plot the estimates over time into PNG "
+                    "(with --live: the last picture)")
+    ap.add_argument("--live", action="store_true",
+                    help="plot the estimates with +-2 sd bands in a window as frames arrive "
+                         "(python3-matplotlib; MPLBACKEND=Agg draws without a display)")
+    ap.add_argument("--live-last", type=int, metavar="N",
+                    help="with --live: keep only the newest N estimates on screen")
     ap.add_argument("--strict", action="store_true",
                     help="exit with status 1 if any malformed frame was seen")
     args = ap.parse_args(argv)
@@ -636,14 +784,21 @@ def main(argv=None):
     if args.send and not args.port:
         ap.exit(1, "tof_telemetry: --send needs --port (or --write-commands)\n")
 
+    live = None
+    if args.live:
+        try:
+            live = LivePlot(last=args.live_last)
+        except ImportError:
+            ap.exit(1, "tof_telemetry: --live needs python3-matplotlib; run with /usr/bin/python3\n")
     decoder = Decoder(ACCEPT_ALL)
     printer = Printer(sys.stdout, "estimate" if args.csv and args.type == "estimate"
-                      else "raw" if args.csv else None)
+                      else "raw" if args.csv else None,
+                      on_estimate=live.add if live is not None else None)
     try:
         if args.file:
             if not os.path.isfile(args.file):
                 ap.exit(1, "tof_telemetry: %s: no such file\n" % args.file)
-            run_stream(file_chunks(args.file), decoder, printer)
+            run_stream(file_chunks(args.file), decoder, printer, live=live)
         else:
             try:
                 import serial
@@ -659,7 +814,7 @@ def main(argv=None):
                     port.write(commands)
                 try:
                     run_stream(serial_chunks(port, args.duration), decoder, printer,
-                               idle_flush=True)
+                               idle_flush=True, live=live)
                 except KeyboardInterrupt:
                     for event in decoder.flush():
                         printer.handle(event, decoder.counters)
@@ -670,7 +825,9 @@ def main(argv=None):
     sys.stdout.flush()
     if printer.lost_frames:
         sys.stderr.write("# lost_frames=%d (sequence gaps)\n" % printer.lost_frames)
-    if args.plot:
+    if args.plot and live is not None:
+        live.save(args.plot)
+    elif args.plot:
         try:
             plot_estimates(printer.estimates, args.plot)
         except ImportError:

@@ -36,8 +36,10 @@ int main(void) {
                       BOARD_HAL_XSHUT_PIN(3)},
         .gpio1_pin = {BOARD_HAL_GPIO1_PIN(0), BOARD_HAL_GPIO1_PIN(1), BOARD_HAL_GPIO1_PIN(2),
                       BOARD_HAL_GPIO1_PIN(3)},
+        .sensor_pads_at_avdd = true, /* the NUCLEO boards' 3V3 pull-ups (docs/driver.md) */
     };
-    return tof_app_main(&platform, &tof_app_default_config, &app, &link, 0);
+    const struct tof_app_service telemetry = {.ops = &tof_link_service_ops, .ctx = &link};
+    return tof_app_main(&platform, &tof_app_default_config, &app, &telemetry, 0);
 }
 
 void board_exit(int status) {

@@ -9,6 +9,7 @@
 
 #include "hal/hal_err.h"
 #include "hal/hal_i2c_reg.h"
+#include "vl53/vl53_default_config.h"
 
 /* ------------------------------------------------------------------------- */
 /* Facts transcribed from the ULD (see vl53_regs.h [ULD]).                    */
@@ -33,10 +34,11 @@ static const struct timing_entry long_mode_timing[] = {
 };
 
 /* Raw RESULT__RANGE_STATUS (low 5 bits) -> ULD range status ([ULD] status_rtn[24] in
- * VL53L1X_GetRangeStatus / GetResult); raw values 24..31 are unmapped too. */
+ * VL53L1X_GetRangeStatus / GetResult), with raw 1, 2 and 17, which the ULD leaves unmapped,
+ * as hardware fail (5) as ST's full API has them ([SSD]); raw 24..31 are unmapped. */
 static const uint8_t raw_to_uld_status[24] = {
-    255u, 255u, 255u, 5u,   2u,   4u,   1u,  7u, 3u,   0u,   255u, 255u,
-    9u,   13u,  255u, 255u, 255u, 255u, 10u, 6u, 255u, 255u, 11u,  12u,
+    255u, 5u,  5u,   5u,   2u,   4u, 1u,  7u, 3u,   0u,   255u, 255u,
+    9u,   13u, 255u, 255u, 255u, 5u, 10u, 6u, 255u, 255u, 11u,  12u,
 };
 
 uint8_t vl53_range_status_from_raw(uint8_t raw) {
@@ -189,6 +191,7 @@ const char *vl53_config_check(const struct vl53_config *cfg) {
 
 static void forget_ranging(struct vl53_dev *dev) {
     dev->ranging = false;
+    dev->vhv_running = false;
     dev->have_stream = false;
     dev->have_candidate = false;
 }
@@ -209,6 +212,9 @@ int vl53_attach(struct vl53_dev *dev, const struct vl53_config *cfg) {
     dev->last_result_us = dev->power_up_us;
     dev->data_deadline_us = dev->power_up_us;
     dev->next_register_poll_us = dev->power_up_us;
+    dev->boot_state = 0u;
+    dev->vhv_running = false;
+    dev->vhv_start_us = dev->power_up_us;
     return HAL_OK;
 }
 
@@ -285,7 +291,8 @@ int vl53_wait_boot(struct vl53_dev *dev) {
                                      &state, 1u, left < per_transfer ? left : per_transfer);
         if (err == HAL_OK) {
             answered = true;
-            if ((state & VL53_FIRMWARE_BOOTED_BIT) != 0u) {
+            if (state != 0u) { /* 0x01 cold, 0x02/0x03 warm: booted either way ([I14]) */
+                dev->boot_state = state;
                 return HAL_OK;
             }
         }
@@ -299,6 +306,10 @@ int vl53_wait_boot(struct vl53_dev *dev) {
         return HAL_ERR_TIMEOUT; /* it answered, but never reported booted */
     }
     return last_err; /* ADDR_NACK throughout: nobody home; or a bus fault, unchanged */
+}
+
+bool vl53_warm_boot(const struct vl53_dev *dev) {
+    return dev_ok(dev) && dev->boot_state != 0u && dev->boot_state != VL53_FIRMWARE_BOOTED_BIT;
 }
 
 static int read_model_id(const struct call *c, uint8_t addr, uint16_t *model_id) {
@@ -474,33 +485,107 @@ static int read_data_ready(const struct call *c, enum vl53_polarity polarity, bo
     return HAL_OK;
 }
 
-/*
- * With the vendor block: write it, then the ULD's first-range VHV step (start, wait for
- * data ready, clear, stop, loop bound 0x09, VHV init 0) ([ULD] VL53L1X_SensorInit).
- */
-static int write_vendor_block(const struct call *c) {
-    const uint8_t *block = c->dev->cfg->vendor_default_config;
-    const uint8_t addr = c->dev->address;
-    int err = call_write(c, addr, VL53_REG_DEFAULT_CONFIG_FIRST, block, VL53_DEFAULT_CONFIG_LEN);
+/* The default configuration as this board needs it: ST's table (or the integrator's) with
+ * the pad-voltage bits of 0x2E / 0x2F set for AVDD pull-ups ([ULD] table comments). */
+static void default_block(const struct vl53_config *cfg, uint8_t out[VL53_DEFAULT_CONFIG_LEN]) {
+    const uint8_t *table =
+        cfg->vendor_default_config != NULL ? cfg->vendor_default_config : vl53_default_config;
+    for (size_t i = 0; i < VL53_DEFAULT_CONFIG_LEN; ++i) {
+        out[i] = table[i];
+    }
+    if (cfg->pads_at_avdd) {
+        out[VL53_REG_PAD_I2C_HV_EXTSUP_CONFIG - VL53_REG_DEFAULT_CONFIG_FIRST] |= VL53_PAD_AVDD_BIT;
+        out[VL53_REG_GPIO_HV_PAD_CTRL - VL53_REG_DEFAULT_CONFIG_FIRST] |= VL53_PAD_AVDD_BIT;
+    }
+}
+
+int vl53_configure_begin(struct vl53_dev *dev) {
+    if (!dev_ok(dev)) {
+        return HAL_ERR_INVALID;
+    }
+    struct call c = call_begin(dev, call_budget(dev));
+    /* Stop first so configuring is idempotent whatever state the part was left in (a part
+     * that kept power across an MCU reset may still be ranging). */
+    int err = call_write_byte(&c, VL53_REG_SYSTEM_MODE_START, VL53_MODE_STOP);
+    forget_ranging(dev);
+    uint8_t block[VL53_DEFAULT_CONFIG_LEN];
+    default_block(dev->cfg, block);
     if (err == HAL_OK) {
-        err = call_write_byte(c, VL53_REG_SYSTEM_MODE_START, VL53_MODE_START_TIMED);
+        /* [ULD] SensorInit writes 0x2D..0x87 one byte at a time; one auto-incrementing
+         * transfer writes the same registers with the same values in the same order. */
+        err = call_write(&c, dev->address, VL53_REG_DEFAULT_CONFIG_FIRST, block, sizeof block);
     }
-    if (err != HAL_OK) {
-        return err;
+    if (err == HAL_OK) {
+        err = call_write_byte(&c, VL53_REG_SYSTEM_MODE_START, VL53_MODE_START_TIMED);
     }
-    /* Polarity as the block just set it ([ULD] CheckForDataReady reads it each time). */
+    if (err == HAL_OK) {
+        dev->vhv_running = true;
+        dev->vhv_start_us = now_us(dev);
+    }
+    return err;
+}
+
+/* Polarity of data ready during the VHV range: as the block set it (0x30 bit 4), as
+ * [ULD] CheckForDataReady reads it. */
+static enum vl53_polarity vhv_polarity(const struct vl53_config *cfg) {
+    const uint8_t *table =
+        cfg->vendor_default_config != NULL ? cfg->vendor_default_config : vl53_default_config;
     const size_t mux_ofs = VL53_REG_GPIO_HV_MUX_CTRL - VL53_REG_DEFAULT_CONFIG_FIRST;
-    enum vl53_polarity polarity = (block[mux_ofs] & VL53_GPIO_HV_MUX_POLARITY_LOW_BIT) != 0u
-                                      ? VL53_INT_ACTIVE_LOW
-                                      : VL53_INT_ACTIVE_HIGH;
+    return (table[mux_ofs] & VL53_GPIO_HV_MUX_POLARITY_LOW_BIT) != 0u ? VL53_INT_ACTIVE_LOW
+                                                                      : VL53_INT_ACTIVE_HIGH;
+}
+
+/* One look at the VHV range's data ready: GPIO1 when wired (the same signal, no bus
+ * traffic), else GPIO__TIO_HV_STATUS. */
+static int vhv_ready_once(const struct call *c, bool *ready) {
+    const struct vl53_config *cfg = c->dev->cfg;
+    const enum vl53_polarity polarity = vhv_polarity(cfg);
+    if (cfg->gpio1_pin == VL53_PIN_NONE) {
+        return read_data_ready(c, polarity, ready);
+    }
+    bool level_high = false;
+    int err = cfg->gpio.ops->read(cfg->gpio.ctx, cfg->gpio1_pin, &level_high);
+    *ready = err == HAL_OK && level_high == (polarity == VL53_INT_ACTIVE_HIGH);
+    return err;
+}
+
+int vl53_configure_pending(struct vl53_dev *dev) {
+    if (!dev_ok(dev)) {
+        return HAL_ERR_INVALID;
+    }
+    if (!dev->vhv_running) {
+        return HAL_ERR_STATE;
+    }
+    struct call c = call_begin(dev, call_budget(dev));
+    bool ready = false;
+    int err = vhv_ready_once(&c, &ready);
+    if (err == HAL_OK && ready) {
+        return HAL_OK;
+    }
+    const uint32_t budget =
+        or_default(dev->cfg->configure_budget_us, VL53_DEFAULT_CONFIGURE_BUDGET_US);
+    if (hal_time_elapsed_us(now_us(dev), dev->vhv_start_us) >= budget) {
+        return HAL_ERR_TIMEOUT;
+    }
+    return err != HAL_OK ? err : HAL_ERR_NOT_READY;
+}
+
+/* The VHV step's end ([ULD] SensorInit): wait for the first range's data ready, clear,
+ * stop, two-bounds VHV from the previous temperature. A poll lost to a bus error is
+ * retried within the budget. */
+static int finish_vhv(const struct call *c) {
     const uint32_t poll_us =
         or_default(c->dev->cfg->poll_interval_us, VL53_DEFAULT_POLL_INTERVAL_US);
     const uint32_t max_polls = c->budget_us / poll_us + 1u;
     bool ready = false;
+    int err = HAL_OK;
     for (uint32_t poll = 0; poll < max_polls && !ready; ++poll) {
-        err = read_data_ready(c, polarity, &ready);
-        if (err != HAL_OK) {
+        err = vhv_ready_once(c, &ready);
+        if (err == HAL_ERR_BUS_STUCK || err == HAL_ERR_INVALID) {
             return err;
+        }
+        if (err != HAL_OK) {
+            ready = false; /* a lost poll (NACK, stretch): the next one may get through */
         }
         if (!ready) {
             if (call_transfer_timeout(c) <= poll_us) {
@@ -526,24 +611,22 @@ static int write_vendor_block(const struct call *c) {
     return err;
 }
 
-int vl53_configure(struct vl53_dev *dev) {
+int vl53_configure_finish(struct vl53_dev *dev) {
     if (!dev_ok(dev)) {
         return HAL_ERR_INVALID;
     }
+    if (!dev->vhv_running) {
+        return HAL_ERR_STATE;
+    }
     struct call c = call_begin(
         dev, or_default(dev->cfg->configure_budget_us, VL53_DEFAULT_CONFIGURE_BUDGET_US));
-    /* Stop first so configuring is idempotent whatever state the part was left in. */
-    int err = call_write_byte(&c, VL53_REG_SYSTEM_MODE_START, VL53_MODE_STOP);
+    int err = finish_vhv(&c);
+    dev->vhv_running = false;
     if (err != HAL_OK) {
         return err;
     }
-    forget_ranging(dev);
-    if (dev->cfg->vendor_default_config != NULL) {
-        err = write_vendor_block(&c);
-        if (err != HAL_OK) {
-            return err;
-        }
-    }
+    /* [ULD] SetInterruptPolarity, SetDistanceMode, SetTimingBudgetInMs,
+     * SetInterMeasurementInMs, in that order. */
     const uint8_t mux = mux_ctrl_value(dev->cfg->polarity);
     err = call_write_byte(&c, VL53_REG_GPIO_HV_MUX_CTRL, mux);
     if (err == HAL_OK) {
@@ -557,6 +640,11 @@ int vl53_configure(struct vl53_dev *dev) {
         err = HAL_ERR_CORRUPT;
     }
     return err;
+}
+
+int vl53_configure(struct vl53_dev *dev) {
+    int err = vl53_configure_begin(dev);
+    return err == HAL_OK ? vl53_configure_finish(dev) : err;
 }
 
 int vl53_set_timing(struct vl53_dev *dev, const struct vl53_timing *timing) {
@@ -710,6 +798,30 @@ static void decode_result(const uint8_t *block, uint32_t time_us, struct vl53_re
         (uint32_t)hal_get_be16(&block[VL53_RESULT_OFS_SIGNAL]) * VL53_RATE_TO_KCPS_FACTOR;
     result->time_us = time_us;
     result->missed = 0u;
+    result->flags = 0u;
+}
+
+/* A distance the part cannot report as a valid reading in `mode` (see vl53.h). */
+static bool implausible_distance(uint16_t mm, enum vl53_distance_mode mode) {
+    const uint16_t max_mm =
+        mode == VL53_DISTANCE_LONG ? VL53_RANGE_MAX_LONG_MM : VL53_RANGE_MAX_SHORT_MM;
+    return mm == 0u || mm > max_mm; /* covers 8190, 8191 and 65535, all beyond 4 m */
+}
+
+/* The marks of a result that passed the stream check: first-after-start, plausibility. */
+static void mark_result(const struct vl53_dev *dev, struct vl53_result *result) {
+    if ((result->flags & VL53_RESULT_FIRST) != 0u &&
+        result->range_status == (uint8_t)VL53_RANGE_VALID) {
+        result->range_status = VL53_RANGE_NO_WRAP_CHECK; /* ([SSD]) */
+    }
+    if (implausible_distance(result->distance_mm, dev->timing.mode)) {
+        /* Flagged whatever the status; a status already not valid says more, so it stays. */
+        result->flags |= VL53_RESULT_IMPLAUSIBLE;
+        if (result->range_status == (uint8_t)VL53_RANGE_VALID ||
+            result->range_status == (uint8_t)VL53_RANGE_NO_WRAP_CHECK) {
+            result->range_status = VL53_RANGE_IMPLAUSIBLE;
+        }
+    }
 }
 
 /*
@@ -729,8 +841,11 @@ static int check_stream(struct vl53_dev *dev, struct vl53_result *result) {
             return HAL_ERR_CORRUPT; /* data ready claimed, but the block is the one we had */
         }
     } else {
-        /* The first range after a start reports 0 ([API]); later ones count up from it. */
-        advance = (int)result->stream_count + 1;
+        /* The first result after a start: the part's count does not restart at 0 after a
+         * stop ([I14]), so any value can come; nothing to check it against. */
+        dev->have_candidate = false;
+        result->flags |= VL53_RESULT_FIRST;
+        return HAL_OK;
     }
     if (advance < 0 || (uint32_t)advance > possible) {
         int from_candidate =
@@ -766,10 +881,27 @@ static int read_result_in(const struct call *c, struct vl53_result *result) {
     if (result->range_status == (uint8_t)VL53_RANGE_UNKNOWN) {
         return HAL_ERR_CORRUPT; /* a raw status the part does not produce: garbled read */
     }
+    const uint8_t raw = result->raw_status;
+    if (raw == VL53_RAW_VCSEL_CONTINUITY_FAIL || raw == VL53_RAW_VCSEL_WATCHDOG_FAIL ||
+        raw == VL53_RAW_NO_VHV_VALUE || raw == VL53_RAW_MULTCLIP_FAIL) {
+        /* The part reports its own hardware fault ([SSD]): not the bus's. Read the status
+         * again first: a garbled read must not cost the sensor a re-initialisation. */
+        uint8_t again = 0u;
+        err = call_read(c, dev->address, VL53_REG_RESULT_RANGE_STATUS, &again, 1u);
+        if (err != HAL_OK) {
+            return err;
+        }
+        if ((again & VL53_RANGE_STATUS_RAW_MASK) != raw) {
+            return HAL_ERR_CORRUPT;
+        }
+        result->flags |= VL53_RESULT_HW_FAULT;
+        return HAL_ERR_DEVICE;
+    }
     err = check_stream(dev, result);
     if (err != HAL_OK) {
         return err;
     }
+    mark_result(dev, result);
     if (dev->cfg->verify_distance) {
         uint8_t again[2];
         err = call_read(c, dev->address, VL53_REG_RESULT_DISTANCE, again, sizeof again);

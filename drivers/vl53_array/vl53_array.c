@@ -83,8 +83,32 @@ static int require_free(struct vl53_array *array, size_t index, uint8_t addr) {
     return fail(array, index, VL53_ARRAY_BUS_ERROR, err, addr);
 }
 
-/* Release one sensor (held in reset, 0x29 and its address checked free) and bring it up. */
-static int release_and_start(struct vl53_array *array, size_t index) {
+/* Every other sensor that is up (ranging, or configuring: moved to its address) must still
+ * answer at its own address. A sensor that reset while this one was at 0x29 (silent in its
+ * early boot when 0x29 was probed) took the address write too and now answers at this
+ * one's address as well: its reads would be wired-AND with ours, undetectably. It lost its
+ * own address to do so, which is what this looks for (read-only probes: undisturbed). */
+static int check_others(struct vl53_array *array, size_t index) {
+    const uint8_t target = array->cfg->sensors[index].address;
+    for (size_t j = 0; j < array->cfg->count; ++j) {
+        const enum vl53_sensor_state state = array->report[j].state;
+        if (j == index || state == VL53_SENSOR_OFF) {
+            continue;
+        }
+        int err = probe(array, array->cfg->sensors[j].address);
+        if (err == HAL_ERR_ADDR_NACK) {
+            return fail(array, index, VL53_ARRAY_ADDRESS_CONFLICT, HAL_ERR_STATE, target);
+        }
+        if (err != HAL_OK) {
+            return fail(array, index, VL53_ARRAY_BUS_ERROR, err, target);
+        }
+    }
+    return HAL_OK;
+}
+
+/* Release one sensor (held in reset, 0x29 and its address checked free), move it to its
+ * address and start its VHV range (vl53_configure_begin): CONFIGURING on success. */
+static int release_and_begin(struct vl53_array *array, size_t index) {
     struct vl53_dev *dev = &array->dev[index];
     struct vl53_sensor_report *report = &array->report[index];
     const uint8_t target = array->cfg->sensors[index].address;
@@ -124,28 +148,29 @@ static int release_and_start(struct vl53_array *array, size_t index) {
     if (err != HAL_ERR_ADDR_NACK) {
         return fail(array, index, VL53_ARRAY_BUS_ERROR, err, VL53_DEFAULT_ADDRESS);
     }
-    err = vl53_configure(dev);
+    err = vl53_configure_begin(dev);
+    if (err != HAL_OK) {
+        return fail(array, index, VL53_ARRAY_CONFIG_FAILED, err, target);
+    }
+    err = check_others(array, index);
+    if (err != HAL_OK) {
+        return err;
+    }
+    report->state = VL53_SENSOR_CONFIGURING;
+    return HAL_OK;
+}
+
+/* A CONFIGURING sensor: end its VHV step, write its timing, start it: RANGING on success. */
+static int finish_and_start(struct vl53_array *array, size_t index) {
+    struct vl53_dev *dev = &array->dev[index];
+    struct vl53_sensor_report *report = &array->report[index];
+    int err = vl53_configure_finish(dev);
     if (err == HAL_OK) {
         err = vl53_start_ranging(dev);
     }
     if (err != HAL_OK) {
-        return fail(array, index, VL53_ARRAY_CONFIG_FAILED, err, target);
-    }
-    /* A sensor that reset while this one was at 0x29 (silent in its early boot when 0x29 was
-     * probed) took the address write too and now answers at `target` as well: its reads
-     * would be wired-AND with ours, undetectably. It lost its own address to do so, so every
-     * other ranging sensor must still answer at its own (read-only probes: undisturbed). */
-    for (size_t j = 0; j < array->cfg->count; ++j) {
-        if (j == index || array->report[j].state != VL53_SENSOR_RANGING) {
-            continue;
-        }
-        err = probe(array, array->cfg->sensors[j].address);
-        if (err == HAL_ERR_ADDR_NACK) {
-            return fail(array, index, VL53_ARRAY_ADDRESS_CONFLICT, HAL_ERR_STATE, target);
-        }
-        if (err != HAL_OK) {
-            return fail(array, index, VL53_ARRAY_BUS_ERROR, err, target);
-        }
+        return fail(array, index, VL53_ARRAY_CONFIG_FAILED, err,
+                    array->cfg->sensors[index].address);
     }
     report->state = VL53_SENSOR_RANGING;
     report->fault = VL53_ARRAY_OK;
@@ -195,14 +220,26 @@ int vl53_array_bring_up(struct vl53_array *array) {
             first_err = first_err != HAL_OK ? first_err : array->report[i].err;
         }
     }
+    /* Each sensor's VHV range takes ~100 ms at the block's timing: release and begin them
+     * one after the other (only one may be at 0x29 at a time), so the four ranges overlap,
+     * then finish each. */
     for (size_t i = 0; i < count; ++i) {
         if (skip[i]) {
             continue;
         }
         err = require_free(array, i, VL53_DEFAULT_ADDRESS);
         if (err == HAL_OK) {
-            err = release_and_start(array, i);
+            err = release_and_begin(array, i);
         }
+        if (err != HAL_OK && first_err == HAL_OK) {
+            first_err = err;
+        }
+    }
+    for (size_t i = 0; i < count; ++i) {
+        if (array->report[i].state != VL53_SENSOR_CONFIGURING) {
+            continue;
+        }
+        err = finish_and_start(array, i);
         if (err != HAL_OK && first_err == HAL_OK) {
             first_err = err;
         }
@@ -210,7 +247,7 @@ int vl53_array_bring_up(struct vl53_array *array) {
     return first_err;
 }
 
-int vl53_array_recover_sensor(struct vl53_array *array, size_t index) {
+int vl53_array_recover_sensor_begin(struct vl53_array *array, size_t index) {
     if (!index_ok(array, index)) {
         return HAL_ERR_INVALID;
     }
@@ -226,7 +263,33 @@ int vl53_array_recover_sensor(struct vl53_array *array, size_t index) {
         err = require_free(array, index, array->cfg->sensors[index].address);
     }
     if (err == HAL_OK) {
-        err = release_and_start(array, index);
+        err = release_and_begin(array, index);
+    }
+    return err;
+}
+
+int vl53_array_recover_sensor_step(struct vl53_array *array, size_t index) {
+    if (!index_ok(array, index)) {
+        return HAL_ERR_INVALID;
+    }
+    if (array->report[index].state != VL53_SENSOR_CONFIGURING) {
+        return HAL_ERR_STATE;
+    }
+    int err = vl53_configure_pending(&array->dev[index]);
+    if (err == HAL_OK) {
+        return finish_and_start(array, index); /* data ready: no waiting */
+    }
+    if (err == HAL_ERR_TIMEOUT || err == HAL_ERR_BUS_STUCK) {
+        return fail(array, index, VL53_ARRAY_CONFIG_FAILED, err,
+                    array->cfg->sensors[index].address);
+    }
+    return HAL_ERR_NOT_READY; /* still ranging, or one look lost to the bus: look again */
+}
+
+int vl53_array_recover_sensor(struct vl53_array *array, size_t index) {
+    int err = vl53_array_recover_sensor_begin(array, index);
+    if (err == HAL_OK) {
+        err = finish_and_start(array, index);
     }
     return err;
 }
@@ -246,11 +309,12 @@ static uint32_t value_or(uint32_t value, uint32_t fallback) {
     return value != 0u ? value : fallback;
 }
 
-/* Release, boot, identify, move, probe 0x29, configure, start: one sensor's bring-up. */
+/* Release, boot, identify, move, probe 0x29, configure (begin and finish), start: one
+ * sensor's bring-up. */
 static uint32_t release_budget_us(const struct vl53_config *cfg) {
     uint32_t call = value_or(cfg->call_budget_us, VL53_DEFAULT_CALL_BUDGET_US);
     uint32_t transfer = value_or(cfg->i2c_timeout_us, VL53_DEFAULT_I2C_TIMEOUT_US);
-    return VL53_BOOT_TIME_MAX_US + VL53_BOOT_SLACK_US + VL53_BOOT_POLL_US + 3u * call + transfer +
+    return VL53_BOOT_TIME_MAX_US + VL53_BOOT_SLACK_US + VL53_BOOT_POLL_US + 4u * call + transfer +
            value_or(cfg->configure_budget_us, VL53_DEFAULT_CONFIGURE_BUDGET_US);
 }
 

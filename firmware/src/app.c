@@ -1,8 +1,8 @@
+/* The application: bring-up, acquisition, fault manager, estimation, one iteration at a time. */
 #include "firmware/app.h"
 
 #include <string.h>
 
-#include "firmware/link.h"
 #include "firmware/text.h"
 #include "hal/hal_err.h"
 
@@ -96,8 +96,12 @@ static void note_error(struct tof_app *app, unsigned sensor, int err) {
     ++app->counters.errors_by_code[error_slot(err)];
     const enum tof_health_state before = app->health[sensor].state;
     const bool bus_wide = err == HAL_ERR_BUS_STUCK || err == HAL_ERR_BUS_BUSY;
+    /* The sensor reported its own hardware fault: re-initialise it, the bus is fine. */
+    const enum tof_error_scope scope = bus_wide                ? TOF_ERROR_BUS
+                                       : err == HAL_ERR_DEVICE ? TOF_ERROR_DEVICE
+                                                               : TOF_ERROR_SENSOR;
     tof_health_on_error(&app->health[sensor], &app->cfg->health, (uint32_t)(app->uptime_us / 1000u),
-                        bus_wide ? TOF_ERROR_BUS : TOF_ERROR_SENSOR);
+                        scope);
     if (app->health[sensor].state != before) {
         emit_event(app, TOF_EVENT_HEALTH, sensor, before, app->health[sensor].state, err);
     }
@@ -147,21 +151,9 @@ static void poll_sensor(struct tof_app *app, unsigned sensor) {
                       result.range_status, &sink);
 }
 
-/* Carry out the fault manager's decision for one sensor; returns true if it re-initialised. */
-static bool manage_sensor(struct tof_app *app, unsigned sensor) {
-    const uint32_t now_ms = (uint32_t)(app->uptime_us / 1000u);
-    const enum tof_health_state before = app->health[sensor].state;
-    const enum tof_health_action action =
-        tof_health_poll(&app->health[sensor], &app->cfg->health, now_ms);
-    if (app->health[sensor].state != before) {
-        emit_event(app, TOF_EVENT_HEALTH, sensor, before, app->health[sensor].state,
-                   HAL_ERR_TIMEOUT);
-    }
-    if (action != TOF_HEALTH_ACT_REINIT) {
-        return false;
-    }
-    const int rc = vl53_array_recover_sensor(&app->array, sensor);
-    (void)tof_app_now_us(app);
+/* A re-initialisation ended (`rc` from the array): count it, park the sensor for the next
+ * slot on success, free a stuck bus on failure, tell the health state machine. */
+static void reinit_done(struct tof_app *app, unsigned sensor, int rc) {
     if (rc == HAL_OK) {
         ++app->counters.reinits_ok;
         park_until_boundary(app, sensor);
@@ -180,6 +172,38 @@ static bool manage_sensor(struct tof_app *app, unsigned sensor) {
     tof_health_on_reinit_done(&app->health[sensor], &app->cfg->health,
                               (uint32_t)(app->uptime_us / 1000u), rc == HAL_OK);
     emit_event(app, TOF_EVENT_REINIT, sensor, lost, app->health[sensor].state, rc);
+}
+
+/* Carry out the fault manager's decision for one sensor; returns true if it did bus work
+ * for a re-initialisation. A re-init runs in two halves: the XSHUT cycle up to the start of
+ * ST's ~100 ms VHV range, then, in later iterations, its end once the range is over, so
+ * the other sensors keep being read meanwhile. */
+static bool manage_sensor(struct tof_app *app, unsigned sensor) {
+    if (vl53_array_report(&app->array, sensor)->state == VL53_SENSOR_CONFIGURING) {
+        const int rc = vl53_array_recover_sensor_step(&app->array, sensor);
+        if (rc == HAL_ERR_NOT_READY) {
+            return false; /* VHV range still running: one quick look, nothing else */
+        }
+        (void)tof_app_now_us(app);
+        reinit_done(app, sensor, rc);
+        return true;
+    }
+    const uint32_t now_ms = (uint32_t)(app->uptime_us / 1000u);
+    const enum tof_health_state before = app->health[sensor].state;
+    const enum tof_health_action action =
+        tof_health_poll(&app->health[sensor], &app->cfg->health, now_ms);
+    if (app->health[sensor].state != before) {
+        emit_event(app, TOF_EVENT_HEALTH, sensor, before, app->health[sensor].state,
+                   HAL_ERR_TIMEOUT);
+    }
+    if (action != TOF_HEALTH_ACT_REINIT) {
+        return false;
+    }
+    const int rc = vl53_array_recover_sensor_begin(&app->array, sensor);
+    (void)tof_app_now_us(app);
+    if (rc != HAL_OK) {
+        reinit_done(app, sensor, rc); /* failed before the VHV range */
+    }
     return true;
 }
 
@@ -247,6 +271,7 @@ int tof_app_init(struct tof_app *app, const struct tof_platform *platform,
             .gpio1_pin = platform->gpio1_pin[i],
             .polarity = VL53_INT_ACTIVE_HIGH,
             .timing = cfg->timing,
+            .pads_at_avdd = platform->sensor_pads_at_avdd,
         };
     }
     app->array_cfg = (struct vl53_array_config){.sensors = app->sensor_cfg, .count = TOF_SENSORS};
@@ -254,8 +279,10 @@ int tof_app_init(struct tof_app *app, const struct tof_platform *platform,
     if (rc != HAL_OK) {
         return rc;
     }
-    if (attitude_init(&app->estimator, &cfg->estimator) != ATTITUDE_ERR_NONE) {
-        return HAL_ERR_INVALID; /* attitude_error_message() names the field */
+    const int est_rc = attitude_init(&app->estimator, &cfg->estimator);
+    if (est_rc != ATTITUDE_ERR_NONE) {
+        app->estimator_error = est_rc;
+        return est_rc; /* unchanged: attitude_error_message() names the field */
     }
     /* the product consensus when it runs, else the first estimator that does */
     app->primary = ATTITUDE_EST_CONSENSUS;
@@ -332,52 +359,94 @@ void tof_app_step(struct tof_app *app, bool idle) {
 }
 
 int tof_app_set_window(struct tof_app *app, uint16_t window, bool sliding) {
-    if (window < 2u || window > ATTITUDE_WINDOW_MAX) {
-        return HAL_ERR_INVALID;
-    }
     struct attitude_config next = app->estimator.cfg;
     next.window = window;
     next.mode = sliding ? ATTITUDE_SLIDING : ATTITUDE_TUMBLING;
-    /* The rest of the configuration was accepted at init, so this cannot fail. */
-    return attitude_init(&app->estimator, &next) == ATTITUDE_ERR_NONE ? HAL_OK : HAL_ERR_STATE;
+    /* attitude_init() checks window and mode before it touches the state, and the rest
+     * of the configuration was accepted at init: a refusal changes nothing. */
+    return attitude_init(&app->estimator, &next);
 }
 
 int tof_app_set_primary(struct tof_app *app, enum attitude_estimator primary) {
     /* only an estimator that runs (selected in the configuration, built into the image) */
     if ((unsigned)primary >= (unsigned)ATTITUDE_EST_COUNT ||
         (app->estimator.cfg.estimators & ATTITUDE_EST_BIT(primary)) == 0u) {
-        return HAL_ERR_INVALID;
+        return ATTITUDE_ERR_ESTIMATORS;
     }
     app->primary = primary;
-    return HAL_OK;
+    return ATTITUDE_ERR_NONE;
 }
 
 void tof_app_set_running(struct tof_app *app, bool running) {
     app->running = running;
 }
 
+void tof_app_set_raw_output(struct tof_app *app, bool on) {
+    app->raw_output = on;
+}
+
+void tof_app_get_status(const struct tof_app *app, struct tof_app_status *out) {
+    *out = (struct tof_app_status){
+        .uptime_us = app->uptime_us,
+        .window = app->estimator.cfg.window,
+        .sliding = app->estimator.cfg.mode == ATTITUDE_SLIDING,
+        .primary = app->primary,
+        .running = app->running,
+        .raw_output = app->raw_output,
+        .period_us = app->assembler_cfg.period_us,
+    };
+}
+
+void tof_app_get_health(const struct tof_app *app, struct tof_app_health *out) {
+    memset(out, 0, sizeof *out);
+    out->uptime_us = app->uptime_us;
+    for (unsigned i = 0; i < TOF_SENSORS; ++i) {
+        out->state[i] = app->health[i].state;
+        out->losses[i] = app->health[i].losses;
+        out->read_errors[i] = app->counters.read_errors[i];
+    }
+    memcpy(out->errors_by_code, app->counters.errors_by_code, sizeof out->errors_by_code);
+    out->bus_recoveries = app->counters.bus_recoveries;
+    out->overruns = app->counters.overruns;
+    out->max_iteration_us = app->counters.max_iteration_us;
+}
+
+const char *tof_app_error_message(const struct tof_app *app, int err) {
+    if (err != 0 && err == app->estimator_error) {
+        return attitude_error_message(err);
+    }
+    return hal_err_name(err);
+}
+
+/* Not inlined: its line buffer stays off the main loop's stack (tools/stack_check.py). */
+static __attribute__((noinline)) void
+log_init_failure(const struct tof_app *app, const struct tof_platform *platform, int rc) {
+    char line[128]; /* "init failed: estimator: " and the longest attitude_error_message */
+    struct tof_text t;
+    tof_text_init(&t, line, sizeof line);
+    tof_text_str(&t, app->estimator_error != 0 ? "init failed: estimator: " : "init failed: ");
+    tof_text_str(&t, tof_app_error_message(app, rc));
+    tof_log_line(platform, line);
+}
+
 int tof_app_main(const struct tof_platform *platform, const struct tof_app_config *cfg,
-                 struct tof_app *app, struct tof_link *link, uint32_t max_iterations) {
+                 struct tof_app *app, const struct tof_app_service *service,
+                 uint32_t max_iterations) {
     tof_log_line(platform, TOF_FW_NAME " " TOF_FW_VERSION);
     tof_log_line(platform, platform->board_name);
     const int rc = tof_app_init(app, platform, cfg);
     if (rc != HAL_OK) {
-        char line[64];
-        struct tof_text t;
-        tof_text_init(&t, line, sizeof line);
-        tof_text_str(&t, "init failed: ");
-        tof_text_str(&t, hal_err_name(rc));
-        tof_log_line(platform, line);
+        log_init_failure(app, platform, rc);
         return rc;
     }
-    if (link != NULL) {
-        tof_link_bind(link, app);
-        tof_link_send_status(link);
+    const bool has_service = service != NULL && service->ops != NULL;
+    if (has_service && service->ops->start != NULL) {
+        service->ops->start(service->ctx, app);
     }
     for (uint32_t n = 0; max_iterations == 0u || n < max_iterations; ++n) {
         tof_app_step(app, true);
-        if (link != NULL) {
-            tof_link_poll(link);
+        if (has_service && service->ops->poll != NULL) {
+            service->ops->poll(service->ctx);
         }
     }
     return HAL_OK;

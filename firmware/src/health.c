@@ -64,8 +64,12 @@ void tof_health_on_error(struct tof_health *h, const struct tof_health_config *c
     if (h->consecutive_errors < UINT8_MAX) {
         ++h->consecutive_errors;
     }
-    if (scope == TOF_ERROR_SENSOR) {
+    if (scope != TOF_ERROR_BUS) {
         note_trouble(h, cfg, now_ms);
+    }
+    if (scope == TOF_ERROR_DEVICE) {
+        enter(h, TOF_HEALTH_LOST, now_ms); /* only a re-init can clear it */
+        return;
     }
     switch (h->state) {
     case TOF_HEALTH_HEALTHY:

@@ -1,3 +1,4 @@
+/* The telemetry link: frames out, commands in, applied through app.h's interface. */
 #include "firmware/link.h"
 
 #include <string.h>
@@ -24,66 +25,38 @@ static void send(struct tof_link *link, const uint8_t *frame, int len) {
     ++link->seq;
 }
 
-static uint8_t reason_bits(const struct attitude_estimate *e) {
-    if (e->status == ATTITUDE_OK) {
-        return 0;
-    }
-    switch (e->reason) {
-    case ATTITUDE_REASON_SENSOR_MISSING:
-        return TLM_REASON_SENSOR_MISSING;
-    case ATTITUDE_REASON_ALPHA_UNOBSERVABLE:
-    case ATTITUDE_REASON_BETA_UNOBSERVABLE:
-    case ATTITUDE_REASON_UNOBSERVABLE:
-    case ATTITUDE_REASON_PAPER_TOO_FEW_ROWS:
-        return TLM_REASON_TOO_FEW_SENSORS;
-    case ATTITUDE_REASON_NO_CONVERGENCE:
-    case ATTITUDE_REASON_PAPER_NO_CONVERGENCE:
-    case ATTITUDE_REASON_PAPER_DIVERGED:
-    case ATTITUDE_REASON_PAPER_OUTSIDE_HULL:
-    case ATTITUDE_REASON_PAPER_INCONSISTENT:
-    case ATTITUDE_REASON_PAPER_NONPOSITIVE_VARIANCE:
-    case ATTITUDE_REASON_PAPER_ZERO_COVARIANCE:
-    case ATTITUDE_REASON_PAPER_ZERO_ROW_SUM:
-    case ATTITUDE_REASON_PAPER_NEGATIVE_ROW_SUM:
-        return TLM_REASON_NOT_CONVERGED;
-    case ATTITUDE_REASON_PAPER_OVERFLOW:
-        return TLM_REASON_SATURATED;
-    case ATTITUDE_REASON_DISABLED:
-        return TLM_REASON_NO_SAMPLES;
-    case ATTITUDE_REASON_FLAGGED_DATA:
-    case ATTITUDE_REASON_KALMAN_RESTARTED:
-    default:
-        return TLM_REASON_SENSOR_FLAGGED; /* any other cause of a non-ok status */
-    }
-}
-
 static void send_estimates(struct tof_link *link, const struct tof_estimate_record *record) {
     const struct attitude_output *out = &record->output;
-    const uint16_t n = link->app->estimator.cfg.window;
-    const bool sliding = link->app->estimator.cfg.mode == ATTITUDE_SLIDING;
+    struct tof_app_status st;
+    tof_app_get_status(link->app, &st);
+    const uint16_t n = st.window;
+    const bool sliding = st.sliding;
     for (unsigned e = 0; e < ATTITUDE_EST_COUNT; ++e) {
         const struct attitude_estimate *est = &out->est[e];
         if (est->reason == ATTITUDE_REASON_DISABLED) {
             continue;
         }
-        /* The protocol's invalid estimate carries no values (docs/telemetry.md), even
-         * when one axis alone was observable; the other statuses carry all three. */
-        const bool values = est->status != ATTITUDE_INVALID;
         uint8_t used = 0;
         for (unsigned k = 0; k < TOF_SENSORS; ++k) {
             used = (uint8_t)(used | (est->counts[k].used > 0u ? 1u << k : 0u));
         }
+        /* Each value with its sd, or neither: what the estimator could not estimate has
+         * no sd either (docs/telemetry.md). */
+        const bool a = est->alpha_valid, b = est->beta_valid, d = est->distance_valid;
         const struct tlm_estimate msg = {
             .t_ms = (uint32_t)(record->t_us / 1000u),
             .window_index = sliding ? out->last_row : out->last_row / n,
             .estimator = (uint8_t)e, /* enum attitude_estimator matches enum tlm_estimator */
             .status = (uint8_t)est->status,
-            .reason = reason_bits(est),
             .sensors_used = est->status == ATTITUDE_OK ? TLM_SENSOR_MASK_ALL : used,
-            .alpha_udeg = values ? est->alpha_udeg : TLM_NO_VALUE,
-            .beta_udeg = values ? est->beta_udeg : TLM_NO_VALUE,
-            .distance_um = values ? est->distance_um : TLM_NO_VALUE,
+            .alpha_udeg = a ? est->alpha_udeg : TLM_NO_VALUE,
+            .beta_udeg = b ? est->beta_udeg : TLM_NO_VALUE,
+            .distance_um = d ? est->distance_um : TLM_NO_VALUE,
             .flatness_um = est->flatness_valid ? est->flatness_residual_um : TLM_NO_VALUE,
+            .alpha_sd_udeg = a ? est->alpha_sd_udeg : TLM_NO_VALUE,
+            .beta_sd_udeg = b ? est->beta_sd_udeg : TLM_NO_VALUE,
+            .distance_sd_um = d ? est->distance_sd_um : TLM_NO_VALUE,
+            .why = est->why, /* the estimator's bits, unchanged */
         };
         uint8_t frame[TLM_FRAME_MAX];
         send(link, frame, tlm_encode_estimate(link->seq, &msg, frame, sizeof frame));
@@ -91,30 +64,30 @@ static void send_estimates(struct tof_link *link, const struct tof_estimate_reco
 }
 
 static void send_health(struct tof_link *link) {
-    const struct tof_app *app = link->app;
-    const struct tof_app_counters *c = &app->counters;
+    struct tof_app_health h;
+    tof_app_get_health(link->app, &h);
     struct tlm_health msg;
     memset(&msg, 0, sizeof msg);
-    msg.uptime_ms = (uint32_t)(app->uptime_us / 1000u);
+    msg.uptime_ms = (uint32_t)(h.uptime_us / 1000u);
     for (unsigned i = 0; i < TOF_SENSORS; ++i) {
-        msg.sensor_state[i] = (uint8_t)app->health[i].state; /* same order as tlm_sensor_health */
-        msg.sensor[i].comm_errors = c->read_errors[i];
-        msg.sensor[i].reinits = app->health[i].losses;
+        msg.sensor_state[i] = (uint8_t)h.state[i]; /* same order as tlm_sensor_health */
+        msg.sensor[i].comm_errors = h.read_errors[i];
+        msg.sensor[i].reinits = h.losses[i];
     }
-    msg.bus.addr_nack = c->errors_by_code[-HAL_ERR_ADDR_NACK];
-    msg.bus.data_nack = c->errors_by_code[-HAL_ERR_DATA_NACK];
-    msg.bus.busy = c->errors_by_code[-HAL_ERR_BUS_BUSY];
-    msg.bus.timeout = c->errors_by_code[-HAL_ERR_TIMEOUT];
-    msg.bus.stuck = c->errors_by_code[-HAL_ERR_BUS_STUCK];
+    msg.bus.addr_nack = h.errors_by_code[-HAL_ERR_ADDR_NACK];
+    msg.bus.data_nack = h.errors_by_code[-HAL_ERR_DATA_NACK];
+    msg.bus.busy = h.errors_by_code[-HAL_ERR_BUS_BUSY];
+    msg.bus.timeout = h.errors_by_code[-HAL_ERR_TIMEOUT];
+    msg.bus.stuck = h.errors_by_code[-HAL_ERR_BUS_STUCK];
     for (int code = -HAL_ERR_INVALID; code <= -HAL_ERR_IO; ++code) {
         if (code != -HAL_ERR_BUS_STUCK) {
-            msg.bus.other += c->errors_by_code[code];
+            msg.bus.other += h.errors_by_code[code];
         }
     }
-    msg.bus.other += c->errors_by_code[0];
-    msg.bus.recoveries = c->bus_recoveries;
-    msg.loop_overruns = c->overruns;
-    msg.loop_max_us = c->max_iteration_us;
+    msg.bus.other += h.errors_by_code[0];
+    msg.bus.recoveries = h.bus_recoveries;
+    msg.loop_overruns = h.overruns;
+    msg.loop_max_us = h.max_iteration_us;
     msg.tx_dropped = link->tx_dropped;
     msg.link = link->decoder.counters;
     uint8_t frame[TLM_FRAME_MAX];
@@ -147,47 +120,57 @@ static void on_sample(void *ctx, const struct tof_sample *sample) {
 const struct tof_output_ops tof_link_output_ops = {.estimate = on_estimate, .sample = on_sample};
 
 void tof_link_send_status(struct tof_link *link) {
-    const struct tof_app *app = link->app;
+    struct tof_app_status st;
+    tof_app_get_status(link->app, &st);
     const struct tlm_status msg = {
         .fw_major = FW_MAJOR,
         .fw_minor = FW_MINOR,
         .fw_patch = FW_PATCH,
-        .uptime_ms = (uint32_t)(app->uptime_us / 1000u),
-        .window_n = app->estimator.cfg.window,
-        .mode =
-            app->estimator.cfg.mode == ATTITUDE_SLIDING ? TLM_WINDOW_SLIDING : TLM_WINDOW_TUMBLING,
-        .estimator = (uint8_t)app->primary,
-        .running = app->running,
-        .raw_stream = app->raw_output,
-        .period_ms = (uint16_t)(app->assembler_cfg.period_us / 1000u),
+        .uptime_ms = (uint32_t)(st.uptime_us / 1000u),
+        .window_n = st.window,
+        .mode = st.sliding ? TLM_WINDOW_SLIDING : TLM_WINDOW_TUMBLING,
+        .estimator = (uint8_t)st.primary,
+        .running = st.running,
+        .raw_stream = st.raw_output,
+        .period_ms = (uint16_t)(st.period_us / 1000u),
     };
     uint8_t frame[TLM_FRAME_MAX];
     send(link, frame, tlm_encode_status(link->seq, &msg, frame, sizeof frame));
 }
 
-static void answer(struct tof_link *link, uint8_t seq, uint8_t command, uint8_t result) {
-    const struct tlm_ack msg = {.echo_seq = seq, .command = command, .result = result};
+/* An ack (result 0) or nack; `error` is the firmware's own code behind a refusal
+ * (an attitude_error for the estimator's), 0 when there is none. */
+static void answer(struct tof_link *link, uint8_t seq, uint8_t command, uint8_t result, int error) {
+    const struct tlm_ack msg = {
+        .echo_seq = seq, .command = command, .result = result, .error = (int8_t)error};
     uint8_t frame[TLM_FRAME_MAX];
     send(link, frame, tlm_encode_ack(link->seq, &msg, frame, sizeof frame));
 }
 
-/* Apply a validated command; returns the result code to answer with. */
-static uint8_t apply(struct tof_link *link, const struct tlm_command *cmd) {
+/* The wire result of an estimator refusal: a value out of its range, or a state that
+ * does not allow it. The code itself travels unchanged in the nack's `error`. */
+static uint8_t estimator_result(int err) {
+    if (err == ATTITUDE_ERR_NONE) {
+        return TLM_RESULT_OK;
+    }
+    return err == ATTITUDE_ERR_WINDOW || err == ATTITUDE_ERR_MODE ? TLM_RESULT_OUT_OF_RANGE
+                                                                  : TLM_RESULT_STATE;
+}
+
+/* Apply a validated command; returns the result code to answer with and sets *error to
+ * the application's code behind a refusal (0 if none). */
+static uint8_t apply(struct tof_link *link, const struct tlm_command *cmd, int *error) {
     struct tof_app *app = link->app;
+    *error = 0;
     switch (cmd->type) {
     case TLM_TYPE_SET_WINDOW:
-        if (cmd->u.set_window.window_n > ATTITUDE_WINDOW_MAX) {
-            return TLM_RESULT_OUT_OF_RANGE;
-        }
-        return tof_app_set_window(app, cmd->u.set_window.window_n,
-                                  cmd->u.set_window.mode == TLM_WINDOW_SLIDING) == HAL_OK
-                   ? TLM_RESULT_OK
-                   : TLM_RESULT_STATE;
+        *error = tof_app_set_window(app, cmd->u.set_window.window_n,
+                                    cmd->u.set_window.mode == TLM_WINDOW_SLIDING);
+        return estimator_result(*error);
     case TLM_TYPE_SELECT_ESTIMATOR:
         /* the parser checked the range: a refusal is an estimator that does not run */
-        return tof_app_set_primary(app, (enum attitude_estimator)cmd->u.estimator) == HAL_OK
-                   ? TLM_RESULT_OK
-                   : TLM_RESULT_STATE;
+        *error = tof_app_set_primary(app, (enum attitude_estimator)cmd->u.estimator);
+        return estimator_result(*error);
     case TLM_TYPE_START:
         tof_app_set_running(app, true);
         return TLM_RESULT_OK;
@@ -195,7 +178,7 @@ static uint8_t apply(struct tof_link *link, const struct tlm_command *cmd) {
         tof_app_set_running(app, false);
         return TLM_RESULT_OK;
     case TLM_TYPE_RAW_STREAM:
-        app->raw_output = cmd->u.raw_enable;
+        tof_app_set_raw_output(app, cmd->u.raw_enable);
         return TLM_RESULT_OK;
     case TLM_TYPE_STATUS_REQUEST:
         return TLM_RESULT_OK; /* the status frame follows the ack */
@@ -208,15 +191,16 @@ static void on_frame(void *ctx, const struct tlm_frame *frame) {
     struct tof_link *link = ctx;
     struct tlm_command cmd;
     uint8_t result = (uint8_t)tlm_parse_command(frame, &cmd, &link->decoder.counters);
+    int error = 0;
     if (result == TLM_RESULT_OK) {
-        result = apply(link, &cmd);
+        result = apply(link, &cmd, &error);
         if (result == TLM_RESULT_OK) {
             ++link->commands_ok;
         } else {
             ++link->commands_refused;
         }
     }
-    answer(link, frame->seq, frame->type, result);
+    answer(link, frame->seq, frame->type, result, error);
     if (result == TLM_RESULT_OK && frame->type == TLM_TYPE_STATUS_REQUEST) {
         tof_link_send_status(link);
     }
@@ -224,13 +208,13 @@ static void on_frame(void *ctx, const struct tlm_frame *frame) {
 
 static void on_reject(void *ctx, const struct tlm_reject *reject) {
     struct tof_link *link = ctx;
-    answer(link, reject->seq, reject->type, (uint8_t)reject->reason);
+    answer(link, reject->seq, reject->type, (uint8_t)reject->reason, 0);
 }
 
 void tof_link_init(struct tof_link *link, struct hal_serial serial) {
     memset(link, 0, sizeof *link);
     link->serial = serial;
-    tlm_decoder_init(&link->decoder, TLM_ACCEPT_COMMANDS);
+    tlm_decoder_init(&link->decoder, tlm_message_types(TLM_ACCEPT_COMMANDS));
 }
 
 void tof_link_bind(struct tof_link *link, struct tof_app *app) {
@@ -246,3 +230,16 @@ void tof_link_poll(struct tof_link *link) {
     const struct tlm_frame_sink sink = {.on_frame = on_frame, .on_reject = on_reject, .ctx = link};
     tlm_decoder_feed(&link->decoder, buf, n, &sink);
 }
+
+static void service_start(void *ctx, struct tof_app *app) {
+    struct tof_link *link = ctx;
+    tof_link_bind(link, app);
+    tof_link_send_status(link);
+}
+
+static void service_poll(void *ctx) {
+    tof_link_poll(ctx);
+}
+
+const struct tof_app_service_ops tof_link_service_ops = {.start = service_start,
+                                                         .poll = service_poll};

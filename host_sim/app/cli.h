@@ -3,7 +3,7 @@
  *
  *   host_sim replay TRACE.csv --estimator NAME [--window N] [--mode tumbling|sliding]
  *                             [--out EST.csv] [--report REPORT.json] [--plot FIG.png]
- *                             [--faults SPEC] [--seed S]
+ *                             [--faults SPEC] [--seed S] [--i2c-log BUS.csv]
  *   host_sim scenario NAME [--seed S] --trace-out TRACE.csv
  *   host_sim camera ...      (synthetic ToF camera + pose pipeline; see docs/pose.md)
  */
@@ -13,6 +13,7 @@
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <stdio.h>
 
 struct replay_args {
     const char *trace_path;
@@ -26,6 +27,7 @@ struct replay_args {
     uint64_t seed;
     bool quiet;                /* --quiet: no summary table on stdout */
     uint64_t faults_until_row; /* --faults-until ROW: injection stops there (0: never) */
+    const char *i2c_log_path;  /* --i2c-log BUS.csv: every bus transaction (NULL: none) */
 };
 
 struct scenario_args {
@@ -33,6 +35,13 @@ struct scenario_args {
     uint64_t seed;
     const char *trace_out;
 };
+
+/* True if any argument after argv[0] (the subcommand) is --help or -h. */
+bool cli_wants_help(int argc, char **argv);
+
+/* Print subcommand `cmd`'s usage and options to f (scenario_names: the scenarios, for
+ * `scenario`). False for a subcommand without help text here. */
+bool cli_print_help(const char *cmd, const char *const *scenario_names, FILE *f);
 
 /* Parse `replay` arguments (argv[0] is "replay"). 0, or -1 after printing the error to stderr. */
 int cli_parse_replay(int argc, char **argv, struct replay_args *out);

@@ -19,10 +19,11 @@ static void usage(FILE *f) {
           "  host_sim replay TRACE.csv [--estimator consensus|consensus-paper|kalman|mean]\n"
           "                  [--window N] [--mode tumbling|sliding] [--out EST.csv]\n"
           "                  [--report REPORT.json] [--plot FIG.png] [--faults SPEC] [--seed S]\n"
-          "                  [--quiet]\n"
+          "                  [--faults-until ROW] [--i2c-log BUS.csv] [--quiet]\n"
           "  host_sim scenario NAME [--seed S] --trace-out TRACE.csv\n"
           "  host_sim camera --frames K --range-mm R ... (see docs/pose.md)\n"
           "  host_sim campaign [--trace T.csv] [--seed S] [--markdown FILE.md]\n"
+          "  host_sim SUBCOMMAND --help   (each subcommand's options)\n"
           "fault SPEC: kind=probability[,...] per bus transaction, kinds:\n"
           "  nack stretch reset drdy_high drdy_low garbage bitflip stuck (docs/driver.md)\n"
           "scenarios:",
@@ -52,6 +53,11 @@ int main(int argc, char **argv) {
         return 2;
     }
     const char *cmd = argv[1];
+    /* `host_sim SUBCOMMAND --help`: the options, exit status 0 (the camera prints its own). */
+    if (strcmp(cmd, "camera") != 0 && cli_wants_help(argc - 1, argv + 1) &&
+        cli_print_help(cmd, scene_scenario_names, stdout)) {
+        return 0;
+    }
     if (strcmp(cmd, "replay") == 0) {
         struct replay_args args;
         if (cli_parse_replay(argc - 1, argv + 1, &args) != 0) {

@@ -15,6 +15,7 @@
 #include "scene/trace.h"
 #include "sim/sim_fault.h"
 #include "sim/sim_replay.h"
+#include "i2c_log.h"
 
 /* "No value" in tables and JSON (printed as nan / null). */
 #define NO_VALUE ((double)NAN)
@@ -92,6 +93,7 @@ struct replay {
     struct tof_app app;
     enum attitude_estimator primary;
     FILE *est_out;
+    struct i2c_log_file i2c_log;
     FILE *plot_data;
     char plot_data_path[4096];
     struct err_stats stats[ATTITUDE_EST_COUNT];
@@ -109,7 +111,9 @@ struct replay {
     uint64_t faults_stop_us;
     int64_t recovery_us;
     uint32_t health_events, reinit_events, bus_recovery_events, overrun_events;
-    int failed; /* an output or data error: stop and report */
+    int failed;            /* an output or data error: stop and report */
+    uint64_t partial_rows; /* tumbling: rows after the last whole window (no estimate) */
+    char time_base[96];
 };
 
 static struct replay R;
@@ -289,20 +293,6 @@ static void on_event(void *ctx, const struct tof_event *ev) {
 static const struct tof_output_ops replay_output_ops = {
     .estimate = on_estimate, .sample = on_sample, .event = on_event};
 
-static bool parse_meta_double(const char *text, double *out) {
-    if (text == NULL) {
-        return false;
-    }
-    errno = 0;
-    char *end = NULL;
-    const double v = strtod(text, &end);
-    if (errno != 0 || end == text || *end != '\0' || !isfinite(v)) {
-        return false;
-    }
-    *out = v;
-    return true;
-}
-
 static int open_inputs(struct replay *r) {
     FILE *f = fopen(r->args->trace_path, "rb");
     if (f == NULL) {
@@ -313,22 +303,18 @@ static int open_inputs(struct replay *r) {
         fprintf(stderr, "host_sim replay: %s\n", trace_reader_error(&r->reader));
         return -1;
     }
-    const char *arm = trace_reader_meta(&r->reader, "arm_mm");
-    if (!parse_meta_double(arm, &r->arm_mm) || r->arm_mm < 1.0 || r->arm_mm > 1000.0) {
-        fprintf(stderr, "host_sim replay: %s: arm_mm '%s' is not a length in 1..1000 mm\n",
-                r->args->trace_path, arm != NULL ? arm : "");
+    /* The reader parsed and checked both (arm_mm > 0, period_ms 1..2^32-1). */
+    r->arm_mm = r->reader.meta.arm_mm;
+    if (r->arm_mm < 1.0 || r->arm_mm > 1000.0) {
+        fprintf(stderr, "host_sim replay: %s:%lu: arm_mm %g is not a length in 1..1000 mm\n",
+                r->args->trace_path, trace_reader_meta_line(&r->reader, "arm_mm"), r->arm_mm);
         return -1;
     }
-    r->period_ms = 20;
-    const char *period = trace_reader_meta(&r->reader, "period_ms");
-    if (period != NULL) {
-        uint64_t p = 0;
-        if (!cli_parse_u64(period, 1, 10000, &p)) {
-            fprintf(stderr, "host_sim replay: %s: period_ms '%s' is not an integer 1..10000\n",
-                    r->args->trace_path, period);
-            return -1;
-        }
-        r->period_ms = (uint32_t)p;
+    r->period_ms = trace_reader_timing(&r->reader)->period_ms; /* or TRACE_DEFAULT_PERIOD_MS */
+    if (r->period_ms > 10000u) {
+        fprintf(stderr, "host_sim replay: %s:%lu: period_ms %u is not an integer 1..10000\n",
+                r->args->trace_path, trace_reader_meta_line(&r->reader, "period_ms"), r->period_ms);
+        return -1;
     }
     scene_row_stream_init(&r->stream, scene_pull_trace, &r->reader);
     return 0;
@@ -339,11 +325,15 @@ static int configure(struct replay *r) {
     if (tof_app_config_for_replay(&r->app_cfg, arm_um, r->period_ms, (uint16_t)r->args->window,
                                   r->args->sliding) != HAL_OK) {
         const char *bad = tof_app_config_check(&r->app_cfg);
+        char where[64] = ": period_ms (default: the trace has none)";
+        if (r->reader.timing.period_from_meta) {
+            snprintf(where, sizeof where, ":%lu", trace_reader_meta_line(&r->reader, "period_ms"));
+        }
         fprintf(stderr,
-                "host_sim replay: %s: no firmware configuration fits period_ms %u and arm_mm "
+                "host_sim replay: %s%s: no firmware configuration fits period_ms %u and arm_mm "
                 "%.3f (%s; the shortest period is 15 ms budget + %u ms margin)\n",
-                r->args->trace_path, r->period_ms, r->arm_mm, bad != NULL ? bad : "estimator",
-                VL53_IMP_MARGIN_MS);
+                r->args->trace_path, where, r->period_ms, r->arm_mm,
+                bad != NULL ? bad : "no VL53L1X timing budget fits the period", VL53_IMP_MARGIN_MS);
         return -1;
     }
     const uint32_t period_us = r->period_ms * 1000u;
@@ -369,6 +359,7 @@ static int configure(struct replay *r) {
         .gpio = r->sim.rig.hal_gpio,
         .time = r->sim.rig.time,
         .output = {.ops = &replay_output_ops, .ctx = r},
+        .sensor_pads_at_avdd = true, /* as the NUCLEO boards it simulates */
     };
     for (unsigned i = 0; i < 4; ++i) {
         r->platform.xshut_pin[i] = SIM_RIG_XSHUT_PIN(i);
@@ -378,6 +369,10 @@ static int configure(struct replay *r) {
 }
 
 static int open_outputs(struct replay *r) {
+    if (r->args->i2c_log_path != NULL &&
+        i2c_log_open(&r->i2c_log, r->args->i2c_log_path, &r->sim.rig.bus) != 0) {
+        return -1;
+    }
     if (r->args->out_path != NULL) {
         r->est_out = fopen(r->args->out_path, "w");
         if (r->est_out == NULL || fputs(TOF_EST_CSV_HEADER, r->est_out) == EOF) {
@@ -422,6 +417,18 @@ static void track_fault_stop(struct replay *r) {
     }
 }
 
+/* The time base in words: where the period the replay runs at came from. */
+static const char *time_base(struct replay *r) {
+    if (r->reader.timing.period_from_meta) {
+        snprintf(r->time_base, sizeof r->time_base, "period_ms %u from the trace (line %lu)",
+                 r->period_ms, trace_reader_meta_line(&r->reader, "period_ms"));
+    } else {
+        snprintf(r->time_base, sizeof r->time_base,
+                 "period_ms %u, the default (the trace has no period_ms)", r->period_ms);
+    }
+    return r->time_base;
+}
+
 /* Run the firmware until every trace row has become a sample (or the source failed). */
 static int run(struct replay *r) {
     if (tof_app_init(&r->app, &r->platform, &r->app_cfg) != HAL_OK) {
@@ -460,6 +467,61 @@ static int run(struct replay *r) {
             return -1;
         }
     }
+}
+
+/*
+ * What the trace's length and time stamps mean for the windows (DESIGN.md §6: windows
+ * are counted in rows, t_ms labels them): a trace shorter than one window is an error;
+ * a trailing partial window and irregular time stamps are warnings on stderr (and in
+ * the report). Returns 0 or -1.
+ */
+static int check_trace_shape(struct replay *r) {
+    const uint64_t rows = r->stream.next_index;
+    const unsigned n = r->args->window;
+    const char *path = r->args->trace_path;
+    if (rows < n) {
+        fprintf(stderr,
+                "host_sim replay: %s: %llu rows, fewer than one window of %u rows (--window): "
+                "no estimate possible\n",
+                path, (unsigned long long)rows, n);
+        return -1;
+    }
+    r->partial_rows = r->args->sliding ? 0u : rows % n;
+    if (r->partial_rows > 0u) {
+        fprintf(stderr,
+                "host_sim replay: warning: %s: the last %llu rows (up to line %lu) are a partial "
+                "window of %u and give no estimate\n",
+                path, (unsigned long long)r->partial_rows, r->reader.last_row_line, n);
+    }
+    const struct trace_timing *tm = trace_reader_timing(&r->reader);
+    for (unsigned i = 0; i < tm->note_count; ++i) {
+        const struct trace_timing_note *note = &tm->notes[i];
+        if (note->kind == TRACE_TIME_REPEAT) {
+            fprintf(stderr,
+                    "host_sim replay: warning: %s:%lu: t_ms %lu repeats the previous row's\n", path,
+                    note->line, (unsigned long)note->t_ms);
+        } else {
+            fprintf(stderr,
+                    "host_sim replay: warning: %s:%lu: t_ms %lu is %lu ms after the previous "
+                    "row's %lu, more than two periods\n",
+                    path, note->line, (unsigned long)note->t_ms,
+                    (unsigned long)(note->t_ms - note->prev_t_ms), (unsigned long)note->prev_t_ms);
+        }
+    }
+    const uint64_t irregular = tm->repeats + tm->jumps;
+    if (irregular > 0u) {
+        if (irregular > tm->note_count) {
+            fprintf(stderr, "host_sim replay: warning: %s: %llu more irregular time stamps\n", path,
+                    (unsigned long long)(irregular - tm->note_count));
+        }
+        fprintf(stderr,
+                "host_sim replay: warning: %s: %llu repeated t_ms and %llu jumps of more than "
+                "two periods (largest %lu ms, line %lu); time base: %s; windows are counted in "
+                "rows, t_ms only labels them\n",
+                path, (unsigned long long)tm->repeats, (unsigned long long)tm->jumps,
+                (unsigned long)tm->max_jump_ms, tm->max_jump_line, time_base(r));
+    }
+    return 0;
 }
 
 static void json_number(FILE *f, double v) {
@@ -520,6 +582,14 @@ static int write_report(struct replay *r, const char *path) {
             r->args->sliding ? "sliding" : "tumbling");
     fprintf(f, "  \"primary\": \"%s\",\n  \"estimates\": %llu,\n  \"truth\": %s,\n",
             r->args->estimator, (unsigned long long)r->estimates, r->truth_seen ? "true" : "false");
+    const struct trace_timing *tm = trace_reader_timing(&r->reader);
+    fprintf(f,
+            "  \"time_base\": {\"period_ms\": %u, \"source\": \"%s\", \"t_ms_repeats\": %llu, "
+            "\"t_ms_jumps\": %llu, \"max_jump_ms\": %lu, \"max_jump_line\": %lu},\n"
+            "  \"partial_window_rows\": %llu,\n",
+            r->period_ms, tm->period_from_meta ? "trace" : "default",
+            (unsigned long long)tm->repeats, (unsigned long long)tm->jumps,
+            (unsigned long)tm->max_jump_ms, tm->max_jump_line, (unsigned long long)r->partial_rows);
     fputs("  \"crb_alpha_deg\": ", f);
     json_number(f, rms(r->crb_sum2_alpha, r->crb_windows));
     fputs(",\n  \"crb_beta_deg\": ", f);
@@ -589,6 +659,7 @@ static void print_summary(struct replay *r) {
            r->args->trace_path, (unsigned long long)r->stream.next_index, r->args->window,
            r->args->sliding ? "sliding" : "tumbling", (unsigned long long)r->estimates,
            r->args->estimator);
+    printf("time base: %s; windows counted in rows\n", time_base(r));
     printf("%-16s %10s %10s %10s %10s %10s %10s %6s %6s %6s\n", "estimator", "rms_a[deg]",
            "mae_a[deg]", "max_a[deg]", "rms_b[deg]", "mae_b[deg]", "max_b[deg]", "ok", "degr",
            "inval");
@@ -707,8 +778,14 @@ int replay_execute(const struct replay_args *args, struct replay_result *result)
     if (rc == 0) {
         rc = run(&R);
     }
+    if (rc == 0) {
+        rc = check_trace_shape(&R);
+    }
     if (R.est_out != NULL && fclose(R.est_out) != 0 && rc == 0) {
         fprintf(stderr, "host_sim replay: %s: write failed\n", args->out_path);
+        rc = -1;
+    }
+    if (i2c_log_close(&R.i2c_log, &R.sim.rig.bus) != 0 && rc == 0) {
         rc = -1;
     }
     if (R.reader.file != NULL) {

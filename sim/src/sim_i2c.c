@@ -1,3 +1,4 @@
+/* Simulated I²C bus: routing, wire time, statistics, recording, logging, faults. */
 #include "sim/sim_i2c.h"
 
 #include "hal/hal_err.h"
@@ -89,6 +90,12 @@ void sim_i2c_init(struct sim_i2c_bus *bus, struct sim_clock *clock, uint32_t bus
     }
     sim_i2c_reset_stats(bus);
     sim_i2c_record(bus, NULL, 0u);
+    sim_i2c_set_log(bus, NULL);
+}
+
+void sim_i2c_set_log(struct sim_i2c_bus *bus, const struct sim_i2c_log *log) {
+    bus->log.ops = (log != NULL && log->ops != NULL) ? log->ops : NULL;
+    bus->log.ctx = bus->log.ops != NULL ? log->ctx : NULL;
 }
 
 int sim_i2c_attach(struct sim_i2c_bus *bus, const struct sim_i2c_target *target) {
@@ -175,6 +182,11 @@ note(struct sim_i2c_bus *bus, uint64_t start_us, uint32_t duration_ns, uint8_t a
         }
     }
     bus->record_count++;
+    if (bus->log.ops != NULL) {
+        const struct sim_i2c_transaction t = {start_us, duration_ns, addr7, result, fault_mask,
+                                              tx,       tx_len,      rx,    rx_len};
+        bus->log.ops->transaction(bus->log.ctx, &t);
+    }
 }
 
 /* The targets acknowledging `addr7` now, in attach order; returns how many. */

@@ -1,9 +1,10 @@
 /*
- * VL53L1X-class device model. What it checks (protocol_errors): a register index of
- * one byte, an index outside 0x0000..0x01FF, a write before boot completed, a mode
- * start value other than 0x00/0x40, and starting with an incomplete or inconsistent
- * distance-mode / timing-budget configuration. A real part would do something
- * undocumented in these cases; the model counts them so tests can insist on zero.
+ * VL53L1X-class device model. What it counts as protocol errors: a register index of one
+ * byte, an index outside 0x0000..0x01FF, a write before boot completed, a mode start value
+ * other than 0x00/0x40. A real part would do something undocumented in these cases; the
+ * model counts them so tests can insist on zero. A start without ST's configuration is no
+ * protocol error but what a part does with it: nothing (see sim_vl53_refusal), or, without
+ * the VHV step, results with raw status 3 (no VHV value found).
  */
 #include "sim/sim_vl53.h"
 
@@ -11,7 +12,7 @@
 #include <string.h>
 
 #include "hal/hal_err.h"
-#include "vl53/vl53_regs.h"
+#include "sim_vl53_regs.h"
 
 #define DEFAULT_BOOT_US        1000u
 #define DEFAULT_BOOT_SILENT_US 300u
@@ -19,7 +20,7 @@
 #define DEFAULT_AMBIENT_RAW    64u     /* 0.5 MCPS in 9.7 */
 #define MODEL_SPADS_8_8        0x2000u /* 32 effective SPADs: a plausible value, not a fact */
 #define MODEL_SIGMA            0x0020u
-#define RESULT_BLOCK_LAST      (VL53_REG_RESULT_RANGE_STATUS + VL53_RESULT_BLOCK_LEN - 1u)
+#define RESULT_BLOCK_LAST      (M_RESULT_FIRST + M_RESULT_LEN - 1u)
 
 /* The timing-budget register pairs a start accepts, per distance mode: an independent
  * transcription of [ULD] VL53L1X_SetTimingBudgetInMs / GetTimingBudgetInMs. */
@@ -34,8 +35,13 @@ static const struct budget_code short_codes[] = {
     {0x0591u, 0x05C1u, 500u},
 };
 static const struct budget_code long_codes[] = {
-    {0x001Eu, 0x0022u, 20u},  {0x0060u, 0x006Eu, 33u},  {0x00ADu, 0x00C6u, 50u},
-    {0x01CCu, 0x01EAu, 100u}, {0x02D9u, 0x02F8u, 200u}, {0x048Fu, 0x04A4u, 500u},
+    {0x001Eu, 0x0022u, 20u},
+    {0x0060u, 0x006Eu, 33u},
+    {0x00ADu, 0x00C6u, 50u},
+    {0x01CCu, 0x01EAu, 100u},
+    {0x02D9u, 0x02F8u, 200u},
+    {0x048Fu, 0x04A4u, 500u},
+    {M_BLOCK_TIMEOUT_A, M_BLOCK_TIMEOUT_B, M_BLOCK_RANGE_MS}, /* ST's block itself */
 };
 
 /* ULD range status -> a raw RESULT__RANGE_STATUS the ULD maps back to it (inverse of
@@ -63,8 +69,8 @@ static void reset_registers(struct sim_vl53 *dev) {
     for (size_t i = 0; i < SIM_VL53_REG_SPACE; ++i) {
         dev->regs[i] = 0u;
     }
-    put_be16_at(dev->regs, VL53_REG_IDENTIFICATION_MODEL_ID, dev->cfg.model_id);
-    put_be16_at(dev->regs, VL53_REG_RESULT_OSC_CALIBRATE_VAL, dev->cfg.osc_calibrate);
+    put_be16_at(dev->regs, M_MODEL_ID, dev->cfg.model_id);
+    put_be16_at(dev->regs, M_OSC_CALIBRATE, dev->cfg.osc_calibrate);
 }
 
 static void power_up(struct sim_vl53 *dev) {
@@ -72,13 +78,22 @@ static void power_up(struct sim_vl53 *dev) {
     dev->powered = true;
     dev->booted = false;
     dev->power_up_us = now(dev);
-    dev->address = VL53_DEFAULT_ADDRESS;
+    dev->address = M_ADDRESS_DEFAULT;
     dev->index = 0u;
     dev->ranging = false;
     dev->stream_started = false;
     dev->stream_count = 0u;
     dev->irq_pending = false;
     dev->drdy = SIM_VL53_DRDY_FREE;
+    for (size_t i = 0; i < sizeof dev->block_written; ++i) {
+        dev->block_written[i] = 0u;
+    }
+    dev->vhv_stage = 0u;
+    dev->vhv_bound_ok = false;
+    dev->vhv_init_ok = false;
+    dev->started_since_boot = false;
+    dev->refusal = SIM_VL53_RANGES;
+    dev->forced_left = 0u;
     dev->stats.power_ups++;
 }
 
@@ -98,36 +113,48 @@ static struct sim_range constant_range(void) {
 /* Write one result into the block and raise the interrupt. */
 static void publish(struct sim_vl53 *dev, const struct sim_range *range, uint32_t sample_index,
                     uint64_t time_us) {
-    /* Stream count: 0 on the first range after a start, then +1, 0xFF wraps to 0x80 ([API]). */
+    /* Stream count: 0 on the first range after power-up, then +1, 0xFF wraps to 0x80 ([API]);
+     * it does not restart at a later start (issue 14; the model's choice, see docs). */
     if (!dev->stream_started) {
         dev->stream_count = 0u;
         dev->stream_started = true;
     } else if (dev->stream_count == 0xFFu) {
-        dev->stream_count = VL53_STREAM_COUNT_WRAP_TO;
+        dev->stream_count = M_STREAM_WRAP_TO;
     } else {
         dev->stream_count++;
     }
     uint8_t raw = raw_for_status(range->range_status);
+    uint16_t distance_mm = range->distance_mm;
     if (raw == 0xFFu) {
         dev->stats.unmappable_status++;
         raw = 0u;
     }
+    if (dev->forced_left > 0u) {
+        dev->forced_left--;
+        raw = dev->forced_raw;
+        distance_mm = dev->forced_mm;
+    } else if (dev->vhv_stage < 3u) {
+        raw = M_RAW_NO_VHV; /* the VHV step not done: "no VHV value found" (assumption) */
+        dev->stats.no_vhv_results++;
+    } else {
+        /* the source's status */
+    }
     /* Signal rate falls with the square of distance: 1 MCPS (128 in 9.7) at 1 m. A model
      * choice so the field moves plausibly, not a physical calibration. */
-    uint32_t d = range->distance_mm != 0u ? range->distance_mm : 1u;
+    uint32_t d = distance_mm != 0u ? distance_mm : 1u;
     uint32_t signal = 128000000u / (d * d);
     uint16_t signal_raw = signal > 0xFFFFu ? 0xFFFFu : (uint16_t)signal;
     uint8_t *r = dev->regs;
-    r[VL53_REG_RESULT_RANGE_STATUS] = raw;
-    r[VL53_REG_RESULT_RANGE_STATUS + VL53_RESULT_OFS_REPORT] = 0u;
-    r[VL53_REG_RESULT_RANGE_STATUS + VL53_RESULT_OFS_STREAM_COUNT] = dev->stream_count;
-    put_be16_at(r, VL53_REG_RESULT_RANGE_STATUS + VL53_RESULT_OFS_SPADS, MODEL_SPADS_8_8);
-    put_be16_at(r, VL53_REG_RESULT_RANGE_STATUS + 5u, signal_raw); /* peak signal, uncorrected */
-    put_be16_at(r, VL53_REG_RESULT_RANGE_STATUS + VL53_RESULT_OFS_AMBIENT, dev->cfg.ambient_raw);
-    put_be16_at(r, VL53_REG_RESULT_RANGE_STATUS + 9u, MODEL_SIGMA);
-    put_be16_at(r, VL53_REG_RESULT_RANGE_STATUS + 11u, 0u); /* phase: not modelled */
-    put_be16_at(r, VL53_REG_RESULT_DISTANCE, range->distance_mm);
-    put_be16_at(r, VL53_REG_RESULT_RANGE_STATUS + VL53_RESULT_OFS_SIGNAL, signal_raw);
+    r[M_RESULT_FIRST] = raw;
+    r[M_RESULT_FIRST + 1u] = 0u;
+    r[M_RESULT_STREAM] = dev->stream_count;
+    put_be16_at(r, M_RESULT_SPADS, MODEL_SPADS_8_8);
+    put_be16_at(r, M_RESULT_PEAK, signal_raw); /* peak signal, uncorrected */
+    put_be16_at(r, M_RESULT_AMBIENT, dev->cfg.ambient_raw);
+    put_be16_at(r, M_RESULT_SIGMA, MODEL_SIGMA);
+    put_be16_at(r, M_RESULT_PHASE, 0u); /* phase: not modelled */
+    put_be16_at(r, M_RESULT_DISTANCE, distance_mm);
+    put_be16_at(r, M_RESULT_PEAK_XTALK, signal_raw);
     if (dev->irq_pending) {
         dev->stats.overruns++; /* the previous result was never cleared: overwritten */
     }
@@ -135,8 +162,9 @@ static void publish(struct sim_vl53 *dev, const struct sim_range *range, uint32_
     dev->stats.published++;
     dev->published[1] = dev->published[0];
     dev->published[0].valid = true;
-    dev->published[0].distance_mm = range->distance_mm;
+    dev->published[0].distance_mm = distance_mm;
     dev->published[0].range_status = range->range_status;
+    dev->published[0].raw_status = raw;
     dev->published[0].stream_count = dev->stream_count;
     dev->published[0].sample_index = sample_index;
     dev->published[0].time_us = time_us;
@@ -144,6 +172,17 @@ static void publish(struct sim_vl53 *dev, const struct sim_range *range, uint32_
 
 static void complete_measurement(struct sim_vl53 *dev, uint64_t time_us) {
     dev->stats.measurements++;
+    if (dev->vhv_stage < 3u) {
+        /* Not calibrated: the VHV range itself, or ranging without the VHV step. Its result
+         * says "no VHV value found" (raw 3) and measures nothing the scene could supply, so
+         * the source is not consulted (the model's choice; the ULD discards this range). */
+        if (dev->vhv_stage == 0u) {
+            dev->vhv_stage = 1u; /* the first range after the block: the VHV range ([ULD]) */
+        }
+        const struct sim_range none = {0u, 0u, true};
+        publish(dev, &none, dev->next_sample_index, time_us);
+        return;
+    }
     uint32_t sample_index;
     if (dev->cfg.index_mode == SIM_VL53_INDEX_BY_TIME && dev->cfg.index_period_us != 0u) {
         sample_index = (uint32_t)(time_us / dev->cfg.index_period_us);
@@ -244,36 +283,32 @@ static bool decode_timing(struct sim_vl53 *dev) {
     const struct budget_code *codes;
     size_t count;
     bool short_mode;
-    if (r[VL53_REG_PHASECAL_CONFIG_TIMEOUT_MACROP] == VL53_PHASECAL_SHORT) {
+    /* Per-mode values of [ULD] SetDistanceMode: phasecal 0x14 / 0x0A, VCSEL A 0x07 / 0x0F,
+     * VCSEL B 0x05 / 0x0D, valid phase high 0x38 / 0xB8, WOI 07 05 / 0F 0D, initial phase
+     * 06 06 / 0E 0E (short / long). */
+    if (r[M_PHASECAL_TIMEOUT] == 0x14u) {
         short_mode = true;
         codes = short_codes;
         count = sizeof short_codes / sizeof short_codes[0];
-    } else if (r[VL53_REG_PHASECAL_CONFIG_TIMEOUT_MACROP] == VL53_PHASECAL_LONG) {
+    } else if (r[M_PHASECAL_TIMEOUT] == 0x0Au) {
         short_mode = false;
         codes = long_codes;
         count = sizeof long_codes / sizeof long_codes[0];
     } else {
         return false;
     }
-    bool consistent =
-        r[VL53_REG_RANGE_CONFIG_VCSEL_PERIOD_A] ==
-            (short_mode ? VL53_VCSEL_PERIOD_A_SHORT : VL53_VCSEL_PERIOD_A_LONG) &&
-        r[VL53_REG_RANGE_CONFIG_VCSEL_PERIOD_B] ==
-            (short_mode ? VL53_VCSEL_PERIOD_B_SHORT : VL53_VCSEL_PERIOD_B_LONG) &&
-        r[VL53_REG_RANGE_CONFIG_VALID_PHASE_HIGH] ==
-            (short_mode ? VL53_VALID_PHASE_HIGH_SHORT : VL53_VALID_PHASE_HIGH_LONG) &&
-        r[VL53_REG_SD_CONFIG_WOI_SD0] == (short_mode ? VL53_WOI_SD0_SHORT : VL53_WOI_SD0_LONG) &&
-        r[VL53_REG_SD_CONFIG_WOI_SD0 + 1u] ==
-            (short_mode ? VL53_WOI_SD1_SHORT : VL53_WOI_SD1_LONG) &&
-        r[VL53_REG_SD_CONFIG_WOI_SD0 + 2u] ==
-            (short_mode ? VL53_INITIAL_PHASE_SHORT : VL53_INITIAL_PHASE_LONG) &&
-        r[VL53_REG_SD_CONFIG_WOI_SD0 + 3u] ==
-            (short_mode ? VL53_INITIAL_PHASE_SHORT : VL53_INITIAL_PHASE_LONG);
+    const uint8_t phase = short_mode ? 0x06u : 0x0Eu;
+    bool consistent = r[M_VCSEL_A] == (short_mode ? 0x07u : 0x0Fu) &&
+                      r[M_VCSEL_B] == (short_mode ? 0x05u : 0x0Du) &&
+                      r[M_VALID_PHASE_HIGH] == (short_mode ? 0x38u : 0xB8u) &&
+                      r[M_WOI_SD0] == (short_mode ? 0x07u : 0x0Fu) &&
+                      r[M_WOI_SD0 + 1u] == (short_mode ? 0x05u : 0x0Du) &&
+                      r[M_WOI_SD0 + 2u] == phase && r[M_WOI_SD0 + 3u] == phase;
     if (!consistent) {
         return false;
     }
-    uint16_t a = be16_at(r, VL53_REG_RANGE_CONFIG_TIMEOUT_MACROP_A);
-    uint16_t b = be16_at(r, VL53_REG_RANGE_CONFIG_TIMEOUT_MACROP_B);
+    uint16_t a = be16_at(r, M_TIMEOUT_A);
+    uint16_t b = be16_at(r, M_TIMEOUT_B);
     uint16_t budget_ms = 0u;
     for (size_t i = 0; i < count; ++i) {
         if (codes[i].macrop_a == a && codes[i].macrop_b == b) {
@@ -284,13 +319,12 @@ static bool decode_timing(struct sim_vl53 *dev) {
         return false;
     }
     /* SYSTEM__INTERMEASUREMENT_PERIOD = ms * clock_pll * 1.075 ([ULD]); 0 = back to back. */
-    uint32_t imp = ((uint32_t)r[VL53_REG_SYSTEM_INTERMEASUREMENT_PERIOD] << 24) |
-                   ((uint32_t)r[VL53_REG_SYSTEM_INTERMEASUREMENT_PERIOD + 1u] << 16) |
-                   ((uint32_t)r[VL53_REG_SYSTEM_INTERMEASUREMENT_PERIOD + 2u] << 8) |
-                   r[VL53_REG_SYSTEM_INTERMEASUREMENT_PERIOD + 3u];
-    uint64_t clock_pll = dev->cfg.osc_calibrate & VL53_OSC_CALIBRATE_MASK;
+    uint32_t imp = ((uint32_t)r[M_INTERMEASUREMENT] << 24) |
+                   ((uint32_t)r[M_INTERMEASUREMENT + 1u] << 16) |
+                   ((uint32_t)r[M_INTERMEASUREMENT + 2u] << 8) | r[M_INTERMEASUREMENT + 3u];
+    uint64_t clock_pll = dev->cfg.osc_calibrate & M_OSC_MASK;
     uint64_t imp_us =
-        clock_pll != 0u ? ((uint64_t)imp * 1000000u) / (clock_pll * VL53_IMP_FACTOR_PER_MILLE) : 0u;
+        clock_pll != 0u ? ((uint64_t)imp * 1000000u) / (clock_pll * M_IMP_PER_MILLE) : 0u;
     dev->budget_us = (uint64_t)budget_ms * 1000u;
     /* "If the inter-measurement period is shorter than the timing budget, the next ranging
      * starts immediately" (ST VL53L1X presentation, autonomous mode). */
@@ -298,26 +332,57 @@ static bool decode_timing(struct sim_vl53 *dev) {
     return true;
 }
 
+/* All of 0x2D..0x87 written since power-up, with what makes the part range ([ULD] block,
+ * [REG] bit fields). */
+static bool block_complete(const struct sim_vl53 *dev) {
+    for (uint16_t reg = M_BLOCK_FIRST; reg <= M_BLOCK_LAST; ++reg) {
+        const unsigned k = (unsigned)(reg - M_BLOCK_FIRST);
+        if ((dev->block_written[k / 8u] & (1u << (k % 8u))) == 0u) {
+            return false;
+        }
+    }
+    return (dev->regs[M_SEQUENCE_CONFIG] & M_SEQUENCE_RANGE_EN) != 0u &&
+           (dev->regs[M_FIRMWARE_ENABLE] & 0x01u) != 0u &&
+           dev->regs[M_INT_CONFIG_GPIO] == M_INT_NEW_SAMPLE;
+}
+
 static void start_ranging(struct sim_vl53 *dev) {
-    if (!decode_timing(dev)) {
-        dev->stats.protocol_errors++;
-        dev->ranging = false;
+    dev->stats.starts++;
+    dev->started_since_boot = true;
+    dev->ranging = false;
+    if (!block_complete(dev)) {
+        dev->refusal = SIM_VL53_NO_BLOCK; /* not configured: no range, no data ready */
+    } else if (!decode_timing(dev)) {
+        dev->refusal = SIM_VL53_BAD_TIMING;
+    } else {
+        dev->refusal = SIM_VL53_RANGES;
+        dev->ranging = true;
+        dev->range_start_us = now(dev);
+        dev->completed = 0u;
         return;
     }
-    dev->ranging = true;
-    dev->range_start_us = now(dev);
-    dev->completed = 0u;
-    dev->stream_started = false;
-    dev->stats.starts++;
+    dev->stats.refused_starts++;
+}
+
+/* The VHV step's last writes ([ULD] SensorInit), after the VHV range and the stop. */
+static void vhv_write(struct sim_vl53 *dev, uint16_t reg, uint8_t value) {
+    if (dev->vhv_stage != 2u) {
+        return;
+    }
+    if (reg == M_VHV_LOOP_BOUND) {
+        dev->vhv_bound_ok = value == M_VHV_BOUND_TWO;
+    } else {
+        dev->vhv_init_ok = value == M_VHV_INIT_PREV;
+    }
+    if (dev->vhv_bound_ok && dev->vhv_init_ok) {
+        dev->vhv_stage = 3u;
+    }
 }
 
 static bool is_read_only(uint16_t reg) {
-    return reg == VL53_REG_GPIO_TIO_HV_STATUS ||
-           (reg >= VL53_REG_RESULT_RANGE_STATUS && reg <= RESULT_BLOCK_LAST) ||
-           reg == VL53_REG_RESULT_OSC_CALIBRATE_VAL ||
-           reg == VL53_REG_RESULT_OSC_CALIBRATE_VAL + 1u ||
-           reg == VL53_REG_FIRMWARE_SYSTEM_STATUS || reg == VL53_REG_IDENTIFICATION_MODEL_ID ||
-           reg == VL53_REG_IDENTIFICATION_MODEL_ID + 1u;
+    return reg == M_GPIO_TIO_STATUS || (reg >= M_RESULT_FIRST && reg <= RESULT_BLOCK_LAST) ||
+           reg == M_OSC_CALIBRATE || reg == M_OSC_CALIBRATE + 1u || reg == M_FIRMWARE_STATUS ||
+           reg == M_MODEL_ID || reg == M_MODEL_ID + 1u;
 }
 
 static void write_register(struct sim_vl53 *dev, uint16_t reg, uint8_t value,
@@ -326,32 +391,45 @@ static void write_register(struct sim_vl53 *dev, uint16_t reg, uint8_t value,
         dev->stats.protocol_errors++;
         return;
     }
+    if (reg >= M_BLOCK_FIRST && reg <= M_BLOCK_LAST) {
+        /* 0x31 is read-only, yet ST's block writes it: written all the same */
+        const unsigned k = (unsigned)(reg - M_BLOCK_FIRST);
+        dev->block_written[k / 8u] = (uint8_t)(dev->block_written[k / 8u] | (1u << (k % 8u)));
+    }
     if (is_read_only(reg)) {
         dev->stats.readonly_writes++;
         return;
     }
     switch (reg) {
-    case VL53_REG_I2C_SLAVE_DEVICE_ADDRESS:
+    case M_VHV_LOOP_BOUND:
+    case M_VHV_INIT:
+        dev->regs[reg] = value;
+        vhv_write(dev, reg, value);
+        break;
+    case M_I2C_SLAVE_ADDR:
         dev->regs[reg] = value;
         if (!dev->cfg.ignores_address_change) {
             *new_address = (uint8_t)(value & 0x7Fu); /* takes effect after this transfer */
         }
         break;
-    case VL53_REG_SYSTEM_INTERRUPT_CLEAR:
-        if ((value & VL53_INTERRUPT_CLEAR) != 0u) {
+    case M_INTERRUPT_CLEAR:
+        if ((value & 0x01u) != 0u) {
             dev->irq_pending = false;
             dev->stats.clears++;
         }
         break;
-    case VL53_REG_SYSTEM_MODE_START:
+    case M_MODE_START:
         dev->regs[reg] = value;
-        if (value == VL53_MODE_START_TIMED) {
+        if (value == M_START_TIMED) {
             start_ranging(dev);
-        } else if (value == VL53_MODE_STOP) {
+        } else if (value == M_STOP) {
             if (dev->ranging) {
                 dev->stats.stops++;
             }
             dev->ranging = false;
+            if (dev->vhv_stage == 1u) {
+                dev->vhv_stage = 2u; /* stopped after the VHV range */
+            }
         } else {
             dev->stats.protocol_errors++;
         }
@@ -369,19 +447,33 @@ static bool drdy_level(const struct sim_vl53 *dev) {
     if (dev->drdy == SIM_VL53_DRDY_STUCK_LOW) {
         return false;
     }
-    bool active_low =
-        (dev->regs[VL53_REG_GPIO_HV_MUX_CTRL] & VL53_GPIO_HV_MUX_POLARITY_LOW_BIT) != 0u;
+    bool active_low = (dev->regs[M_GPIO_HV_MUX_CTRL] & M_MUX_ACTIVE_LOW) != 0u;
     return active_low ? !dev->irq_pending : dev->irq_pending;
 }
 
 static uint8_t read_register(const struct sim_vl53 *dev, uint16_t reg) {
-    if (reg == VL53_REG_GPIO_TIO_HV_STATUS) {
-        return drdy_level(dev) ? VL53_TIO_HV_STATUS_LEVEL_BIT : 0u;
+    if (reg == M_GPIO_TIO_STATUS) {
+        return drdy_level(dev) ? 0x01u : 0u;
     }
-    if (reg == VL53_REG_FIRMWARE_SYSTEM_STATUS) {
-        return dev->booted ? VL53_FIRMWARE_BOOTED_BIT : 0u;
+    if (reg == M_FIRMWARE_STATUS) {
+        /* 0 while booting, 0x01 after boot ([ULD] BootState). Once started since power-up,
+         * 0x03 ranging / 0x02 stopped: the values issue 14 reports from a part that kept
+         * power across an MCU reset; which bit means what is the model's assumption. */
+        if (!dev->booted) {
+            return 0u;
+        }
+        if (!dev->started_since_boot) {
+            return 0x01u;
+        }
+        return dev->ranging ? 0x03u : 0x02u;
     }
     return dev->regs[reg];
+}
+
+void sim_vl53_force_results(struct sim_vl53 *dev, uint8_t raw, uint16_t mm, uint32_t count) {
+    dev->forced_raw = (uint8_t)(raw & 0x1Fu);
+    dev->forced_mm = mm;
+    dev->forced_left = count;
 }
 
 uint8_t sim_vl53_peek(struct sim_vl53 *dev, uint16_t reg) {
@@ -420,9 +512,8 @@ static int target_transfer(void *ctx, const uint8_t *tx, size_t tx_len, uint8_t 
     }
     const size_t first = dev->index;
     if (first + rx_len <= SIM_VL53_REG_SPACE &&
-        !(first <= VL53_REG_GPIO_TIO_HV_STATUS && VL53_REG_GPIO_TIO_HV_STATUS < first + rx_len) &&
-        !(first <= VL53_REG_FIRMWARE_SYSTEM_STATUS &&
-          VL53_REG_FIRMWARE_SYSTEM_STATUS < first + rx_len)) {
+        !(first <= M_GPIO_TIO_STATUS && M_GPIO_TIO_STATUS < first + rx_len) &&
+        !(first <= M_FIRMWARE_STATUS && M_FIRMWARE_STATUS < first + rx_len)) {
         /* Plain registers only (the result block, what a replay reads): what the loop
          * below gives, as one copy. */
         if (rx_len > 0u) {
@@ -487,7 +578,7 @@ static bool target_flip_result_bit(void *ctx, const uint8_t *tx, size_t tx_len, 
     uint32_t eligible = 0u;
     for (size_t i = 0; i < rx_len; ++i) {
         uint16_t reg = (uint16_t)(first + i);
-        if (reg >= VL53_REG_RESULT_RANGE_STATUS && reg <= RESULT_BLOCK_LAST) {
+        if (reg >= M_RESULT_FIRST && reg <= RESULT_BLOCK_LAST) {
             eligible++;
         }
     }
@@ -497,7 +588,7 @@ static bool target_flip_result_bit(void *ctx, const uint8_t *tx, size_t tx_len, 
     uint32_t pick = bit_choice % (eligible * 8u);
     for (size_t i = 0; i < rx_len; ++i) {
         uint16_t reg = (uint16_t)(first + i);
-        if (reg >= VL53_REG_RESULT_RANGE_STATUS && reg <= RESULT_BLOCK_LAST) {
+        if (reg >= M_RESULT_FIRST && reg <= RESULT_BLOCK_LAST) {
             if (pick < 8u) {
                 rx[i] ^= (uint8_t)(1u << pick);
                 return true;
@@ -581,7 +672,7 @@ void sim_vl53_init(struct sim_vl53 *dev, const struct sim_vl53_config *cfg, stru
         dev->cfg.osc_calibrate = DEFAULT_OSC_CALIBRATE;
     }
     if (dev->cfg.model_id == 0u) {
-        dev->cfg.model_id = VL53_MODEL_ID_VL53L1X;
+        dev->cfg.model_id = M_MODEL_ID_VL53L1X;
     }
     if (dev->cfg.ambient_raw == 0u) {
         dev->cfg.ambient_raw = DEFAULT_AMBIENT_RAW;
@@ -602,7 +693,7 @@ void sim_vl53_init(struct sim_vl53 *dev, const struct sim_vl53_config *cfg, stru
     dev->completed = 0u;
     dev->range_start_us = 0u;
     power_down(dev);
-    dev->address = VL53_DEFAULT_ADDRESS;
+    dev->address = M_ADDRESS_DEFAULT;
     dev->index = 0u;
     dev->stream_started = false;
     dev->stream_count = 0u;

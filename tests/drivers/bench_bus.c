@@ -9,7 +9,7 @@
  * 2. Each fault kind at 1 % per transaction for 10 s, then none for 2 s: longest call against
  *    its bound, faults injected / surfaced at once / absorbed, wrong readings delivered as
  *    valid (goal 0), and time until all four sensors are healthy again after the faults stop
- *    (goal <= 100 ms + boot time).
+ *    (once <= 100 ms + boot time; a re-init now includes ST's ~103 ms VHV range).
  *
  * Usage: drv_bench_bus [seconds-per-fault-run]   (default 10)
  */
@@ -66,7 +66,8 @@ static void bring_up_time(void) {
     build(&product);
     uint64_t t0 = drv_now(&fx);
     int err = vl53_array_bring_up(&fx.array); /* again, from the powered state */
-    printf("\nFour-sensor bring-up (all XSHUT low, then one at a time): %.2f ms (bound %.2f ms, "
+    printf("\nFour-sensor bring-up (all XSHUT low, then one at a time, VHV ranges overlapping): "
+           "%.2f ms (bound %.2f ms, "
            "%s)\n",
            (double)(drv_now(&fx) - t0) / 1000.0,
            (double)vl53_array_bring_up_budget_us(&fx.array) / 1000.0, hal_err_name(err));
@@ -182,7 +183,7 @@ static void fault_runs(uint32_t seconds) {
            "column.\n\n",
            DRV_MANAGER_ERRORS_TO_RECOVER, DRV_MANAGER_CLEAN_TO_FORGIVE, seconds, TRIALS);
     printf("| fault | injected | surfaced at once | absorbed | wrong valid readings (glitches) | "
-           "errors returned | sensor / bus recoveries | max poll (bound) | max recover_sensor "
+           "errors returned | sensor / bus recoveries | max poll (bound) | max recover_sensor half "
            "(bound) | all four healthy again after the last fault: median / max |\n"
            "|---|---|---|---|---|---|---|---|---|---|\n");
     for (unsigned k = 0; k <= (unsigned)SIM_FAULT_COUNT; ++k) {

@@ -38,6 +38,7 @@ void drv_fixture_defaults(struct drv_fixture *f) {
         c->timing.budget_ms = 15u;
         c->timing.inter_measurement_ms = 20u;
         c->verify_distance = false;
+        c->pads_at_avdd = true; /* the product's NUCLEO boards: 3V3 pull-ups */
     }
 }
 
@@ -63,14 +64,22 @@ void drv_sleep(struct drv_fixture *f, uint32_t us) {
 }
 
 uint32_t drv_transfer_slack_us(const struct drv_fixture *f) {
-    return sim_i2c_transfer_ns(f->rig.bus.bus_hz, 2u, 30u) / 1000u + 6u;
+    return sim_i2c_transfer_ns(f->rig.bus.bus_hz, 2u + VL53_DEFAULT_CONFIG_LEN, 0u) / 1000u + 6u;
+}
+
+/* The model published `p` and the driver reported `r` for it: the driver's status is the
+ * model's, or the first-after-start mark on a valid one. */
+static bool same_status(const struct sim_vl53_published *p, const struct vl53_result *r) {
+    return p->range_status == r->range_status ||
+           (p->range_status == VL53_RANGE_VALID && r->range_status == VL53_RANGE_NO_WRAP_CHECK &&
+            (r->flags & VL53_RESULT_FIRST) != 0u);
 }
 
 bool drv_result_matches(const struct sim_vl53 *m, const struct vl53_result *r) {
     for (size_t k = 0; k < 2u; ++k) {
         const struct sim_vl53_published *p = &m->published[k];
         if (p->valid && p->stream_count == r->stream_count && p->distance_mm == r->distance_mm &&
-            p->range_status == r->range_status) {
+            same_status(p, r)) {
             return true;
         }
     }
@@ -149,7 +158,7 @@ static void timed(struct drv_manager *m, enum drv_call call, uint64_t t0) {
 
 static void note_error(struct drv_manager *m, size_t i, int err) {
     int index = -err;
-    if (index > 0 && index < 12) {
+    if (index > 0 && index < 13) {
         m->errors[index]++;
     }
     m->consecutive_errors[i]++;
@@ -158,16 +167,9 @@ static void note_error(struct drv_manager *m, size_t i, int err) {
     m->healthy_since_us[i] = UINT64_MAX;
 }
 
-static void recover_sensor(struct drv_manager *m, size_t i) {
-    uint64_t t0 = drv_now(m->f);
-    faults_mark(m);
-    int err = vl53_array_recover_sensor(&m->f->array, i);
-    faults_attribute(m, err);
-    timed(m, DRV_CALL_RECOVER_SENSOR, t0);
-    m->consecutive_errors[i] = 0u;
+/* A sensor re-init ended with `err` (its last half, or a failed first half). */
+static void recovery_ended(struct drv_manager *m, size_t i, int err) {
     m->last_error_us[i] = drv_now(m->f);
-    m->ok_since_error[i] = 0u;
-    m->healthy_since_us[i] = UINT64_MAX;
     if (err == HAL_OK) {
         m->recoveries_ok++;
     } else if (err == HAL_ERR_BUS_STUCK) {
@@ -184,10 +186,42 @@ static void recover_sensor(struct drv_manager *m, size_t i) {
     }
 }
 
+/* The first half of a re-init (as the firmware does it): up to the VHV range's start. */
+static void recover_sensor(struct drv_manager *m, size_t i) {
+    uint64_t t0 = drv_now(m->f);
+    faults_mark(m);
+    int err = vl53_array_recover_sensor_begin(&m->f->array, i);
+    faults_attribute(m, err);
+    timed(m, DRV_CALL_RECOVER_SENSOR, t0);
+    m->consecutive_errors[i] = 0u;
+    m->last_error_us[i] = drv_now(m->f);
+    m->ok_since_error[i] = 0u;
+    m->healthy_since_us[i] = UINT64_MAX;
+    if (err != HAL_OK) {
+        recovery_ended(m, i, err);
+    }
+}
+
+/* The second half, one look per tick until the VHV range is over. */
+static void step_sensor(struct drv_manager *m, size_t i) {
+    uint64_t t0 = drv_now(m->f);
+    faults_mark(m);
+    int err = vl53_array_recover_sensor_step(&m->f->array, i);
+    faults_attribute(m, err);
+    timed(m, DRV_CALL_RECOVER_SENSOR, t0);
+    if (err != HAL_ERR_NOT_READY) {
+        recovery_ended(m, i, err);
+    }
+}
+
 void drv_manager_tick(struct drv_manager *m, uint32_t tick_us) {
     struct drv_fixture *f = m->f;
     bool bus_recovered = false;
     for (size_t i = 0; i < DRV_SENSORS; ++i) {
+        if (f->array.report[i].state == VL53_SENSOR_CONFIGURING) {
+            step_sensor(m, i);
+            continue;
+        }
         if (f->array.report[i].state != VL53_SENSOR_RANGING) {
             if (drv_now(f) >= m->retry_at_us[i]) {
                 recover_sensor(m, i);
@@ -233,7 +267,8 @@ void drv_manager_tick(struct drv_manager *m, uint32_t tick_us) {
             }
             continue;
         }
-        if (m->consecutive_errors[i] >= DRV_MANAGER_ERRORS_TO_RECOVER ||
+        /* A hardware fault the sensor reports itself: only a re-init can clear it. */
+        if (err == HAL_ERR_DEVICE || m->consecutive_errors[i] >= DRV_MANAGER_ERRORS_TO_RECOVER ||
             vl53_data_overdue(&f->array.dev[i])) {
             recover_sensor(m, i);
         }

@@ -55,7 +55,7 @@ void drv_sleep(struct drv_fixture *f, uint32_t us);
 bool drv_result_matches(const struct sim_vl53 *m, const struct vl53_result *r);
 
 /* Worst wire time (µs, rounded up, plus the bus-free gap) of the longest transfer the driver
- * makes in normal operation: the 30-byte configuration read-back. */
+ * makes in normal operation: the 91-byte default-configuration write. */
 uint32_t drv_transfer_slack_us(const struct drv_fixture *f);
 
 /* Could a consumer be misled by this OK result? Safe when its status is not "valid" (it is
@@ -67,9 +67,11 @@ bool drv_result_safe(const struct sim_vl53 *m, const struct vl53_result *r);
  * A reference acquisition loop with a simple fault policy, standing in for the firmware's
  * fault manager in tests and the benchmark: every tick polls each ranging sensor; a stuck
  * bus gets a bus recovery; overdue data, or DRV_MANAGER_ERRORS_TO_RECOVER errors without
- * DRV_MANAGER_CLEAN_TO_FORGIVE clean results in between, get a sensor recovery (XSHUT
- * re-init); a sensor whose recovery failed is retried every DRV_MANAGER_RETRY_US. Every call is
- * timed in simulated time against its bound.
+ * DRV_MANAGER_CLEAN_TO_FORGIVE clean results in between, or a hardware fault the sensor
+ * reports (HAL_ERR_DEVICE), get a sensor recovery (XSHUT re-init, in two halves as the
+ * firmware does it: vl53_array_recover_sensor_begin, then one _step per tick until the VHV
+ * range is over); a sensor whose recovery failed is retried every DRV_MANAGER_RETRY_US.
+ * Every call is timed in simulated time against its bound.
  */
 #define DRV_MANAGER_ERRORS_TO_RECOVER 3u
 #define DRV_MANAGER_CLEAN_TO_FORGIVE  10u
@@ -89,7 +91,7 @@ struct drv_manager {
                                 not publish for that measurement (drv_result_safe) */
     uint64_t glitches;       /* OK results that are safe but not exact: a valid reading turned
                                 invalid, or a flipped stream count on the right distance */
-    uint64_t errors[12];     /* by -hal_err */
+    uint64_t errors[13];     /* by -hal_err */
     uint32_t calls[DRV_CALL_COUNT];
     uint32_t max_us[DRV_CALL_COUNT];
     uint32_t over_budget[DRV_CALL_COUNT]; /* calls that took longer than their bound */

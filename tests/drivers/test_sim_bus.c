@@ -15,6 +15,7 @@
 #include "hal/hal_i2c_reg.h"
 #include "sim/sim_fault.h"
 #include "sim/sim_prng.h"
+#include "uld_reference.h"
 #include "vl53/vl53_regs.h"
 
 static struct drv_fixture fx;
@@ -46,6 +47,23 @@ static void only_sensor(unsigned keep) {
     drv_sleep(&fx, 100u);
     fx.rig.hal_gpio.ops->write(fx.rig.hal_gpio.ctx, SIM_RIG_XSHUT_PIN(keep), true);
     drv_sleep(&fx, 1500u);
+}
+
+/* ST's bring-up by hand ([ULD] SensorInit): the default configuration, the VHV range
+ * (started, waited for, cleared, stopped), two-bounds VHV from the previous temperature. */
+static void st_init(uint8_t addr) {
+    assert_int_equal(wr(addr, ULD_BLOCK_FIRST, uld_default_configuration, ULD_BLOCK_LEN), 0);
+    assert_int_equal(wr1(addr, VL53_REG_SYSTEM_MODE_START, VL53_MODE_START_TIMED), 0);
+    uint8_t level = 0u;
+    for (int i = 0; i < 200 && level == 0u; ++i) {
+        drv_sleep(&fx, 1000u);
+        assert_int_equal(rd(addr, VL53_REG_GPIO_TIO_HV_STATUS, &level, 1u), 0);
+    }
+    assert_int_equal(level, 1u);
+    assert_int_equal(wr1(addr, VL53_REG_SYSTEM_INTERRUPT_CLEAR, 1u), 0);
+    assert_int_equal(wr1(addr, VL53_REG_SYSTEM_MODE_START, VL53_MODE_STOP), 0);
+    assert_int_equal(wr1(addr, VL53_REG_VHV_CONFIG_TIMEOUT_MACROP_LOOP_BOUND, 0x09u), 0);
+    assert_int_equal(wr1(addr, VL53_REG_VHV_CONFIG_INIT, 0x00u), 0);
 }
 
 /* The ULD's short-mode, 15 ms budget registers and a period of `period_ms`. */
@@ -146,6 +164,7 @@ static void test_boot_and_xshut(void **state) {
 static void test_measurement_timing_and_stream_count(void **state) {
     (void)state;
     only_sensor(1);
+    st_init(0x29);
     program_short_15(0x29, 20u);
     uint64_t start = drv_now(&fx);
     assert_int_equal(wr1(0x29, VL53_REG_SYSTEM_MODE_START, VL53_MODE_START_TIMED), HAL_OK);
@@ -159,7 +178,7 @@ static void test_measurement_timing_and_stream_count(void **state) {
     uint8_t block[17];
     assert_int_equal(rd(0x29, VL53_REG_RESULT_RANGE_STATUS, block, 17u), HAL_OK);
     assert_int_equal(block[0], 9u); /* raw 9 = ULD status 0 */
-    assert_int_equal(block[2], 0u); /* first stream count */
+    assert_int_equal(block[2], 1u); /* after the VHV range's 0: no restart at a start */
     assert_int_equal(hal_get_be16(&block[13]), drv_expected_distance(1, 0));
     assert_int_equal(wr1(0x29, VL53_REG_SYSTEM_INTERRUPT_CLEAR, 1u), HAL_OK);
     assert_false(sim_vl53_gpio1_level(dev));
@@ -168,32 +187,106 @@ static void test_measurement_timing_and_stream_count(void **state) {
     assert_false(sim_vl53_gpio1_level(dev));
     drv_sleep(&fx, 1u);
     assert_true(sim_vl53_gpio1_level(dev));
-    /* 300 measurements without reading: stream count 0..255 then wraps to 128. */
+    /* 300 more measurements without reading: stream count (the VHV range's 0, then) up to
+     * 255, then wraps to 128. */
     drv_sleep(&fx, (uint32_t)(start + 15000u + 299u * 20000u - drv_now(&fx)));
-    assert_int_equal(dev->stats.measurements, 300u);
-    assert_int_equal(sim_vl53_peek(dev, VL53_REG_RESULT_RANGE_STATUS + 2u), 128u + (299u - 256u));
+    assert_int_equal(dev->stats.measurements, 301u);
+    assert_int_equal(sim_vl53_peek(dev, VL53_REG_RESULT_RANGE_STATUS + 2u), 128u + (300u - 256u));
     assert_int_equal(dev->stats.overruns, 298u);
     assert_int_equal(dev->published[0].sample_index, 299u);
     assert_int_equal(dev->stats.protocol_errors, 0u);
     /* Stop: nothing more. */
     assert_int_equal(wr1(0x29, VL53_REG_SYSTEM_MODE_START, VL53_MODE_STOP), HAL_OK);
     drv_sleep(&fx, 100000u);
-    assert_int_equal(dev->stats.measurements, 300u);
+    assert_int_equal(dev->stats.measurements, 301u);
 }
 
-static void test_start_with_bad_config_is_a_protocol_error(void **state) {
+/* Start, wait two budgets, and say what the model did: 0 nothing ready, else the raw status. */
+static uint8_t start_and_look(unsigned sensor) {
+    struct sim_vl53 *dev = &fx.rig.sensor[sensor];
+    dev->stats.published = 0u;
+    assert_int_equal(wr1(0x29, VL53_REG_SYSTEM_MODE_START, VL53_MODE_START_TIMED), HAL_OK);
+    drv_sleep(&fx, 40000u);
+    const uint8_t raw = dev->stats.published == 0u ? 0u : dev->published[0].raw_status;
+    assert_int_equal(wr1(0x29, VL53_REG_SYSTEM_MODE_START, VL53_MODE_STOP), HAL_OK);
+    assert_int_equal(wr1(0x29, VL53_REG_SYSTEM_INTERRUPT_CLEAR, 1u), HAL_OK);
+    return raw;
+}
+
+static void test_model_ranges_only_when_configured_as_st_does(void **state) {
     (void)state;
     only_sensor(0);
-    assert_int_equal(wr1(0x29, VL53_REG_SYSTEM_MODE_START, VL53_MODE_START_TIMED), HAL_OK);
-    assert_false(fx.rig.sensor[0].ranging);
-    assert_int_equal(fx.rig.sensor[0].stats.protocol_errors, 1u);
+    struct sim_vl53 *dev = &fx.rig.sensor[0];
+    /* Timing alone, no block: nothing, ever (no data ready). */
     program_short_15(0x29, 20u);
-    /* Long-mode VCSEL period with a short-mode phasecal: inconsistent. */
+    assert_int_equal(start_and_look(0), 0u);
+    assert_int_equal(dev->refusal, SIM_VL53_NO_BLOCK);
+    /* The block but for one register: still nothing. */
+    assert_int_equal(
+        wr(0x29, ULD_BLOCK_FIRST + 1u, &uld_default_configuration[1], ULD_BLOCK_LEN - 1u),
+        0); /* 0x2D never written */
+    program_short_15(0x29, 20u);
+    assert_int_equal(start_and_look(0), 0u);
+    assert_int_equal(dev->refusal, SIM_VL53_NO_BLOCK);
+    /* Whole block, firmware enable 0x85 cleared: nothing. */
+    assert_int_equal(wr(0x29, ULD_BLOCK_FIRST, uld_default_configuration, ULD_BLOCK_LEN), 0);
+    assert_int_equal(wr1(0x29, 0x0085u, 0x00u), 0);
+    assert_int_equal(start_and_look(0), 0u);
+    assert_int_equal(dev->refusal, SIM_VL53_NO_BLOCK);
+    assert_int_equal(wr1(0x29, 0x0085u, 0x01u), 0);
+    /* A timeout pair in no ULD table: nothing. */
+    program_short_15(0x29, 20u);
+    const uint8_t odd_a[2] = {0x00, 0x1E};
+    assert_int_equal(wr(0x29, VL53_REG_RANGE_CONFIG_TIMEOUT_MACROP_A, odd_a, 2u), 0);
+    assert_int_equal(start_and_look(0), 0u);
+    assert_int_equal(dev->refusal, SIM_VL53_BAD_TIMING);
+    /* Long-mode VCSEL period with a short-mode phasecal: inconsistent, nothing. */
+    program_short_15(0x29, 20u);
     assert_int_equal(wr1(0x29, VL53_REG_RANGE_CONFIG_VCSEL_PERIOD_A, VL53_VCSEL_PERIOD_A_LONG), 0);
-    assert_int_equal(wr1(0x29, VL53_REG_SYSTEM_MODE_START, VL53_MODE_START_TIMED), HAL_OK);
-    assert_false(fx.rig.sensor[0].ranging);
+    assert_int_equal(start_and_look(0), 0u);
+    assert_int_equal(dev->refusal, SIM_VL53_BAD_TIMING);
+    /* Block and valid timing but no VHV step: ranges, but "no VHV value found" (raw 3). */
+    program_short_15(0x29, 20u);
+    assert_int_equal(start_and_look(0), 3u);
+    assert_int_equal(dev->refusal, SIM_VL53_RANGES);
+    /* ... still after a range and a stop, until the VHV step's last two writes. */
+    assert_int_equal(start_and_look(0), 3u);
+    assert_int_equal(wr1(0x29, VL53_REG_VHV_CONFIG_TIMEOUT_MACROP_LOOP_BOUND, 0x09u), 0);
+    assert_int_equal(start_and_look(0), 3u);
+    assert_int_equal(wr1(0x29, VL53_REG_VHV_CONFIG_INIT, 0x00u), 0);
+    assert_int_equal(start_and_look(0), 9u); /* calibrated: valid ranges */
+    assert_true(dev->stats.no_vhv_results > 0u);
+    assert_int_equal(dev->stats.refused_starts, 5u);
+    /* A mode-start value the part does not take is a protocol error. */
+    assert_int_equal(dev->stats.protocol_errors, 0u);
     assert_int_equal(wr1(0x29, VL53_REG_SYSTEM_MODE_START, 0x21u), HAL_OK);
-    assert_int_equal(fx.rig.sensor[0].stats.protocol_errors, 3u);
+    assert_int_equal(dev->stats.protocol_errors, 1u);
+}
+
+static void test_block_timing_and_boot_states(void **state) {
+    (void)state;
+    only_sensor(3);
+    struct sim_vl53 *dev = &fx.rig.sensor[3];
+    uint8_t st = 0u;
+    assert_int_equal(rd(0x29, VL53_REG_FIRMWARE_SYSTEM_STATUS, &st, 1u), HAL_OK);
+    assert_int_equal(st, 0x01u); /* cold boot */
+    /* The block's own timing: the first range completes 103 ms after the start. */
+    assert_int_equal(wr(0x29, ULD_BLOCK_FIRST, uld_default_configuration, ULD_BLOCK_LEN), 0);
+    const uint64_t start = drv_now(&fx);
+    assert_int_equal(wr1(0x29, VL53_REG_SYSTEM_MODE_START, VL53_MODE_START_TIMED), 0);
+    drv_sleep(&fx, (uint32_t)(start + 103000u - 1u - drv_now(&fx)));
+    assert_false(sim_vl53_gpio1_level(dev));
+    drv_sleep(&fx, 1u);
+    assert_true(sim_vl53_gpio1_level(dev));
+    assert_int_equal(rd(0x29, VL53_REG_FIRMWARE_SYSTEM_STATUS, &st, 1u), HAL_OK);
+    assert_int_equal(st, 0x03u); /* ran since boot, ranging */
+    assert_int_equal(wr1(0x29, VL53_REG_SYSTEM_MODE_START, VL53_MODE_STOP), 0);
+    assert_int_equal(rd(0x29, VL53_REG_FIRMWARE_SYSTEM_STATUS, &st, 1u), HAL_OK);
+    assert_int_equal(st, 0x02u); /* what an MCU finds after its own warm reset */
+    /* OSC_CALIBRATE_VAL is published (the model's default, 500). */
+    uint8_t osc[2];
+    assert_int_equal(rd(0x29, VL53_REG_RESULT_OSC_CALIBRATE_VAL, osc, 2u), HAL_OK);
+    assert_int_equal(hal_get_be16(osc), 500u);
 }
 
 static void test_source_dropouts_and_end(void **state) {
@@ -201,16 +294,18 @@ static void test_source_dropouts_and_end(void **state) {
     fx.source.dropout_every = 3u; /* samples 2, 5, 8, ... absent */
     fx.source.limit = 7u;
     only_sensor(2);
+    st_init(0x29);
     program_short_15(0x29, 20u);
     assert_int_equal(wr1(0x29, VL53_REG_SYSTEM_MODE_START, VL53_MODE_START_TIMED), HAL_OK);
     drv_sleep(&fx, 15000u + 20000u * 10u);
     struct sim_vl53 *dev = &fx.rig.sensor[2];
     assert_true(dev->source_done);
-    assert_int_equal(dev->stats.measurements, 8u); /* the 8th found the source exhausted */
-    assert_int_equal(dev->stats.dropouts, 2u);     /* indices 2 and 5 */
-    assert_int_equal(dev->stats.published, 5u);
+    /* The VHV range, then 8 (the 8th found the source exhausted). */
+    assert_int_equal(dev->stats.measurements, 9u);
+    assert_int_equal(dev->stats.dropouts, 2u); /* indices 2 and 5 */
+    assert_int_equal(dev->stats.published, 6u);
     assert_int_equal(dev->published[0].sample_index, 6u);
-    assert_int_equal(dev->published[0].stream_count, 4u);
+    assert_int_equal(dev->published[0].stream_count, 5u);
 }
 
 static void test_index_by_time(void **state) {
@@ -219,12 +314,13 @@ static void test_index_by_time(void **state) {
     fx.rig_cfg.sensor[0].index_period_us = 20000u;
     drv_fixture_build(&fx);
     only_sensor(0);
-    drv_sleep(&fx, 100000u - (uint32_t)drv_now(&fx)); /* start ranging at t = 100 ms */
+    st_init(0x29);
+    drv_sleep(&fx, 200000u - (uint32_t)drv_now(&fx)); /* start ranging at t = 200 ms */
     program_short_15(0x29, 20u);
     assert_int_equal(wr1(0x29, VL53_REG_SYSTEM_MODE_START, VL53_MODE_START_TIMED), HAL_OK);
     drv_sleep(&fx, 16000u);
-    /* Completed near t = 115.x ms: trace row 5 (of 20 ms rows), not sample 0. */
-    assert_int_equal(fx.rig.sensor[0].published[0].sample_index, 5u);
+    /* Completed near t = 215.x ms: trace row 10 (of 20 ms rows), not sample 0. */
+    assert_int_equal(fx.rig.sensor[0].published[0].sample_index, 10u);
 }
 
 static void test_fault_parser(void **state) {
@@ -399,7 +495,8 @@ int main(void) {
         cmocka_unit_test_setup(test_wired_and_of_two_devices, setup),
         cmocka_unit_test_setup(test_boot_and_xshut, setup),
         cmocka_unit_test_setup(test_measurement_timing_and_stream_count, setup),
-        cmocka_unit_test_setup(test_start_with_bad_config_is_a_protocol_error, setup),
+        cmocka_unit_test_setup(test_model_ranges_only_when_configured_as_st_does, setup),
+        cmocka_unit_test_setup(test_block_timing_and_boot_states, setup),
         cmocka_unit_test_setup(test_source_dropouts_and_end, setup),
         cmocka_unit_test_setup(test_index_by_time, setup),
         cmocka_unit_test_setup(test_fault_parser, setup),

@@ -22,7 +22,9 @@ static struct drv_manager mgr;
 
 #define FAULT_PPM    20000u
 #define FAULT_RUN_MS 3000u
-#define CLEAN_RUN_MS 1000u
+/* Two clean seconds: a sensor re-init now blocks ~105 ms (the VHV range at the block's
+ * timing), and a few may still be due when the faults stop. */
+#define CLEAN_RUN_MS 2000u
 
 static void run_with_faults(const uint32_t ppm[SIM_FAULT_COUNT], bool gpio1, uint32_t seed) {
     drv_fixture_defaults(&fx);
@@ -76,10 +78,12 @@ static void run_with_faults(const uint32_t ppm[SIM_FAULT_COUNT], bool gpio1, uin
                       fx.array.report[i].state, vl53_array_fault_name(fx.array.report[i].fault),
                       fx.array.report[i].err, fx.rig.sensor[i].address, fx.rig.sensor[i].ranging);
     }
+    /* 100 periods; at most four blocking re-inits (~105 ms, five periods, each) after the
+     * faults stopped cost every sensor up to 21 of them. */
     for (size_t i = 0; i < DRV_SENSORS; ++i) {
-        assert_true(mgr.results[i] - results_before[i] >= 40u);
+        assert_true(mgr.results[i] - results_before[i] >= 75u);
     }
-    assert_true(drv_manager_all_healthy_since(&mgr) < end - 500000u);
+    assert_true(drv_manager_all_healthy_since(&mgr) < end - 1000000u);
 }
 
 static void one_kind(enum sim_fault_kind kind, bool gpio1) {

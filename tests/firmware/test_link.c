@@ -11,6 +11,7 @@
 #include <cmocka.h>
 
 #include "firmware/link.h"
+#include "hal/hal_err.h"
 #include "sim/sim_rig.h"
 #include "telemetry/tlm_messages.h"
 
@@ -51,6 +52,7 @@ static struct {
     /* decoded output */
     unsigned acks, nacks, estimates, health, status, raw;
     uint8_t last_nack_result, last_ack_command;
+    int last_nack_error;
     struct tlm_status last_status;
     struct tlm_estimate last_estimate[4];
     struct tlm_health last_health;
@@ -76,6 +78,7 @@ static void on_frame(void *ctx, const struct tlm_frame *frame) {
         } else {
             ++t.nacks;
             t.last_nack_result = msg.u.ack.result;
+            t.last_nack_error = msg.u.ack.error;
         }
         break;
     case TLM_TYPE_ESTIMATE:
@@ -100,7 +103,7 @@ static void on_frame(void *ctx, const struct tlm_frame *frame) {
 
 static void decode_output(void) {
     struct tlm_decoder dec;
-    tlm_decoder_init(&dec, TLM_ACCEPT_TELEMETRY);
+    tlm_decoder_init(&dec, tlm_message_types(TLM_ACCEPT_TELEMETRY));
     const struct tlm_frame_sink sink = {.on_frame = on_frame, .ctx = NULL};
     tlm_decoder_feed(&dec, t.serial.tx, t.serial.tx_len, &sink);
     assert_int_equal(dec.counters.bad_crc, 0);
@@ -115,10 +118,16 @@ static void run_ms(uint32_t ms) {
     }
 }
 
+/* The rig's distances: NULL for the default 100 mm parallel plate. */
+static const struct sim_range_source *rig_source;
+
 static void setup_with(const struct tof_app_config *app_cfg) {
     memset(&t, 0, sizeof t);
     struct sim_rig_config cfg;
     sim_rig_default_config(&cfg); /* every sensor reads 100 mm: a parallel plate */
+    if (rig_source != NULL) {
+        cfg.source = *rig_source;
+    }
     sim_rig_init(&t.rig, &cfg);
     tof_link_init(&t.link, (struct hal_serial){.ops = &serial_ops, .ctx = &t.serial});
     t.platform = (struct tof_platform){.board_name = "test",
@@ -136,13 +145,37 @@ static void setup_with(const struct tof_app_config *app_cfg) {
 
 static int setup(void **state) {
     (void)state;
+    rig_source = NULL;
     setup_with(&tof_app_default_config);
+    return 0;
+}
+
+/* Sensor C reads 8190, the VL53L0X's no-target value (with status 0, as popular
+ * libraries log it); the others 100 mm. */
+static int no_target_next(void *ctx, unsigned sensor, uint32_t sample_index,
+                          struct sim_range *out) {
+    (void)ctx;
+    (void)sample_index;
+    *out = (struct sim_range){.distance_mm = sensor == 2u ? 8190u : 100u, .present = true};
+    return 0;
+}
+
+static const struct sim_range_source_ops no_target_ops = {.next = no_target_next};
+
+static int setup_no_target(void **state) {
+    (void)state;
+    static const struct sim_range_source source = {.ops = &no_target_ops, .ctx = NULL};
+    rig_source = &source;
+    setup_with(&tof_app_default_config);
+    rig_source = NULL;
     return 0;
 }
 
 static void test_default_windows_report_a_parallel_plate(void **state) {
     (void)state;
-    run_ms(2 * 100 * 20 + 100); /* two windows of 100 samples at 20 ms */
+    /* Two windows of 100 samples at 20 ms, after the ~115 ms bring-up (ST's block and VHV
+     * step) and the first slot, with time for the link to send the second window. */
+    run_ms(2 * 100 * 20 + 300);
     decode_output();
     assert_int_equal(t.estimates, 2 * 4); /* four estimators per window */
     assert_int_equal(t.health, 2);
@@ -152,6 +185,11 @@ static void test_default_windows_report_a_parallel_plate(void **state) {
     assert_int_equal(e->beta_udeg, 0);
     assert_int_equal(e->distance_um, 100000);
     assert_int_equal(e->window_index, 1);
+    /* Each value with its sd (>= 1 um or udeg, never a claimed 0), why empty when ok, and
+     * the estimator's own figures unchanged on the wire. */
+    assert_true(e->why == 0u);
+    assert_true(e->alpha_sd_udeg >= 1 && e->beta_sd_udeg >= 1 && e->distance_sd_um >= 1);
+    assert_int_equal(t.link.tx_dropped, 0); /* every estimate encoded */
     for (unsigned i = 0; i < 4; ++i) {
         assert_int_equal(t.last_health.sensor_state[i], TLM_HEALTH_HEALTHY);
     }
@@ -201,6 +239,7 @@ static void test_selecting_an_estimator_that_does_not_run_is_refused(void **stat
     decode_output();
     assert_int_equal(t.nacks, 2);
     assert_int_equal(t.last_nack_result, TLM_RESULT_STATE);
+    assert_int_equal(t.last_nack_error, ATTITUDE_ERR_ESTIMATORS); /* the estimator's code */
     assert_int_equal(t.acks, 2);
     assert_int_equal(t.last_status.estimator, TLM_ESTIMATOR_KALMAN);
 }
@@ -233,11 +272,31 @@ static void test_stop_silences_estimates_and_raw_stream_sends_samples(void **sta
     cmd = (struct tlm_command){.type = TLM_TYPE_RAW_STREAM};
     cmd.u.raw_enable = true;
     push_command(&cmd, 8);
-    run_ms(150 * 20);
+    run_ms(150 * 20 + 200);
     decode_output();
     assert_int_equal(t.acks, 2);
     assert_int_equal(t.estimates, 0);
     assert_true(t.raw >= 140u);
+}
+
+/* A sensor reporting its own hardware fault (raw 2, VCSEL watchdog) is re-initialised by
+ * the fault manager, alone, and the bus is left alone. */
+static void test_sensor_hardware_fault_reinits_that_sensor(void **state) {
+    (void)state;
+    run_ms(500);
+    assert_int_equal(t.app.counters.reinits_ok, 0u);
+    sim_vl53_force_results(&t.rig.sensor[2], 2u, 100u, 1u);
+    run_ms(600);
+    assert_int_equal(t.app.counters.reinits_ok, 1u);
+    assert_int_equal(t.app.counters.reinits_failed, 0u);
+    assert_int_equal(t.app.counters.bus_recoveries, 0u);
+    assert_int_equal(t.rig.bus.stats.recoveries, 0u);
+    assert_int_equal(t.rig.sensor[2].stats.injected_resets + t.rig.sensor[2].stats.power_ups,
+                     3u); /* powered at start, bring-up, the re-init's XSHUT cycle */
+    assert_int_equal(t.rig.sensor[0].stats.power_ups, 2u);
+    for (unsigned i = 0; i < 4; ++i) {
+        assert_int_equal(t.app.health[i].state, TOF_HEALTH_HEALTHY);
+    }
 }
 
 static void test_malformed_frames_are_counted_and_refused(void **state) {
@@ -270,6 +329,132 @@ static void test_malformed_frames_are_counted_and_refused(void **state) {
     assert_int_equal(t.app.estimator.cfg.window, 100); /* nothing applied */
 }
 
+/* The estimator's error codes reach the firmware's callers unchanged. */
+static void test_estimator_errors_pass_up_unchanged(void **state) {
+    (void)state;
+    assert_int_equal(tof_app_set_window(&t.app, 1, false), ATTITUDE_ERR_WINDOW);
+    assert_int_equal(tof_app_set_window(&t.app, ATTITUDE_WINDOW_MAX + 1u, true),
+                     ATTITUDE_ERR_WINDOW);
+    assert_int_equal(t.app.estimator.cfg.window, 100); /* nothing changed */
+    assert_int_equal(t.app.estimator.cfg.mode, ATTITUDE_TUMBLING);
+    assert_int_equal(tof_app_set_window(&t.app, 20, true), ATTITUDE_ERR_NONE);
+    assert_int_equal(t.app.estimator.cfg.window, 20);
+    assert_int_equal(tof_app_set_primary(&t.app, (enum attitude_estimator)9),
+                     ATTITUDE_ERR_ESTIMATORS);
+    /* At init: the estimator's refusal is returned as it is and named by its message. */
+    static struct tof_app app;
+    static struct tof_app_config bad;
+    bad = tof_app_default_config;
+    bad.estimator.consensus_tolerance_udeg = 0;
+    const int rc = tof_app_init(&app, &t.platform, &bad);
+    assert_int_equal(rc, ATTITUDE_ERR_TOLERANCE);
+    assert_int_equal(app.estimator_error, ATTITUDE_ERR_TOLERANCE);
+    assert_string_equal(tof_app_error_message(&app, rc),
+                        attitude_error_message(ATTITUDE_ERR_TOLERANCE));
+    assert_string_equal(tof_app_error_message(&t.app, HAL_ERR_TIMEOUT), "TIMEOUT");
+}
+
+/* tof_app_main knows the link only as a service: started once after init, polled after
+ * every iteration, never started when init fails (which it logs in the estimator's words). */
+static unsigned service_starts, service_polls;
+static struct tof_app *service_app;
+static char log_text[512];
+static size_t log_len;
+
+static void count_start(void *ctx, struct tof_app *app) {
+    (void)ctx;
+    ++service_starts;
+    service_app = app;
+}
+
+static void count_poll(void *ctx) {
+    (void)ctx;
+    ++service_polls;
+}
+
+static void log_write(void *ctx, const char *text, size_t len) {
+    (void)ctx;
+    const size_t n = len < sizeof log_text - 1u - log_len ? len : sizeof log_text - 1u - log_len;
+    memcpy(log_text + log_len, text, n);
+    log_len += n;
+    log_text[log_len] = '\0';
+}
+
+static const struct hal_log_ops log_ops = {.write = log_write};
+
+static void test_main_runs_the_link_as_a_service(void **state) {
+    (void)state;
+    static const struct tof_app_service_ops ops = {.start = count_start, .poll = count_poll};
+    const struct tof_app_service svc = {.ops = &ops, .ctx = NULL};
+    service_starts = service_polls = 0;
+    static struct tof_app app;
+    assert_int_equal(tof_app_main(&t.platform, &tof_app_default_config, &app, &svc, 5), 0);
+    assert_int_equal(service_starts, 1);
+    assert_int_equal(service_polls, 5);
+    assert_ptr_equal(service_app, &app);
+    static struct tof_app_config bad;
+    bad = tof_app_default_config;
+    bad.estimator.paper_max_iterations = 0;
+    log_len = 0;
+    log_text[0] = '\0';
+    t.platform.log = (struct hal_log){.ops = &log_ops, .ctx = NULL};
+    assert_int_equal(tof_app_main(&t.platform, &bad, &app, &svc, 5), ATTITUDE_ERR_PAPER_ITERATIONS);
+    assert_int_equal(service_starts, 1);
+    assert_non_null(strstr(log_text, "init failed: estimator: paper_max_iterations is 0"));
+    /* The link's own service ops: start binds and sends a status frame. */
+    struct tof_link link;
+    tof_link_init(&link, (struct hal_serial){.ops = &serial_ops, .ctx = &t.serial});
+    tof_link_service_ops.start(&link, &t.app);
+    assert_ptr_equal(link.app, &t.app);
+    decode_output();
+    assert_int_equal(t.status, 1);
+}
+
+/* The estimate frame carries exactly what the estimator said: each value with its sd,
+ * the why bits unchanged, a missing value as TLM_NO_VALUE with no sd. A spy between the
+ * application and the link keeps the last record to compare with the decoded frames. */
+static struct tof_estimate_record spied;
+static unsigned spied_count;
+
+static void spy_estimate(void *ctx, const struct tof_estimate_record *record) {
+    spied = *record;
+    ++spied_count;
+    tof_link_output_ops.estimate(ctx, record);
+}
+
+static const struct tof_output_ops spy_ops = {
+    .estimate = spy_estimate, .sample = NULL, .event = NULL};
+
+static void expect_same_estimate(const struct attitude_estimate *a, const struct tlm_estimate *w) {
+    assert_int_equal(w->status, (uint8_t)a->status);
+    assert_true(w->why == a->why);
+    assert_int_equal(w->alpha_udeg, a->alpha_valid ? a->alpha_udeg : TLM_NO_VALUE);
+    assert_int_equal(w->alpha_sd_udeg, a->alpha_valid ? a->alpha_sd_udeg : TLM_NO_VALUE);
+    assert_int_equal(w->beta_udeg, a->beta_valid ? a->beta_udeg : TLM_NO_VALUE);
+    assert_int_equal(w->beta_sd_udeg, a->beta_valid ? a->beta_sd_udeg : TLM_NO_VALUE);
+    assert_int_equal(w->distance_um, a->distance_valid ? a->distance_um : TLM_NO_VALUE);
+    assert_int_equal(w->distance_sd_um, a->distance_valid ? a->distance_sd_um : TLM_NO_VALUE);
+}
+
+static void test_estimate_frames_carry_the_estimators_sd_and_why(void **state) {
+    (void)state;
+    t.platform.output = (struct tof_output){.ops = &spy_ops, .ctx = &t.link};
+    spied_count = 0;
+    /* sensor C reads the VL53L0X no-target value 8190 (setup_no_target): not ok, and why */
+    run_ms(100 * 20 + 100);
+    decode_output();
+    assert_int_equal(spied_count, 1);
+    assert_int_equal(t.link.tx_dropped, 0);
+    for (unsigned e = 0; e < ATTITUDE_EST_COUNT; ++e) {
+        if (spied.output.est[e].reason == ATTITUDE_REASON_DISABLED) {
+            continue;
+        }
+        expect_same_estimate(&spied.output.est[e], &t.last_estimate[e]);
+        assert_int_not_equal(t.last_estimate[e].status, TLM_STATUS_OK);
+        assert_true(t.last_estimate[e].why != 0u);
+    }
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup(test_default_windows_report_a_parallel_plate, setup),
@@ -277,7 +462,12 @@ int main(void) {
         cmocka_unit_test_setup(test_selecting_an_estimator_that_does_not_run_is_refused, setup),
         cmocka_unit_test_setup(test_primary_is_an_estimator_that_runs, setup_kalman_only),
         cmocka_unit_test_setup(test_stop_silences_estimates_and_raw_stream_sends_samples, setup),
+        cmocka_unit_test_setup(test_sensor_hardware_fault_reinits_that_sensor, setup),
         cmocka_unit_test_setup(test_malformed_frames_are_counted_and_refused, setup),
+        cmocka_unit_test_setup(test_estimator_errors_pass_up_unchanged, setup),
+        cmocka_unit_test_setup(test_main_runs_the_link_as_a_service, setup),
+        cmocka_unit_test_setup(test_estimate_frames_carry_the_estimators_sd_and_why,
+                               setup_no_target),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -5,7 +5,9 @@
  *   - an error reads "t.csv:<line>:<column>: <message>" with line, column ≥ 1;
  *   - accepted rows have non-decreasing t_ms and |truth| ≤ 90°, and absent
  *     sensors are exactly those with status 255;
- *   - the end and a failure are sticky.
+ *   - the end and a failure are sticky;
+ *   - the timing notes agree with the rows: every repeated t_ms and every step of
+ *     more than two periods is counted, the first TRACE_TIMING_NOTES kept in order.
  * Run: see docs/traces.md, "Fuzzing".
  */
 #include <stdint.h>
@@ -50,6 +52,11 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
     }
     uint32_t last_t = 0;
     uint64_t rows = 0;
+    uint64_t repeats = 0, jumps = 0;
+    const struct trace_timing *tm = trace_reader_timing(&reader);
+    if (tm->period_ms == 0u || tm->period_from_meta != (reader.meta.period_ms != 0u)) {
+        abort();
+    }
     /* Bounded: every row consumes at least one input byte. */
     for (size_t guard = 0; guard <= size + 1u; ++guard) {
         struct scene_row row = {0};
@@ -57,6 +64,17 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
         if (got == 1) {
             if (rows == 0u || trace_reader_next(&reader, &row) != 1) {
                 abort();
+            }
+            const uint64_t irregular = repeats + jumps;
+            if (tm->repeats != repeats || tm->jumps != jumps ||
+                tm->note_count !=
+                    (irregular < TRACE_TIMING_NOTES ? irregular : TRACE_TIMING_NOTES)) {
+                abort();
+            }
+            for (unsigned i = 1; i < tm->note_count; ++i) {
+                if (tm->notes[i].line <= tm->notes[i - 1u].line) {
+                    abort();
+                }
             }
             return 0;
         }
@@ -69,6 +87,11 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
         }
         if (rows > 0u && row.t_ms < last_t) {
             abort();
+        }
+        if (rows > 0u && row.t_ms == last_t) {
+            ++repeats;
+        } else if (rows > 0u && (uint64_t)row.t_ms - last_t > 2u * (uint64_t)tm->period_ms) {
+            ++jumps;
         }
         if ((row.has_alpha && !(row.alpha_deg >= -90.0 && row.alpha_deg <= 90.0)) ||
             (row.has_beta && !(row.beta_deg >= -90.0 && row.beta_deg <= 90.0))) {

@@ -159,7 +159,8 @@ static void test_wrong_version(void **state) {
                  "the first line must be '# tof-trace v1'");
     expect_error("# tof-trace v1 \n# arm_mm=30\n" COLS "0,1,2,3,4\n", "1:14",
                  "unsupported trace version");
-    expect_error("\xef\xbb\xbf# tof-trace v1\n", "1:1", "the first line must be");
+    /* A byte-order mark is skipped (test_real_logger_file); what follows it still counts. */
+    expect_error("\xef\xbb\xbf# tof-trace v2\n", "1:14", "unsupported trace version 'v2'");
 }
 
 static void test_missing_arm(void **state) {
@@ -281,8 +282,138 @@ static void test_no_samples(void **state) {
     (void)state;
     expect_error(HEAD COLS, "4:1", "no samples after the header (line 3)");
     expect_error(HEAD COLS "# only a comment\n", "5:1", "no samples");
-    expect_error(HEAD COLS "\n", "4:1", "empty line (expected a sample row)");
+    expect_error(HEAD COLS "\n", "5:1", "no samples after the header (line 3)");
+    expect_error(HEAD COLS "0,1,2,3,4\n\n1,1,2,3,4\n", "5:1", "empty line (expected a sample row)");
+    expect_error(HEAD COLS "0,1,2,3,4\n\n\n# late\n", "5:1", "empty line (expected a sample row)");
     expect_error(HEAD "\n" COLS, "3:1", "empty line where the header was expected");
+}
+
+/* What real loggers write: a byte-order mark, CRLF, a trailing empty line or two. */
+static void test_real_logger_file(void **state) {
+    (void)state;
+    const char *text = "\xef\xbb\xbf# tof-trace v1\r\n# arm_mm=30\r\n" COLS "0,1,2,3,4\r\n"
+                       "20,1,2,3,4\r\n\r\n\n";
+    assert_int_equal(read_all(text, strlen(text)), 2);
+    assert_true(reader.bom);
+    assert_int_equal(read_all_mem(text, strlen(text)), 2);
+    /* A BOM anywhere but at the very start is not skipped. */
+    expect_error(HEAD "\xef\xbb\xbf" COLS "0,1,2,3,4\n", "3:1", "header lacks required column");
+}
+
+/* CR-only line endings are named as such, short files and long ones alike. */
+static void test_cr_only_endings(void **state) {
+    (void)state;
+    expect_error("# tof-trace v1\r# arm_mm=30\r" COLS, "1:15", "CR-only line endings");
+    expect_error(HEAD COLS "0,1,2\r3,4\n", "4:6", "CR-only line endings");
+    /* A whole CR-only file is one "line" longer than the limit: still named as CR-only. */
+    static char big[8192];
+    size_t n = 0;
+    n += (size_t)snprintf(big + n, sizeof big - n, "# tof-trace v1\r# arm_mm=30\r%.*s\r",
+                          (int)strlen(COLS) - 1, COLS);
+    while (n + 16u < sizeof big) {
+        n += (size_t)snprintf(big + n, sizeof big - n, "%u,1,2,3,4\r", (unsigned)n);
+    }
+    expect_error_n(big, n, "1:15", "CR-only line endings");
+    /* CRLF split across the reader's 64 KB blocks is an ordinary CRLF. */
+    static char blocks[TRACE_IO_BLOCK + 4096u];
+    n = (size_t)snprintf(blocks, sizeof blocks, "%s", HEAD COLS);
+    unsigned t = 0;
+    while (n < TRACE_IO_BLOCK + 1024u) {
+        n += (size_t)snprintf(blocks + n, sizeof blocks - n, "%u,1,2,3,4\r\n", t++);
+    }
+    assert_int_equal(read_all(blocks, n), (long)t);
+}
+
+/* Repeated time stamps and jumps of more than two periods are noted with their line. */
+static void test_timing_irregularities(void **state) {
+    (void)state;
+    const char *text =
+        "# tof-trace v1\n# arm_mm=30\n# period_ms=10\n" COLS "0,1,2,3,4\n" /* line 5 */
+        "10,1,2,3,4\n"                                                     /* 6 */
+        "10,1,2,3,4\n"                                                     /* 7: repeat */
+        "30,1,2,3,4\n"  /* 8: 20 ms = two periods, not a jump */
+        "61,1,2,3,4\n"  /* 9: 31 ms, a jump */
+        "161,1,2,3,4\n" /* 10: 100 ms, the largest jump */
+        "171,1,2,3,4\n";
+    assert_int_equal(read_all_mem(text, strlen(text)), 7);
+    const struct trace_timing *tm = trace_reader_timing(&reader);
+    assert_int_equal(tm->period_ms, 10);
+    assert_true(tm->period_from_meta);
+    assert_int_equal(tm->repeats, 1);
+    assert_int_equal(tm->jumps, 2);
+    assert_int_equal(tm->max_jump_ms, 100);
+    assert_int_equal(tm->max_jump_line, 10);
+    assert_int_equal(tm->note_count, 3);
+    assert_int_equal(tm->notes[0].line, 7);
+    assert_int_equal(tm->notes[0].kind, TRACE_TIME_REPEAT);
+    assert_int_equal(tm->notes[1].line, 9);
+    assert_int_equal(tm->notes[1].kind, TRACE_TIME_JUMP);
+    assert_int_equal(tm->notes[1].prev_t_ms, 30);
+    assert_int_equal(tm->notes[1].t_ms, 61);
+    /* Without period_ms the default time base is used, and said to be the default. */
+    const char *no_period = HEAD COLS "0,1,2,3,4\n40,1,2,3,4\n41,1,2,3,4\n";
+    assert_int_equal(read_all_mem(no_period, strlen(no_period)), 3);
+    tm = trace_reader_timing(&reader);
+    assert_false(tm->period_from_meta);
+    assert_int_equal(tm->period_ms, TRACE_DEFAULT_PERIOD_MS);
+    assert_int_equal(tm->jumps, 0); /* 40 ms is two periods of 20 */
+    assert_int_equal(tm->repeats, 0);
+    /* More irregular rows than notes: all counted, the first ones kept. */
+    static char many[4096];
+    size_t n = (size_t)snprintf(many, sizeof many, "%s", HEAD COLS);
+    for (unsigned i = 0; i < 40u; ++i) {
+        n += (size_t)snprintf(many + n, sizeof many - n, "%u,1,2,3,4\n", (i / 2u) * 20u);
+    }
+    assert_int_equal(read_all_mem(many, n), 40);
+    tm = trace_reader_timing(&reader);
+    assert_int_equal(tm->repeats, 20);
+    assert_int_equal(tm->note_count, TRACE_TIMING_NOTES);
+    assert_int_equal(tm->notes[TRACE_TIMING_NOTES - 1u].line, 3u + 2u * TRACE_TIMING_NOTES);
+    /* The metadata's lines are kept for messages about their values. */
+    assert_int_equal(read_all_mem(text, strlen(text)), 7);
+    assert_int_equal(trace_reader_meta_line(&reader, "period_ms"), 3);
+    assert_int_equal(trace_reader_meta_line(&reader, "arm_mm"), 2);
+    assert_int_equal(trace_reader_meta_line(&reader, "absent"), 0);
+}
+
+/* One row parser: blanks, signs, exponents, leading zeros and unused columns all go
+ * through the same pass, and a row with the wrong field count says so first. */
+static void test_one_row_parser(void **state) {
+    (void)state;
+    const char *text = HEAD "t_ms,a_mm,x,b_mm,c_mm,d_mm,alpha_deg,beta_deg\n"
+                            " 007 ,+1,anything, 2,-0,0004,  1.5e0 ,-.25\n"
+                            "8,1,,2,3,4,,\n";
+    assert_int_equal(trace_reader_open_mem(&reader, text, strlen(text), "t.csv"), 0);
+    struct scene_row row;
+    assert_int_equal(trace_reader_next(&reader, &row), 0);
+    assert_int_equal(row.t_ms, 7);
+    assert_int_equal(row.range_mm[SCENE_A], 1);
+    assert_int_equal(row.range_mm[SCENE_B], 2);
+    assert_int_equal(row.range_mm[SCENE_C], 0);
+    assert_int_equal(row.range_mm[SCENE_D], 4);
+    assert_true(row.has_alpha && row.alpha_deg == 1.5);
+    assert_true(row.has_beta && row.beta_deg == -0.25);
+    assert_int_equal(trace_reader_next(&reader, &row), 0);
+    assert_false(row.has_alpha || row.has_beta);
+    assert_int_equal(trace_reader_next(&reader, &row), 1);
+    /* Wrong field count wins over a bad value; the leftmost bad value is named. */
+    expect_error(HEAD COLS "0,x,2\n", "4:6", "short row: 3 fields, the header has 5");
+    expect_error(HEAD COLS "0,x,2,3,4,5\n", "4:11", "long row");
+    expect_error(HEAD COLS "0,x,y,3,4\n", "4:3", "a_mm: expected an integer, got 'x'");
+    expect_error(HEAD COLS "0,1 2,2,3,4\n", "4:3", "a_mm: expected an integer, got '1 2'");
+    expect_error(HEAD COLS "0,+,2,3,4\n", "4:3", "a_mm: expected an integer, got '+'");
+    expect_error(HEAD COLS "0,-5x,2,3,4\n", "4:3", "a_mm: expected an integer");
+    expect_error(HEAD COLS "0,  ,2,3,4\n", "4:3", "a_mm: empty value");
+    expect_error(HEAD "t_ms,a_mm,b_mm,c_mm,d_mm,alpha_deg\n0,1,2,3,4,1e\n", "4:11",
+                 "alpha_deg: expected a number, got '1e'");
+    expect_error(HEAD "t_ms,a_mm,b_mm,c_mm,d_mm,alpha_deg\n0,1,2,3,4,.\n", "4:11",
+                 "alpha_deg: expected a number");
+    expect_error(HEAD "t_ms,a_mm,b_mm,c_mm,d_mm,alpha_deg\n0,1,2,3,4,90.0000001\n", "4:11",
+                 "out of range -90..90 degrees");
+    expect_error("# tof-trace v1\n# arm_mm=30,5\n" COLS "0,1,2,3,4\n", "2:10",
+                 "arm_mm must be a positive number");
+    expect_error("# tof-trace v1\n# arm_mm=30\n# period_ms=20,5\n" COLS "0,1,2,3,4\n", "3:13",
+                 "period_ms must be an integer");
 }
 
 /* The reader's decimal fast path gives exactly strtod's double for truth
@@ -576,6 +707,10 @@ int main(void) {
         cmocka_unit_test(test_nul_byte),
         cmocka_unit_test(test_line_too_long),
         cmocka_unit_test(test_no_samples),
+        cmocka_unit_test(test_real_logger_file),
+        cmocka_unit_test(test_cr_only_endings),
+        cmocka_unit_test(test_timing_irregularities),
+        cmocka_unit_test(test_one_row_parser),
         cmocka_unit_test(test_truth_values_match_strtod),
         cmocka_unit_test(test_errors_are_sticky),
         cmocka_unit_test(test_round_trip),

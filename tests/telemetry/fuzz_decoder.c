@@ -95,8 +95,8 @@ static void check_stream(const uint8_t *data, size_t size) {
         .on_frame = on_frame, .on_reject = on_reject, .ctx = &bytewise};
     const struct tlm_frame_sink sink2 = {
         .on_frame = on_frame, .on_reject = on_reject, .ctx = &whole};
-    tlm_decoder_init(&bytewise.dec, TLM_ACCEPT_ALL);
-    tlm_decoder_init(&whole.dec, TLM_ACCEPT_ALL);
+    tlm_decoder_init(&bytewise.dec, tlm_message_types(TLM_ACCEPT_ALL));
+    tlm_decoder_init(&whole.dec, tlm_message_types(TLM_ACCEPT_ALL));
 
     for (size_t i = 0; i < size; ++i) {
         tlm_decoder_push(&bytewise.dec, data[i], &sink1);

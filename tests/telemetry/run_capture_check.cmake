@@ -51,19 +51,22 @@ if(MODE STREQUAL "c_to_python")
   if(strict_rc EQUAL 0)
     message(FATAL_ERROR "--strict accepted a capture with malformed frames")
   endif()
-  # CSV of the estimates: one row per estimate, angles empty when invalid.
+  # CSV of the estimates: EST.csv's columns first (DESIGN.md section 6), one row per
+  # estimate, a value and its sd empty when not estimated, why empty when ok.
   run(csv ${PYTHON} ${SCRIPT} --file ${WORK}/capture.bin --csv)
   string(REGEX MATCHALL "[^\n]+" rows "${csv}")
   list(GET rows 0 header)
-  if(NOT header STREQUAL "t_ms,alpha_deg,beta_deg,distance_mm,status,estimator,window,reason,sensors,flatness_um,seq")
+  if(NOT header STREQUAL "t_ms,alpha_deg,beta_deg,distance_mm,status,alpha_sd_deg,beta_sd_deg,distance_sd_mm,why,estimator,window,sensors,flatness_um,seq")
     message(FATAL_ERROR "unexpected CSV header: ${header}")
   endif()
   list(LENGTH rows row_count)
   list(GET rows 2 kalman_row)
   list(GET rows 6 invalid_row)
-  if(NOT row_count EQUAL 7
-     OR NOT kalman_row STREQUAL "2000,0.999871,-0.001234,99998.765,ok,kalman,1,none,ABCD,-37,2"
-     OR NOT invalid_row STREQUAL "8000,,,,invalid,kalman,4,too-few-sensors+no-samples,A,,6")
+  list(GET rows 7 none_row)
+  if(NOT row_count EQUAL 8
+     OR NOT kalman_row STREQUAL "2000,0.999871,-0.001234,99998.765,ok,0.270123,0.000001,1.414,,kalman,1,ABCD,-37,2"
+     OR NOT invalid_row STREQUAL "8000,,0.000250,100.000,invalid,,0.000001,1.414,alpha-unobservable+paper-inconsistent,kalman,4,A,,6"
+     OR NOT none_row STREQUAL "10000,,,,invalid,,,,unobservable,mean,5,none,,7")
     message(FATAL_ERROR "unexpected estimate CSV:\n${csv}")
   endif()
   # The plot of the estimates is written (a PNG signature, not empty).
@@ -73,6 +76,16 @@ if(MODE STREQUAL "c_to_python")
   if(NOT png_head STREQUAL "89504e470d0a1a0a")
     message(FATAL_ERROR "--plot did not write a PNG (${WORK}/estimates.png)")
   endif()
+  # --live on the firmware-encoded capture, without a display (Agg): the picture with the
+  # +-2 sd bands is drawn as the frames are read and saved at the end.
+  file(REMOVE ${WORK}/live.png)
+  run(live_text ${CMAKE_COMMAND} -E env MPLBACKEND=Agg ${PYTHON} ${SCRIPT} --file
+      ${WORK}/capture.bin --live --plot ${WORK}/live.png)
+  file(READ ${WORK}/live.png png_head LIMIT 8 HEX)
+  if(NOT png_head STREQUAL "89504e470d0a1a0a")
+    message(FATAL_ERROR "--live --plot did not write a PNG (${WORK}/live.png)")
+  endif()
+  expect_same(python_live_decoder "${expected}" "${live_text}")
 elseif(MODE STREQUAL "python_to_c")
   run(ignored ${PYTHON} ${SCRIPT} --write-commands ${WORK}/commands.bin
       --send "set-window 50 sliding" --send "set-window 2" --send "estimator consensus-paper"

@@ -19,7 +19,8 @@
 static const uint8_t start_seq0[] = {0xA5, 0x5A, 0x00, 0x83, 0x00, 0x57, 0x82};
 static const uint8_t set_window_100_seq1[] = {0xA5, 0x5A, 0x03, 0x81, 0x01,
                                               0x64, 0x00, 0x00, 0x6E, 0x79};
-static const uint8_t ack_seq9[] = {0xA5, 0x5A, 0x03, 0x04, 0x09, 0x01, 0x81, 0x00, 0x18, 0xA5};
+static const uint8_t ack_seq9[] = {0xA5, 0x5A, 0x04, 0x04, 0x09, 0x01,
+                                   0x81, 0x00, 0x00, 0x0B, 0xE4};
 
 static struct tlm_rx_counters zero_counters(void) {
     struct tlm_rx_counters c;
@@ -55,8 +56,8 @@ static void test_encode_matches_reference_bytes(void **state) {
                      sizeof set_window_100_seq1);
     assert_memory_equal(out, set_window_100_seq1, sizeof set_window_100_seq1);
 
-    const uint8_t ack_payload[] = {0x01, 0x81, 0x00};
-    assert_int_equal(tlm_frame_encode(0x04, 9, ack_payload, 3, out, sizeof out), sizeof ack_seq9);
+    const uint8_t ack_payload[] = {0x01, 0x81, 0x00, 0x00};
+    assert_int_equal(tlm_frame_encode(0x04, 9, ack_payload, 4, out, sizeof out), sizeof ack_seq9);
     assert_memory_equal(out, ack_seq9, sizeof ack_seq9);
 }
 
@@ -83,7 +84,7 @@ static void test_decodes_a_single_frame(void **state) {
     struct tlm_decoder dec;
     struct recorder rec;
     const struct tlm_frame_sink sink = recorder_sink(&rec);
-    tlm_decoder_init(&dec, TLM_ACCEPT_ALL);
+    tlm_decoder_init(&dec, tlm_message_types(TLM_ACCEPT_ALL));
     for (size_t i = 0; i < sizeof set_window_100_seq1; ++i) {
         assert_int_equal(rec.frame_count, 0); /* nothing before the last byte */
         tlm_decoder_push(&dec, set_window_100_seq1[i], &sink);
@@ -103,7 +104,7 @@ static void test_decoder_sink_may_have_no_callbacks(void **state) {
     (void)state;
     struct tlm_decoder dec;
     const struct tlm_frame_sink quiet = {.on_frame = NULL, .on_reject = NULL, .ctx = NULL};
-    tlm_decoder_init(&dec, TLM_ACCEPT_COMMANDS);
+    tlm_decoder_init(&dec, tlm_message_types(TLM_ACCEPT_COMMANDS));
     tlm_decoder_feed(&dec, start_seq0, sizeof start_seq0, &quiet);
     tlm_decoder_feed(&dec, ack_seq9, sizeof ack_seq9, NULL); /* telemetry: unknown here */
     assert_int_equal(dec.counters.frames_ok, 1);
@@ -130,7 +131,7 @@ static void test_resynchronises_after_garbage(void **state) {
     struct tlm_decoder dec;
     struct recorder rec;
     const struct tlm_frame_sink sink = recorder_sink(&rec);
-    tlm_decoder_init(&dec, TLM_ACCEPT_ALL);
+    tlm_decoder_init(&dec, tlm_message_types(TLM_ACCEPT_ALL));
     tlm_decoder_feed(&dec, stream, n, &sink);
     assert_int_equal(rec.frame_count, 2);
     assert_int_equal(rec.frames[0].type, TLM_TYPE_START);
@@ -154,7 +155,7 @@ static void test_bad_crc_is_counted_and_next_frame_kept(void **state) {
     struct tlm_decoder dec;
     struct recorder rec;
     const struct tlm_frame_sink sink = recorder_sink(&rec);
-    tlm_decoder_init(&dec, TLM_ACCEPT_ALL);
+    tlm_decoder_init(&dec, tlm_message_types(TLM_ACCEPT_ALL));
     tlm_decoder_feed(&dec, stream, n, &sink);
     assert_int_equal(rec.frame_count, 1);
     assert_int_equal(rec.frames[0].type, TLM_TYPE_START);
@@ -176,7 +177,7 @@ static void test_corrupt_crc_bytes_are_a_bad_crc(void **state) {
         struct tlm_decoder dec;
         struct recorder rec;
         const struct tlm_frame_sink sink = recorder_sink(&rec);
-        tlm_decoder_init(&dec, TLM_ACCEPT_ALL);
+        tlm_decoder_init(&dec, tlm_message_types(TLM_ACCEPT_ALL));
         tlm_decoder_feed(&dec, frame, sizeof frame, &sink);
         tlm_decoder_flush(&dec, &sink);
         assert_int_equal(rec.frame_count, 0);
@@ -192,7 +193,7 @@ static void test_length_above_maximum_is_bad_length(void **state) {
     struct tlm_decoder dec;
     struct recorder rec;
     const struct tlm_frame_sink sink = recorder_sink(&rec);
-    tlm_decoder_init(&dec, TLM_ACCEPT_ALL);
+    tlm_decoder_init(&dec, tlm_message_types(TLM_ACCEPT_ALL));
     tlm_decoder_feed(&dec, stream, sizeof stream, &sink);
     tlm_decoder_feed(&dec, start_seq0, sizeof start_seq0, &sink);
     assert_int_equal(rec.frame_count, 1);
@@ -217,7 +218,7 @@ static void test_unknown_type_is_counted_and_reported(void **state) {
     struct tlm_decoder dec;
     struct recorder rec;
     const struct tlm_frame_sink sink = recorder_sink(&rec);
-    tlm_decoder_init(&dec, TLM_ACCEPT_ALL);
+    tlm_decoder_init(&dec, tlm_message_types(TLM_ACCEPT_ALL));
     tlm_decoder_feed(&dec, frame, (size_t)n, &sink);
     assert_int_equal(rec.frame_count, 0);
     assert_int_equal(rec.reject_count, 1);
@@ -237,8 +238,8 @@ static void test_direction_filter(void **state) {
     struct recorder fw_rec, host_rec;
     const struct tlm_frame_sink fw_sink = recorder_sink(&fw_rec);
     const struct tlm_frame_sink host_sink = recorder_sink(&host_rec);
-    tlm_decoder_init(&fw, TLM_ACCEPT_COMMANDS);
-    tlm_decoder_init(&host, TLM_ACCEPT_TELEMETRY);
+    tlm_decoder_init(&fw, tlm_message_types(TLM_ACCEPT_COMMANDS));
+    tlm_decoder_init(&host, tlm_message_types(TLM_ACCEPT_TELEMETRY));
     for (int pass = 0; pass < 2; ++pass) {
         tlm_decoder_feed(&fw, start_seq0, sizeof start_seq0, &fw_sink);
         tlm_decoder_feed(&fw, ack_seq9, sizeof ack_seq9, &fw_sink);
@@ -270,7 +271,7 @@ static void test_wrong_payload_length_for_type_is_bad_length(void **state) {
     struct tlm_decoder dec;
     struct recorder rec;
     const struct tlm_frame_sink sink = recorder_sink(&rec);
-    tlm_decoder_init(&dec, TLM_ACCEPT_COMMANDS);
+    tlm_decoder_init(&dec, tlm_message_types(TLM_ACCEPT_COMMANDS));
     tlm_decoder_feed(&dec, stream, (size_t)(n1 + n2), &sink);
     assert_int_equal(rec.frame_count, 0);
     assert_int_equal(rec.reject_count, 2);
@@ -302,7 +303,7 @@ static void test_truncated_frame_followed_by_good_frame(void **state) {
     struct tlm_decoder dec;
     struct recorder rec;
     const struct tlm_frame_sink sink = recorder_sink(&rec);
-    tlm_decoder_init(&dec, TLM_ACCEPT_ALL);
+    tlm_decoder_init(&dec, tlm_message_types(TLM_ACCEPT_ALL));
     tlm_decoder_feed(&dec, stream, n, &sink);
     assert_int_equal(rec.frame_count, 2);
     assert_int_equal(rec.frames[0].type, TLM_TYPE_ACK);
@@ -320,7 +321,7 @@ static void test_truncated_frame_at_end_of_stream(void **state) {
     struct tlm_decoder dec;
     struct recorder rec;
     const struct tlm_frame_sink sink = recorder_sink(&rec);
-    tlm_decoder_init(&dec, TLM_ACCEPT_ALL);
+    tlm_decoder_init(&dec, tlm_message_types(TLM_ACCEPT_ALL));
     tlm_decoder_feed(&dec, start_seq0, sizeof start_seq0, &sink);
     tlm_decoder_feed(&dec, set_window_100_seq1, 8, &sink);
     assert_int_equal(tlm_decoder_pending(&dec), 8);
@@ -350,7 +351,7 @@ static void test_flush_recovers_frame_behind_truncated_one(void **state) {
     struct tlm_decoder dec;
     struct recorder rec;
     const struct tlm_frame_sink sink = recorder_sink(&rec);
-    tlm_decoder_init(&dec, TLM_ACCEPT_ALL);
+    tlm_decoder_init(&dec, tlm_message_types(TLM_ACCEPT_ALL));
     tlm_decoder_feed(&dec, stream, n, &sink);
     assert_int_equal(rec.frame_count, 0);
     tlm_decoder_flush(&dec, &sink);
@@ -366,7 +367,7 @@ static void test_flush_recovers_frame_behind_truncated_one(void **state) {
 static void test_lone_sync_byte_at_flush_is_not_a_frame(void **state) {
     (void)state;
     struct tlm_decoder dec;
-    tlm_decoder_init(&dec, TLM_ACCEPT_ALL);
+    tlm_decoder_init(&dec, tlm_message_types(TLM_ACCEPT_ALL));
     tlm_decoder_push(&dec, TLM_SYNC0, NULL);
     assert_int_equal(tlm_decoder_pending(&dec), 1);
     tlm_decoder_flush(&dec, NULL);
@@ -388,7 +389,7 @@ static void test_sync_pattern_inside_payload(void **state) {
     struct tlm_decoder dec;
     struct recorder rec;
     const struct tlm_frame_sink sink = recorder_sink(&rec);
-    tlm_decoder_init(&dec, TLM_ACCEPT_ALL);
+    tlm_decoder_init(&dec, tlm_message_types(TLM_ACCEPT_ALL));
     tlm_decoder_feed(&dec, frame, (size_t)n, &sink);
     assert_int_equal(rec.frame_count, 1);
     assert_memory_equal(rec.frames[0].payload, payload, sizeof payload);
@@ -423,7 +424,7 @@ static void test_frames_split_at_every_boundary(void **state) {
     struct tlm_decoder ref;
     struct recorder ref_rec;
     const struct tlm_frame_sink ref_sink = recorder_sink(&ref_rec);
-    tlm_decoder_init(&ref, TLM_ACCEPT_ALL);
+    tlm_decoder_init(&ref, tlm_message_types(TLM_ACCEPT_ALL));
     tlm_decoder_feed(&ref, stream, n, &ref_sink);
     assert_int_equal(ref_rec.reject_count, 7);
     assert_int_equal(ref.counters.unknown_type, 7);
@@ -434,7 +435,7 @@ static void test_frames_split_at_every_boundary(void **state) {
     for (size_t split = 0; split <= n; ++split) {
         struct tlm_decoder dec;
         const struct tlm_frame_sink sink = recorder_sink(&rec);
-        tlm_decoder_init(&dec, TLM_ACCEPT_ALL);
+        tlm_decoder_init(&dec, tlm_message_types(TLM_ACCEPT_ALL));
         tlm_decoder_feed(&dec, stream, split, &sink);
         tlm_decoder_feed(&dec, &stream[split], n - split, &sink);
         assert_int_equal(rec.reject_count, 7);
@@ -444,7 +445,7 @@ static void test_frames_split_at_every_boundary(void **state) {
     for (size_t chunk = 1; chunk <= 64; ++chunk) {
         struct tlm_decoder dec;
         const struct tlm_frame_sink sink = recorder_sink(&rec);
-        tlm_decoder_init(&dec, TLM_ACCEPT_ALL);
+        tlm_decoder_init(&dec, tlm_message_types(TLM_ACCEPT_ALL));
         for (size_t at = 0; at < n; at += chunk) {
             tlm_decoder_feed(&dec, &stream[at], (at + chunk <= n) ? chunk : n - at, &sink);
         }
@@ -469,7 +470,7 @@ static void test_known_frames_split_at_every_boundary(void **state) {
             struct tlm_decoder dec;
             struct recorder rec;
             const struct tlm_frame_sink sink = recorder_sink(&rec);
-            tlm_decoder_init(&dec, TLM_ACCEPT_ALL);
+            tlm_decoder_init(&dec, tlm_message_types(TLM_ACCEPT_ALL));
             tlm_decoder_feed(&dec, stream, a, &sink);
             tlm_decoder_feed(&dec, &stream[a], b - a, &sink);
             tlm_decoder_feed(&dec, &stream[b], n - b, &sink);
@@ -493,7 +494,7 @@ static void test_every_frame_survives_random_noise(void **state) {
     /* 300 ack frames, each preceded by 0..40 random bytes (biased toward the
      * sync bytes to provoke false candidates): every frame must come out, in
      * order, and every byte must be accounted for. */
-    static uint8_t stream[300 * (10 + 40)];
+    static uint8_t stream[300 * (11 + 40)];
     size_t n = 0;
     uint32_t x = 2024u;
     for (unsigned f = 0; f < 300; ++f) {
@@ -504,13 +505,13 @@ static void test_every_frame_survives_random_noise(void **state) {
         }
         const struct tlm_ack ack = {.echo_seq = (uint8_t)f, .command = 0x81, .result = 0};
         const int k = tlm_encode_ack((uint8_t)f, &ack, &stream[n], sizeof stream - n);
-        assert_int_equal(k, 10);
+        assert_int_equal(k, 11);
         n += (size_t)k;
     }
     struct tlm_decoder dec;
     static struct recorder rec;
     const struct tlm_frame_sink sink = recorder_sink(&rec);
-    tlm_decoder_init(&dec, TLM_ACCEPT_TELEMETRY);
+    tlm_decoder_init(&dec, tlm_message_types(TLM_ACCEPT_TELEMETRY));
     tlm_decoder_feed(&dec, stream, n, &sink);
     tlm_decoder_flush(&dec, &sink);
     assert_int_equal(rec.frame_count, 300);
@@ -527,10 +528,10 @@ static void test_every_frame_survives_random_noise(void **state) {
 static void test_init_resets_state_and_counters(void **state) {
     (void)state;
     struct tlm_decoder dec;
-    tlm_decoder_init(&dec, TLM_ACCEPT_ALL);
+    tlm_decoder_init(&dec, tlm_message_types(TLM_ACCEPT_ALL));
     tlm_decoder_feed(&dec, set_window_100_seq1, 7, NULL);
     dec.counters.bad_crc = 5;
-    tlm_decoder_init(&dec, TLM_ACCEPT_ALL);
+    tlm_decoder_init(&dec, tlm_message_types(TLM_ACCEPT_ALL));
     assert_int_equal(tlm_decoder_pending(&dec), 0);
     struct tlm_rx_counters want = zero_counters();
     assert_counters(&dec.counters, &want);
@@ -543,6 +544,43 @@ static void test_result_codes(void **state) {
     }
     assert_false(tlm_result_is_valid(5));
     assert_false(tlm_result_is_valid(0xFF));
+}
+
+/* The framing knows nothing of the messages: a table of its own (type 0x42, 2 bytes)
+ * decides what a decoder accepts, and no table accepts nothing. */
+static int own_length(const void *ctx, uint8_t type) {
+    const uint8_t *only = ctx;
+    return type == only[0] ? (int)only[1] : -1;
+}
+
+static void test_framing_takes_its_type_table(void **state) {
+    (void)state;
+    static const uint8_t only[2] = {0x42, 2};
+    const struct tlm_type_table table = {.payload_length = own_length, .ctx = only};
+    uint8_t frame[TLM_FRAME_MAX];
+    const uint8_t payload[2] = {0xBE, 0xEF};
+    const int n = tlm_frame_encode(0x42, 7, payload, sizeof payload, frame, sizeof frame);
+    assert_int_equal(n, 2 + (int)TLM_FRAME_OVERHEAD);
+    struct tlm_decoder dec;
+    struct recorder rec;
+    const struct tlm_frame_sink sink = recorder_sink(&rec);
+    tlm_decoder_init(&dec, &table);
+    tlm_decoder_feed(&dec, frame, (size_t)n, &sink);
+    tlm_decoder_feed(&dec, start_seq0, sizeof start_seq0, &sink); /* a protocol command */
+    assert_int_equal(rec.frame_count, 1);
+    assert_int_equal(rec.frames[0].type, 0x42);
+    assert_memory_equal(rec.frames[0].payload, payload, 2);
+    assert_int_equal(dec.counters.unknown_type, 1);
+    /* The same frame with a length the table does not give is a bad length. */
+    const uint8_t three[3] = {1, 2, 3};
+    const int m = tlm_frame_encode(0x42, 8, three, sizeof three, frame, sizeof frame);
+    tlm_decoder_feed(&dec, frame, (size_t)m, &sink);
+    assert_int_equal(dec.counters.bad_length, 1);
+    /* No table: every CRC-valid frame is of unknown type. */
+    tlm_decoder_init(&dec, NULL);
+    tlm_decoder_feed(&dec, start_seq0, sizeof start_seq0, &sink);
+    assert_int_equal(dec.counters.unknown_type, 1);
+    assert_int_equal(dec.counters.frames_ok, 0);
 }
 
 int main(void) {
@@ -568,6 +606,7 @@ int main(void) {
         cmocka_unit_test(test_every_frame_survives_random_noise),
         cmocka_unit_test(test_init_resets_state_and_counters),
         cmocka_unit_test(test_result_codes),
+        cmocka_unit_test(test_framing_takes_its_type_table),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -22,12 +22,15 @@ static struct tlm_estimate sample_estimate(void) {
                                  .window_index = 199,
                                  .estimator = TLM_ESTIMATOR_CONSENSUS,
                                  .status = TLM_STATUS_OK,
-                                 .reason = 0,
                                  .sensors_used = TLM_SENSOR_MASK_ALL,
                                  .alpha_udeg = 1500000,
                                  .beta_udeg = -250000,
                                  .distance_um = 123456000,
-                                 .flatness_um = -12};
+                                 .flatness_um = -12,
+                                 .alpha_sd_udeg = 270000,
+                                 .beta_sd_udeg = 5000,
+                                 .distance_sd_um = 1500,
+                                 .why = 0};
 }
 
 static struct tlm_raw_sample sample_raw(void) {
@@ -91,7 +94,7 @@ static struct tlm_frame decode_one(struct recorder *rec, const uint8_t *bytes, s
                                    uint8_t accept) {
     struct tlm_decoder dec;
     const struct tlm_frame_sink sink = recorder_sink(rec);
-    tlm_decoder_init(&dec, accept);
+    tlm_decoder_init(&dec, tlm_message_types(accept));
     tlm_decoder_feed(&dec, bytes, len, &sink);
     assert_int_equal(rec->frame_count, 1);
     assert_int_equal(dec.counters.frames_ok, 1);
@@ -109,11 +112,12 @@ static struct tlm_frame raw_frame(uint8_t type, const uint8_t *payload, uint8_t 
 
 static void test_estimate_layout_matches_reference_bytes(void **state) {
     (void)state;
-    /* Computed independently in Python with struct.pack('<IIBBBBiiii', ...). */
-    static const uint8_t expected[] = {0xA5, 0x5A, 0x1C, 0x01, 0x2A, 0x20, 0x4E, 0x00, 0x00,
-                                       0xC7, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x0F, 0x60,
-                                       0xE3, 0x16, 0x00, 0x70, 0x2F, 0xFC, 0xFF, 0x00, 0xCA,
-                                       0x5B, 0x07, 0xF4, 0xFF, 0xFF, 0xFF, 0x25, 0x02};
+    /* Computed independently in Python with struct.pack('<IIBBBiiiiiiiQ', ...). */
+    static const uint8_t expected[] = {
+        0xA5, 0x5A, 0x2F, 0x01, 0x2A, 0x20, 0x4E, 0x00, 0x00, 0xC7, 0x00, 0x00, 0x00, 0x00,
+        0x00, 0x0F, 0x60, 0xE3, 0x16, 0x00, 0x70, 0x2F, 0xFC, 0xFF, 0x00, 0xCA, 0x5B, 0x07,
+        0xF4, 0xFF, 0xFF, 0xFF, 0xB0, 0x1E, 0x04, 0x00, 0x88, 0x13, 0x00, 0x00, 0xDC, 0x05,
+        0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x28, 0x77};
     const struct tlm_estimate est = sample_estimate();
     uint8_t out[TLM_FRAME_MAX];
     assert_int_equal(tlm_encode_estimate(42, &est, out, sizeof out), sizeof expected);
@@ -128,10 +132,10 @@ static void test_every_type_has_its_documented_length(void **state) {
     const struct tlm_health health = sample_health();
     const struct tlm_ack ack = {.echo_seq = 1, .command = TLM_TYPE_START, .result = 0};
     const struct tlm_status status = sample_status();
-    assert_int_equal(tlm_encode_estimate(0, &est, out, sizeof out), 28 + 7);
+    assert_int_equal(tlm_encode_estimate(0, &est, out, sizeof out), 47 + 7);
     assert_int_equal(tlm_encode_raw_sample(0, &raw, out, sizeof out), 17 + 7);
     assert_int_equal(tlm_encode_health(0, &health, out, sizeof out), 144 + 7);
-    assert_int_equal(tlm_encode_ack(0, &ack, out, sizeof out), 3 + 7);
+    assert_int_equal(tlm_encode_ack(0, &ack, out, sizeof out), 4 + 7);
     assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 16 + 7);
     assert_int_equal(tlm_type_payload_length(TLM_TYPE_HEALTH, TLM_ACCEPT_TELEMETRY), 144);
     assert_int_equal(tlm_type_payload_length(TLM_TYPE_HEALTH, TLM_ACCEPT_COMMANDS), -1);
@@ -162,21 +166,26 @@ static void test_estimate_round_trips(void **state) {
     cases[1] = sample_estimate();
     cases[1].estimator = TLM_ESTIMATOR_KALMAN;
     cases[1].status = TLM_STATUS_DEGRADED;
-    cases[1].reason = TLM_REASON_SENSOR_MISSING | TLM_REASON_NOT_FLAT;
+    cases[1].why = 0x8000000000700F01u; /* any bits travel unchanged, the top one too */
     cases[1].sensors_used = 0x07;
     cases[1].alpha_udeg = INT32_MAX;
     cases[1].beta_udeg = INT32_MIN + 1;
     cases[1].distance_um = -1;
     cases[1].flatness_um = TLM_NO_VALUE;
+    cases[1].alpha_sd_udeg = INT32_MAX;
+    cases[1].beta_sd_udeg = 1;
     cases[2] = sample_estimate();
     cases[2].estimator = TLM_ESTIMATOR_MEAN;
     cases[2].status = TLM_STATUS_INVALID;
-    cases[2].reason = TLM_REASON_TOO_FEW_SENSORS | TLM_REASON_SATURATED;
+    cases[2].why = 1u;
     cases[2].sensors_used = 0x01;
     cases[2].alpha_udeg = TLM_NO_VALUE;
     cases[2].beta_udeg = TLM_NO_VALUE;
     cases[2].distance_um = TLM_NO_VALUE;
     cases[2].flatness_um = TLM_NO_VALUE;
+    cases[2].alpha_sd_udeg = TLM_NO_VALUE;
+    cases[2].beta_sd_udeg = TLM_NO_VALUE;
+    cases[2].distance_sd_um = TLM_NO_VALUE;
     cases[3] = sample_estimate();
     cases[3].estimator = TLM_ESTIMATOR_CONSENSUS_PAPER;
     cases[3].t_ms = UINT32_MAX;
@@ -185,7 +194,7 @@ static void test_estimate_round_trips(void **state) {
     for (size_t i = 0; i < 4; ++i) {
         uint8_t out[TLM_FRAME_MAX];
         const int n = tlm_encode_estimate((uint8_t)(200 + i), &cases[i], out, sizeof out);
-        assert_int_equal(n, 35);
+        assert_int_equal(n, 54);
         struct recorder rec;
         const struct tlm_frame frame = decode_one(&rec, out, (size_t)n, TLM_ACCEPT_TELEMETRY);
         assert_int_equal(frame.seq, 200 + i);
@@ -197,7 +206,10 @@ static void test_estimate_round_trips(void **state) {
         assert_int_equal(e->window_index, cases[i].window_index);
         assert_int_equal(e->estimator, cases[i].estimator);
         assert_int_equal(e->status, cases[i].status);
-        assert_int_equal(e->reason, cases[i].reason);
+        assert_true(e->why == cases[i].why);
+        assert_int_equal(e->alpha_sd_udeg, cases[i].alpha_sd_udeg);
+        assert_int_equal(e->beta_sd_udeg, cases[i].beta_sd_udeg);
+        assert_int_equal(e->distance_sd_um, cases[i].distance_sd_um);
         assert_int_equal(e->sensors_used, cases[i].sensors_used);
         assert_int_equal(e->alpha_udeg, cases[i].alpha_udeg);
         assert_int_equal(e->beta_udeg, cases[i].beta_udeg);
@@ -318,18 +330,22 @@ static void assert_estimate_rejected(const struct tlm_estimate *bad) {
     assert_int_equal(tlm_encode_estimate(0, bad, out, sizeof out), HAL_ERR_INVALID);
     /* The same bytes forced onto the wire are refused by the parser. */
     const struct tlm_estimate good = sample_estimate();
-    assert_int_equal(tlm_encode_estimate(0, &good, out, sizeof out), 35);
+    assert_int_equal(tlm_encode_estimate(0, &good, out, sizeof out), 54);
     uint8_t *p = &out[TLM_HEADER_SIZE];
     p[8] = bad->estimator;
     p[9] = bad->status;
-    p[10] = bad->reason;
-    p[11] = bad->sensors_used;
-    const int32_t values[4] = {bad->alpha_udeg, bad->beta_udeg, bad->distance_um, bad->flatness_um};
-    for (size_t v = 0; v < 4; ++v) {
+    p[10] = bad->sensors_used;
+    const int32_t values[7] = {bad->alpha_udeg,    bad->beta_udeg,     bad->distance_um,
+                               bad->flatness_um,   bad->alpha_sd_udeg, bad->beta_sd_udeg,
+                               bad->distance_sd_um};
+    for (size_t v = 0; v < 7; ++v) {
         const uint32_t u = (uint32_t)values[v];
         for (size_t b = 0; b < 4; ++b) {
-            p[12 + 4 * v + b] = (uint8_t)(u >> (8 * b));
+            p[11 + 4 * v + b] = (uint8_t)(u >> (8 * b));
         }
+    }
+    for (size_t b = 0; b < 8; ++b) {
+        p[39 + b] = (uint8_t)(bad->why >> (8 * b));
     }
     const struct tlm_frame frame = raw_frame(TLM_TYPE_ESTIMATE, p, TLM_LEN_ESTIMATE);
     struct tlm_telemetry msg;
@@ -349,35 +365,92 @@ static void test_estimate_validation(void **state) {
     e.status = TLM_STATUS_LAST + 1;
     assert_estimate_rejected(&e);
     e = sample_estimate();
-    e.reason = TLM_REASON_SENSOR_MISSING; /* ok with a reason */
+    e.why = 1u; /* ok with a reason */
     assert_estimate_rejected(&e);
     e = sample_estimate();
     e.status = TLM_STATUS_DEGRADED; /* degraded without one */
-    assert_estimate_rejected(&e);
-    e = sample_estimate();
-    e.status = TLM_STATUS_DEGRADED;
-    e.reason = 0x80; /* reserved bit */
     assert_estimate_rejected(&e);
     e = sample_estimate();
     e.sensors_used = 0x07; /* ok needs all four sensors */
     assert_estimate_rejected(&e);
     e = sample_estimate();
     e.status = TLM_STATUS_DEGRADED;
-    e.reason = TLM_REASON_SENSOR_MISSING;
+    e.why = 1u;
     e.sensors_used = 0x1F; /* no fifth sensor */
     assert_estimate_rejected(&e);
     e = sample_estimate();
     e.flatness_um = TLM_NO_VALUE; /* ok has all four, so a flatness */
     assert_estimate_rejected(&e);
     e = sample_estimate();
-    e.beta_udeg = TLM_NO_VALUE; /* a valid estimate has every value */
+    e.beta_udeg = TLM_NO_VALUE; /* ok has every value ... */
+    e.beta_sd_udeg = TLM_NO_VALUE;
+    assert_estimate_rejected(&e);
+    e.status = TLM_STATUS_DEGRADED; /* ... and so has degraded: a missing angle is invalid */
+    e.why = 1u;
+    assert_estimate_rejected(&e);
+    e.status = TLM_STATUS_INVALID;
+    assert_int_equal(tlm_encode_estimate(0, &e, (uint8_t[TLM_FRAME_MAX]){0}, TLM_FRAME_MAX), 54);
+    /* An sd comes with its value and is never 0: no claimed certainty without data. */
+    e = sample_estimate();
+    e.alpha_sd_udeg = 0;
+    assert_estimate_rejected(&e);
+    e = sample_estimate();
+    e.distance_sd_um = -5;
+    assert_estimate_rejected(&e);
+    e = sample_estimate();
+    e.beta_sd_udeg = TLM_NO_VALUE; /* a value without its sd */
     assert_estimate_rejected(&e);
     e = sample_estimate();
     e.status = TLM_STATUS_INVALID;
-    e.reason = TLM_REASON_NO_SAMPLES;
-    e.alpha_udeg = TLM_NO_VALUE;
-    e.beta_udeg = TLM_NO_VALUE; /* distance still set: an invalid estimate has none */
+    e.why = 1u;
+    e.alpha_udeg = TLM_NO_VALUE; /* an sd without its value */
     assert_estimate_rejected(&e);
+    e = sample_estimate();
+    e.status = TLM_STATUS_INVALID; /* invalid with both angles */
+    e.why = 1u;
+    assert_estimate_rejected(&e);
+}
+
+/* One whole frame in, the estimate out (the twin's and a capture reader's call). */
+static void test_decode_estimate_from_frame_bytes(void **state) {
+    (void)state;
+    const struct tlm_estimate est = sample_estimate();
+    uint8_t out[TLM_FRAME_MAX];
+    const int n = tlm_encode_estimate(9, &est, out, sizeof out);
+    assert_int_equal(n, 54);
+    struct tlm_estimate got;
+    assert_int_equal(tlm_decode_estimate(out, (size_t)n, &got), TLM_RESULT_OK);
+    assert_int_equal(got.alpha_udeg, est.alpha_udeg);
+    assert_int_equal(got.alpha_sd_udeg, est.alpha_sd_udeg);
+    assert_int_equal(got.distance_sd_um, est.distance_sd_um);
+    assert_true(got.why == 0u);
+    assert_int_equal(tlm_decode_estimate(out, (size_t)n - 1u, &got), TLM_RESULT_BAD_LENGTH);
+    assert_int_equal(tlm_decode_estimate(NULL, (size_t)n, &got), TLM_RESULT_BAD_LENGTH);
+    out[20] ^= 0x01u; /* a payload bit: the CRC fails */
+    assert_int_equal(tlm_decode_estimate(out, (size_t)n, &got), TLM_RESULT_OUT_OF_RANGE);
+    out[20] ^= 0x01u;
+    out[0] = 0x00; /* not a frame start */
+    assert_int_equal(tlm_decode_estimate(out, (size_t)n, &got), TLM_RESULT_BAD_LENGTH);
+    out[0] = TLM_SYNC0;
+    /* Another type of the same length is not an estimate (CRC made valid again). */
+    uint8_t other[TLM_FRAME_MAX];
+    const int m = tlm_frame_encode(TLM_TYPE_STATUS, 9, &out[TLM_HEADER_SIZE], TLM_LEN_ESTIMATE,
+                                   other, sizeof other);
+    assert_int_equal(m, n);
+    assert_int_equal(tlm_decode_estimate(other, (size_t)m, &got), TLM_RESULT_UNKNOWN_TYPE);
+    /* A CRC-valid frame with a field out of range. */
+    struct tlm_estimate bad = est;
+    bad.alpha_sd_udeg = 0;
+    uint8_t payload[TLM_LEN_ESTIMATE];
+    memcpy(payload, &out[TLM_HEADER_SIZE], sizeof payload);
+    payload[27] = 0; /* alpha_sd_udeg = 0 at payload offset 27..30 */
+    payload[28] = 0;
+    payload[29] = 0;
+    payload[30] = 0;
+    (void)bad;
+    const int k =
+        tlm_frame_encode(TLM_TYPE_ESTIMATE, 9, payload, sizeof payload, other, sizeof other);
+    assert_int_equal(tlm_decode_estimate(other, (size_t)k, &got), TLM_RESULT_OUT_OF_RANGE);
 }
 
 static void test_raw_health_ack_status_validation(void **state) {
@@ -426,13 +499,30 @@ static void test_raw_health_ack_status_validation(void **state) {
     assert_int_equal(tlm_parse_telemetry(&frame, &msg, NULL), TLM_RESULT_OUT_OF_RANGE);
 
     const struct tlm_ack good_ack = {.echo_seq = 0, .command = TLM_TYPE_STOP, .result = 0};
-    assert_int_equal(tlm_encode_ack(0, &good_ack, out, sizeof out), 10);
+    assert_int_equal(tlm_encode_ack(0, &good_ack, out, sizeof out), 11);
     out[5 + 2] = 5; /* result */
     frame = raw_frame(TLM_TYPE_ACK, &out[5], TLM_LEN_ACK);
     assert_int_equal(tlm_parse_telemetry(&frame, &msg, NULL), TLM_RESULT_OUT_OF_RANGE);
+    /* The error code: negative, carried unchanged by a nack, never in an ack. */
+    const struct tlm_ack nack = {
+        .echo_seq = 3, .command = TLM_TYPE_SET_WINDOW, .result = 3, .error = -2};
+    assert_int_equal(tlm_encode_ack(0, &nack, out, sizeof out), 11);
+    assert_int_equal(out[5 + 3], 0xFE);
+    frame = raw_frame(TLM_TYPE_ACK, &out[5], TLM_LEN_ACK);
+    assert_int_equal(tlm_parse_telemetry(&frame, &msg, NULL), TLM_RESULT_OK);
+    assert_int_equal(msg.u.ack.error, -2);
+    assert_int_equal(msg.u.ack.result, 3);
+    out[5 + 3] = 0x05; /* a positive code is not a firmware error */
+    assert_int_equal(tlm_parse_telemetry(&frame, &msg, NULL), TLM_RESULT_OUT_OF_RANGE);
+    out[5 + 2] = 0;
+    out[5 + 3] = 0xFE; /* an ack with an error */
+    assert_int_equal(tlm_parse_telemetry(&frame, &msg, NULL), TLM_RESULT_OUT_OF_RANGE);
+    const struct tlm_ack ack_with_error = {.result = 0, .error = -1};
+    assert_int_equal(tlm_encode_ack(0, &ack_with_error, out, sizeof out), HAL_ERR_INVALID);
 
     const size_t status_bytes[] = {3, 10, 11, 12, 13};
-    const uint8_t status_bad[] = {2, 2, 4, 2, 2}; /* protocol, mode, estimator, bools */
+    const uint8_t status_bad[] = {TLM_PROTOCOL_VERSION + 1u, 2, 4, 2, 2}; /* protocol, mode,
+                                                                    estimator, bools */
     for (size_t i = 0; i < 5; ++i) {
         status = sample_status();
         assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 23);
@@ -453,8 +543,8 @@ static void test_encoders_check_capacity(void **state) {
     const struct tlm_estimate est = sample_estimate();
     const struct tlm_health health = sample_health();
     const struct tlm_command start = {.type = TLM_TYPE_START};
-    assert_int_equal(tlm_encode_estimate(0, &est, out, 34), HAL_ERR_INVALID);
-    assert_int_equal(tlm_encode_estimate(0, &est, out, 35), 35);
+    assert_int_equal(tlm_encode_estimate(0, &est, out, 53), HAL_ERR_INVALID);
+    assert_int_equal(tlm_encode_estimate(0, &est, out, 54), 54);
     assert_int_equal(tlm_encode_health(0, &health, out, 150), HAL_ERR_INVALID);
     assert_int_equal(tlm_encode_health(0, &health, NULL, sizeof out), HAL_ERR_INVALID);
     assert_int_equal(tlm_encode_estimate(0, NULL, out, sizeof out), HAL_ERR_INVALID);
@@ -624,7 +714,7 @@ static void test_commands_round_trip_through_the_firmware_decoder(void **state) 
     struct tlm_decoder dec;
     struct recorder rec;
     const struct tlm_frame_sink sink = recorder_sink(&rec);
-    tlm_decoder_init(&dec, TLM_ACCEPT_COMMANDS);
+    tlm_decoder_init(&dec, tlm_message_types(TLM_ACCEPT_COMMANDS));
     tlm_decoder_feed(&dec, stream, n, &sink);
     assert_int_equal(rec.frame_count, 8);
     for (size_t i = 0; i < 8; ++i) {
@@ -677,6 +767,7 @@ int main(void) {
         cmocka_unit_test(test_health_round_trips),
         cmocka_unit_test(test_ack_and_status_round_trip),
         cmocka_unit_test(test_estimate_validation),
+        cmocka_unit_test(test_decode_estimate_from_frame_bytes),
         cmocka_unit_test(test_raw_health_ack_status_validation),
         cmocka_unit_test(test_encoders_check_capacity),
         cmocka_unit_test(test_telemetry_parser_type_and_length),

@@ -14,6 +14,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "estimator/attitude.h" /* the why bits */
 #include "telemetry/tlm_frame.h"
 #include "telemetry/tlm_messages.h"
 #include "tlm_text.h"
@@ -101,12 +102,15 @@ static struct tlm_telemetry estimate(uint32_t t_ms, uint8_t estimator, int32_t a
                                          .window_index = t_ms / 2000u,
                                          .estimator = estimator,
                                          .status = TLM_STATUS_OK,
-                                         .reason = 0,
                                          .sensors_used = TLM_SENSOR_MASK_ALL,
                                          .alpha_udeg = alpha_udeg,
                                          .beta_udeg = beta_udeg,
                                          .distance_um = distance_um,
-                                         .flatness_um = -37};
+                                         .flatness_um = -37,
+                                         .alpha_sd_udeg = 270123,
+                                         .beta_sd_udeg = 1,
+                                         .distance_sd_um = 1414,
+                                         .why = 0};
     return m;
 }
 
@@ -141,15 +145,31 @@ static void build(struct builder *b) {
     add_telemetry(b, &m);
     m = estimate(6000, TLM_ESTIMATOR_CONSENSUS, -1, 1, -1);
     m.u.estimate.status = TLM_STATUS_DEGRADED;
-    m.u.estimate.reason = TLM_REASON_SENSOR_MISSING | TLM_REASON_NOT_CONVERGED;
+    /* the estimator's why bits (estimator/integrity.h), every group once */
+    m.u.estimate.why = ATTITUDE_WHY_NO_TARGET(1) | ATTITUDE_WHY_RANGE(2) | ATTITUDE_WHY_FLAGGED(0) |
+                       ATTITUDE_WHY_MISSING(3) | ATTITUDE_WHY_REJECTED(1) | ATTITUDE_WHY_PARITY |
+                       ATTITUDE_WHY_MOTION | ATTITUDE_WHY_DRIFT |
+                       ATTITUDE_WHY_REASON(ATTITUDE_REASON_KALMAN_RESTARTED);
     m.u.estimate.sensors_used = 0x0D; /* A, C, D */
     m.u.estimate.flatness_um = TLM_NO_VALUE;
+    m.u.estimate.alpha_sd_udeg = 2000000000;
     add_telemetry(b, &m);
-    m = estimate(8000, TLM_ESTIMATOR_KALMAN, TLM_NO_VALUE, TLM_NO_VALUE, TLM_NO_VALUE);
+    m = estimate(8000, TLM_ESTIMATOR_KALMAN, TLM_NO_VALUE, 250, 100000);
     m.u.estimate.status = TLM_STATUS_INVALID;
-    m.u.estimate.reason = TLM_REASON_TOO_FEW_SENSORS | TLM_REASON_NO_SAMPLES;
+    m.u.estimate.why = ATTITUDE_WHY_REASON(ATTITUDE_REASON_ALPHA_UNOBSERVABLE) |
+                       ATTITUDE_WHY_REASON(ATTITUDE_REASON_PAPER_INCONSISTENT);
     m.u.estimate.sensors_used = 0x01;
     m.u.estimate.flatness_um = TLM_NO_VALUE;
+    m.u.estimate.alpha_sd_udeg = TLM_NO_VALUE;
+    add_telemetry(b, &m);
+    m = estimate(10000, TLM_ESTIMATOR_MEAN, TLM_NO_VALUE, TLM_NO_VALUE, TLM_NO_VALUE);
+    m.u.estimate.status = TLM_STATUS_INVALID;
+    m.u.estimate.why = ATTITUDE_WHY_REASON(ATTITUDE_REASON_UNOBSERVABLE);
+    m.u.estimate.sensors_used = 0;
+    m.u.estimate.flatness_um = TLM_NO_VALUE;
+    m.u.estimate.alpha_sd_udeg = TLM_NO_VALUE;
+    m.u.estimate.beta_sd_udeg = TLM_NO_VALUE;
+    m.u.estimate.distance_sd_um = TLM_NO_VALUE;
     add_telemetry(b, &m);
 
     /* Noise with a lone sync byte: discarded, no candidate frame. */
@@ -205,8 +225,10 @@ static void build(struct builder *b) {
     ack.type = TLM_TYPE_ACK;
     ack.u.ack = (struct tlm_ack){.echo_seq = 4, .command = TLM_TYPE_SET_WINDOW, .result = 0};
     add_telemetry(b, &ack);
-    ack.u.ack = (struct tlm_ack){
-        .echo_seq = 5, .command = TLM_TYPE_SET_WINDOW, .result = TLM_RESULT_OUT_OF_RANGE};
+    ack.u.ack = (struct tlm_ack){.echo_seq = 5,
+                                 .command = TLM_TYPE_SET_WINDOW,
+                                 .result = TLM_RESULT_OUT_OF_RANGE,
+                                 .error = -2}; /* ATTITUDE_ERR_WINDOW, unchanged */
     add_telemetry(b, &ack);
     ack.u.ack = (struct tlm_ack){.echo_seq = 6, .command = 0x99, .result = 1};
     add_telemetry(b, &ack);
@@ -345,7 +367,7 @@ static int dump(const char *path) {
     static struct dump_ctx d;
     const struct tlm_frame_sink sink = {
         .on_frame = dump_frame, .on_reject = dump_reject, .ctx = &d};
-    tlm_decoder_init(&d.dec, TLM_ACCEPT_ALL);
+    tlm_decoder_init(&d.dec, tlm_message_types(TLM_ACCEPT_ALL));
     uint8_t chunk[4096];
     size_t got;
     while ((got = fread(chunk, 1, sizeof chunk, in)) > 0) {

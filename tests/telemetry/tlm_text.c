@@ -3,11 +3,10 @@
 #include <inttypes.h>
 #include <string.h>
 
+#include "estimator/attitude.h" /* attitude_why_format: the estimator's own names */
+
 static const char *const estimator_names[] = {"consensus", "consensus-paper", "kalman", "mean"};
 static const char *const status_names[] = {"ok", "degraded", "invalid"};
-static const char *const reason_names[] = {"sensor-missing", "sensor-flagged", "too-few-sensors",
-                                           "not-flat",       "not-converged",  "no-samples",
-                                           "saturated"};
 static const char *const health_names[] = {"healthy", "suspect", "lost", "recovering"};
 static const char *const mode_names[] = {"tumbling", "sliding"};
 static const char *const result_names[] = {"ok", "unknown-type", "bad-length", "out-of-range",
@@ -36,19 +35,11 @@ static void print_optional_fixed(FILE *out, const char *key, int32_t value, int 
     }
 }
 
-static void print_reason(FILE *out, uint8_t reason) {
-    fputs(" reason=", out);
-    if (reason == 0u) {
-        fputs("none", out);
-        return;
-    }
-    const char *sep = "";
-    for (unsigned bit = 0; bit < 7; ++bit) {
-        if (reason & (1u << bit)) {
-            fprintf(out, "%s%s", sep, reason_names[bit]);
-            sep = "+";
-        }
-    }
+/* The why set in the estimator's words ("none" when empty). */
+static void print_why(FILE *out, uint64_t why) {
+    char text[ATTITUDE_WHY_TEXT_MAX];
+    const int n = attitude_why_format((attitude_why_t)why, text, sizeof text);
+    fprintf(out, " why=%s", n > 0 ? text : (n == 0 ? "none" : "?"));
 }
 
 static void print_sensors(FILE *out, uint8_t mask) {
@@ -109,11 +100,14 @@ void tlm_text_telemetry(FILE *out, uint8_t seq, const struct tlm_telemetry *msg)
         const struct tlm_estimate *e = &msg->u.estimate;
         fprintf(out, "estimate t_ms=%" PRIu32 " window=%" PRIu32 " estimator=%s status=%s", e->t_ms,
                 e->window_index, estimator_names[e->estimator], status_names[e->status]);
-        print_reason(out, e->reason);
+        print_why(out, e->why);
         print_sensors(out, e->sensors_used);
         print_optional_fixed(out, "alpha_deg", e->alpha_udeg, 6);
         print_optional_fixed(out, "beta_deg", e->beta_udeg, 6);
         print_optional_fixed(out, "distance_mm", e->distance_um, 3);
+        print_optional_fixed(out, "alpha_sd_deg", e->alpha_sd_udeg, 6);
+        print_optional_fixed(out, "beta_sd_deg", e->beta_sd_udeg, 6);
+        print_optional_fixed(out, "distance_sd_mm", e->distance_sd_um, 3);
         if (e->flatness_um == TLM_NO_VALUE) {
             fputs(" flatness_um=none", out);
         } else {
@@ -170,7 +164,7 @@ void tlm_text_telemetry(FILE *out, uint8_t seq, const struct tlm_telemetry *msg)
         } else {
             fprintf(out, "0x%02x", a->command);
         }
-        fprintf(out, " result=%s", result_names[a->result]);
+        fprintf(out, " result=%s error=%d", result_names[a->result], a->error);
         break;
     }
     case TLM_TYPE_STATUS: {

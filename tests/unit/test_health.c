@@ -53,6 +53,24 @@ static void test_consecutive_errors_lose_and_ask_for_reinit(void **state) {
     assert_int_equal(tof_health_poll(&h, &cfg, 3), TOF_HEALTH_ACT_REINIT);
 }
 
+/* The sensor reports its own hardware fault (VL53 raw 1, 2, 3, 17 -> HAL_ERR_DEVICE): one
+ * is enough, and what it asks for is a re-init of that sensor. */
+static void test_device_fault_loses_the_sensor_at_once(void **state) {
+    (void)state;
+    struct tof_health h;
+    tof_health_init(&h, 0);
+    tof_health_on_error(&h, &cfg, 5, TOF_ERROR_DEVICE);
+    assert_int_equal(h.state, TOF_HEALTH_LOST);
+    assert_int_equal(h.losses, 1);
+    assert_int_equal(tof_health_poll(&h, &cfg, 5), TOF_HEALTH_ACT_REINIT);
+    /* From SUSPECT too. */
+    tof_health_init(&h, 0);
+    tof_health_on_error(&h, &cfg, 1, TOF_ERROR_SENSOR);
+    assert_int_equal(h.state, TOF_HEALTH_SUSPECT);
+    tof_health_on_error(&h, &cfg, 2, TOF_ERROR_DEVICE);
+    assert_int_equal(h.state, TOF_HEALTH_LOST);
+}
+
 static void test_interleaved_good_read_resets_error_count(void **state) {
     (void)state;
     struct tof_health h;
@@ -277,6 +295,7 @@ int main(void) {
         cmocka_unit_test(test_suspect_for_too_long_is_lost),
         cmocka_unit_test(test_flapping_sensor_is_lost),
         cmocka_unit_test(test_bus_errors_are_not_trouble),
+        cmocka_unit_test(test_device_fault_loses_the_sensor_at_once),
         cmocka_unit_test(test_burst_then_clean_stays_usable),
         cmocka_unit_test(test_error_after_clean_stretch_starts_a_new_episode),
         cmocka_unit_test(test_trouble_across_the_clock_wrap),

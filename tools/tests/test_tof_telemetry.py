@@ -19,9 +19,17 @@ import tof_telemetry as t  # noqa: E402
 
 START_SEQ0 = bytes.fromhex("a55a0083005782")
 SET_WINDOW_100_SEQ1 = bytes.fromhex("a55a038101640000 6e79".replace(" ", ""))
-ACK_SEQ9 = bytes.fromhex("a55a03040901810018a5")
+ACK_SEQ9 = bytes.fromhex("a55a040409018100000be4")
 ESTIMATE_SEQ42 = bytes.fromhex(
-    "a55a1c012a204e0000c7000000000000 0f60e31600702ffcff00ca5b07f4ffffff2502".replace(" ", ""))
+    "a55a2f012a204e0000c700000000000f60e31600702ffcff00ca5b"
+    "07f4ffffffb01e040088130000dc05000000000000000000002877")
+
+
+def estimate_payload(t_ms=20000, window=199, estimator=0, status=0, sensors=15, alpha=1500000,
+                     beta=-250000, distance=123456000, flatness=-12, alpha_sd=270000,
+                     beta_sd=5000, distance_sd=1500, why=0):
+    return struct.pack(t.ESTIMATE_FORMAT, t_ms, window, estimator, status, sensors, alpha, beta,
+                       distance, flatness, alpha_sd, beta_sd, distance_sd, why)
 
 
 def frames_of(events):
@@ -43,9 +51,9 @@ class EncodeTest(unittest.TestCase):
         self.assertEqual(t.encode_frame(t.T_START, 0, b""), START_SEQ0)
         self.assertEqual(t.encode_frame(t.T_SET_WINDOW, 1, struct.pack("<HB", 100, 0)),
                          SET_WINDOW_100_SEQ1)
-        self.assertEqual(t.encode_frame(t.T_ACK, 9, bytes([1, 0x81, 0])), ACK_SEQ9)
-        payload = struct.pack("<IIBBBBiiii", 20000, 199, 0, 0, 0, 15, 1500000, -250000,
-                              123456000, -12)
+        self.assertEqual(t.encode_frame(t.T_ACK, 9, bytes([1, 0x81, 0, 0])), ACK_SEQ9)
+        payload = struct.pack("<IIBBBiiiiiiiQ", 20000, 199, 0, 0, 15, 1500000, -250000,
+                              123456000, -12, 270000, 5000, 1500, 0)
         self.assertEqual(t.encode_frame(t.T_ESTIMATE, 42, payload), ESTIMATE_SEQ42)
 
     def test_payload_limit(self):
@@ -115,7 +123,7 @@ class DecoderTest(unittest.TestCase):
     def test_rejections(self):
         d = t.Decoder(t.ACCEPT_COMMANDS)
         events = d.feed(ACK_SEQ9 + t.encode_frame(t.T_START, 3, b"\x00"))
-        self.assertEqual(events, [("reject", t.T_ACK, 9, 3, t.R_UNKNOWN_TYPE),
+        self.assertEqual(events, [("reject", t.T_ACK, 9, 4, t.R_UNKNOWN_TYPE),
                                   ("reject", t.T_START, 3, 1, t.R_BAD_LENGTH)])
         self.assertEqual(d.counters["unknown_type"], 1)
         self.assertEqual(d.counters["bad_length"], 1)
@@ -127,8 +135,35 @@ class DecoderTest(unittest.TestCase):
         self.assertEqual(t.parse(t.T_RAW_STREAM, b"\x02")[1], t.R_OUT_OF_RANGE)
         self.assertEqual(t.parse(t.T_START, b"\x00")[1], t.R_BAD_LENGTH)
         self.assertEqual(t.parse(0x42, b"")[1], t.R_UNKNOWN_TYPE)
-        ok_with_reason = struct.pack("<IIBBBBiiii", 0, 0, 0, 0, 1, 15, 0, 0, 0, 0)
+        ok_with_reason = estimate_payload(why=1)
         self.assertEqual(t.parse(t.T_ESTIMATE, ok_with_reason)[1], t.R_OUT_OF_RANGE)
+
+    def test_estimate_sd_rules(self):
+        self.assertEqual(t.parse(t.T_ESTIMATE, estimate_payload())[1], t.R_OK)
+        # an sd is never a claimed 0, and comes with its value (and only with it)
+        self.assertEqual(t.parse(t.T_ESTIMATE, estimate_payload(alpha_sd=0))[1],
+                         t.R_OUT_OF_RANGE)
+        self.assertEqual(t.parse(t.T_ESTIMATE, estimate_payload(beta_sd=t.NO_VALUE))[1],
+                         t.R_OUT_OF_RANGE)
+        self.assertEqual(t.parse(t.T_ESTIMATE, estimate_payload(
+            status=2, why=1 << 38, alpha=t.NO_VALUE))[1], t.R_OUT_OF_RANGE)
+        fields, result = t.parse(t.T_ESTIMATE, estimate_payload(
+            status=2, why=1 << 38, alpha=t.NO_VALUE, alpha_sd=t.NO_VALUE))
+        self.assertEqual(result, t.R_OK)
+        self.assertEqual(t.why_text(fields["why"]), "unobservable")
+        # degraded needs both angles; invalid needs one missing
+        self.assertEqual(t.parse(t.T_ESTIMATE, estimate_payload(status=1, why=1))[1], t.R_OK)
+        self.assertEqual(t.parse(t.T_ESTIMATE, estimate_payload(status=2, why=1))[1],
+                         t.R_OUT_OF_RANGE)
+
+    def test_why_names_follow_the_estimator(self):
+        why = (1 << 1) | (1 << 6) | (1 << 8) | (1 << 15) | (1 << 17) | (7 << 20) | (1 << 35)
+        self.assertEqual(t.why_text(why), "no-target:B+range:C+flagged:A+missing:D+rejected:B"
+                                          "+parity+motion+drift+kalman-restarted")
+        self.assertEqual(t.why_text(0), "none")
+        self.assertEqual(t.why_text(0, ""), "")
+        # a bit the estimator does not define is named, never dropped
+        self.assertEqual(t.why_text((1 << 63) | (1 << 20)), "parity+bit-63")
 
 
 class FormatTest(unittest.TestCase):
@@ -155,9 +190,10 @@ class FormatTest(unittest.TestCase):
             lines = out.getvalue().splitlines()
             self.assertEqual(lines[0], (
                 "seq=42 estimate t_ms=20000 window=199 estimator=consensus status=ok "
-                "reason=none sensors=ABCD alpha_deg=1.500000 beta_deg=-0.250000 "
-                "distance_mm=123456.000 flatness_um=-12"))
-            self.assertEqual(lines[1], "seq=9 ack echo_seq=1 command=set-window result=ok")
+                "why=none sensors=ABCD alpha_deg=1.500000 beta_deg=-0.250000 "
+                "distance_mm=123456.000 alpha_sd_deg=0.270000 beta_sd_deg=0.005000 "
+                "distance_sd_mm=1.500 flatness_um=-12"))
+            self.assertEqual(lines[1], "seq=9 ack echo_seq=1 command=set-window result=ok error=0")
             self.assertTrue(lines[2].startswith("# frames_ok=2 bad_crc=0"))
 
 
@@ -186,8 +222,8 @@ class SerialPortTest(unittest.TestCase):
                     received += os.read(master, 1024)
             self.assertEqual(received, expected_cmds)
             # Answer: two acks, then a partial frame and silence (idle flush -> truncated).
-            os.write(master, t.encode_frame(t.T_ACK, 0, bytes([0, t.T_SET_WINDOW, 0]))
-                     + t.encode_frame(t.T_ACK, 1, bytes([1, t.T_START, 0])) + ACK_SEQ9[:6])
+            os.write(master, t.encode_frame(t.T_ACK, 0, bytes([0, t.T_SET_WINDOW, 0, 0]))
+                     + t.encode_frame(t.T_ACK, 1, bytes([1, t.T_START, 0, 0])) + ACK_SEQ9[:6])
             out, err = proc.communicate(timeout=10)
         finally:
             if proc.poll() is None:
@@ -196,10 +232,121 @@ class SerialPortTest(unittest.TestCase):
             os.close(slave)
         self.assertEqual(proc.returncode, 0, err.decode())
         lines = out.decode().splitlines()
-        self.assertEqual(lines[0], "seq=0 ack echo_seq=0 command=set-window result=ok")
-        self.assertEqual(lines[1], "seq=1 ack echo_seq=1 command=start result=ok")
+        self.assertEqual(lines[0], "seq=0 ack echo_seq=0 command=set-window result=ok error=0")
+        self.assertEqual(lines[1], "seq=1 ack echo_seq=1 command=start result=ok error=0")
         self.assertEqual(lines[-1], "# frames_ok=2 bad_crc=0 bad_length=0 unknown_type=0 "
                                     "truncated=1 out_of_range=0 discarded_bytes=6")
+
+
+def live_capture(n=12):
+    """A capture of n estimate windows (consensus and kalman, one degraded, one invalid)."""
+    out = bytearray(b"boot banner\r\n")
+    seq = 0
+    for k in range(n):
+        for est in (0, 2):
+            status, why, alpha, alpha_sd = 0, 0, 1000000 + 10000 * k, 200000 + est * 1000
+            if k == 5 and est == 2:
+                status, why = 1, 1 << 21  # motion
+            if k == 7 and est == 0:
+                status, why, alpha, alpha_sd = 2, 1 << 36, t.NO_VALUE, t.NO_VALUE
+            out += t.encode_frame(t.T_ESTIMATE, seq & 0xFF, estimate_payload(
+                t_ms=2000 * (k + 1), window=k, estimator=est, status=status, why=why,
+                alpha=alpha, alpha_sd=alpha_sd))
+            seq += 1
+    return bytes(out)
+
+
+class LiveTest(unittest.TestCase):
+    """--live: estimates with +-2 sd bands redrawn as frames arrive (Agg: no display)."""
+
+    def setUp(self):
+        os.environ["MPLBACKEND"] = "Agg"
+        try:
+            import matplotlib  # noqa: F401
+        except ImportError:
+            self.fail("python3-matplotlib missing: run tools/setup.sh and use /usr/bin/python3")
+
+    def test_bands_from_a_file_like_stream(self):
+        clock = [0.0]
+        live = t.LivePlot(interval=0.25, clock=lambda: clock[0])
+        printer = t.Printer(io.StringIO(), on_estimate=live.add)
+
+        class Trickle(io.RawIOBase):
+            """A serial-port-like reader: a few bytes per read, time moving on."""
+            def __init__(self, data):
+                self.data, self.at = data, 0
+
+            def readable(self):
+                return True
+
+            def read(self, size=-1):
+                clock[0] += 0.1
+                chunk = self.data[self.at:self.at + 37]
+                self.at += len(chunk)
+                return chunk
+
+        stream = Trickle(live_capture())
+        t.run_stream(t.stream_chunks(stream, clock=lambda: clock[0]), t.Decoder(t.ACCEPT_ALL),
+                     printer, live=live)
+        self.assertEqual(len(live.estimates), 24)
+        self.assertGreater(live.redraws, 3)  # redrawn while the frames came in, not once
+        ax_alpha = live.axes[0]
+        bands = [c for c in ax_alpha.collections if c.get_label().endswith("+-2 sd")]
+        self.assertEqual(sorted(b.get_label() for b in bands),
+                         ["consensus +-2 sd", "kalman +-2 sd"])
+        # the consensus band is alpha +- 2 sd exactly, and skips the invalid window
+        verts = bands[[b.get_label() for b in bands].index("consensus +-2 sd")].get_paths()[0]
+        ys = verts.vertices[:, 1]
+        self.assertAlmostEqual(ys.max(), (1000000 + 10000 * 11 + 2 * 200000) / 1e6, places=6)
+        self.assertAlmostEqual(ys.min(), (1000000 - 2 * 200000) / 1e6, places=6)
+        line = [ln for ln in ax_alpha.get_lines() if ln.get_label() == "consensus"][0]
+        self.assertEqual(len(line.get_xdata()), 11)  # 12 windows, one invalid
+        # only the newest N on screen when asked
+        short = t.LivePlot(last=5, clock=lambda: 0.0)
+        for e in live.estimates:
+            short.add(e)
+        self.assertEqual(len(short.estimates), 5)
+
+    def test_live_over_a_pty_saves_the_last_picture(self):
+        try:
+            import serial  # noqa: F401
+        except ImportError:
+            self.fail("python3-serial missing: run tools/setup.sh and use /usr/bin/python3")
+        master, slave = os.openpty()
+        script = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..",
+                              "tof_telemetry.py")
+        with tempfile.TemporaryDirectory() as tmp:
+            png = os.path.join(tmp, "live.png")
+            env = dict(os.environ, MPLBACKEND="Agg")
+            proc = subprocess.Popen(
+                [sys.executable, script, "--port", os.ttyname(slave), "--duration", "3.0",
+                 "--live", "--plot", png, "--send", "status"], stdout=subprocess.PIPE,
+                stderr=subprocess.PIPE, env=env)
+            try:
+                # the status request shows the port is open (opening it drops older input)
+                expected = t.encode_commands(["status"])
+                received = b""
+                deadline = time.monotonic() + 10
+                while len(received) < len(expected) and time.monotonic() < deadline:
+                    ready, _, _ = select.select([master], [], [], 0.1)
+                    if ready:
+                        received += os.read(master, 1024)
+                self.assertEqual(received, expected)
+                data = live_capture(6)
+                for i in range(0, len(data), 64):  # frames arrive over time
+                    os.write(master, data[i:i + 64])
+                    time.sleep(0.05)
+                out, err = proc.communicate(timeout=20)
+            finally:
+                if proc.poll() is None:
+                    proc.kill()
+                os.close(master)
+                os.close(slave)
+            self.assertEqual(proc.returncode, 0, err.decode())
+            lines = out.decode().splitlines()
+            self.assertEqual(sum(1 for ln in lines if " estimate " in ln), 12)
+            with open(png, "rb") as f:
+                self.assertEqual(f.read(8), b"\x89PNG\r\n\x1a\n")
 
 
 if __name__ == "__main__":

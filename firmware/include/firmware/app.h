@@ -78,34 +78,75 @@ struct tof_app {
     uint64_t uptime_us;     /* 64-bit extension of the platform's 32-bit microsecond clock */
     uint32_t last_raw_us;
     bool raw_output;
+    int estimator_error; /* attitude_error of the estimator's last refusal at init, or 0 */
     struct tof_app_counters counters;
 };
 
 /*
  * Bind the application to `platform` and `cfg` (both kept by pointer), bring the
  * sensors up and schedule their phase-aligned start. Sensors that fail are
- * reported and left to the fault manager. HAL_OK, or HAL_ERR_INVALID for a bad
- * configuration (nothing else stops the application from running).
+ * reported and left to the fault manager. Returns HAL_OK; HAL_ERR_INVALID for a bad
+ * application configuration or platform; a hal_err from attaching the sensors; or,
+ * when the estimator refuses cfg->estimator, attitude_init()'s attitude_error
+ * unchanged, also kept in app->estimator_error (tof_app_error_message() tells the two
+ * conventions apart). Nothing else stops the application from running.
  */
 int tof_app_init(struct tof_app *app, const struct tof_platform *platform,
                  const struct tof_app_config *cfg);
+
+/* What error `err` from this application's calls means: the estimator's message when
+ * it is the estimator's refusal (app->estimator_error), else hal_err_name(). */
+const char *tof_app_error_message(const struct tof_app *app, int err);
 
 /* One bounded main-loop iteration; `idle` true lets it sleep until the next due reading. */
 void tof_app_step(struct tof_app *app, bool idle);
 
 /*
  * Change the window length and mode at run time (a command): the estimators restart
- * with the next sample. HAL_OK, or HAL_ERR_INVALID (nothing changed) when `window` is
- * outside 2..ATTITUDE_WINDOW_MAX.
+ * with the next sample. ATTITUDE_ERR_NONE (0), or attitude_init()'s attitude_error
+ * unchanged (ATTITUDE_ERR_WINDOW outside 2..ATTITUDE_WINDOW_MAX), nothing changed.
  */
 int tof_app_set_window(struct tof_app *app, uint16_t window, bool sliding);
 
-/* Choose the primary estimator; HAL_ERR_INVALID (nothing changed) for an unknown one or
- * one that does not run (not in the configuration's set, or not built into the image). */
+/* Choose the primary estimator: ATTITUDE_ERR_NONE, or ATTITUDE_ERR_ESTIMATORS (nothing
+ * changed) for an unknown one or one that does not run (not in the configuration's set,
+ * or not built into the image), the estimator's own code for that. */
 int tof_app_set_primary(struct tof_app *app, enum attitude_estimator primary);
 
 /* Start (true) or stop (false) estimating; acquisition and the fault manager go on. */
 void tof_app_set_running(struct tof_app *app, bool running);
+
+/* Send (true) or stop sending (false) every assembled sample to the output. */
+void tof_app_set_raw_output(struct tof_app *app, bool on);
+
+/* The application's configuration and state, as a status report gives them. */
+struct tof_app_status {
+    uint64_t uptime_us;
+    uint16_t window; /* samples per window */
+    bool sliding;    /* false: tumbling windows */
+    enum attitude_estimator primary;
+    bool running;
+    bool raw_output;
+    uint32_t period_us; /* sample period */
+};
+
+/* Fill `out` with the application's status (read only). */
+void tof_app_get_status(const struct tof_app *app, struct tof_app_status *out);
+
+/* Sensor health and error counters, as a health report gives them (cumulative). */
+struct tof_app_health {
+    uint64_t uptime_us;
+    enum tof_health_state state[TOF_SENSORS];
+    uint32_t losses[TOF_SENSORS];      /* times each sensor was declared lost */
+    uint32_t read_errors[TOF_SENSORS]; /* failed polls of each sensor */
+    uint32_t errors_by_code[12];       /* index -err for hal_err codes -1..-11, 0 other */
+    uint32_t bus_recoveries;
+    uint32_t overruns; /* iterations longer than loop_budget_us */
+    uint32_t max_iteration_us;
+};
+
+/* Fill `out` with the application's health and counters (read only). */
+void tof_app_get_health(const struct tof_app *app, struct tof_app_health *out);
 
 /* Current firmware time in microseconds (64-bit, monotonic). */
 uint64_t tof_app_now_us(struct tof_app *app);
@@ -113,14 +154,29 @@ uint64_t tof_app_now_us(struct tof_app *app);
 /* Write a NUL-terminated line (plus '\n') to the platform log, if it has one. */
 void tof_log_line(const struct tof_platform *platform, const char *text);
 
-struct tof_link; /* firmware/link.h */
+/*
+ * Something the main program runs beside the application, such as the telemetry link
+ * (firmware/link.h: tof_link_service_ops). The application knows it only by these ops.
+ */
+struct tof_app_service_ops {
+    /* The application is initialised: the one the service acts on from now on. */
+    void (*start)(void *ctx, struct tof_app *app);
+    /* After each main-loop iteration: bounded work. */
+    void (*poll)(void *ctx);
+};
+
+struct tof_app_service {
+    const struct tof_app_service_ops *ops;
+    void *ctx;
+};
 
 /*
  * The firmware's main program on a board: banner, init, then `max_iterations`
- * iterations (0: forever), polling the telemetry `link` (may be NULL) after each.
- * Returns 0, or the init error.
+ * iterations (0: forever), polling `service` (may be NULL) after each.
+ * Returns 0, or the init error (logged with tof_app_error_message()).
  */
 int tof_app_main(const struct tof_platform *platform, const struct tof_app_config *cfg,
-                 struct tof_app *app, struct tof_link *link, uint32_t max_iterations);
+                 struct tof_app *app, const struct tof_app_service *service,
+                 uint32_t max_iterations);
 
 #endif /* FIRMWARE_APP_H */

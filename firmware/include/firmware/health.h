@@ -75,6 +75,7 @@ void tof_health_on_good(struct tof_health *h, const struct tof_health_config *cf
 enum tof_error_scope {
     TOF_ERROR_SENSOR = 0,
     TOF_ERROR_BUS = 1,
+    TOF_ERROR_DEVICE = 2, /* the sensor reported its own hardware fault: LOST at once */
 };
 
 /* A read or poll failed (bus error, timeout, corrupt data, sensor found reset). Every

@@ -5,7 +5,10 @@
  * Malformed input is counted by the decoder and reported in health frames.
  *
  * Use: tof_link_init(), put tof_link_output_ops with the link as the platform's
- * output, and call tof_link_poll() once per main-loop iteration.
+ * output, and either hand tof_app_main() the service {&tof_link_service_ops, &link}
+ * or call tof_link_bind() after tof_app_init() and tof_link_poll() once per
+ * main-loop iteration. The link sits above the application: it reads and commands
+ * it only through the functions app.h declares for that, never its fields.
  */
 #ifndef FIRMWARE_LINK_H
 #define FIRMWARE_LINK_H
@@ -21,7 +24,8 @@
 #define TOF_LINK_RX_PER_POLL 64u
 
 struct tof_link {
-    struct tof_app *app; /* set by tof_link_bind(), once the app exists */
+    struct tof_app *app; /* set by tof_link_bind(), once the app exists; used only
+                            through app.h's functions */
     struct hal_serial serial;
     struct tlm_decoder decoder;
     uint8_t seq;               /* sequence number of the next frame sent */
@@ -45,5 +49,9 @@ void tof_link_send_status(struct tof_link *link);
 
 /* Output ops sending estimates, raw samples and a health frame per window (ctx: the link). */
 extern const struct tof_output_ops tof_link_output_ops;
+
+/* tof_app_main() service ops (ctx: the link): start binds it and sends a status frame,
+ * poll is tof_link_poll(). */
+extern const struct tof_app_service_ops tof_link_service_ops;
 
 #endif /* FIRMWARE_LINK_H */

@@ -7,6 +7,7 @@
 #ifndef FIRMWARE_PLATFORM_H
 #define FIRMWARE_PLATFORM_H
 
+#include <stdbool.h>
 #include <stdint.h>
 
 #include "hal/hal_gpio.h"
@@ -46,6 +47,7 @@ struct tof_platform {
     struct tof_output output;
     uint16_t xshut_pin[TOF_SENSORS]; /* GPIO pin driving each sensor's XSHUT */
     uint16_t gpio1_pin[TOF_SENSORS]; /* GPIO pin reading each sensor's GPIO1, or 0xFFFF */
+    bool sensor_pads_at_avdd; /* sensors' I²C / GPIO1 pulled up to AVDD (2V8..3V3), not 1V8 */
 };
 
 #endif /* FIRMWARE_PLATFORM_H */

@@ -1,10 +1,10 @@
+/* Telemetry framing: the frame encoder and the resynchronising byte-stream decoder. */
 #include "telemetry/tlm_frame.h"
 
 #include <string.h>
 
 #include "hal/hal_err.h"
 #include "telemetry/tlm_crc.h"
-#include "telemetry/tlm_messages.h"
 
 /* Offsets inside a frame (tlm_frame.h). */
 #define OFFSET_LENGTH  2u
@@ -33,9 +33,16 @@ int tlm_frame_encode(uint8_t type, uint8_t seq, const uint8_t *payload, size_t l
     return (int)(length + TLM_FRAME_OVERHEAD);
 }
 
-void tlm_decoder_init(struct tlm_decoder *dec, uint8_t accept) {
+void tlm_decoder_init(struct tlm_decoder *dec, const struct tlm_type_table *types) {
     memset(dec, 0, sizeof *dec);
-    dec->accept = accept;
+    if (types != NULL) {
+        dec->types = *types;
+    }
+}
+
+/* The accepted length of `type`, -1 if not accepted (no table: nothing is). */
+static int type_length(const struct tlm_decoder *dec, uint8_t type) {
+    return dec->types.payload_length != NULL ? dec->types.payload_length(dec->types.ctx, type) : -1;
 }
 
 size_t tlm_decoder_pending(const struct tlm_decoder *dec) {
@@ -153,7 +160,7 @@ static enum candidate examine_candidate(struct tlm_decoder *dec,
         return CANDIDATE_CONSUMED;
     }
     note_genuine_frame(dec);
-    const int expected = tlm_type_payload_length(frame[OFFSET_TYPE], dec->accept);
+    const int expected = type_length(dec, frame[OFFSET_TYPE]);
     if (expected < 0) {
         reject(dec, sink, TLM_RESULT_UNKNOWN_TYPE, length);
         advance(dec, size, true);

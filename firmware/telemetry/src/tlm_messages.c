@@ -1,8 +1,10 @@
+/* Telemetry messages and commands: the type table, encoders and validating parsers. */
 #include "telemetry/tlm_messages.h"
 
 #include <string.h>
 
 #include "hal/hal_err.h"
+#include "telemetry/tlm_crc.h"
 
 /* --- the type table: direction and fixed payload length of every type ---- */
 
@@ -46,6 +48,21 @@ static const struct type_info *find_type(uint8_t type, uint8_t accept) {
 int tlm_type_payload_length(uint8_t type, uint8_t accept) {
     const struct type_info *info = find_type(type, accept);
     return info != NULL ? (int)info->length : -1;
+}
+
+static int table_length(const void *ctx, uint8_t type) {
+    return tlm_type_payload_length(type, *(const uint8_t *)ctx);
+}
+
+const struct tlm_type_table *tlm_message_types(uint8_t accept) {
+    static const uint8_t masks[4] = {0u, TLM_ACCEPT_COMMANDS, TLM_ACCEPT_TELEMETRY, TLM_ACCEPT_ALL};
+    static const struct tlm_type_table tables[4] = {
+        {.payload_length = table_length, .ctx = &masks[0]},
+        {.payload_length = table_length, .ctx = &masks[1]},
+        {.payload_length = table_length, .ctx = &masks[2]},
+        {.payload_length = table_length, .ctx = &masks[3]},
+    };
+    return &tables[accept & TLM_ACCEPT_ALL];
 }
 
 bool tlm_type_is_command(uint8_t type) {
@@ -145,25 +162,34 @@ static void count_result(struct tlm_rx_counters *counters, enum tlm_result resul
 
 /* --- estimate ------------------------------------------------------------- */
 
+/* A value and its sd are present together; a present sd is at least 1 (never 0). */
+static bool value_and_sd_agree(int32_t value, int32_t sd) {
+    return (value == TLM_NO_VALUE) == (sd == TLM_NO_VALUE) && (sd == TLM_NO_VALUE || sd >= 1);
+}
+
 static bool estimate_is_valid(const struct tlm_estimate *m) {
     if (m->estimator > TLM_ESTIMATOR_LAST || m->status > TLM_STATUS_LAST ||
-        (m->reason & ~TLM_REASON_ALL) != 0u || (m->sensors_used & ~TLM_SENSOR_MASK_ALL) != 0u) {
+        (m->sensors_used & ~TLM_SENSOR_MASK_ALL) != 0u) {
         return false;
     }
-    const bool ok = m->status == TLM_STATUS_OK;
+    if (!value_and_sd_agree(m->alpha_udeg, m->alpha_sd_udeg) ||
+        !value_and_sd_agree(m->beta_udeg, m->beta_sd_udeg) ||
+        !value_and_sd_agree(m->distance_um, m->distance_sd_um)) {
+        return false;
+    }
+    const bool alpha = m->alpha_udeg != TLM_NO_VALUE;
+    const bool beta = m->beta_udeg != TLM_NO_VALUE;
     /* A status says why it is not ok: exactly the non-ok statuses carry a reason. */
-    if (ok != (m->reason == 0u)) {
+    const bool ok = m->status == TLM_STATUS_OK;
+    if (ok != (m->why == 0u)) {
         return false;
     }
-    if (ok && (m->sensors_used != TLM_SENSOR_MASK_ALL || m->flatness_um == TLM_NO_VALUE)) {
-        return false;
+    if (ok) {
+        return m->sensors_used == TLM_SENSOR_MASK_ALL && m->flatness_um != TLM_NO_VALUE && alpha &&
+               beta && m->distance_um != TLM_NO_VALUE;
     }
-    /* An invalid estimate has no values; any other has all three. */
-    const bool invalid = m->status == TLM_STATUS_INVALID;
-    const bool alpha_none = m->alpha_udeg == TLM_NO_VALUE;
-    const bool beta_none = m->beta_udeg == TLM_NO_VALUE;
-    const bool distance_none = m->distance_um == TLM_NO_VALUE;
-    return alpha_none == invalid && beta_none == invalid && distance_none == invalid;
+    /* invalid: at least one angle could not be estimated; degraded: both were */
+    return (m->status == TLM_STATUS_INVALID) == !(alpha && beta);
 }
 
 int tlm_encode_estimate(uint8_t seq, const struct tlm_estimate *msg, uint8_t *out, size_t cap) {
@@ -175,12 +201,16 @@ int tlm_encode_estimate(uint8_t seq, const struct tlm_estimate *msg, uint8_t *ou
     put_u32(&w, msg->window_index);
     put_u8(&w, msg->estimator);
     put_u8(&w, msg->status);
-    put_u8(&w, msg->reason);
     put_u8(&w, msg->sensors_used);
     put_i32(&w, msg->alpha_udeg);
     put_i32(&w, msg->beta_udeg);
     put_i32(&w, msg->distance_um);
     put_i32(&w, msg->flatness_um);
+    put_i32(&w, msg->alpha_sd_udeg);
+    put_i32(&w, msg->beta_sd_udeg);
+    put_i32(&w, msg->distance_sd_um);
+    put_u32(&w, (uint32_t)(msg->why & 0xFFFFFFFFu));
+    put_u32(&w, (uint32_t)(msg->why >> 32));
     return finish_frame(TLM_TYPE_ESTIMATE, seq, out, w.at, cap);
 }
 
@@ -189,13 +219,37 @@ static enum tlm_result parse_estimate(struct reader *r, struct tlm_estimate *m) 
     m->window_index = get_u32(r);
     m->estimator = get_u8(r);
     m->status = get_u8(r);
-    m->reason = get_u8(r);
     m->sensors_used = get_u8(r);
     m->alpha_udeg = get_i32(r);
     m->beta_udeg = get_i32(r);
     m->distance_um = get_i32(r);
     m->flatness_um = get_i32(r);
+    m->alpha_sd_udeg = get_i32(r);
+    m->beta_sd_udeg = get_i32(r);
+    m->distance_sd_um = get_i32(r);
+    const uint64_t low = get_u32(r);
+    const uint64_t high = get_u32(r);
+    m->why = low | (high << 32);
     return estimate_is_valid(m) ? TLM_RESULT_OK : TLM_RESULT_OUT_OF_RANGE;
+}
+
+enum tlm_result tlm_decode_estimate(const uint8_t *bytes, size_t len, struct tlm_estimate *out) {
+    memset(out, 0, sizeof *out);
+    if (bytes == NULL || len != TLM_LEN_ESTIMATE + TLM_FRAME_OVERHEAD || bytes[0] != TLM_SYNC0 ||
+        bytes[1] != TLM_SYNC1 || bytes[2] != TLM_LEN_ESTIMATE) {
+        return TLM_RESULT_BAD_LENGTH;
+    }
+    if (bytes[3] != TLM_TYPE_ESTIMATE) {
+        return TLM_RESULT_UNKNOWN_TYPE;
+    }
+    /* CRC over length, type, sequence and payload (tlm_frame.h) */
+    const uint16_t crc = tlm_crc16(TLM_CRC_INIT, &bytes[2], TLM_LEN_ESTIMATE + 3u);
+    const size_t at = TLM_HEADER_SIZE + TLM_LEN_ESTIMATE;
+    if (crc != (uint16_t)(bytes[at] | (bytes[at + 1u] << 8))) {
+        return TLM_RESULT_OUT_OF_RANGE;
+    }
+    struct reader r = {.buf = &bytes[TLM_HEADER_SIZE], .at = 0};
+    return parse_estimate(&r, out);
 }
 
 /* --- raw sample ----------------------------------------------------------- */
@@ -330,14 +384,20 @@ static enum tlm_result parse_health(struct reader *r, struct tlm_health *m) {
 
 /* --- ack ------------------------------------------------------------------ */
 
+static bool ack_is_valid(const struct tlm_ack *m) {
+    return tlm_result_is_valid(m->result) && m->error <= 0 &&
+           (m->result != (uint8_t)TLM_RESULT_OK || m->error == 0);
+}
+
 int tlm_encode_ack(uint8_t seq, const struct tlm_ack *msg, uint8_t *out, size_t cap) {
-    if (msg == NULL || !has_room(out, cap, TLM_LEN_ACK) || !tlm_result_is_valid(msg->result)) {
+    if (msg == NULL || !has_room(out, cap, TLM_LEN_ACK) || !ack_is_valid(msg)) {
         return HAL_ERR_INVALID;
     }
     struct writer w = {.buf = &out[TLM_HEADER_SIZE], .at = 0};
     put_u8(&w, msg->echo_seq);
     put_u8(&w, msg->command);
     put_u8(&w, msg->result);
+    put_u8(&w, (uint8_t)msg->error); /* two's complement by definition of the conversion */
     return finish_frame(TLM_TYPE_ACK, seq, out, w.at, cap);
 }
 
@@ -345,7 +405,9 @@ static enum tlm_result parse_ack(struct reader *r, struct tlm_ack *m) {
     m->echo_seq = get_u8(r);
     m->command = get_u8(r);
     m->result = get_u8(r);
-    return tlm_result_is_valid(m->result) ? TLM_RESULT_OK : TLM_RESULT_OUT_OF_RANGE;
+    const uint8_t raw = get_u8(r);
+    m->error = (int8_t)(raw <= 127u ? (int)raw : (int)raw - 256);
+    return ack_is_valid(m) ? TLM_RESULT_OK : TLM_RESULT_OUT_OF_RANGE;
 }
 
 /* --- status --------------------------------------------------------------- */

@@ -18,6 +18,7 @@ enum hal_err {
     HAL_ERR_STATE = -9,       /* call not allowed in the current state */
     HAL_ERR_CORRUPT = -10,    /* data failed a plausibility or integrity check */
     HAL_ERR_IO = -11,         /* other I/O failure (file, UART) */
+    HAL_ERR_DEVICE = -12,     /* the device reported a fault of its own (e.g. VL53 hardware fail) */
 };
 
 /* Short constant name of an error code, for logs ("ADDR_NACK"); never NULL. */

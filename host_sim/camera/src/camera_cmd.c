@@ -46,7 +46,8 @@ static void usage(FILE *f) {
             "  M 0..5 hidden markers; F, G 0..0.5 (range sigma / range, gray sigma / full scale);\n"
             "  X seed (unsigned 64-bit); N 1..32 subsamples per axis in mixed pixels (default 8).\n"
             "  --allow-partial: do not require every marker in view (for ranges < ~0.75 m).\n"
-            "  --verbose: one line per frame on stderr (status, blobs, matches, errors).\n");
+            "  --verbose: one line per frame on stderr (status, blobs, matches, errors).\n"
+            "  --help, -h: this text.\n");
 }
 
 static int bad_value(const char *opt, const char *value, const char *expect) {

@@ -45,6 +45,12 @@ static const char *quote(char *buf, size_t buflen, const char *s, size_t len) {
 
 /* ---- lines ---- */
 
+static int cr_only(struct trace_reader *r, unsigned long line, size_t col) {
+    return fail_at(r, line, col,
+                   "CR-only line endings (a carriage return inside a line, as old Mac "
+                   "files end lines): lines must end in LF or CRLF");
+}
+
 /* Reads the next line into r->line. Returns 1 with a line, 0 at the end of the
  * input, -1 (failed) on a NUL byte, an over-long line or a read error. */
 static int next_line(struct trace_reader *r) {
@@ -84,6 +90,17 @@ static int next_line(struct trace_reader *r) {
         }
         /* Room for TRACE_LINE_MAX bytes plus the '\r' of a CRLF ending (checked below). */
         if (nul != NULL || r->line_len + seg_len > TRACE_LINE_MAX + 1u) {
+            /* A file with CR-only endings reads as one long line: say so, not "too long". */
+            const size_t in_line = r->line_len < TRACE_LINE_MAX ? r->line_len : TRACE_LINE_MAX;
+            const size_t in_seg =
+                TRACE_LINE_MAX - in_line < seg_len ? TRACE_LINE_MAX - in_line : seg_len;
+            const char *cr = memchr(r->line, '\r', in_line);
+            const unsigned char *cr_seg = cr == NULL ? memchr(seg, '\r', in_seg) : NULL;
+            if (cr != NULL || cr_seg != NULL) {
+                const size_t at =
+                    cr != NULL ? (size_t)(cr - r->line) : r->line_len + (size_t)(cr_seg - seg);
+                return cr_only(r, r->line_no + 1u, at + 1u);
+            }
             return fail_at(r, r->line_no + 1u, TRACE_LINE_MAX + 1u, "line longer than %u bytes",
                            TRACE_LINE_MAX);
         }
@@ -107,6 +124,14 @@ static int next_line(struct trace_reader *r) {
                        TRACE_LINE_MAX);
     }
     r->line[r->line_len] = '\0';
+    /* Before the header, a CR inside a line is named here; in rows, only when the row
+     * fails (trace_reader_next), which keeps the search off the hot path. */
+    if (r->header_line == 0u) {
+        const char *cr = memchr(r->line, '\r', r->line_len);
+        if (cr != NULL) {
+            return cr_only(r, r->line_no, (size_t)(cr - r->line) + 1u);
+        }
+    }
     return 1;
 }
 
@@ -141,195 +166,195 @@ static bool is_digit(char c) {
     return c >= '0' && c <= '9';
 }
 
-/* Unsigned decimal integer in 0..max (digits only). One pass without a division per
- * digit: leading zeros skipped, up to 19 significant digits accumulate exactly in 64
- * bits, and more than 19 exceed any max. */
-static enum parse_result parse_uint(const struct field *f, uint64_t max, uint64_t *out) {
-    if (f->len == 0u) {
-        return PARSE_EMPTY;
+/*
+ * The scanners read NUL-terminated text (r->line always is, and next_line() refuses a
+ * NUL inside a line), so the terminator stops every loop and no end pointer is needed.
+ */
+
+/* Past the blanks at p. */
+static const char *skip_blanks(const char *p) {
+    while (is_blank(*p)) {
+        ++p;
     }
-    size_t i = 0;
+    return p;
+}
+
+/* A field ends at a ',' or at the end of the text. */
+static bool at_field_end(const char *p) {
+    return *p == ',' || *p == '\0';
+}
+
+/*
+ * The one integer parser. The field at *pp (up to the next ',' or the end): blanks,
+ * then [+-]digits, then blanks. Unsigned decimal in 0..max; "-0" is 0. One pass
+ * without a division per digit: up to 19 digits accumulate exactly in 64 bits; a sign
+ * or a longer number is looked at again (leading zeros dropped; more than 19
+ * significant digits exceed any max). On PARSE_OK *pp is left at the field's ',' or
+ * end. Inlined: it is most of the work of reading a row.
+ */
+static inline __attribute__((always_inline)) enum parse_result
+scan_uint(const char **pp, uint64_t max, uint64_t *out) {
+    const char *p = *pp;
     bool negative = false;
-    if (f->s[0] == '-' || f->s[0] == '+') {
-        negative = f->s[0] == '-';
-        i = 1;
+    if (!is_digit(*p)) { /* blanks or a sign first */
+        p = skip_blanks(p);
+        if (at_field_end(p)) {
+            return PARSE_EMPTY;
+        }
+        if (*p == '-' || *p == '+') {
+            negative = *p == '-';
+            ++p;
+        }
     }
-    if (i == f->len) {
-        return PARSE_SYNTAX;
+    const char *const digits_start = p;
+    uint64_t v = 0; /* exact for up to 19 digits; a longer number is redone below */
+    for (; is_digit(*p); ++p) {
+        v = v * 10u + (uint64_t)(*p - '0');
     }
-    while (i < f->len && f->s[i] == '0') {
-        ++i;
-    }
-    uint64_t v = 0;
-    size_t significant = 0;
-    for (; i < f->len; ++i) {
-        if (!is_digit(f->s[i])) {
+    size_t significant = (size_t)(p - digits_start);
+    if (!at_field_end(p)) { /* blanks after the digits, or anything else */
+        p = skip_blanks(p);
+        if (!at_field_end(p)) {
             return PARSE_SYNTAX;
         }
-        if (significant < 19u) {
-            v = v * 10u + (uint64_t)(f->s[i] - '0');
-        }
-        ++significant;
     }
-    const bool over = significant > 19u || v > max;
-    if (negative) {
-        if (significant == 0u) { /* "-0" is 0 */
-            *out = 0u;
-            return PARSE_OK;
+    if (negative || significant - 1u >= 19u) { /* a sign, no digit, or 20 digits or more */
+        if (significant == 0u) {
+            return PARSE_SYNTAX; /* a sign alone */
         }
-        return PARSE_NEGATIVE;
+        const char *q = digits_start;
+        while (*q == '0') {
+            ++q;
+        }
+        significant = (size_t)(p - q);
+        v = 0;
+        for (; significant <= 19u && is_digit(*q); ++q) {
+            v = v * 10u + (uint64_t)(*q - '0');
+        }
+        if (negative && v > 0u) {
+            return PARSE_NEGATIVE;
+        }
+        if (significant > 19u) {
+            return PARSE_RANGE;
+        }
     }
-    if (over) {
+    if (v > max) {
         return PARSE_RANGE;
     }
     *out = v;
+    *pp = p;
     return PARSE_OK;
 }
 
-/* The common form of a real, [+-]digits[.digits] with 1..15 digits in all (what the
- * writer produces: "-12.345678"), in one pass: the digits as an exact integer, scaled
- * by one exact power of ten, exactly as parse_real's Clinger path computes it. False
- * for anything else, which parse_real then takes the long way (and rejects if bad). */
-static bool parse_plain_real(const struct field *f, double *out) {
-    static const double pow10[16] = {1e0, 1e1, 1e2,  1e3,  1e4,  1e5,  1e6,  1e7,
-                                     1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15};
-    size_t i = 0;
-    const bool negative = f->s[0] == '-';
-    if (f->s[0] == '+' || f->s[0] == '-') {
-        i = 1;
-    }
-    uint64_t mantissa = 0;
-    size_t digits = 0;
-    size_t fraction_digits = 0;
-    bool point = false;
-    for (; i < f->len; ++i) {
-        const char c = f->s[i];
-        if (is_digit(c)) {
-            mantissa = mantissa * 10u + (uint64_t)(c - '0');
-            ++digits;
-            fraction_digits += point ? 1u : 0u;
-        } else if (c == '.' && !point) {
-            point = true;
-        } else {
-            return false;
-        }
-        if (digits > 15u) {
-            return false;
-        }
-    }
-    if (digits == 0u) {
-        return false;
-    }
-    const double v = (double)mantissa / pow10[fraction_digits];
-    *out = negative ? -v : v;
-    return true;
-}
-
-/* Decimal real [+-]digits[.digits][(e|E)[+-]digits] (or .digits), finite. */
-static enum parse_result parse_real(const struct field *f, double *out) {
-    if (f->len == 0u) {
-        return PARSE_EMPTY;
-    }
-    if (parse_plain_real(f, out)) {
-        return PARSE_OK;
-    }
-    size_t i = 0;
-    if (f->s[i] == '+' || f->s[i] == '-') {
-        ++i;
-    }
-    size_t digits = 0;
-    while (i < f->len && is_digit(f->s[i])) {
-        ++i;
-        ++digits;
-    }
-    if (i < f->len && f->s[i] == '.') {
-        ++i;
-        while (i < f->len && is_digit(f->s[i])) {
-            ++i;
-            ++digits;
-        }
-    }
-    if (digits == 0u) {
-        return PARSE_SYNTAX;
-    }
-    if (i < f->len && (f->s[i] == 'e' || f->s[i] == 'E')) {
-        ++i;
-        if (i < f->len && (f->s[i] == '+' || f->s[i] == '-')) {
-            ++i;
-        }
-        size_t exp_digits = 0;
-        while (i < f->len && is_digit(f->s[i])) {
-            ++i;
-            ++exp_digits;
-        }
-        if (exp_digits == 0u) {
-            return PARSE_SYNTAX;
-        }
-    }
-    if (i != f->len) {
-        return PARSE_SYNTAX;
-    }
-    /* Clinger's fast path: with at most 15 significant digits the mantissa is
-     * an exact double, and so is 10^k for k <= 22, so one multiplication or
-     * division gives the correctly rounded value, the same as strtod's. */
+/*
+ * The one real-number parser. The field at *pp: blanks, then
+ * [+-]digits[.digits][(e|E)[+-]digits] or [+-].digits[...], then blanks; finite.
+ * Scanned once: the digits accumulate as one integer with a decimal exponent.
+ * Clinger's fast path: with at most 15 digits (leading zeros included) the integer is
+ * below 10^15, an exact double, and so is 10^k for k <= 22, so one multiplication or
+ * division gives the correctly rounded value, the same as strtod's. Any other number
+ * (rare in a trace: long mantissas, large exponents) is converted by strtod from the
+ * text already checked here. On PARSE_OK *pp is left at the field's ',' or end.
+ */
+static inline __attribute__((always_inline)) enum parse_result scan_real(const char **pp,
+                                                                         double *out) {
     static const double pow10[23] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,
                                      1e8,  1e9,  1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
                                      1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
-    uint64_t mantissa = 0;
-    unsigned significant = 0;
-    long exp10 = 0;
-    bool after_point = false;
+    const char *p = *pp;
+    if (is_blank(*p)) {
+        p = skip_blanks(p);
+    }
+    if (at_field_end(p)) {
+        return PARSE_EMPTY;
+    }
+    const char *const text = p;
     bool negative = false;
-    size_t j = 0;
-    if (f->s[0] == '+' || f->s[0] == '-') {
-        negative = f->s[0] == '-';
-        j = 1;
+    if (*p == '+' || *p == '-') {
+        negative = *p == '-';
+        ++p;
     }
-    for (; j < f->len && f->s[j] != 'e' && f->s[j] != 'E'; ++j) {
-        if (f->s[j] == '.') {
-            after_point = true;
-            continue;
-        }
-        if (significant > 0u || f->s[j] != '0') {
-            ++significant;
-            if (significant <= 15u) {
-                mantissa = mantissa * 10u + (uint64_t)(f->s[j] - '0');
-            }
-        }
-        if (after_point && significant <= 15u) {
-            --exp10;
-        } else if (!after_point && significant > 15u) {
-            ++exp10; /* dropped digit before the point (only for the bound check) */
-        }
+    /* Wraps harmlessly beyond 19 digits: then more than 15 send the number to strtod. */
+    uint64_t mantissa = 0;
+    const char *const int_start = p;
+    for (; is_digit(*p); ++p) {
+        mantissa = mantissa * 10u + (uint64_t)(*p - '0');
     }
-    if (j < f->len) { /* exponent digits, saturated far beyond any double */
-        ++j;
-        const bool exp_negative = f->s[j] == '-';
-        if (f->s[j] == '+' || f->s[j] == '-') {
-            ++j;
+    size_t digits = (size_t)(p - int_start);
+    long exp10 = 0;
+    if (*p == '.') {
+        const char *const frac_start = ++p;
+        for (; is_digit(*p); ++p) {
+            mantissa = mantissa * 10u + (uint64_t)(*p - '0');
+        }
+        exp10 = -(long)(p - frac_start);
+        digits += (size_t)(p - frac_start);
+    }
+    if (digits == 0u) {
+        return PARSE_SYNTAX;
+    }
+    if (*p == 'e' || *p == 'E') {
+        ++p;
+        bool exp_negative = false;
+        if (*p == '+' || *p == '-') {
+            exp_negative = *p == '-';
+            ++p;
         }
         long e = 0;
-        for (; j < f->len; ++j) {
-            e = e < 100000 ? e * 10 + (f->s[j] - '0') : e;
+        const char *const exp_start = p;
+        for (; is_digit(*p); ++p) {
+            e = e < 100000 ? e * 10 + (*p - '0') : e; /* saturated far beyond any double */
+        }
+        if (p == exp_start) {
+            return PARSE_SYNTAX;
         }
         exp10 += exp_negative ? -e : e;
     }
-    if (significant <= 15u && exp10 >= -22 && exp10 <= 22) {
-        double v = (double)mantissa;
-        v = exp10 >= 0 ? v * pow10[exp10] : v / pow10[-exp10];
-        *out = negative ? -v : v;
-        return PARSE_OK;
+    const char *const text_end = p;
+    if (!at_field_end(p)) {
+        p = skip_blanks(p);
+        if (!at_field_end(p)) {
+            return PARSE_SYNTAX;
+        }
     }
-    char buf[TRACE_LINE_MAX + 1u];
-    memcpy(buf, f->s, f->len);
-    buf[f->len] = '\0';
-    errno = 0;
-    const double v = strtod(buf, NULL);
-    if (!isfinite(v) || (errno == ERANGE && fabs(v) > 1.0)) {
-        return PARSE_RANGE;
+    double v = 0.0;
+    if (digits <= 15u && exp10 >= -22 && exp10 <= 22) {
+        v = (double)mantissa;
+        v = exp10 >= 0 ? v * pow10[exp10] : v / pow10[-exp10];
+        v = negative ? -v : v;
+    } else {
+        char buf[TRACE_LINE_MAX + 1u];
+        const size_t len = (size_t)(text_end - text);
+        memcpy(buf, text, len);
+        buf[len] = '\0';
+        errno = 0;
+        v = strtod(buf, NULL);
+        if (!isfinite(v) || (errno == ERANGE && fabs(v) > 1.0)) {
+            return PARSE_RANGE;
+        }
     }
     *out = v;
+    *pp = p;
     return PARSE_OK;
+}
+
+/* A whole metadata value as one number: the scanners' field must be all of it. */
+static enum parse_result parse_meta_uint(const struct field *f, uint64_t max, uint64_t *out) {
+    char buf[TRACE_VALUE_MAX];
+    memcpy(buf, f->s, f->len); /* the caller checked len < TRACE_VALUE_MAX */
+    buf[f->len] = '\0';
+    const char *p = buf;
+    const enum parse_result pr = scan_uint(&p, max, out);
+    return pr == PARSE_OK && *p != '\0' ? PARSE_SYNTAX : pr;
+}
+
+static enum parse_result parse_meta_real(const struct field *f, double *out) {
+    char buf[TRACE_VALUE_MAX];
+    memcpy(buf, f->s, f->len);
+    buf[f->len] = '\0';
+    const char *p = buf;
+    const enum parse_result pr = scan_real(&p, out);
+    return pr == PARSE_OK && *p != '\0' ? PARSE_SYNTAX : pr;
 }
 
 /* ---- header part ---- */
@@ -378,7 +403,7 @@ static int read_meta_line(struct trace_reader *r) {
     }
     if (strcmp(key, "arm_mm") == 0) {
         double v = 0.0;
-        if (parse_real(&val, &v) != PARSE_OK || !(v > 0.0)) {
+        if (parse_meta_real(&val, &v) != PARSE_OK || !(v > 0.0)) {
             return fail_at(r, r->line_no, val.col,
                            "arm_mm must be a positive number of millimetres, got '%s'",
                            quote(q, sizeof q, val.s, val.len));
@@ -386,13 +411,14 @@ static int read_meta_line(struct trace_reader *r) {
         r->meta.arm_mm = v;
     } else if (strcmp(key, "period_ms") == 0) {
         uint64_t v = 0;
-        if (parse_uint(&val, UINT32_MAX, &v) != PARSE_OK || v == 0u) {
+        if (parse_meta_uint(&val, UINT32_MAX, &v) != PARSE_OK || v == 0u) {
             return fail_at(r, r->line_no, val.col,
                            "period_ms must be an integer in 1..4294967295, got '%s'",
                            quote(q, sizeof q, val.s, val.len));
         }
         r->meta.period_ms = (uint32_t)v;
     }
+    r->meta.line[r->meta.count] = r->line_no;
     memcpy(r->meta.key[r->meta.count], key, key_len + 1u);
     memcpy(r->meta.value[r->meta.count], val.s, val.len);
     r->meta.value[r->meta.count][val.len] = '\0';
@@ -442,6 +468,8 @@ static int read_header_line(struct trace_reader *r) {
             return fail_at(r, r->line_no, 1u, "header lacks required column '%s'", column_names[c]);
         }
     }
+    r->timing.period_from_meta = r->meta.period_ms > 0u;
+    r->timing.period_ms = r->timing.period_from_meta ? r->meta.period_ms : TRACE_DEFAULT_PERIOD_MS;
     memset(r->column_use, 0, sizeof r->column_use);
     for (unsigned c = 0; c < TRACE_COL_COUNT; ++c) {
         if (r->column_of[c] >= 0) {
@@ -483,6 +511,12 @@ static int open_common(struct trace_reader *r, const char *name) {
     }
     if (got == 0) {
         return fail_at(r, 1u, 1u, "empty file (the first line must be '# tof-trace v1')");
+    }
+    /* A UTF-8 byte-order mark, as Windows editors and loggers write, is not text. */
+    if (r->line_len >= 3u && memcmp(r->line, "\xEF\xBB\xBF", 3u) == 0) {
+        r->line_len -= 3u;
+        memmove(r->line, r->line + 3u, r->line_len + 1u);
+        r->bom = true;
     }
     static const char version_prefix[] = "# tof-trace v";
     const size_t prefix_len = sizeof version_prefix - 1u;
@@ -549,211 +583,151 @@ static int field_error(struct trace_reader *r, const struct field *f, enum trace
     return fail_at(r, r->line_no, f->col, "%s: expected an integer, got '%s'", name, q);
 }
 
-/* parse_plain_real's form and value, scanned from *pp up to the first character that is
- * neither a digit nor the point (the caller checks that it ends the field). */
-static bool scan_plain_real(const char **pp, const char *end, double *out) {
-    static const double pow10[16] = {1e0, 1e1, 1e2,  1e3,  1e4,  1e5,  1e6,  1e7,
-                                     1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15};
-    const char *p = *pp;
-    bool negative = false;
-    if (p < end && (*p == '+' || *p == '-')) {
-        negative = *p == '-';
-        ++p;
-    }
-    uint64_t mantissa = 0; /* wraps beyond 19 digits, but more than 15 is refused below */
-    size_t digits = 0;
-    size_t fraction_digits = 0;
-    while (p < end && is_digit(*p)) {
-        mantissa = mantissa * 10u + (uint64_t)(*p - '0');
-        ++digits;
-        ++p;
-    }
-    if (p < end && *p == '.') {
-        ++p;
-        while (p < end && is_digit(*p)) {
-            mantissa = mantissa * 10u + (uint64_t)(*p - '0');
-            ++digits;
-            ++fraction_digits;
-            ++p;
-        }
-    }
-    if (digits == 0u || digits > 15u) {
-        return false;
-    }
-    const double v = (double)mantissa / pow10[fraction_digits];
-    *out = negative ? -v : v;
-    *pp = p;
-    return true;
+/* The field that starts at line[start] (up to its ',' or the end), trimmed. */
+static struct field field_at(const struct trace_reader *r, size_t start) {
+    const char *comma = memchr(r->line + start, ',', r->line_len - start);
+    const size_t end = comma != NULL ? (size_t)(comma - r->line) : r->line_len;
+    return make_field(r->line, start, end);
 }
 
-/*
- * A row in the form the writer produces (plain digits, plain reals, nothing to trim),
- * read in one pass over the line. True with *row filled exactly as parse_row fills it;
- * false for anything else (blanks, signs, exponents, long numbers, a bad or missing
- * field, time going backwards), which parse_row then reads the long way and accepts or
- * reports with its line and column. So the fast path never decides an error.
- */
-static bool parse_row_fast(struct trace_reader *r, struct scene_row *row) {
-    const char *p = r->line;
-    const char *const end = r->line + r->line_len;
-    memset(row, 0, sizeof *row);
-    for (unsigned n = 0; n < r->n_columns; ++n) {
-        const unsigned use = r->column_use[n];
-        if (use >= TRACE_COL_T_MS + 1u && use <= TRACE_COL_D_ST + 1u) {
-            /* 1..9 digits: at most 999 999 999, exact in 32 bits. */
-            uint32_t v = 0;
-            unsigned digits = 0;
-            while (p < end && is_digit(*p)) {
-                if (++digits > 9u) {
-                    return false;
-                }
-                v = v * 10u + (uint32_t)(*p - '0');
-                ++p;
-            }
-            if (digits == 0u) {
-                return false;
-            }
-            const unsigned c = use - 1u;
-            if (c == TRACE_COL_T_MS) {
-                row->t_ms = v;
-            } else if (c <= TRACE_COL_D_MM) {
-                if (v > UINT16_MAX) {
-                    return false;
-                }
-                row->range_mm[c - TRACE_COL_A_MM] = (uint16_t)v;
-            } else {
-                if (v > UINT8_MAX) {
-                    return false;
-                }
-                row->status[c - TRACE_COL_A_ST] = (uint8_t)v;
-            }
-        } else if (use == 0u) {
-            while (p < end && *p != ',') { /* a column this reader does not use */
-                ++p;
-            }
-        } else {
-            if (p < end && *p != ',') { /* truth; empty means none (DESIGN.md §5) */
-                double d = 0.0;
-                if (!scan_plain_real(&p, end, &d) || !(fabs(d) <= 90.0)) {
-                    return false;
-                }
-                if (use - 1u == TRACE_COL_ALPHA) {
-                    row->has_alpha = true;
-                    row->alpha_deg = d;
-                } else {
-                    row->has_beta = true;
-                    row->beta_deg = d;
-                }
-            }
-        }
-        if (n + 1u < r->n_columns) {
-            if (p == end || *p != ',') {
-                return false;
-            }
-            ++p;
-        } else if (p != end) {
-            return false;
-        }
-    }
-    if (r->rows > 0u && row->t_ms < r->last_t_ms) {
-        return false;
-    }
-    for (unsigned k = 0; k < SCENE_SENSORS; ++k) {
-        row->present[k] = row->status[k] != SCENE_STATUS_NO_READING;
-    }
-    r->last_t_ms = row->t_ms;
-    r->rows++;
-    return true;
-}
-
-static int parse_row(struct trace_reader *r, struct scene_row *row) {
-    if (parse_row_fast(r, row)) {
-        return 0;
-    }
-    struct field fields[TRACE_MAX_COLUMNS];
-    unsigned n = 0;
-    size_t start = 0;
-    const char *line = r->line;
-    const size_t len = r->line_len;
-    for (;;) { /* one field per pass; each pass consumes at least its ',' or ends the line */
-        size_t i = start;
-        while (i < len && line[i] != ',') {
-            ++i;
-        }
+/* A row with other than the header's number of fields, whatever else is wrong with it. */
+static int check_field_count(struct trace_reader *r) {
+    unsigned n = 1;
+    for (const char *c = memchr(r->line, ',', r->line_len); c != NULL;
+         c = memchr(c + 1, ',', r->line_len - (size_t)(c + 1 - r->line))) {
         if (n == r->n_columns) {
-            return fail_at(r, r->line_no, start + 1u, "long row: more than the header's %u fields",
-                           r->n_columns);
+            return fail_at(r, r->line_no, (size_t)(c - r->line) + 2u,
+                           "long row: more than the header's %u fields", r->n_columns);
         }
-        fields[n++] = make_field(line, start, i);
-        if (i == len) {
-            break;
-        }
-        start = i + 1u;
+        ++n;
     }
     if (n < r->n_columns) {
         return fail_at(r, r->line_no, r->line_len + 1u, "short row: %u fields, the header has %u",
                        n, r->n_columns);
     }
+    return 0;
+}
+
+/* Notes a time stamp that repeats the previous one or jumps more than two periods. */
+static void check_timing(struct trace_reader *r, uint32_t t_ms) {
+    struct trace_timing *tm = &r->timing;
+    const uint64_t dt = (uint64_t)t_ms - r->last_t_ms;
+    uint8_t kind = 0;
+    if (dt == 0u) {
+        ++tm->repeats;
+        kind = TRACE_TIME_REPEAT;
+    } else if (dt > 2u * (uint64_t)tm->period_ms) {
+        ++tm->jumps;
+        kind = TRACE_TIME_JUMP;
+        if (dt > tm->max_jump_ms) {
+            tm->max_jump_ms = (uint32_t)dt;
+            tm->max_jump_line = r->line_no;
+        }
+    } else {
+        return;
+    }
+    if (tm->note_count < TRACE_TIMING_NOTES) {
+        tm->notes[tm->note_count++] = (struct trace_timing_note){
+            .line = r->line_no, .t_ms = t_ms, .prev_t_ms = r->last_t_ms, .kind = kind};
+    }
+}
+
+/*
+ * The one row parser: a single pass over the line, each field read as the header says
+ * (column_use), with the one integer and the one real parser. The first field that is
+ * wrong, from the left, is the error; a row with the wrong number of fields is reported
+ * as such first, whatever else is wrong with it.
+ */
+static int parse_row(struct trace_reader *r, struct scene_row *row) {
+    const char *const line = r->line;
+    const char *p = line;
+    size_t t_start = 0; /* offset of the t_ms field, for its message */
     memset(row, 0, sizeof *row);
-    uint64_t v = 0;
-    enum parse_result pr;
-    const struct field *f = &fields[r->column_of[TRACE_COL_T_MS]];
-    pr = parse_uint(f, UINT32_MAX, &v);
-    if (pr != PARSE_OK) {
-        return field_error(r, f, TRACE_COL_T_MS, pr, UINT32_MAX);
-    }
-    if (r->rows > 0u && v < r->last_t_ms) {
-        return fail_at(r, r->line_no, f->col,
-                       "t_ms %llu is earlier than the previous row's %lu (time went backwards)",
-                       (unsigned long long)v, (unsigned long)r->last_t_ms);
-    }
-    row->t_ms = (uint32_t)v;
-    for (unsigned k = 0; k < SCENE_SENSORS; ++k) {
-        const enum trace_column c = (enum trace_column)(TRACE_COL_A_MM + k);
-        f = &fields[r->column_of[c]];
-        pr = parse_uint(f, UINT16_MAX, &v);
-        if (pr != PARSE_OK) {
-            return field_error(r, f, c, pr, UINT16_MAX);
-        }
-        row->range_mm[k] = (uint16_t)v;
-        const enum trace_column cs = (enum trace_column)(TRACE_COL_A_ST + k);
-        row->status[k] = 0;
-        if (r->column_of[cs] >= 0) {
-            f = &fields[r->column_of[cs]];
-            pr = parse_uint(f, UINT8_MAX, &v);
-            if (pr != PARSE_OK) {
-                return field_error(r, f, cs, pr, UINT8_MAX);
+    for (unsigned n = 0;; ++n) {
+        const char *const start = p;
+        const unsigned use = r->column_use[n];
+        enum parse_result pr = PARSE_OK;
+        enum trace_column c = (enum trace_column)(use - 1u);
+        uint64_t max = 0;
+        uint64_t v = 0;
+        double d = 0.0;
+        switch (use) {
+        case 0u: /* a column this reader does not use */
+            while (!at_field_end(p)) {
+                ++p;
             }
-            row->status[k] = (uint8_t)v;
+            break;
+        case TRACE_COL_T_MS + 1u:
+            max = UINT32_MAX;
+            pr = scan_uint(&p, max, &v);
+            row->t_ms = (uint32_t)v;
+            t_start = (size_t)(start - line);
+            break;
+        case TRACE_COL_A_MM + 1u:
+        case TRACE_COL_B_MM + 1u:
+        case TRACE_COL_C_MM + 1u:
+        case TRACE_COL_D_MM + 1u:
+            max = UINT16_MAX;
+            pr = scan_uint(&p, max, &v);
+            row->range_mm[c - TRACE_COL_A_MM] = (uint16_t)v;
+            break;
+        case TRACE_COL_A_ST + 1u:
+        case TRACE_COL_B_ST + 1u:
+        case TRACE_COL_C_ST + 1u:
+        case TRACE_COL_D_ST + 1u:
+            max = UINT8_MAX;
+            pr = scan_uint(&p, max, &v);
+            row->status[c - TRACE_COL_A_ST] = (uint8_t)v;
+            break;
+        default: /* alpha_deg, beta_deg */
+            pr = scan_real(&p, &d);
+            if (pr == PARSE_EMPTY) { /* truth may be empty (DESIGN.md §5) */
+                p = skip_blanks(p);
+                pr = PARSE_OK;
+            } else if (pr == PARSE_OK && !(fabs(d) <= 90.0)) {
+                pr = PARSE_RANGE;
+            } else if (pr == PARSE_OK && c == TRACE_COL_ALPHA) {
+                row->has_alpha = true;
+                row->alpha_deg = d;
+            } else if (pr == PARSE_OK) {
+                row->has_beta = true;
+                row->beta_deg = d;
+            }
+            break;
         }
+        if (pr != PARSE_OK) {
+            if (check_field_count(r) != 0) {
+                return -1;
+            }
+            const struct field f = field_at(r, (size_t)(start - line));
+            return field_error(r, &f, c, pr, max);
+        }
+        if (*p == ',') {
+            if (n + 1u == r->n_columns) {
+                return check_field_count(r); /* long row */
+            }
+            ++p;
+        } else { /* the end of the line */
+            if (n + 1u < r->n_columns) {
+                return check_field_count(r); /* short row */
+            }
+            break;
+        }
+    }
+    if (r->rows > 0u && row->t_ms < r->last_t_ms) {
+        const struct field f = field_at(r, t_start);
+        return fail_at(r, r->line_no, f.col,
+                       "t_ms %lu is earlier than the previous row's %lu (time went backwards)",
+                       (unsigned long)row->t_ms, (unsigned long)r->last_t_ms);
+    }
+    for (unsigned k = 0; k < SCENE_SENSORS; ++k) {
         row->present[k] = row->status[k] != SCENE_STATUS_NO_READING;
     }
-    for (unsigned t = 0; t < 2u; ++t) {
-        const enum trace_column c = t == 0u ? TRACE_COL_ALPHA : TRACE_COL_BETA;
-        if (r->column_of[c] < 0) {
-            continue;
-        }
-        f = &fields[r->column_of[c]];
-        double d = 0.0;
-        pr = parse_real(f, &d);
-        if (pr == PARSE_EMPTY) {
-            continue; /* truth may be empty (DESIGN.md §5) */
-        }
-        if (pr == PARSE_OK && !(fabs(d) <= 90.0)) {
-            pr = PARSE_RANGE;
-        }
-        if (pr != PARSE_OK) {
-            return field_error(r, f, c, pr, 0u);
-        }
-        if (t == 0u) {
-            row->has_alpha = true;
-            row->alpha_deg = d;
-        } else {
-            row->has_beta = true;
-            row->beta_deg = d;
-        }
+    if (r->rows > 0u) {
+        check_timing(r, row->t_ms);
     }
     r->last_t_ms = row->t_ms;
+    r->last_row_line = r->line_no;
     r->rows++;
     return 0;
 }
@@ -776,12 +750,24 @@ int trace_reader_next(struct trace_reader *r, struct scene_row *row) {
             return 1;
         }
         if (r->line_len == 0u) {
-            return fail_at(r, r->line_no, 1u, "empty line (expected a sample row)");
+            /* Empty lines are allowed only at the end, as editors leave them. */
+            if (r->empty_line == 0u) {
+                r->empty_line = r->line_no;
+            }
+            continue;
+        }
+        if (r->empty_line != 0u) {
+            return fail_at(r, r->empty_line, 1u, "empty line (expected a sample row)");
         }
         if (r->line[0] == '#') {
             continue; /* a comment line (DESIGN.md §5) */
         }
-        return parse_row(r, row);
+        if (parse_row(r, row) == 0) {
+            return 0;
+        }
+        /* A row that fails with a CR inside it fails for its line endings. */
+        const char *cr = memchr(r->line, '\r', r->line_len);
+        return cr != NULL ? cr_only(r, r->line_no, (size_t)(cr - r->line) + 1u) : -1;
     }
 }
 
@@ -796,6 +782,19 @@ const char *trace_reader_meta(const struct trace_reader *r, const char *key) {
         }
     }
     return NULL;
+}
+
+unsigned long trace_reader_meta_line(const struct trace_reader *r, const char *key) {
+    for (unsigned i = 0; i < r->meta.count; ++i) {
+        if (strcmp(r->meta.key[i], key) == 0) {
+            return r->meta.line[i];
+        }
+    }
+    return 0;
+}
+
+const struct trace_timing *trace_reader_timing(const struct trace_reader *r) {
+    return &r->timing;
 }
 
 int trace_load_file(const char *path, size_t max_rows, struct scene_row **rows, size_t *count,

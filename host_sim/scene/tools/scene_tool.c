@@ -104,6 +104,17 @@ static int cmd_check(const char *path) {
     for (unsigned i = 0; i < reader.meta.count; ++i) {
         printf("  %s=%s\n", reader.meta.key[i], reader.meta.value[i]);
     }
+    const struct trace_timing *tm = trace_reader_timing(&reader);
+    printf("  time base: period_ms %u (%s); %llu repeated t_ms, %llu jumps of more than two "
+           "periods%s\n",
+           tm->period_ms, tm->period_from_meta ? "from the trace" : "default, none in the trace",
+           (unsigned long long)tm->repeats, (unsigned long long)tm->jumps,
+           reader.bom ? "; a UTF-8 byte-order mark was skipped" : "");
+    for (unsigned i = 0; i < tm->note_count; ++i) {
+        printf("  %s:%lu: t_ms %lu after %lu (%s)\n", path, tm->notes[i].line,
+               (unsigned long)tm->notes[i].t_ms, (unsigned long)tm->notes[i].prev_t_ms,
+               tm->notes[i].kind == TRACE_TIME_REPEAT ? "repeated" : "jump");
+    }
     return 0;
 }
 

@@ -62,6 +62,30 @@ struct sim_i2c_record {
     uint8_t rx[SIM_I2C_RECORD_BYTES];
 };
 
+/* One transaction as a log sink sees it: every byte of it (not only SIM_I2C_RECORD_BYTES).
+ * rx_len is 0 unless the transfer succeeded. Pointers are valid during the call only. */
+struct sim_i2c_transaction {
+    uint64_t start_us;
+    uint32_t duration_ns;
+    uint8_t addr7;
+    int result; /* HAL_OK or the hal_err the master saw */
+    uint32_t fault_mask;
+    const uint8_t *tx;
+    size_t tx_len;
+    const uint8_t *rx;
+    size_t rx_len;
+};
+
+/* Where the bus reports every transaction on the wire (requests it rejects before the wire,
+ * and bus recovery, are not transactions). */
+struct sim_i2c_log_ops {
+    void (*transaction)(void *ctx, const struct sim_i2c_transaction *t);
+};
+struct sim_i2c_log {
+    const struct sim_i2c_log_ops *ops; /* NULL: no logging */
+    void *ctx;
+};
+
 /* Error kinds counted by the statistics, in this order. */
 enum sim_i2c_error_index {
     SIM_I2C_ERR_ADDR_NACK,
@@ -105,6 +129,7 @@ struct sim_i2c_bus {
     size_t record_capacity;
     size_t record_count; /* transactions seen since recording started (may exceed capacity) */
     bool record_ring;    /* keep the latest `capacity` (record k at k % capacity) */
+    struct sim_i2c_log log;
 };
 
 /* Empty bus on `clock` at `bus_hz` (e.g. 100000 or 400000), no faults, no recording. */
@@ -125,6 +150,9 @@ void sim_i2c_record(struct sim_i2c_bus *bus, struct sim_i2c_record *records, siz
 
 /* Same, but keep the latest `capacity` transactions: transaction k goes to k % capacity. */
 void sim_i2c_record_ring(struct sim_i2c_bus *bus, struct sim_i2c_record *records, size_t capacity);
+
+/* Report every following transaction to `log` (NULL, or ops NULL: stop). */
+void sim_i2c_set_log(struct sim_i2c_bus *bus, const struct sim_i2c_log *log);
 
 /* Zero the statistics. */
 void sim_i2c_reset_stats(struct sim_i2c_bus *bus);

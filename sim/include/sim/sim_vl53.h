@@ -1,12 +1,14 @@
 /*
  * Device model of a VL53L1X-class ToF sensor behind the simulated I²C bus: a
- * register file with the side effects the driver relies on (boot delay after XSHUT
- * rises, address change, start/stop, data ready one timing budget after start and
- * then every period in simulated time, interrupt clear, the 17-byte result block
- * with range status and stream count, GPIO1 output with polarity), fed by a
- * struct sim_range_source. Integer only, no heap; built for Cortex-M as well.
- * Register facts come from drivers/vl53/include/vl53/vl53_regs.h; what the model
- * does not know about a real part is listed in docs/driver.md.
+ * register file with the side effects of the real part as ST describes it (boot delay
+ * after XSHUT rises, address change, start/stop, data ready one timing budget after
+ * start and then every period in simulated time, interrupt clear, the 17-byte result
+ * block with range status and stream count, GPIO1 output with polarity), fed by a
+ * struct sim_range_source. It ranges only once configured as ST's bring-up does it:
+ * the default-configuration block 0x2D..0x87, the VHV step, a valid mode/budget
+ * encoding (see sim_vl53_refusal). Integer only, no heap; built for Cortex-M as well.
+ * Its register facts are its own (src/sim_vl53_regs.h, with sources), not the driver's;
+ * which behaviours ST documents and which are the model's assumptions: docs/driver.md.
  */
 #ifndef SIM_VL53_H
 #define SIM_VL53_H
@@ -51,6 +53,7 @@ struct sim_vl53_published {
     bool valid;
     uint16_t distance_mm;
     uint8_t range_status; /* ULD code from the source */
+    uint8_t raw_status;   /* the raw code actually published (forced, VHV missing, ...) */
     uint8_t stream_count;
     uint32_t sample_index;
     uint64_t time_us;
@@ -65,6 +68,8 @@ struct sim_vl53_stats {
     uint32_t protocol_errors;   /* accesses a real part would not make sense of (see .c) */
     uint32_t readonly_writes;   /* writes to registers the model treats as read-only (ignored) */
     uint32_t unmappable_status; /* source status with no raw code: published as raw 0 (ULD 255) */
+    uint32_t refused_starts;    /* starts that produce nothing (see sim_vl53_refusal) */
+    uint32_t no_vhv_results;    /* results published with raw 3: VHV step not done */
     uint32_t power_ups;         /* XSHUT rises and injected resets */
     uint32_t injected_resets;
     uint32_t address_changes;
@@ -74,6 +79,14 @@ struct sim_vl53_stats {
 };
 
 enum sim_vl53_drdy_stuck { SIM_VL53_DRDY_FREE, SIM_VL53_DRDY_STUCK_HIGH, SIM_VL53_DRDY_STUCK_LOW };
+
+/* Why the last start produces no data ready (SIM_VL53_RANGES: it ranges). */
+enum sim_vl53_refusal {
+    SIM_VL53_RANGES = 0,
+    SIM_VL53_NO_BLOCK,   /* 0x2D..0x87 not all written since power-up, or 0x81 / 0x85 / 0x46
+                            without what makes the part range */
+    SIM_VL53_BAD_TIMING, /* mode registers inconsistent, or a timeout pair in no ULD table */
+};
 
 struct sim_vl53 {
     struct sim_vl53_config cfg;
@@ -93,8 +106,17 @@ struct sim_vl53 {
     uint64_t next_event_us; /* boot end or next measurement (SIM_CLOCK_NEVER: none); may be
                                early, never late: sim_vl53_update does nothing before it */
     uint32_t next_sample_index;
-    bool stream_started;
+    bool stream_started; /* since power-up: the count does not restart at a start */
     uint8_t stream_count;
+    uint8_t block_written[(0x87u - 0x2Du) / 8u + 1u]; /* bit k: 0x2D + k written */
+    uint8_t vhv_stage;       /* 0 none, 1 a range completed, 2 stopped after it, 3 done */
+    bool vhv_bound_ok;       /* in stage 2: 0x0008 = 0x09 written */
+    bool vhv_init_ok;        /* in stage 2: 0x000B = 0x00 written */
+    bool started_since_boot; /* FIRMWARE__SYSTEM_STATUS: 0x01 until the first start */
+    enum sim_vl53_refusal refusal;
+    uint32_t forced_left; /* results still to publish with forced_raw / forced_mm */
+    uint8_t forced_raw;
+    uint16_t forced_mm;
     bool irq_pending;
     enum sim_vl53_drdy_stuck drdy;
     bool source_done; /* the source had no more samples: ranging produces nothing */
@@ -128,6 +150,11 @@ bool sim_vl53_inject(struct sim_vl53 *dev, enum sim_fault_kind kind);
 
 /* Bring the model up to the clock's time (boot, measurements). */
 void sim_vl53_update(struct sim_vl53 *dev);
+
+/* Backdoor: the next `count` results are published with raw RESULT__RANGE_STATUS `raw`
+ * (low 5 bits, e.g. 1, 2, 17 hardware faults, 4 no target, 7 wrap) and distance `mm`
+ * instead of the source's (the source is still consumed). */
+void sim_vl53_force_results(struct sim_vl53 *dev, uint8_t raw, uint16_t mm, uint32_t count);
 
 /* Backdoor: a register as the bus would read it (no side effects, no statistics). */
 uint8_t sim_vl53_peek(struct sim_vl53 *dev, uint16_t reg);

@@ -7,7 +7,9 @@
  * unchanged from the bus, and every call is bounded in time:
  *   - vl53_wait_boot():  the later of power-up + VL53_BOOT_TIME_MAX_US + VL53_BOOT_SLACK_US
  *                        and call start + VL53_BOOT_POLL_US, plus one transfer;
- *   - vl53_configure():  configure_budget_us plus one transfer;
+ *   - vl53_configure():  call_budget_us + configure_budget_us plus two transfers (it is
+ *                        vl53_configure_begin() then vl53_configure_finish());
+ *   - vl53_configure_finish(): configure_budget_us plus one transfer;
  *   - every other call:  call_budget_us plus one transfer,
  * where "one transfer" is the wire time of the call's longest single transfer (the
  * hal_i2c contract: a transfer never takes longer than its timeout plus its wire time,
@@ -28,10 +30,12 @@
 /* A pin number meaning "not wired". */
 #define VL53_PIN_NONE 0xFFFFu
 
-/* Boot takes at most 1.2 ms after XSHUT rises ([DS] power-up sequence, [I4]). */
+/* Boot takes at most 1.2 ms after XSHUT rises ([DS] power-up sequence, tBOOT, [I4]). */
 #define VL53_BOOT_TIME_MAX_US 1200u
-/* Our margin on top of it (clock tolerance, the last poll's transfer). */
-#define VL53_BOOT_SLACK_US 300u
+/* Our margin on top of it: tBOOT counts from XSHUT reaching its high level, and on a board
+ * XSHUT rises through a pull-up into the pin's capacitance; 2 ms cover an RC of up to 0.5 ms
+ * (e.g. 47 kΩ and 10 nF) to 98 %, clock tolerance and the last poll's transfer. */
+#define VL53_BOOT_SLACK_US 2000u
 /* Boot-state poll interval while waiting. */
 #define VL53_BOOT_POLL_US 100u
 /* Inter-measurement period must exceed the timing budget by at least this much ([I4], [ULD]). */
@@ -40,9 +44,10 @@
 #define VL53_IMP_MAX_MS 10000u
 
 /* Defaults used when a config field is 0. */
-#define VL53_DEFAULT_I2C_TIMEOUT_US      2000u
-#define VL53_DEFAULT_CALL_BUDGET_US      10000u
-#define VL53_DEFAULT_CONFIGURE_BUDGET_US 50000u
+#define VL53_DEFAULT_I2C_TIMEOUT_US 2000u
+#define VL53_DEFAULT_CALL_BUDGET_US 10000u
+/* vl53_configure_finish(): the VHV range at the block's own ~100 ms timing, twice over. */
+#define VL53_DEFAULT_CONFIGURE_BUDGET_US 200000u
 #define VL53_DEFAULT_POLL_INTERVAL_US    1000u
 /* Extra time past the expected measurement before vl53_poll() reports data overdue. */
 #define VL53_DATA_SLACK_US 2000u
@@ -55,8 +60,10 @@ enum vl53_range_status {
     VL53_RANGE_MIN_RANGE = 3, /* target below minimum detection range (clipped) */
     VL53_RANGE_OUT_OF_BOUNDS = 4,
     VL53_RANGE_HARDWARE_FAIL = 5,
+    VL53_RANGE_NO_WRAP_CHECK = 6, /* valid, but the first after a start: not wrap-checked */
     VL53_RANGE_WRAP_AROUND = 7,
-    /* 6 and 9..13 are further ULD codes ST documents only as "not valid"; passed as numbers. */
+    /* 9..13 are further ULD codes ST documents only as "not valid"; passed as numbers. */
+    VL53_RANGE_IMPLAUSIBLE = 254, /* ours: a distance the part cannot give as valid */
     VL53_RANGE_UNKNOWN = 255,
 };
 
@@ -64,6 +71,21 @@ enum vl53_distance_mode {
     VL53_DISTANCE_SHORT = 1, /* up to ~1.3 m, better in ambient light */
     VL53_DISTANCE_LONG = 2,  /* up to ~4 m */
 };
+
+/* Largest distance each mode reports ([DS] maximum ranging distance: short 136 cm; long
+ * "up to 4 m"); a reading beyond it is implausible. */
+#define VL53_RANGE_MAX_SHORT_MM 1360u
+#define VL53_RANGE_MAX_LONG_MM  4000u
+/* Distances no valid reading has: 8190/8191 are the no-target codes, 65535 what a read of
+ * an undriven bus (all ones) gives, 0 a target at the window. */
+#define VL53_NO_TARGET_MM     8190u
+#define VL53_NO_TARGET_ALT_MM 8191u
+#define VL53_FAILED_READ_MM   65535u
+
+/* struct vl53_result.flags */
+#define VL53_RESULT_FIRST       0x01u /* first result after a (re)start: not wrap-checked */
+#define VL53_RESULT_IMPLAUSIBLE 0x02u /* distance impossible as a valid reading in this mode */
+#define VL53_RESULT_HW_FAULT    0x04u /* raw 1, 2, 3 or 17: the sensor's own hardware fault */
 
 enum vl53_polarity {
     VL53_INT_ACTIVE_HIGH = 0, /* GPIO1 / TIO status bit 0 high when data is ready */
@@ -94,9 +116,11 @@ struct vl53_config {
     /* Re-read the distance after each result and compare: catches bit errors in the
      * distance field (the part has no CRC) for one 2-byte read per sample. */
     bool verify_distance;
-    /* The vendor's 91-byte default configuration for 0x2D..0x87, or NULL. A real VL53L1X
-     * needs it (ST does not publish its meaning; see docs/driver.md); the device model
-     * does not. When given, vl53_configure() writes it and runs the first-range VHV step. */
+    /* I²C lines and GPIO1 pulled up to AVDD (2V8..3V3, as on the NUCLEO boards), not 1V8:
+     * bit 0 of 0x2E and 0x2F in the default configuration ([ULD] table comments). */
+    bool pads_at_avdd;
+    /* NULL: ST's default configuration (vl53_default_config.h), always written at init.
+     * Otherwise 91 bytes written instead (an integrator's override, e.g. a newer ST table). */
     const uint8_t *vendor_default_config;
 };
 
@@ -107,6 +131,7 @@ struct vl53_result {
     uint8_t raw_status;    /* low 5 bits of RESULT__RANGE_STATUS */
     uint8_t stream_count;  /* RESULT__STREAM_COUNT */
     uint8_t missed;        /* measurements completed but never read since the previous result */
+    uint8_t flags;         /* VL53_RESULT_* */
     uint8_t spad_count;    /* effective SPADs (integer part) */
     uint32_t signal_kcps;  /* peak signal rate, crosstalk corrected */
     uint32_t ambient_kcps; /* ambient rate */
@@ -129,6 +154,9 @@ struct vl53_dev {
     uint32_t last_result_us;   /* read time of the last accepted result (or ranging start) */
     uint32_t data_deadline_us; /* poll reports HAL_ERR_TIMEOUT once this passes with no data */
     uint32_t next_register_poll_us;
+    uint8_t boot_state; /* FIRMWARE__SYSTEM_STATUS when vl53_wait_boot() saw it booted */
+    bool vhv_running;   /* vl53_configure_begin() started the VHV range */
+    uint32_t vhv_start_us;
 };
 
 /*
@@ -151,8 +179,10 @@ int vl53_shutdown(struct vl53_dev *dev);
 int vl53_power_up(struct vl53_dev *dev);
 
 /*
- * Wait until FIRMWARE__SYSTEM_STATUS reports booted at the current address, returning by
- * the later of power-up + 1.5 ms and call start + VL53_BOOT_POLL_US, plus one transfer. HAL_OK;
+ * Wait until FIRMWARE__SYSTEM_STATUS is non-zero (booted; 0x02/0x03 from a part that kept
+ * power across an MCU reset count too, see vl53_warm_boot()) at the current address,
+ * returning by the later of power-up + VL53_BOOT_TIME_MAX_US + VL53_BOOT_SLACK_US and call
+ * start + VL53_BOOT_POLL_US, plus one transfer. HAL_OK;
  * HAL_ERR_TIMEOUT if the part answered but never booted; otherwise the last bus error
  * (HAL_ERR_ADDR_NACK: nothing answered, e.g. a missing sensor).
  */
@@ -167,11 +197,37 @@ int vl53_identify(struct vl53_dev *dev, uint16_t *model_id);
  */
 int vl53_set_address(struct vl53_dev *dev, uint8_t new_address);
 
+/* True if the last successful vl53_wait_boot() read a boot state other than 0x01: the part
+ * had been running before (it kept power across an MCU reset). */
+bool vl53_warm_boot(const struct vl53_dev *dev);
+
 /*
- * Stop ranging and write the default configuration (docs/driver.md): interrupt polarity,
- * distance mode, timing budget and inter-measurement period from the config, each region
- * read back and compared (HAL_ERR_CORRUPT on a mismatch). Leaves ranging stopped.
+ * First half of ST's bring-up (docs/driver.md): stop, write the 91-byte default
+ * configuration (pads per cfg->pads_at_avdd) and start the VHV range, which runs at the
+ * block's own timing (~100 ms). Returns at once (call_budget_us); other sensors can be
+ * brought up meanwhile. Finish with vl53_configure_finish().
  */
+int vl53_configure_begin(struct vl53_dev *dev);
+
+/*
+ * Second half: wait for the VHV range's data ready, clear, stop, VHV loop bound 0x09 and
+ * init 0x00 ([ULD] SensorInit), then interrupt polarity, distance mode, timing budget and
+ * inter-measurement period as the ULD writes them, each region read back and compared
+ * (HAL_ERR_CORRUPT on a mismatch). Bounded by configure_budget_us; HAL_ERR_STATE without a
+ * begin. Leaves ranging stopped.
+ */
+int vl53_configure_finish(struct vl53_dev *dev);
+
+/*
+ * Has the VHV range started by vl53_configure_begin() finished? One look, no waiting (GPIO1
+ * when wired, else one register read): HAL_OK when its data is ready (vl53_configure_finish()
+ * then returns without waiting), HAL_ERR_NOT_READY while it runs, HAL_ERR_TIMEOUT once
+ * configure_budget_us since the begin has passed without it, HAL_ERR_STATE without a begin,
+ * or the bus error of the read. Lets a caller finish the bring-up without blocking.
+ */
+int vl53_configure_pending(struct vl53_dev *dev);
+
+/* vl53_configure_begin() then vl53_configure_finish(). */
 int vl53_configure(struct vl53_dev *dev);
 
 /* Change the timing (ranging must be stopped: HAL_ERR_STATE). Invalid combos: HAL_ERR_INVALID
@@ -193,10 +249,18 @@ int vl53_data_ready(struct vl53_dev *dev, bool *ready);
 int vl53_gpio1_ready(struct vl53_dev *dev, bool *ready);
 
 /*
- * Read and check the 17-byte result block. HAL_OK with *result filled; HAL_ERR_CORRUPT
- * (result still filled) when the raw status is one ST does not map, the stream count did
- * not advance (stale block) or advanced inconsistently with the time elapsed, or the
- * distance re-read (verify_distance) differs. Does not clear the interrupt.
+ * Read and check the 17-byte result block. HAL_OK with *result filled; HAL_ERR_DEVICE
+ * (result filled, VL53_RESULT_HW_FAULT, status VL53_RANGE_HARDWARE_FAIL) when the part
+ * reports its own hardware fault (raw 1, 2, 3, 17, confirmed by a 1-byte re-read of the
+ * status): re-initialise that sensor, the bus is fine; HAL_ERR_CORRUPT (result still filled) when
+ * the raw status is one ST does not map, the stream count did not advance (stale block) or advanced
+ * inconsistently with the time elapsed, or the distance re-read (verify_distance) differs. The
+ * first result after a start is accepted with any stream count (the part's count does not restart)
+ * and marked VL53_RESULT_FIRST, status VL53_RANGE_NO_WRAP_CHECK if it came as valid. A distance the
+ * mode cannot give as valid (0, 8190, 8191, 65535, beyond the mode's range) is marked
+ * VL53_RESULT_IMPLAUSIBLE whatever its status, and a valid status becomes
+ * VL53_RANGE_IMPLAUSIBLE.
+ * Does not clear the interrupt.
  */
 int vl53_read_result(struct vl53_dev *dev, struct vl53_result *result);
 

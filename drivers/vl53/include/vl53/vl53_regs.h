@@ -9,7 +9,14 @@
  *         distance-mode register values, range-status mapping, result layout.
  *   [API] ST VL53L1 full API core (vl53l1_core.c, VL53L1_update_ll_driver_rd_state):
  *         stream count behaviour.
+ *   [REG] ST VL53L1 full API register map (vl53l1_register_map.h): register names and
+ *         bit fields.
+ *   [SSD] ST VL53L1 full API vl53l1_api.c (SetSimpleData): device statuses 1, 2, 3 and 17
+ *         (VCSEL continuity, VCSEL watchdog, no VHV value, multi-clip) are
+ *         VL53L1_RANGESTATUS_HARDWARE_FAIL; 9 with stream count 0 is RANGE_VALID_NO_WRAP_CHECK.
  *   [I4]  issue 4 of this project, which lists the register facts it relies on.
+ *   [I14] issue 14: boot state 0x02/0x03 seen at 0x00E5 on a part that kept power across an
+ *         MCU reset; the block's first range measured at 103 ms (a field report).
  */
 #ifndef VL53_REGS_H
 #define VL53_REGS_H
@@ -25,7 +32,9 @@
 #define VL53_VHV_LOOP_BOUND_TWO_BOUNDS                0x09u
 /* VHV_CONFIG__INIT: [ULD] SensorInit writes 0 ("start VHV from the previous temperature"). */
 #define VL53_REG_VHV_CONFIG_INIT 0x000Bu
-/* FIRMWARE__SYSTEM_STATUS: bit 0 set once the firmware has booted ([ULD] BootState, [I4]). */
+/* FIRMWARE__SYSTEM_STATUS: 0 while booting; bit 0 set once a cold boot completed ([ULD]
+ * BootState, [I4]); ST's examples wait only for a non-zero value, and a part that kept power
+ * across an MCU reset reads 0x02 or 0x03 ([I14]): any non-zero value means booted. */
 #define VL53_REG_FIRMWARE_SYSTEM_STATUS 0x00E5u
 #define VL53_FIRMWARE_BOOTED_BIT        0x01u
 /* IDENTIFICATION__MODEL_ID (16-bit read): 0xEACC on a VL53L1X ([ULD] GetSensorId, [I4]). */
@@ -36,6 +45,14 @@
 /* [ULD] SensorInit writes its 91-byte default configuration to 0x2D..0x87. */
 #define VL53_REG_DEFAULT_CONFIG_FIRST 0x002Du
 #define VL53_DEFAULT_CONFIG_LEN       91u
+/* PAD_I2C_HV__EXTSUP_CONFIG and GPIO_HV_PAD__CTRL: bit 0 set when the I²C lines / GPIO1 are
+ * pulled up to AVDD rather than 1V8 ([ULD] comments on 0x2E and 0x2F of its table, [REG]). */
+#define VL53_REG_PAD_I2C_HV_EXTSUP_CONFIG 0x002Eu
+#define VL53_REG_GPIO_HV_PAD_CTRL         0x002Fu
+#define VL53_PAD_AVDD_BIT                 0x01u
+/* The block's own timing (long mode, timeout A 0x01CC, B 0x01F1) is not a ULD budget; its
+ * first range, the VHV step's, takes about 100 ms (103 ms measured, [I14]). */
+#define VL53_VHV_RANGE_TYPICAL_US 103000u
 
 /* --- interrupt / GPIO1 ------------------------------------------------------ */
 /* GPIO_HV_MUX__CTRL: bit 4 = 0 active-high, 1 active-low interrupt; bits 3:0 must be 0x1
@@ -104,6 +121,12 @@
 #define VL53_RESULT_OFS_SIGNAL       15u /* PEAK_SIGNAL_COUNT_RATE_CROSSTALK_CORRECTED_MCPS_SD0 */
 #define VL53_REG_RESULT_DISTANCE     0x0096u
 #define VL53_RANGE_STATUS_RAW_MASK   0x1Fu
+/* Raw device statuses the driver treats specially ([SSD], [REG] VL53L1_DEVICEERROR_*). */
+#define VL53_RAW_VCSEL_CONTINUITY_FAIL 1u
+#define VL53_RAW_VCSEL_WATCHDOG_FAIL   2u
+#define VL53_RAW_NO_VHV_VALUE          3u
+#define VL53_RAW_RANGE_COMPLETE        9u
+#define VL53_RAW_MULTCLIP_FAIL         17u
 /* [ULD] reports the 9.7-format MCPS rates times 8 as kcps (2^7 / 1000 ~ 1/8). */
 #define VL53_RATE_TO_KCPS_FACTOR 8u
 

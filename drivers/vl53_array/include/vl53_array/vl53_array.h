@@ -22,8 +22,9 @@
 #define VL53_ARRAY_XSHUT_LOW_US 500u
 
 enum vl53_sensor_state {
-    VL53_SENSOR_OFF,     /* held in reset (XSHUT low): never started, or parked after a fault */
-    VL53_SENSOR_RANGING, /* at its own address, configured, ranging */
+    VL53_SENSOR_OFF,         /* held in reset (XSHUT low): never started, or parked after a fault */
+    VL53_SENSOR_CONFIGURING, /* at its own address, its VHV range running (bring-up only) */
+    VL53_SENSOR_RANGING,     /* at its own address, configured, ranging */
 };
 
 /* Why a sensor is not ranging (the last bring-up or recovery of it). */
@@ -67,10 +68,12 @@ int vl53_array_attach(struct vl53_array *array, const struct vl53_array_config *
 /*
  * Hold every XSHUT low, check that nothing answers at 0x29 or at any sensor's address,
  * then for each sensor in turn: release it, wait for boot, verify the model ID, move it to
- * its address (checking 0x29 is free again), configure and start it, and check the sensors
- * already up still answer at theirs (see vl53_array_recover_sensor). A sensor that fails is
- * parked in reset with its report filled, and the others still come up. HAL_OK when all
- * are ranging, else the first failure's error (reports say which sensor and why).
+ * its address (checking 0x29 is free again), write ST's configuration and start its VHV
+ * range (vl53_configure_begin), and check the sensors already up still answer at theirs
+ * (see vl53_array_recover_sensor); then for each: finish its VHV step, write its timing
+ * and start it. The four ~100 ms VHV ranges so overlap. A sensor that fails is parked in
+ * reset with its report filled, and the others still come up. HAL_OK when all are
+ * ranging, else the first failure's error (reports say which sensor and why).
  */
 int vl53_array_bring_up(struct vl53_array *array);
 
@@ -84,6 +87,17 @@ int vl53_array_bring_up(struct vl53_array *array);
  */
 int vl53_array_recover_sensor(struct vl53_array *array, size_t index);
 
+/*
+ * The same in two halves, so a caller need not block for the ~100 ms VHV range: _begin
+ * does everything up to the VHV range's start (sensor CONFIGURING; ~5 ms); _step then takes
+ * one look (no waiting): HAL_ERR_NOT_READY while the range runs, HAL_OK once it finished
+ * the bring-up (RANGING), or the failure's error (sensor parked, report updated: TIMEOUT
+ * once configure_budget_us has passed). HAL_ERR_STATE from _step if not CONFIGURING.
+ * Each call within call_budget_us (plus vl53_configure_finish's for the last step).
+ */
+int vl53_array_recover_sensor_begin(struct vl53_array *array, size_t index);
+int vl53_array_recover_sensor_step(struct vl53_array *array, size_t index);
+
 /* Bus recovery (nine clocks and a STOP on a stuck SDA) through the bus's hal_i2c recover.
  * HAL_OK if SDA is released; HAL_ERR_INVALID if the bus has no recover hook. */
 int vl53_array_recover_bus(struct vl53_array *array);
@@ -94,7 +108,7 @@ int vl53_array_recover_bus(struct vl53_array *array);
  * last transfer of each step (at most VL53_ARRAY_STEPS_PER_SENSOR per sensor, plus one bus
  * recovery and 1 + count probes for bring-up). Lets a scheduler know how long it blocks.
  */
-#define VL53_ARRAY_STEPS_PER_SENSOR (8u + VL53_ARRAY_MAX_SENSORS - 1u)
+#define VL53_ARRAY_STEPS_PER_SENSOR (9u + VL53_ARRAY_MAX_SENSORS - 1u)
 uint32_t vl53_array_recover_budget_us(const struct vl53_array *array, size_t index);
 uint32_t vl53_array_bring_up_budget_us(const struct vl53_array *array);
 

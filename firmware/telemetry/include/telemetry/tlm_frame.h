@@ -8,7 +8,7 @@
  *   0       1     sync 0xA5
  *   1       1     sync 0x5A
  *   2       1     length: payload bytes, 0..TLM_MAX_PAYLOAD
- *   3       1     type (tlm_messages.h)
+ *   3       1     type (its meaning and length: the decoder's struct tlm_type_table)
  *   4       1     sequence (per sender, +1 per frame, wraps 255 -> 0)
  *   5       len   payload (multi-byte fields little-endian)
  *   5+len   2     CRC-16/CCITT-FALSE over bytes 2 .. 4+len, little-endian
@@ -29,10 +29,16 @@
 #define TLM_MAX_PAYLOAD 192u
 #define TLM_FRAME_MAX   (TLM_FRAME_OVERHEAD + TLM_MAX_PAYLOAD)
 
-/* Which message types a decoder accepts (tlm_messages.h tells them apart). */
-#define TLM_ACCEPT_COMMANDS  0x01u /* host -> firmware: the firmware's decoder */
-#define TLM_ACCEPT_TELEMETRY 0x02u /* firmware -> host: a host-side decoder */
-#define TLM_ACCEPT_ALL       (TLM_ACCEPT_COMMANDS | TLM_ACCEPT_TELEMETRY)
+/*
+ * All the framing knows of the messages: which types a decoder accepts and each one's
+ * fixed payload length, looked up through this table (tlm_messages.h provides the
+ * protocol's; tests may pass their own). The framing includes nothing of the messages.
+ */
+struct tlm_type_table {
+    /* Fixed payload length of `type`, or -1 if this decoder does not accept it. */
+    int (*payload_length)(const void *ctx, uint8_t type);
+    const void *ctx;
+};
 
 /* Wire result codes: the `result` of an ack and the reason of a rejection. */
 enum tlm_result {
@@ -90,10 +96,10 @@ struct tlm_frame_sink {
  * one is still found (docs/telemetry.md, "Resynchronisation").
  */
 struct tlm_decoder {
-    uint8_t accept;        /* TLM_ACCEPT_* mask */
-    uint16_t start;        /* first byte of the current candidate in window */
-    uint16_t end;          /* one past the last byte received */
-    uint16_t suspect_left; /* bytes of a CRC-failed frame still ahead; 0 = none */
+    struct tlm_type_table types; /* the accepted types and their lengths */
+    uint16_t start;              /* first byte of the current candidate in window */
+    uint16_t end;                /* one past the last byte received */
+    uint16_t suspect_left;       /* bytes of a CRC-failed frame still ahead; 0 = none */
     uint8_t window[TLM_FRAME_MAX];
     struct tlm_rx_counters counters;
 };
@@ -107,10 +113,11 @@ int tlm_frame_encode(uint8_t type, uint8_t seq, const uint8_t *payload, size_t l
                      size_t cap);
 
 /*
- * Reset `dec` to hunt for a sync, accepting the types in the `accept` mask
- * (TLM_ACCEPT_*), all counters zero.
+ * Reset `dec` to hunt for a sync, accepting the types `types` gives a length for (copied;
+ * its ctx must outlive the decoder), all counters zero. NULL accepts no type: every
+ * CRC-valid frame is then rejected as of unknown type.
  */
-void tlm_decoder_init(struct tlm_decoder *dec, uint8_t accept);
+void tlm_decoder_init(struct tlm_decoder *dec, const struct tlm_type_table *types);
 
 /*
  * Feed one received byte. Every frame this byte completes, including good

@@ -17,7 +17,9 @@
 #include "telemetry/tlm_frame.h"
 
 /* Version of this protocol, reported in the status message. */
-#define TLM_PROTOCOL_VERSION 1u
+/* 2: the estimate carries its standard deviations and why set (replacing the reason
+ * byte), and nacks the firmware's error code. */
+#define TLM_PROTOCOL_VERSION 2u
 
 /* Frame types. Commands have the top bit set, so direction shows in a dump. */
 enum tlm_type {
@@ -35,10 +37,10 @@ enum tlm_type {
 };
 
 /* Fixed payload length of each type, in bytes. */
-#define TLM_LEN_ESTIMATE         28u
+#define TLM_LEN_ESTIMATE         47u
 #define TLM_LEN_RAW_SAMPLE       17u
 #define TLM_LEN_HEALTH           144u
-#define TLM_LEN_ACK              3u
+#define TLM_LEN_ACK              4u
 #define TLM_LEN_STATUS           16u
 #define TLM_LEN_SET_WINDOW       3u
 #define TLM_LEN_SELECT_ESTIMATOR 1u
@@ -66,21 +68,11 @@ enum tlm_estimator {
 #define TLM_ESTIMATOR_LAST TLM_ESTIMATOR_MEAN
 
 enum tlm_estimate_status {
-    TLM_STATUS_OK = 0,       /* all four sensors, unflagged data; reason must be 0 */
-    TLM_STATUS_DEGRADED = 1, /* estimated from fewer sensors or flagged data */
-    TLM_STATUS_INVALID = 2,  /* no estimate possible; angles and distance TLM_NO_VALUE */
+    TLM_STATUS_OK = 0,       /* every value present and why empty */
+    TLM_STATUS_DEGRADED = 1, /* estimated from fewer sensors or flagged data; why says how */
+    TLM_STATUS_INVALID = 2,  /* no estimate of at least one angle; why says why */
 };
 #define TLM_STATUS_LAST TLM_STATUS_INVALID
-
-/* Reason bits of a degraded or invalid estimate (any combination). */
-#define TLM_REASON_SENSOR_MISSING  0x01u /* a sensor's reading missing in the window */
-#define TLM_REASON_SENSOR_FLAGGED  0x02u /* a reading with non-zero range status excluded */
-#define TLM_REASON_TOO_FEW_SENSORS 0x04u /* fewer sensors than the estimator needs */
-#define TLM_REASON_NOT_FLAT        0x08u /* flatness residual above its threshold */
-#define TLM_REASON_NOT_CONVERGED   0x10u /* consensus iteration bound hit before tolerance */
-#define TLM_REASON_NO_SAMPLES      0x20u /* no usable sample in the window */
-#define TLM_REASON_SATURATED       0x40u /* a fixed-point intermediate saturated */
-#define TLM_REASON_ALL             0x7Fu /* bit 7 is reserved and must be 0 */
 
 enum tlm_sensor_health {
     TLM_HEALTH_HEALTHY = 0,
@@ -96,18 +88,27 @@ enum tlm_window_mode {
 };
 #define TLM_WINDOW_MODE_LAST TLM_WINDOW_SLIDING
 
-/* One estimate of one estimator (TLM_TYPE_ESTIMATE). */
+/*
+ * One estimate of one estimator (TLM_TYPE_ESTIMATE): the values, one standard deviation
+ * of each (the estimator's honest sd: noise, drift, quantisation, motion; DESIGN.md
+ * section 6) and the reasons for anything not ok. A value that was not estimated and
+ * its sd are both TLM_NO_VALUE, never a claimed sd of 0.
+ */
 struct tlm_estimate {
-    uint32_t t_ms;         /* t_ms of the window's last sample */
-    uint32_t window_index; /* k of window k (sliding mode: the sample index) */
-    uint8_t estimator;     /* enum tlm_estimator */
-    uint8_t status;        /* enum tlm_estimate_status */
-    uint8_t reason;        /* TLM_REASON_* bits; 0 iff status is ok */
-    uint8_t sensors_used;  /* sensor mask; TLM_SENSOR_MASK_ALL when status is ok */
-    int32_t alpha_udeg;    /* rotation about z */
-    int32_t beta_udeg;     /* rotation about y */
-    int32_t distance_um;   /* mean distance */
-    int32_t flatness_um;   /* x_A + x_C - x_B - x_D; TLM_NO_VALUE if not all four */
+    uint32_t t_ms;          /* t_ms of the window's last sample */
+    uint32_t window_index;  /* k of window k (sliding mode: the sample index) */
+    uint8_t estimator;      /* enum tlm_estimator */
+    uint8_t status;         /* enum tlm_estimate_status */
+    uint8_t sensors_used;   /* sensor mask; TLM_SENSOR_MASK_ALL when status is ok */
+    int32_t alpha_udeg;     /* rotation about z */
+    int32_t beta_udeg;      /* rotation about y */
+    int32_t distance_um;    /* mean distance */
+    int32_t flatness_um;    /* x_A + x_C - x_B - x_D; TLM_NO_VALUE if not all four */
+    int32_t alpha_sd_udeg;  /* 1 sd of alpha, >= 1; TLM_NO_VALUE exactly when alpha is */
+    int32_t beta_sd_udeg;   /* 1 sd of beta, likewise */
+    int32_t distance_sd_um; /* 1 sd of the distance, likewise */
+    uint64_t why;           /* the estimator's why set, bits unchanged (attitude_why_t,
+                               estimator/integrity.h; attitude_why_format() names them); 0 iff ok */
 };
 
 /* One four-sensor sample (TLM_TYPE_RAW_SAMPLE). Absent sensors carry zeros. */
@@ -154,6 +155,9 @@ struct tlm_ack {
     uint8_t echo_seq; /* sequence of the command answered */
     uint8_t command;  /* type of the command answered (any byte, for unknown types) */
     uint8_t result;   /* enum tlm_result */
+    int8_t error;     /* the firmware's own negative code behind a refusal, unchanged (an
+                         attitude_error for set-window and select-estimator); 0 when there
+                         is none, always 0 in an ack */
 };
 
 /* Firmware version and configuration (TLM_TYPE_STATUS). */
@@ -193,11 +197,22 @@ struct tlm_command {
     } u;
 };
 
+/* Which message types a decoder accepts. */
+#define TLM_ACCEPT_COMMANDS  0x01u /* host -> firmware: the firmware's decoder */
+#define TLM_ACCEPT_TELEMETRY 0x02u /* firmware -> host: a host-side decoder */
+#define TLM_ACCEPT_ALL       (TLM_ACCEPT_COMMANDS | TLM_ACCEPT_TELEMETRY)
+
 /*
  * Fixed payload length of `type` if it is one of the types in the `accept`
- * mask (TLM_ACCEPT_*), else -1. The decoder's type table.
+ * mask (TLM_ACCEPT_*), else -1.
  */
 int tlm_type_payload_length(uint8_t type, uint8_t accept);
+
+/*
+ * The protocol's type table for a decoder accepting the `accept` mask (TLM_ACCEPT_*):
+ * tlm_decoder_init(&dec, tlm_message_types(TLM_ACCEPT_COMMANDS)). Static, never NULL.
+ */
+const struct tlm_type_table *tlm_message_types(uint8_t accept);
 
 /* True if `type` is a command (host -> firmware) type. */
 bool tlm_type_is_command(uint8_t type);
@@ -230,5 +245,14 @@ enum tlm_result tlm_parse_command(const struct tlm_frame *frame, struct tlm_comm
 /* As tlm_parse_command(), for a firmware -> host message (host side, tests). */
 enum tlm_result tlm_parse_telemetry(const struct tlm_frame *frame, struct tlm_telemetry *out,
                                     struct tlm_rx_counters *counters);
+
+/*
+ * One whole estimate frame in, the decoded estimate out: for a host that already cut the
+ * stream into frames (the twin, a capture). `bytes` is exactly one frame, sync to CRC
+ * (len bytes). TLM_RESULT_OK with *out filled; TLM_RESULT_BAD_LENGTH if it is not one
+ * frame of the estimate's length (or the sync is wrong), TLM_RESULT_UNKNOWN_TYPE if it
+ * is another type, TLM_RESULT_OUT_OF_RANGE for a bad CRC or a field out of range.
+ */
+enum tlm_result tlm_decode_estimate(const uint8_t *bytes, size_t len, struct tlm_estimate *out);
 
 #endif /* TELEMETRY_TLM_MESSAGES_H */

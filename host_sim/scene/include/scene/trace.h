@@ -30,6 +30,10 @@
 #define TRACE_VALUE_MAX   128u  /* bytes of a value, including the terminator */
 #define TRACE_ERR_MAX     1024u
 #define TRACE_IO_BLOCK    65536u
+/* The time base when a trace has no period_ms: the scenarios' and the shared
+ * recording's 20 ms (docs/traces.md). host_sim replay uses the same default. */
+#define TRACE_DEFAULT_PERIOD_MS 20u
+#define TRACE_TIMING_NOTES      8u /* irregular time stamps kept with their line */
 
 /* Columns the reader knows, in trace_column order. */
 enum trace_column {
@@ -53,6 +57,28 @@ struct trace_meta {
     unsigned count;     /* every key=value line, arm_mm and period_ms included */
     char key[TRACE_MAX_META][TRACE_KEY_MAX];
     char value[TRACE_MAX_META][TRACE_VALUE_MAX];
+    unsigned long line[TRACE_MAX_META]; /* line of each key=value, for messages */
+};
+
+/* Irregular time stamps: t_ms equal to the previous row's, or more than two periods
+ * after it. Not errors (real loggers skip and stall); the replay reports them. */
+enum trace_timing_kind { TRACE_TIME_REPEAT = 1, TRACE_TIME_JUMP = 2 };
+
+struct trace_timing_note {
+    unsigned long line;
+    uint32_t t_ms, prev_t_ms;
+    uint8_t kind; /* enum trace_timing_kind */
+};
+
+struct trace_timing {
+    uint32_t period_ms;    /* the time base checked against: period_ms, else the default */
+    bool period_from_meta; /* false: TRACE_DEFAULT_PERIOD_MS, the trace has no period_ms */
+    uint64_t repeats;      /* rows whose t_ms equals the previous row's */
+    uint64_t jumps;        /* rows more than 2 * period_ms after the previous row */
+    uint32_t max_jump_ms;  /* the largest such step, and its line */
+    unsigned long max_jump_line;
+    unsigned note_count; /* the first TRACE_TIMING_NOTES irregular rows, in line order */
+    struct trace_timing_note notes[TRACE_TIMING_NOTES];
 };
 
 struct trace_reader {
@@ -77,7 +103,11 @@ struct trace_reader {
     /* rows */
     uint64_t rows; /* rows returned so far */
     uint32_t last_t_ms;
-    int state; /* 0 reading, 1 ended, -1 failed */
+    unsigned long last_row_line; /* line of the last row returned */
+    struct trace_timing timing;
+    bool bom;                 /* the file began with a UTF-8 byte-order mark (skipped) */
+    unsigned long empty_line; /* first empty line seen after the header; 0 = none */
+    int state;                /* 0 reading, 1 ended, -1 failed */
     char err[TRACE_ERR_MAX];
 };
 
@@ -104,6 +134,12 @@ const char *trace_reader_error(const struct trace_reader *r);
 
 /* Value of metadata key (NULL if absent). */
 const char *trace_reader_meta(const struct trace_reader *r, const char *key);
+
+/* Line of metadata key (0 if absent), for messages about its value. */
+unsigned long trace_reader_meta_line(const struct trace_reader *r, const char *key);
+
+/* The time base and the irregular time stamps seen so far (complete after the end). */
+const struct trace_timing *trace_reader_timing(const struct trace_reader *r);
 
 /*
  * Reads the whole file at path into a heap array (*rows, *count; release with

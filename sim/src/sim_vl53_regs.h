@@ -1,0 +1,82 @@
+/*
+ * The VL53L1X register facts the device model uses, transcribed for the model on its own
+ * (it shares nothing with the driver's vl53_regs.h, so a wrong constant on either side
+ * shows as a disagreement in the tests).
+ *
+ * Sources (facts only; no code taken):
+ *   [DS]  ST VL53L1X datasheet DocID031281: 16-bit big-endian index, 7-bit address 0x29,
+ *         boot time tBOOT 1.2 ms max.
+ *   [ULD] ST Ultra Lite Driver STSW-IMG009, VL53L1X_api.c: the default-configuration table
+ *         VL51L1X_DEFAULT_CONFIGURATION (0x2D..0x87), SensorInit's VHV step, the budget
+ *         tables of SetTimingBudgetInMs / GetTimingBudgetInMs, SetDistanceMode's values,
+ *         SetInterMeasurementInMs's formula, CheckForDataReady, GetResult's block layout
+ *         and its raw-status table status_rtn.
+ *   [REG] ST full API register map vl53l1_register_map.h: register names and bit fields.
+ *   [API] ST full API core: stream count wraps 0xFF -> 0x80.
+ *   [FR]  field report quoted in issue 14: the first range after ST's block takes 103 ms.
+ */
+#ifndef SIM_VL53_REGS_H
+#define SIM_VL53_REGS_H
+
+#define M_ADDRESS_DEFAULT 0x29u   /* [DS] */
+#define M_I2C_SLAVE_ADDR  0x0001u /* I2C_SLAVE__DEVICE_ADDRESS, 7-bit value [REG] */
+#define M_VHV_LOOP_BOUND  0x0008u /* VHV_CONFIG__TIMEOUT_MACROP_LOOP_BOUND [REG] */
+#define M_VHV_INIT        0x000Bu /* VHV_CONFIG__INIT [REG] */
+#define M_VHV_BOUND_TWO   0x09u   /* [ULD] SensorInit: "two bounds VHV" */
+#define M_VHV_INIT_PREV   0x00u   /* [ULD] SensorInit: "start VHV from the previous temperature" */
+
+/* The block [ULD] writes after boot, and the three of its registers that make the part
+ * range at all: sequence config (bit 7 range enable [REG]), firmware enable (bit 0 [REG]),
+ * interrupt on new sample (0x20 [ULD] comment on 0x46). */
+#define M_BLOCK_FIRST       0x002Du
+#define M_BLOCK_LAST        0x0087u
+#define M_SEQUENCE_CONFIG   0x0081u
+#define M_SEQUENCE_RANGE_EN 0x80u
+#define M_FIRMWARE_ENABLE   0x0085u
+#define M_INT_CONFIG_GPIO   0x0046u
+#define M_INT_NEW_SAMPLE    0x20u
+
+#define M_GPIO_HV_MUX_CTRL  0x0030u /* bit 4: active-low interrupt [ULD] */
+#define M_MUX_ACTIVE_LOW    0x10u
+#define M_GPIO_TIO_STATUS   0x0031u /* bit 0: interrupt line level [ULD] */
+#define M_PHASECAL_TIMEOUT  0x004Bu /* 0x14 short, 0x0A long [ULD] SetDistanceMode */
+#define M_TIMEOUT_A         0x005Eu /* 16-bit [ULD] */
+#define M_VCSEL_A           0x0060u
+#define M_TIMEOUT_B         0x0061u /* 16-bit */
+#define M_VCSEL_B           0x0063u
+#define M_VALID_PHASE_HIGH  0x0069u
+#define M_INTERMEASUREMENT  0x006Cu /* 32-bit: ms x (osc & 0x3FF) x 1.075 [ULD] */
+#define M_WOI_SD0           0x0078u /* WOI_SD0, WOI_SD1, INITIAL_PHASE_SD0, _SD1 */
+#define M_INTERRUPT_CLEAR   0x0086u /* write 0x01 [ULD] */
+#define M_MODE_START        0x0087u /* 0x40 timed ranging, 0x00 stop [ULD] */
+#define M_START_TIMED       0x40u
+#define M_STOP              0x00u
+#define M_RESULT_FIRST      0x0089u /* [ULD] GetResult reads 17 bytes from here */
+#define M_RESULT_LEN        17u
+#define M_RESULT_STREAM     0x008Bu
+#define M_RESULT_SPADS      0x008Cu /* 8.8 */
+#define M_RESULT_PEAK       0x008Eu /* 9.7 MCPS */
+#define M_RESULT_AMBIENT    0x0090u /* 9.7 MCPS */
+#define M_RESULT_SIGMA      0x0092u
+#define M_RESULT_PHASE      0x0094u
+#define M_RESULT_DISTANCE   0x0096u
+#define M_RESULT_PEAK_XTALK 0x0098u
+#define M_OSC_CALIBRATE     0x00DEu /* RESULT__OSC_CALIBRATE_VAL, low 10 bits [ULD] */
+#define M_OSC_MASK          0x03FFu
+#define M_IMP_PER_MILLE     1075u
+#define M_FIRMWARE_STATUS   0x00E5u /* FIRMWARE__SYSTEM_STATUS [ULD] BootState */
+#define M_MODEL_ID          0x010Fu /* 16-bit, 0xEACC [ULD] GetSensorId */
+#define M_MODEL_ID_VL53L1X  0xEACCu
+#define M_STREAM_WRAP_TO    0x80u /* [API] */
+
+/* Raw RESULT__RANGE_STATUS codes (low 5 bits, [REG] VL53L1_DEVICEERROR_*). */
+#define M_RAW_NO_VHV      3u
+#define M_RAW_RANGE_VALID 9u
+
+/* The block's own timing: long mode, timeouts A 0x01CC, B 0x01F1 [ULD] table, a pair in no
+ * budget table; its range time is the field measurement [FR]. */
+#define M_BLOCK_TIMEOUT_A 0x01CCu
+#define M_BLOCK_TIMEOUT_B 0x01F1u
+#define M_BLOCK_RANGE_MS  103u
+
+#endif /* SIM_VL53_REGS_H */
