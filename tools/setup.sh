@@ -12,6 +12,7 @@ packages=(
   valgrind bc
   python3 python3-matplotlib python3-numpy python3-serial
   openocd
+  libunicorn-dev
 )
 
 missing=()

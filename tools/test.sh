@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Run every test: install what is missing, configure and build all five
 # presets (the image checks run at link time), run the host tests (ASan+UBSan),
-# the release-build tests, the on-target QEMU tests, static analysis, and the
+# the release-build tests, the on-target QEMU tests, the twin tests (the m4 ELF on the
+# emulated STM32L476), static analysis, and the
 # on-target benchmark (which must run and write build/qemu/bench.json).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -24,6 +25,10 @@ echo "== tests: host-release"
 ctest --preset host-release -j "$(nproc)"
 echo "== tests: on target (QEMU)"
 ctest --preset qemu -j "$(nproc)"
+echo "== tests: the flight ELF (m4 preset) in the twin (build/twin)"
+cmake --preset twin >/dev/null
+cmake --build --preset twin
+ctest --preset twin
 echo "== static analysis"
 cmake --build --preset host --target analyze
 echo "== benchmark: exact instruction counts under QEMU -> build/qemu/bench.json"

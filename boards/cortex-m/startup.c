@@ -29,7 +29,15 @@ void SysTick_Handler(void) __attribute__((weak, alias("Default_Handler")));
 
 typedef void (*vector_fn)(void);
 
-/* 16 system entries, then BOARD_IRQ_COUNT external interrupts (all default). */
+/* Exception number (IPSR) of the fault being reported (zeroed at boot, so a board_fault()
+ * that is not an exception prints none), and the same kept across the reset that follows
+ * (.noinit, for a debugger after the fact; garbage after power-on). */
+volatile uint32_t cortex_m_fault_vector;
+__attribute__((section(".noinit"))) volatile uint32_t cortex_m_last_fault_vector;
+
+/* 16 system entries, then BOARD_IRQ_COUNT external interrupts: every one points at
+ * Default_Handler (a zero entry would make an unexpected IRQ fetch from address 0 and fault
+ * with INVSTATE, ARMv7-M ARM B1.5.6, far from its cause). */
 __attribute__((section(".vectors"),
                used)) static const vector_fn vector_table[16 + BOARD_IRQ_COUNT] = {
     (vector_fn)(uintptr_t)__stack_top,
@@ -48,6 +56,7 @@ __attribute__((section(".vectors"),
     0,
     PendSV_Handler,
     SysTick_Handler,
+    [16 ... 16 + BOARD_IRQ_COUNT - 1] = Default_Handler,
 };
 
 void Reset_Handler(void) {
@@ -69,10 +78,42 @@ void Reset_Handler(void) {
     board_exit(main());
 }
 
-void HardFault_Handler(void) {
+void HardFault_Report(void);
+
+/* The stack may be what faulted (an overflow into the reserved addresses below RAM), so
+ * the handler first puts MSP back at the top of the stack region, then reports in C.
+ * Nothing is returned to: board_fault() resets. */
+__attribute__((naked)) void HardFault_Handler(void) {
+    __asm__ volatile("ldr r0, =__stack_top\n"
+                     "msr msp, r0\n"
+                     "ldr r1, =HardFault_Report\n"
+                     "bx r1\n");
+}
+
+void HardFault_Report(void) {
+    cortex_m_fault_vector = 3u;
+    cortex_m_last_fault_vector = 3u;
     board_fault("HardFault");
 }
 
-void Default_Handler(void) {
+void Default_Report(void);
+
+/* Any other exception or IRQ without its own handler: record which (IPSR) and reset. Like
+ * HardFault_Handler it restarts from the top of the stack region first: nothing is
+ * returned to, and the report then needs no room below the interrupted thread's deepest
+ * frame (tools/stack_check.py counts a naked entry as 0 bytes; the report alone uses about
+ * 100 B of the whole stack region). */
+__attribute__((naked)) void Default_Handler(void) {
+    __asm__ volatile("ldr r0, =__stack_top\n"
+                     "msr msp, r0\n"
+                     "ldr r1, =Default_Report\n"
+                     "bx r1\n");
+}
+
+void Default_Report(void) {
+    uint32_t ipsr; /* still in handler mode: IPSR names the exception taken */
+    __asm__ volatile("mrs %0, ipsr" : "=r"(ipsr));
+    cortex_m_fault_vector = ipsr & 0x1FFu;
+    cortex_m_last_fault_vector = ipsr & 0x1FFu;
     board_fault("unexpected exception");
 }

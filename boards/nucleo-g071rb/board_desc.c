@@ -64,6 +64,12 @@ int stm32_board_clock_init(void) {
     return HAL_OK;
 }
 
+/* SYSCLK is HSISYS = HSI16 / HSIDIV from reset (RM0444 §5.2 "Clocks": HSIDIV resets to /1)
+ * and after stm32_board_clock_init: 16 MHz either way. */
+uint32_t stm32_board_sysclk_hz(void) {
+    return 16000000u;
+}
+
 void stm32_board_peripheral_clocks_init(void) {
     stm32_reg_modify(G071_RCC_IOPENR, 0u,
                      G071_RCC_IOPENR_GPIOAEN | G071_RCC_IOPENR_GPIOBEN | G071_RCC_IOPENR_GPIOCEN);

@@ -65,6 +65,14 @@ int stm32_board_clock_init(void) {
     return HAL_OK;
 }
 
+/* RCC_CFGR.SWS: 01 = HSI16; anything else here is the reset clock, MSI range 6 = 4 MHz
+ * (RM0351 §6.2.3 "MSI clock": 4 MHz after reset; the firmware never changes the range). */
+uint32_t stm32_board_sysclk_hz(void) {
+    return (stm32_reg_read(L476_RCC_CFGR) & L476_RCC_CFGR_SWS_MASK) == L476_RCC_CFGR_SWS_HSI16
+               ? 16000000u
+               : 4000000u;
+}
+
 void stm32_board_peripheral_clocks_init(void) {
     stm32_reg_modify(L476_RCC_AHB2ENR, 0u,
                      L476_RCC_AHB2ENR_GPIOAEN | L476_RCC_AHB2ENR_GPIOBEN |

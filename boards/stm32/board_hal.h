@@ -51,6 +51,10 @@ const struct stm32_i2c_stats *board_hal_i2c_stats(void);
  * stack depth is known exactly (no function pointer). */
 void board_hal_fault_write(const char *text, size_t len);
 
+/* Wait until what board_hal_fault_write() wrote has left the UART (bounded), so a reset
+ * that follows does not cut the fault message off. */
+void board_hal_fault_flush(void);
+
 /* The telemetry byte stream: USART2 (ST-LINK virtual COM port), shared with the log. */
 struct hal_serial board_hal_serial(void);
 

@@ -44,25 +44,30 @@ bool stm32_board_poll_bits(uintptr_t addr, uint32_t mask, uint32_t want, uint32_
     return false;
 }
 
-int board_hal_init(void) {
+/* USART2 TX/RX -> ST-LINK virtual COM port (log text and telemetry frames) at 115200 Bd
+ * from a core clock of `core_hz`. */
+static void log_uart_init(uint32_t core_hz) {
     const struct stm32_board_desc *d = &stm32_board_desc;
-    int err = stm32_board_clock_init();
-    if (err != HAL_OK) {
-        return err;
-    }
-    stm32_board_peripheral_clocks_init();
-
-    /* USART2 TX/RX -> ST-LINK virtual COM port: log text and telemetry frames. */
     log_usart = (struct stm32_usart){
         .base = d->usart_base,
-        .brr = (STM32_BOARD_CORE_HZ + STM32_BOARD_LOG_BAUD / 2u) / STM32_BOARD_LOG_BAUD,
-        .spin_max = 20000u, /* one byte is 87 us = 1390 cycles: >> the polls it needs */
+        .brr = (core_hz + STM32_BOARD_LOG_BAUD / 2u) / STM32_BOARD_LOG_BAUD,
+        .spin_max = 20000u, /* one byte is 87 us = 1390 cycles at 16 MHz: >> the polls */
     };
     stm32_gpio_set_af(d->usart_port, d->usart_tx_pin, d->usart_af);
     stm32_gpio_set_af(d->usart_port, d->usart_rx_pin, d->usart_af);
     stm32_gpio_set_mode(d->usart_port, d->usart_rx_pin, STM32_GPIO_MODE_AF);
     stm32_gpio_set_mode(d->usart_port, d->usart_tx_pin, STM32_GPIO_MODE_AF);
     stm32_usart_init(&log_usart);
+}
+
+int board_hal_init(void) {
+    const struct stm32_board_desc *d = &stm32_board_desc;
+    int err = stm32_board_clock_init();
+    if (err != HAL_OK) {
+        return err; /* the UART comes up at the reset clock if board_fault() reports this */
+    }
+    stm32_board_peripheral_clocks_init();
+    log_uart_init(STM32_BOARD_CORE_HZ);
 
     board_gpio = (struct stm32_gpio){d->sensor_pins, 2u * BOARD_HAL_SENSOR_COUNT};
     i2c_config = (struct stm32_i2c_config){
@@ -122,13 +127,24 @@ const struct stm32_i2c_stats *board_hal_i2c_stats(void) {
 }
 
 void board_hal_fault_write(const char *text, size_t len) {
-    stm32_usart_log_write(&log_usart, text,
-                          len); /* direct: no function pointer on the fault path */
+    if (log_usart.base == 0u) {
+        /* A fault before the UART was up (a failed clock switch): bring it up at whatever
+         * clock the core runs at now, so the fault is printed, not lost. */
+        stm32_board_peripheral_clocks_init();
+        log_uart_init(stm32_board_sysclk_hz());
+    }
+    stm32_usart_log_write(&log_usart, text, len); /* direct: no function pointer */
 }
 
 struct hal_serial board_hal_serial(void) {
     struct hal_serial serial = {&stm32_usart_serial_ops, &log_usart};
     return serial;
+}
+
+void board_hal_fault_flush(void) {
+    if (log_usart.base != 0u) {
+        stm32_usart_flush(&log_usart);
+    }
 }
 
 uint32_t board_hal_log_dropped(void) {

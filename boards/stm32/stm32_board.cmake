@@ -2,24 +2,37 @@
 # NUCLEO board (the shared startup, STM32 drivers and board HAL, the board's own
 # board_desc.c and linker script <part>.ld in its folder) and its `flash` target
 # (openocd over the board's ST-LINK).
+#
+# TEST_VARIANTS v...: also firmware-<board>-<v>.elf, the same image built with TWIN_TEST_<V>
+# defined (test builds for the twin, twin/tests); the flight image is never changed by them.
 function(tof_stm32_board board core irqs openocd_cfg ld)
-  cmake_parse_arguments(ARG "NO_FLOAT" "" "" ${ARGN})
+  cmake_parse_arguments(ARG "NO_FLOAT" "" "TEST_VARIANTS" ${ARGN})
   set(no_float "")
   if(ARG_NO_FLOAT)
     set(no_float NO_FLOAT)
   endif()
   set(image firmware-${board})
   set(stm32 ${PROJECT_SOURCE_DIR}/boards/stm32)
-  tof_image(${image} CORE ${core} ${no_float}
-    LINKER_SCRIPT ${CMAKE_CURRENT_SOURCE_DIR}/${ld}
-    SOURCES ${PROJECT_SOURCE_DIR}/boards/cortex-m/startup.c
-            ${stm32}/stm32_usart.c ${stm32}/stm32_gpio.c ${stm32}/stm32_i2c.c
-            ${stm32}/stm32_systick_time.c ${stm32}/stm32_iwdg.c ${stm32}/stm32_board.c
-            ${stm32}/stm32_main.c ${CMAKE_CURRENT_SOURCE_DIR}/board_desc.c
-    DEPS firmware)
-  target_include_directories(${image} PRIVATE ${PROJECT_SOURCE_DIR}/boards/cortex-m ${stm32})
-  target_compile_definitions(${image} PRIVATE BOARD_IRQ_COUNT=${irqs} BOARD_NAME="${board}")
-  target_link_options(${image} PRIVATE -L${PROJECT_SOURCE_DIR}/boards/cortex-m)
+  foreach(variant "" ${ARG_TEST_VARIANTS})
+    set(name ${image})
+    if(variant)
+      set(name ${image}-${variant})
+    endif()
+    tof_image(${name} CORE ${core} ${no_float}
+      LINKER_SCRIPT ${CMAKE_CURRENT_SOURCE_DIR}/${ld}
+      SOURCES ${PROJECT_SOURCE_DIR}/boards/cortex-m/startup.c
+              ${stm32}/stm32_usart.c ${stm32}/stm32_gpio.c ${stm32}/stm32_i2c.c
+              ${stm32}/stm32_systick_time.c ${stm32}/stm32_iwdg.c ${stm32}/stm32_board.c
+              ${stm32}/stm32_main.c ${CMAKE_CURRENT_SOURCE_DIR}/board_desc.c
+      DEPS firmware)
+    target_include_directories(${name} PRIVATE ${PROJECT_SOURCE_DIR}/boards/cortex-m ${stm32})
+    target_compile_definitions(${name} PRIVATE BOARD_IRQ_COUNT=${irqs} BOARD_NAME="${board}")
+    if(variant)
+      string(TOUPPER ${variant} def)
+      target_compile_definitions(${name} PRIVATE TWIN_TEST_${def}=1)
+    endif()
+    target_link_options(${name} PRIVATE -L${PROJECT_SOURCE_DIR}/boards/cortex-m)
+  endforeach()
   add_custom_target(flash
     COMMAND sh -c "command -v openocd >/dev/null || { echo 'flash: openocd missing: run tools/setup.sh' >&2; exit 1; }"
     COMMAND openocd -f ${openocd_cfg} -c "program $<TARGET_FILE:${image}> verify reset exit"

@@ -36,6 +36,10 @@ extern const struct stm32_board_desc stm32_board_desc;
 /* Switch SYSCLK to HSI16 (16 MHz). HAL_OK or HAL_ERR_TIMEOUT (bounded polls). */
 int stm32_board_clock_init(void);
 
+/* The core clock now (reset clock before a successful stm32_board_clock_init), from the
+ * RCC's switch status: what a fault report sets the UART divisor from. */
+uint32_t stm32_board_sysclk_hz(void);
+
 /* Clock the GPIO ports, I2C1 (kernel clock HSI16), USART2 and the debug unit. */
 void stm32_board_peripheral_clocks_init(void);
 

@@ -15,8 +15,12 @@
 #include "stm32_i2c_regs.h"
 #include "stm32_reg.h"
 
-/* Flags that end a wait with a failure, whatever the wait was for. */
-#define FAIL_FLAGS (STM32_I2C_ISR_NACKF | STM32_I2C_ISR_BERR | STM32_I2C_ISR_ARLO)
+/* Flags that end a wait with a failure, whatever the wait was for. BERR is not one: errata
+ * sheet ES0250 (STM32L476xx/486xx device errata), I2C "Spurious bus error detection in master
+ * mode": in master mode BERR can be set with no effect on the transfer, which continues
+ * normally; the workaround is to clear the flag and do nothing else. A real misplaced
+ * START/STOP in master mode shows as ARLO or as a flag that never comes (the budget). */
+#define FAIL_FLAGS (STM32_I2C_ISR_NACKF | STM32_I2C_ISR_ARLO)
 
 /* UM10204 §3.1.16: nine clocks are enough for a slave to finish any byte it is sending. */
 #define RECOVERY_CLOCKS 9u
@@ -77,12 +81,18 @@ static void set_reg(const struct stm32_i2c_config *cfg, uint32_t offset, uint32_
     stm32_reg_write(cfg->base + offset, value);
 }
 
-/* Poll ISR until a `want` flag or a FAIL_FLAGS flag is set, or the budget is spent. */
-static enum wait_result wait_isr(const struct stm32_i2c_config *cfg, struct budget *b,
-                                 uint32_t want, uint32_t *isr_out) {
+/* Poll ISR until a `want` flag or a FAIL_FLAGS flag is set, or the budget is spent. A BERR
+ * is cleared, counted and otherwise ignored (ES0250, see FAIL_FLAGS). */
+static enum wait_result wait_isr(struct stm32_i2c *bus, struct budget *b, uint32_t want,
+                                 uint32_t *isr_out) {
+    const struct stm32_i2c_config *cfg = bus->cfg;
     do { /* bounded: each budget_spent() call uses one of a finite number of polls */
         const uint32_t isr = reg(cfg, STM32_I2C_ISR);
         *isr_out = isr;
+        if ((isr & STM32_I2C_ISR_BERR) != 0u) {
+            set_reg(cfg, STM32_I2C_ICR, STM32_I2C_ICR_BERRCF);
+            bus->stats.bus_errors++;
+        }
         if ((isr & FAIL_FLAGS) != 0u) {
             return WAIT_FAILED;
         }
@@ -133,11 +143,6 @@ static int failure(struct stm32_i2c *bus, enum wait_result w, uint32_t isr, bool
         bus->stats.arbitration_lost++;
         return HAL_ERR_BUS_BUSY;
     }
-    if ((isr & STM32_I2C_ISR_BERR) != 0u) {
-        /* A misplaced START/STOP seen on the bus: another driver of the lines. */
-        bus->stats.bus_errors++;
-        return HAL_ERR_BUS_BUSY;
-    }
     if (address_phase) {
         bus->stats.addr_nacks++;
         return HAL_ERR_ADDR_NACK;
@@ -161,7 +166,7 @@ static int run_phase(struct stm32_i2c *bus, struct budget *b, uint8_t addr7, boo
     set_reg(cfg, STM32_I2C_CR2, cr2_chunk(addr7, read, len, stop_at_end) | STM32_I2C_CR2_START);
     size_t chunk_left = len > STM32_I2C_NBYTES_MAX ? STM32_I2C_NBYTES_MAX : len;
     for (size_t done = 0; done < len;) {
-        w = wait_isr(cfg, b, data_flag, &isr);
+        w = wait_isr(bus, b, data_flag, &isr);
         if (w != WAIT_DONE) {
             /* Reading: the slave cannot NACK data (the master acknowledges), so
              * a NACK is always on the address. */
@@ -176,7 +181,7 @@ static int run_phase(struct stm32_i2c *bus, struct budget *b, uint8_t addr7, boo
         --chunk_left;
         if (chunk_left == 0u && done < len) {
             /* Chunk of 255 done with RELOAD: TCR, then the next NBYTES. */
-            w = wait_isr(cfg, b, STM32_I2C_ISR_TCR, &isr);
+            w = wait_isr(bus, b, STM32_I2C_ISR_TCR, &isr);
             if (w != WAIT_DONE) {
                 return failure(bus, w, isr, read);
             }
@@ -185,7 +190,7 @@ static int run_phase(struct stm32_i2c *bus, struct budget *b, uint8_t addr7, boo
             set_reg(cfg, STM32_I2C_CR2, cr2_chunk(addr7, read, remaining, stop_at_end));
         }
     }
-    w = wait_isr(cfg, b, stop_at_end ? STM32_I2C_ISR_STOPF : STM32_I2C_ISR_TC, &isr);
+    w = wait_isr(bus, b, stop_at_end ? STM32_I2C_ISR_STOPF : STM32_I2C_ISR_TC, &isr);
     if (w != WAIT_DONE) {
         return failure(bus, w, isr, read); /* writing: the last byte was NACKed */
     }

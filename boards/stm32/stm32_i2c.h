@@ -43,7 +43,7 @@ struct stm32_i2c_stats {
     uint32_t addr_nacks;
     uint32_t data_nacks;
     uint32_t arbitration_lost; /* ARLO */
-    uint32_t bus_errors;       /* BERR: misplaced START/STOP */
+    uint32_t bus_errors;       /* BERR seen and cleared (spurious in master mode: ES0250) */
     uint32_t busy;             /* BUSY already set before START */
     uint32_t stuck;            /* SDA or SCL low with the bus idle */
     uint32_t timeouts;

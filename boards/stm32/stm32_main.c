@@ -18,11 +18,32 @@ static struct tof_app app;
 static struct tof_link link;
 static struct tof_platform platform;
 
+#if defined(TWIN_TEST_HANG) || defined(TWIN_TEST_BAD_SEQUENCE) || defined(TWIN_TEST_STACK_OVERFLOW)
+#define TWIN_TEST 1
+#include "stm32_board.h"
+#include "stm32_i2c_regs.h"
+#include "stm32_reg.h"
+/* Test builds for the twin (twin/tests), never the flight image: the flight ELF is built
+ * without any of these. Kept across the watchdog reset so the hang happens once. */
+__attribute__((section(".noinit"))) static volatile uint32_t twin_test_boots;
+#define TWIN_TEST_MAGIC 0x7E57B007u
+#endif
+
 int main(void) {
     const int rc = board_hal_init();
     if (rc != 0) {
         board_fault("board_hal_init failed");
     }
+#if defined(TWIN_TEST_BAD_SEQUENCE)
+    /* Deliberately wrong: TIMINGR may only be written with PE = 0 (RM0351 §39.7.5). */
+    stm32_reg_write(stm32_board_desc.i2c_base + STM32_I2C_TIMINGR,
+                    STM32_I2C_TIMINGR_400KHZ_AT_16MHZ);
+#endif
+#if defined(TWIN_TEST_STACK_OVERFLOW)
+    /* Push words until far past the bottom of the stack: must fault, not corrupt .bss. */
+    uint32_t words = 4096u;
+    __asm__ volatile("1: push {r0}\n subs %0, %0, #1\n bne 1b" : "+r"(words)::"memory", "cc");
+#endif
     tof_link_init(&link, board_hal_serial());
     platform = (struct tof_platform){
         .board_name = BOARD_NAME,
@@ -39,6 +60,16 @@ int main(void) {
         .sensor_pads_at_avdd = true, /* the NUCLEO boards' 3V3 pull-ups (docs/driver.md) */
     };
     const struct tof_app_service telemetry = {.ops = &tof_link_service_ops, .ctx = &link};
+#if defined(TWIN_TEST_HANG)
+    if (twin_test_boots != TWIN_TEST_MAGIC) {
+        /* First boot: run 300 iterations (the estimators are running), then hang without
+         * kicking the watchdog; after its reset the firmware must come back and run. */
+        twin_test_boots = TWIN_TEST_MAGIC;
+        (void)tof_app_main(&platform, &tof_app_default_config, &app, &telemetry, 300u);
+        while (twin_test_boots == TWIN_TEST_MAGIC) {
+        }
+    }
+#endif
     return tof_app_main(&platform, &tof_app_default_config, &app, &telemetry, 0);
 }
 
@@ -55,6 +86,22 @@ void board_fault(const char *what) {
         ++n;
     }
     board_hal_fault_write(what, n);
+    const uint32_t vector = cortex_m_fault_vector;
+    if (vector != 0u && vector < 512u) {
+        /* " (vector N)": which exception, so an IRQ without a handler can be named. */
+        char num[16] = " (vector ";
+        size_t k = 9u;
+        const uint32_t digits[3] = {vector / 100u, (vector / 10u) % 10u, vector % 10u};
+        for (unsigned i = 0; i < 3u; ++i) {
+            if (digits[i] != 0u || k > 9u || i == 2u) {
+                num[k++] = (char)('0' + (int)digits[i]);
+            }
+        }
+        num[k++] = ')';
+        board_hal_fault_write(num, k);
+        cortex_m_fault_vector = 0u;
+    }
     board_hal_fault_write("\n", 1u);
+    board_hal_fault_flush(); /* the reset would cut off the last bytes (seen in the twin) */
     cortex_m_system_reset(); /* the watchdog would do it too, later */
 }

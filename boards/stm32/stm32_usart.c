@@ -13,6 +13,7 @@
 #define USART_CR1_UE   (1u << 0)
 #define USART_CR1_TE   (1u << 3)
 #define USART_ISR_TXE  (1u << 7) /* TXE (L4) / TXFNF (G0, FIFO disabled: same meaning) */
+#define USART_ISR_TC   (1u << 6) /* transmission complete: the last stop bit has gone */
 
 void stm32_usart_init(struct stm32_usart *usart) {
     stm32_reg_write(usart->base + USART_CR1, 0u);
@@ -33,6 +34,14 @@ void stm32_usart_log_write(void *ctx, const char *text, size_t len) {
             continue;
         }
         stm32_reg_write(usart->base + USART_TDR, (uint8_t)text[i]);
+    }
+}
+
+void stm32_usart_flush(const struct stm32_usart *usart) {
+    for (uint32_t spins = 0; spins < usart->spin_max; ++spins) {
+        if ((stm32_reg_read(usart->base + USART_ISR) & USART_ISR_TC) != 0u) {
+            return;
+        }
     }
 }
 

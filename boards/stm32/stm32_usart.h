@@ -33,4 +33,8 @@ __attribute__((noreturn)) void cortex_m_system_reset(void);
 /* hal_serial over the same USART (ctx: struct stm32_usart *): polled, bounded per byte. */
 extern const struct hal_serial_ops stm32_usart_serial_ops;
 
+/* Wait (at most spin_max polls) until the last byte written has left the transmitter
+ * (ISR.TC): before a reset, which would cut it off. */
+void stm32_usart_flush(const struct stm32_usart *usart);
+
 #endif /* BOARDS_STM32_USART_H */

@@ -201,8 +201,7 @@ static void i2c_start(uint32_t cr2) {
         return;
     }
     if (fake.i2c.script.berr_at_address) {
-        i2c_raise(STM32_I2C_ISR_BERR);
-        return;
+        i2c_raise(STM32_I2C_ISR_BERR); /* ES0250: spurious in master mode, the transfer goes on */
     }
     if (addr != fake.i2c.script.present_addr) {
         i2c_raise(STM32_I2C_ISR_NACKF);

@@ -1,0 +1,231 @@
+/* RCC (reset and clock control, RM0351 §6) and the flash interface's ACR (RM0351 §3.7.1)
+ * of the twin: oscillator ready bits, the SYSCLK switch, the peripheral clock enables. */
+#include "twin.h"
+
+/* RCC register offsets and reset values: RM0351 §6.4 (register map table §6.4.32). */
+#define RCC_CR       0x00u
+#define RCC_ICSCR    0x04u
+#define RCC_CFGR     0x08u
+#define RCC_PLLCFGR  0x0Cu
+#define RCC_CIER     0x18u
+#define RCC_CIFR     0x1Cu
+#define RCC_CICR     0x20u
+#define RCC_AHB1RSTR 0x28u
+#define RCC_AHB1ENR  0x48u
+#define RCC_AHB2ENR  0x4Cu
+#define RCC_AHB3ENR  0x50u
+#define RCC_APB1ENR1 0x58u
+#define RCC_APB1ENR2 0x5Cu
+#define RCC_APB2ENR  0x60u
+#define RCC_CCIPR    0x88u
+#define RCC_BDCR     0x90u
+#define RCC_CSR      0x94u
+
+#define CR_MSION  (1u << 0)
+#define CR_MSIRDY (1u << 1)
+#define CR_HSION  (1u << 8)
+#define CR_HSIRDY (1u << 10)
+#define CSR_RMVF  (1u << 23)
+#define CSR_FLAGS 0xFF000000u /* reset flags, cleared by RMVF */
+
+/* DS10198 "HSI16 oscillator characteristics": t_su(HSI16) 1.2 us max (0.8 typical). */
+#define HSI_STARTUP_PS 1200000u
+
+void twin_rcc_reset(struct twin *t, bool power_on) {
+    struct twin_rcc *r = &t->rcc;
+    const uint32_t flags = power_on ? 0x0C000000u /* BORRSTF | PINRSTF */ : r->csr & CSR_FLAGS;
+    const bool broken = r->hsi_broken;
+    *r = (struct twin_rcc){0};
+    r->hsi_broken = broken;
+    r->cr = 0x00000063u; /* MSION, MSIRDY, MSIRANGE = 6 (4 MHz) */
+    r->icscr = 0x10000000u;
+    r->cfgr = 0u; /* SW = SWS = 00: MSI */
+    r->pllcfgr = 0x00001000u;
+    r->ahb1enr = 0x00000100u;     /* FLASHEN */
+    r->csr = 0x00000600u | flags; /* MSISRANGE = 6 */
+    r->hsi_ready_ps = UINT64_MAX;
+}
+
+bool twin_rcc_clock_on(const struct twin *t, uint32_t base) {
+    const struct twin_rcc *r = &t->rcc;
+    if (base >= TWIN_GPIO_BASE && base < TWIN_GPIO_BASE + 0x400u * TWIN_GPIO_PORTS) {
+        return (r->ahb2enr & (1u << ((base - TWIN_GPIO_BASE) / 0x400u))) != 0u; /* GPIOxEN */
+    }
+    if (base == TWIN_I2C1_BASE) {
+        return (r->apb1enr1 & (1u << 21)) != 0u; /* I2C1EN */
+    }
+    if (base == TWIN_USART2_BASE) {
+        return (r->apb1enr1 & (1u << 17)) != 0u; /* USART2EN */
+    }
+    return true;
+}
+
+static uint32_t cr_now(struct twin *t) {
+    struct twin_rcc *r = &t->rcc;
+    if (r->hsi_ready_ps != UINT64_MAX && twin_now_ps(t) >= r->hsi_ready_ps) {
+        r->cr |= CR_HSIRDY;
+    }
+    return r->cr;
+}
+
+uint32_t twin_rcc_read(struct twin *t, uint32_t off) {
+    struct twin_rcc *r = &t->rcc;
+    switch (off) {
+    case RCC_CR:
+        if ((r->cr & CR_HSION) != 0u && (r->cr & CR_HSIRDY) == 0u &&
+            r->hsi_ready_ps != UINT64_MAX) {
+            twin_warp_to(t, r->hsi_ready_ps); /* a ready poll: skip to the ready edge */
+        }
+        return cr_now(t);
+    case RCC_ICSCR:
+        return r->icscr;
+    case RCC_CFGR:
+        return r->cfgr;
+    case RCC_PLLCFGR:
+        return r->pllcfgr;
+    case RCC_CIER:
+    case RCC_CIFR:
+        return 0u;
+    case RCC_AHB1ENR:
+        return r->ahb1enr;
+    case RCC_AHB2ENR:
+        return r->ahb2enr;
+    case RCC_AHB3ENR:
+        return r->ahb3enr;
+    case RCC_APB1ENR1:
+        return r->apb1enr1;
+    case RCC_APB1ENR2:
+        return r->apb1enr2;
+    case RCC_APB2ENR:
+        return r->apb2enr;
+    case RCC_CCIPR:
+        return r->ccipr;
+    case RCC_BDCR:
+        return r->bdcr;
+    case RCC_CSR:
+        return r->csr;
+    default:
+        twin_violation(t, "RCC register", off, "RCC offset the twin does not model");
+        return 0u;
+    }
+}
+
+/* RM0351 §6.2.6 "Clock source switching" and RCC_CFGR SW/SWS: the switch takes effect when
+ * the selected oscillator is ready; SWS then reports it. */
+static void clock_switch(struct twin *t, uint32_t sw) {
+    struct twin_rcc *r = &t->rcc;
+    uint32_t hz = 0;
+    if (sw == 0u && (cr_now(t) & CR_MSIRDY) != 0u) {
+        hz = TWIN_MSI_HZ;
+    } else if (sw == 1u && (cr_now(t) & CR_HSIRDY) != 0u) {
+        hz = TWIN_HSI16_HZ;
+    } else if (sw >= 2u) {
+        twin_violation(t, "RCC_CFGR.SW", sw, "HSE and PLL are not modelled by the twin");
+        return;
+    }
+    if (hz == 0u) {
+        return; /* not ready: SWS keeps the old source (the firmware's poll must time out) */
+    }
+    /* RM0351 §3.3.3 Table 12 "Number of wait states according to CPU clock (HCLK)
+     * frequency": range 1 needs LATENCY >= 1 above 16 MHz. */
+    if (hz > 16000000u && (t->flash_if.acr & 7u) == 0u) {
+        twin_violation(t, "RCC_CFGR.SW", sw, "SYSCLK above 16 MHz with FLASH_ACR.LATENCY = 0");
+    }
+    r->cfgr = (r->cfgr & ~0xCu) | (sw << 2);
+    twin_set_sysclk(t, hz);
+}
+
+void twin_rcc_write(struct twin *t, uint32_t off, uint32_t v) {
+    struct twin_rcc *r = &t->rcc;
+    switch (off) {
+    case RCC_CR: {
+        const uint32_t ro = CR_MSIRDY | CR_HSIRDY | (1u << 17) | (1u << 25) | (1u << 27);
+        const bool hsi_was = (r->cr & CR_HSION) != 0u;
+        r->cr = (r->cr & ro) | (v & ~ro);
+        if ((v & CR_HSION) != 0u && !hsi_was) {
+            r->hsi_ready_ps = r->hsi_broken ? UINT64_MAX : twin_now_ps(t) + HSI_STARTUP_PS;
+        } else if ((v & CR_HSION) == 0u) {
+            if ((r->cfgr & 0xCu) == 0x4u) {
+                twin_violation(t, "RCC_CR.HSION", v, "HSI16 switched off while it is SYSCLK");
+            }
+            r->cr &= ~CR_HSIRDY;
+            r->hsi_ready_ps = UINT64_MAX;
+        }
+        if ((v & CR_MSION) == 0u && (r->cfgr & 0xCu) == 0u) {
+            twin_violation(t, "RCC_CR.MSION", v, "MSI switched off while it is SYSCLK");
+        }
+        break;
+    }
+    case RCC_ICSCR:
+        r->icscr = v;
+        break;
+    case RCC_CFGR:
+        r->cfgr = (r->cfgr & 0xCu) | (v & ~0xCu);
+        if (((v >> 4) & 0xFu) != 0u || ((v >> 8) & 0x3Fu) != 0u) {
+            twin_violation(t, "RCC_CFGR", v,
+                           "AHB/APB prescalers other than /1 are not modelled by the twin");
+        }
+        clock_switch(t, v & 3u);
+        break;
+    case RCC_PLLCFGR:
+        r->pllcfgr = v;
+        break;
+    case RCC_CIER:
+    case RCC_CICR:
+        break;
+    case RCC_AHB1ENR:
+        r->ahb1enr = v;
+        break;
+    case RCC_AHB2ENR:
+        r->ahb2enr = v;
+        break;
+    case RCC_AHB3ENR:
+        r->ahb3enr = v;
+        break;
+    case RCC_APB1ENR1:
+        r->apb1enr1 = v;
+        break;
+    case RCC_APB1ENR2:
+        r->apb1enr2 = v;
+        break;
+    case RCC_APB2ENR:
+        r->apb2enr = v;
+        break;
+    case RCC_CCIPR:
+        /* I2C1SEL (bits 13:12): the twin's I2C1 timing assumes HSI16 (10b) or PCLK1 (00b)
+         * running at 16 MHz. */
+        r->ccipr = v;
+        break;
+    case RCC_BDCR:
+        r->bdcr = v;
+        break;
+    case RCC_CSR:
+        r->csr = (r->csr & CSR_FLAGS) | (v & ~CSR_FLAGS);
+        if ((v & CSR_RMVF) != 0u) {
+            r->csr &= ~CSR_FLAGS;
+        }
+        break;
+    default:
+        twin_violation(t, "RCC register", off, "RCC offset the twin does not model");
+        break;
+    }
+}
+
+uint32_t twin_flash_if_read(struct twin *t, uint32_t off) {
+    if (off == 0u) {
+        return t->flash_if.acr;
+    }
+    twin_violation(t, "FLASH register", off, "flash interface register the twin does not model");
+    return 0u;
+}
+
+void twin_flash_if_write(struct twin *t, uint32_t off, uint32_t v) {
+    if (off == 0u) {
+        t->flash_if.acr = v;
+        if (t->sysclk_hz > 16000000u && (v & 7u) == 0u) {
+            twin_violation(t, "FLASH_ACR", v, "LATENCY 0 above 16 MHz (RM0351 §3.3.3 Table 12)");
+        }
+        return;
+    }
+    twin_violation(t, "FLASH register", off, "flash interface register the twin does not model");
+}

@@ -1,0 +1,214 @@
+/* USART2 of the twin (RM0351 §40): 8N1 transmitter into the host's telemetry decoder and a
+ * receiver fed with the host's commands, both paced by BRR at PCLK1 = SYSCLK. */
+#include "twin.h"
+
+#define USART_CR1  0x00u
+#define USART_CR2  0x04u
+#define USART_CR3  0x08u
+#define USART_BRR  0x0Cu
+#define USART_GTPR 0x10u
+#define USART_RTOR 0x14u
+#define USART_RQR  0x18u
+#define USART_ISR  0x1Cu
+#define USART_ICR  0x20u
+#define USART_RDR  0x24u
+#define USART_TDR  0x28u
+
+#define CR1_UE    (1u << 0)
+#define CR1_RE    (1u << 2)
+#define CR1_TE    (1u << 3)
+#define ISR_ORE   (1u << 3)
+#define ISR_RXNE  (1u << 5)
+#define ISR_TC    (1u << 6)
+#define ISR_TXE   (1u << 7)
+#define ISR_TEACK (1u << 21)
+#define ISR_REACK (1u << 22)
+
+/* One 8N1 frame (start, 8 data, stop: 10 bits) at baud = f_CK / USARTDIV, oversampling by
+ * 16 (RM0351 §40.5.4 "Baud rate generation"). */
+static uint64_t frame_ps(const struct twin *t) {
+    const uint32_t brr = t->usart.brr != 0u ? t->usart.brr : 1u;
+    return 10u * (uint64_t)brr * (1000000000000ull / t->sysclk_hz);
+}
+
+/* The firmware reads its receiver once per main-loop iteration (tof_link_poll), and an idle
+ * iteration lasts a whole 20 ms slot (measured in the twin), so bytes sent back to back at
+ * 115200 Bd overrun it (ORE, the command lost). The twin's host side therefore sends one
+ * byte per RX_GAP_PS, longer than a slot, as a sender to this firmware must. */
+#define RX_GAP_PS (25000ull * 1000000ull)
+
+static uint64_t rx_gap_ps(const struct twin *t) {
+    const uint64_t f = frame_ps(t);
+    return f > RX_GAP_PS ? f : RX_GAP_PS;
+}
+
+static void update(struct twin *t) {
+    struct twin_usart *u = &t->usart;
+    const uint64_t now = twin_now_ps(t);
+    if (u->shift_busy && now >= u->shift_done_ps) {
+        u->shift_busy = false;
+        if (u->on_tx != NULL) {
+            u->on_tx(u->tx_ctx, u->shift, u->shift_done_ps);
+        }
+        u->bytes_tx++;
+        if ((u->isr & ISR_TXE) == 0u) {
+            /* TDR -> shift register as soon as it is free (§40.5.2). */
+            u->shift = (uint8_t)u->tdr;
+            u->shift_busy = true;
+            u->shift_done_ps += frame_ps(t);
+            u->isr |= ISR_TXE;
+        } else {
+            u->isr |= ISR_TC;
+        }
+    }
+    const bool rx_on = (u->cr1 & (CR1_UE | CR1_RE)) == (CR1_UE | CR1_RE);
+    while (rx_on && u->rx_count > 0u && now >= u->rx_next_ps) {
+        if ((u->isr & ISR_RXNE) != 0u) {
+            u->isr |= ISR_ORE; /* §40.5.3 "Overrun error": the new byte is lost */
+            u->overruns++;
+        } else {
+            u->rdr = u->rxq[u->rx_head];
+            u->isr |= ISR_RXNE;
+        }
+        u->rx_head = (u->rx_head + 1u) % TWIN_USART_RXQ;
+        u->rx_count--;
+        u->bytes_rx++;
+        u->rx_next_ps += rx_gap_ps(t);
+    }
+}
+
+void twin_usart_reset(struct twin *t) {
+    struct twin_usart *u = &t->usart;
+    void (*cb)(void *, uint8_t, uint64_t) = u->on_tx;
+    void *ctx = u->tx_ctx;
+    const uint64_t tx = u->bytes_tx, rx = u->bytes_rx, ovr = u->overruns;
+    *u = (struct twin_usart){.isr = ISR_TXE | ISR_TC}; /* ISR reset 0x020000C0 (§40.8.8) */
+    u->on_tx = cb;
+    u->tx_ctx = ctx;
+    u->bytes_tx = tx;
+    u->bytes_rx = rx;
+    u->overruns = ovr;
+}
+
+bool twin_usart_send_to_mcu(struct twin *t, const uint8_t *data, unsigned len) {
+    struct twin_usart *u = &t->usart;
+    if (u->rx_count + len > TWIN_USART_RXQ) {
+        return false;
+    }
+    if (u->rx_count == 0u) {
+        u->rx_next_ps = twin_now_ps(t) + rx_gap_ps(t);
+    }
+    for (unsigned k = 0; k < len; ++k) {
+        u->rxq[(u->rx_head + u->rx_count) % TWIN_USART_RXQ] = data[k];
+        u->rx_count++;
+    }
+    return true;
+}
+
+uint32_t twin_usart_read(struct twin *t, uint32_t off) {
+    struct twin_usart *u = &t->usart;
+    update(t);
+    switch (off) {
+    case USART_CR1:
+        return u->cr1;
+    case USART_CR2:
+        return u->cr2;
+    case USART_CR3:
+        return u->cr3;
+    case USART_BRR:
+        return u->brr;
+    case USART_GTPR:
+        return u->gtpr;
+    case USART_RTOR:
+        return u->rtor;
+    case USART_RQR:
+        return 0u;
+    case USART_ISR: {
+        uint32_t v = u->isr;
+        if ((u->cr1 & CR1_UE) != 0u) {
+            v |= ((u->cr1 & CR1_TE) != 0u ? ISR_TEACK : 0u) | ((u->cr1 & CR1_RE) ? ISR_REACK : 0u);
+        }
+        if ((v & ISR_TXE) == 0u && u->shift_busy) {
+            twin_warp_to(t, u->shift_done_ps); /* a TXE poll: skip to the end of the frame */
+            update(t);
+            v = (v & ~(ISR_TXE | ISR_TC)) | (u->isr & (ISR_TXE | ISR_TC | ISR_RXNE));
+        }
+        return v;
+    }
+    case USART_RDR: {
+        const uint32_t v = u->rdr;
+        u->isr &= ~ISR_RXNE;
+        return v;
+    }
+    case USART_TDR:
+        return u->tdr;
+    default:
+        twin_violation(t, "USART2 register", off, "reserved USART offset (RM0351 §40.8.12)");
+        return 0u;
+    }
+}
+
+void twin_usart_write(struct twin *t, uint32_t off, uint32_t v) {
+    struct twin_usart *u = &t->usart;
+    update(t);
+    switch (off) {
+    case USART_CR1:
+        u->cr1 = v;
+        break;
+    case USART_CR2:
+    case USART_CR3:
+        if ((u->cr1 & CR1_UE) != 0u) {
+            twin_violation(t, off == USART_CR2 ? "USART2_CR2" : "USART2_CR3", v,
+                           "written while UE = 1 (RM0351 §40.8.2/§40.8.3)");
+        }
+        if (off == USART_CR2) {
+            u->cr2 = v;
+        } else {
+            u->cr3 = v;
+        }
+        break;
+    case USART_BRR:
+        if ((u->cr1 & CR1_UE) != 0u) {
+            twin_violation(t, "USART2_BRR", v, "BRR written while UE = 1 (RM0351 §40.8.4)");
+        }
+        u->brr = v & 0xFFFFu;
+        break;
+    case USART_GTPR:
+        u->gtpr = v;
+        break;
+    case USART_RTOR:
+        u->rtor = v;
+        break;
+    case USART_RQR:
+        break;
+    case USART_ICR:
+        u->isr &= ~(v & 0x00121B5Fu);
+        break;
+    case USART_TDR:
+        if ((u->cr1 & (CR1_UE | CR1_TE)) != (CR1_UE | CR1_TE)) {
+            twin_violation(t, "USART2_TDR", v, "TDR written with UE or TE clear: nothing is sent");
+            break;
+        }
+        if ((u->isr & ISR_TXE) == 0u) {
+            twin_violation(t, "USART2_TDR", v,
+                           "TDR written while TXE = 0 (RM0351 §40.8.9: the previous byte is lost)");
+        }
+        u->tdr = v & 0x1FFu;
+        u->isr &= ~ISR_TC;
+        if (!u->shift_busy) {
+            u->shift = (uint8_t)v;
+            u->shift_busy = true;
+            u->shift_done_ps = twin_now_ps(t) + frame_ps(t);
+        } else {
+            u->isr &= ~ISR_TXE;
+        }
+        break;
+    case USART_ISR:
+    case USART_RDR:
+        twin_violation(t, "USART2 read-only register", v, "ISR and RDR are read-only");
+        break;
+    default:
+        twin_violation(t, "USART2 register", off, "reserved USART offset (RM0351 §40.8.12)");
+        break;
+    }
+}

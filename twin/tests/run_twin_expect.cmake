@@ -1,0 +1,38 @@
+# One twin run with expectations: -DTWIN -DELF -DTRACE -DOUT -DARGS="a;b" -DFAIL=ON|OFF
+# (tof_twin must fail / succeed), -DSTDERR=regex (must appear in its messages),
+# -DCHECKS="key>=n;key==n;..." on the numbers of its --report JSON.
+if(NOT EXISTS "${ELF}")
+  message(FATAL_ERROR "twin test: ${ELF} missing: build the m4 preset first")
+endif()
+file(MAKE_DIRECTORY ${OUT})
+separate_arguments(args UNIX_COMMAND "${ARGS}")
+execute_process(COMMAND ${TWIN} ${ELF} ${TRACE} ${args} --out ${OUT}/twin.csv
+                        --report ${OUT}/report.json
+                RESULT_VARIABLE rc ERROR_VARIABLE err)
+message("${err}")
+if(FAIL AND rc EQUAL 0)
+  message(FATAL_ERROR "tof_twin succeeded, expected a failure")
+elseif(NOT FAIL AND NOT rc EQUAL 0)
+  message(FATAL_ERROR "tof_twin failed (${rc})")
+endif()
+if(STDERR AND NOT err MATCHES "${STDERR}")
+  message(FATAL_ERROR "expected '${STDERR}' in tof_twin's messages")
+endif()
+file(READ ${OUT}/report.json rep)
+foreach(check IN LISTS CHECKS)
+  if(NOT check MATCHES "^([a-z_]+)(>=|==|<=)([0-9]+)$")
+    message(FATAL_ERROR "bad check '${check}'")
+  endif()
+  set(key ${CMAKE_MATCH_1})
+  set(op ${CMAKE_MATCH_2})
+  set(want ${CMAKE_MATCH_3})
+  if(NOT rep MATCHES "\"${key}\": ([0-9]+)")
+    message(FATAL_ERROR "report has no number '${key}'")
+  endif()
+  set(got ${CMAKE_MATCH_1})
+  if((op STREQUAL ">=" AND got LESS want) OR (op STREQUAL "==" AND NOT got EQUAL want) OR
+     (op STREQUAL "<=" AND got GREATER want))
+    message(FATAL_ERROR "${key} = ${got}, expected ${op} ${want}")
+  endif()
+  message(STATUS "${key} = ${got} (${op} ${want})")
+endforeach()

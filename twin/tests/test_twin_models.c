@@ -1,0 +1,170 @@
+/* Unit tests of the twin's peripheral models and strict rules, driven through the bus
+ * dispatch (twin_bus_read/write) as the emulated core would, with no firmware. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "hal/hal_err.h"
+#include "twin.h"
+#include "twin_world.h"
+
+static int failures;
+
+#define CHECK(cond)                                                                                \
+    do {                                                                                           \
+        if (!(cond)) {                                                                             \
+            fprintf(stderr, "%s:%d: check failed: %s\n", __FILE__, __LINE__, #cond);               \
+            ++failures;                                                                            \
+        }                                                                                          \
+    } while (0)
+
+#define RCC_AHB2ENR  (TWIN_RCC_BASE + 0x4Cu)
+#define RCC_APB1ENR1 (TWIN_RCC_BASE + 0x58u)
+#define RCC_CR       (TWIN_RCC_BASE + 0x00u)
+#define RCC_CFGR     (TWIN_RCC_BASE + 0x08u)
+#define I2C_CR1      (TWIN_I2C1_BASE + 0x00u)
+#define I2C_CR2      (TWIN_I2C1_BASE + 0x04u)
+#define I2C_TIMINGR  (TWIN_I2C1_BASE + 0x10u)
+#define I2C_ISR      (TWIN_I2C1_BASE + 0x18u)
+#define I2C_RXDR     (TWIN_I2C1_BASE + 0x24u)
+#define SYST_CSR     0xE000E010u
+#define SYST_RVR     0xE000E014u
+#define SYST_CVR     0xE000E018u
+
+static struct twin T;
+static struct twin_world W;
+static struct scene_row rows[4];
+
+static void fresh(bool strict) {
+    twin_free(&T);
+    if (twin_init(&T, strict, stderr) != 0) {
+        fprintf(stderr, "twin_init failed\n");
+        exit(1);
+    }
+    twin_world_init(&W, rows, 4u, 20000u, NULL);
+    T.world = &W;
+    twin_reset(&T, true);
+}
+
+static void w32(uint32_t addr, uint32_t v) {
+    twin_bus_write(&T, addr, 4u, v);
+}
+
+static uint32_t r32(uint32_t addr) {
+    return twin_bus_read(&T, addr, 4u);
+}
+
+static void test_unclocked_peripheral_is_a_violation(void) {
+    fresh(true);
+    (void)r32(I2C_ISR); /* I2C1EN still 0 */
+    CHECK(T.stop == TWIN_STOP_VIOLATION);
+    CHECK(strstr(T.stop_msg, "clock") != NULL);
+    fresh(true);
+    w32(RCC_APB1ENR1, 1u << 21);
+    (void)r32(I2C_ISR);
+    CHECK(T.stop == TWIN_RUNNING);
+}
+
+static void test_timingr_with_pe_set_is_a_violation(void) {
+    fresh(true);
+    w32(RCC_APB1ENR1, 1u << 21);
+    w32(I2C_TIMINGR, 0x10320309u);
+    w32(I2C_CR1, 1u);
+    CHECK(T.stop == TWIN_RUNNING);
+    w32(I2C_TIMINGR, 0x10320309u);
+    CHECK(T.stop == TWIN_STOP_VIOLATION);
+    CHECK(strstr(T.stop_msg, "I2C1_TIMINGR") != NULL && strstr(T.stop_msg, "PE = 1") != NULL);
+}
+
+static void test_start_during_a_transfer_is_a_violation(void) {
+    fresh(true);
+    w32(RCC_APB1ENR1, 1u << 21);
+    w32(I2C_TIMINGR, 0x10320309u);
+    w32(I2C_CR1, 1u);
+    /* Read 2 bytes from 0x29 (the VL53 models answer at their boot address). */
+    const uint32_t cr2 = (0x29u << 1) | (1u << 10) | (2u << 16) | (1u << 25) | (1u << 13);
+    w32(I2C_CR2, cr2);
+    CHECK(T.stop == TWIN_RUNNING);
+    w32(I2C_CR2, cr2);
+    CHECK(T.stop == TWIN_STOP_VIOLATION);
+    CHECK(strstr(T.stop_msg, "START while a transfer is running") != NULL);
+}
+
+static void test_read_paced_by_timingr(void) {
+    fresh(true);
+    w32(RCC_APB1ENR1, 1u << 21);
+    w32(I2C_TIMINGR, 0x10320309u);
+    w32(I2C_CR1, 1u);
+    /* Let the models boot (1.2 ms), then read IDENTIFICATION__MODEL_ID's index first. */
+    T.cycles += twin_ps_to_cycles(&T, 5000000000ull);
+    const uint64_t t0 = twin_now_ps(&T);
+    w32(I2C_CR2, (0x29u << 1) | (1u << 10) | (1u << 16) | (1u << 25) | (1u << 13));
+    uint32_t isr = 0;
+    for (int i = 0; i < 100 && (isr & (1u << 2)) == 0u; ++i) {
+        isr = r32(I2C_ISR); /* each poll jumps to the next bus event */
+    }
+    CHECK((isr & (1u << 2)) != 0u); /* RXNE */
+    /* START + address + ACK + 8 data bits + ACK: 19 bit times of ~2.2 us at 0x10320309. */
+    const uint64_t dt_ns = (twin_now_ps(&T) - t0) / 1000u;
+    CHECK(dt_ns > 19u * 2000u && dt_ns < 19u * 3000u);
+    (void)r32(I2C_RXDR);
+    for (int i = 0; i < 100 && (isr & (1u << 5)) == 0u; ++i) {
+        isr = r32(I2C_ISR);
+    }
+    CHECK((isr & (1u << 5)) != 0u);  /* STOPF after AUTOEND */
+    CHECK((isr & (1u << 15)) == 0u); /* BUSY cleared */
+    CHECK(T.stop == TWIN_RUNNING);
+}
+
+static void test_systick_counts_cycles(void) {
+    fresh(true);
+    w32(SYST_RVR, 999u);
+    w32(SYST_CVR, 0u);
+    w32(SYST_CSR, 7u);
+    CHECK(r32(SYST_CVR) == 0u);
+    T.cycles += 1u;
+    CHECK(r32(SYST_CVR) == 999u);
+    T.cycles += 999u;
+    twin_systick_update(&T);
+    CHECK((T.scs.pending & (1u << 15)) != 0u); /* the wrap pends SysTick */
+    CHECK((r32(SYST_CSR) & (1u << 16)) != 0u); /* COUNTFLAG, cleared by the read */
+    CHECK((r32(SYST_CSR) & (1u << 16)) == 0u);
+}
+
+static void test_clock_switch_waits_for_ready(void) {
+    fresh(true);
+    w32(RCC_CFGR, 1u); /* HSI16 not on: the switch does not happen */
+    CHECK((r32(RCC_CFGR) & 0xCu) == 0u);
+    CHECK(T.sysclk_hz == TWIN_MSI_HZ);
+    w32(RCC_CR, r32(RCC_CR) | (1u << 8));
+    CHECK((r32(RCC_CR) & (1u << 10)) != 0u); /* the ready poll jumps to HSIRDY */
+    w32(RCC_CFGR, 1u);
+    CHECK((r32(RCC_CFGR) & 0xCu) == 0x4u);
+    CHECK(T.sysclk_hz == TWIN_HSI16_HZ);
+}
+
+static void test_reserved_address_is_a_violation(void) {
+    fresh(true);
+    (void)r32(0x40010000u); /* SYSCFG: not modelled */
+    CHECK(T.stop == TWIN_STOP_VIOLATION);
+    fresh(false);
+    (void)r32(0x40010000u); /* lenient: a warning only */
+    CHECK(T.stop == TWIN_RUNNING);
+}
+
+int main(void) {
+    test_unclocked_peripheral_is_a_violation();
+    test_timingr_with_pe_set_is_a_violation();
+    test_start_during_a_transfer_is_a_violation();
+    test_read_paced_by_timingr();
+    test_systick_counts_cycles();
+    test_clock_switch_waits_for_ready();
+    test_reserved_address_is_a_violation();
+    twin_free(&T);
+    if (failures != 0) {
+        fprintf(stderr, "%d checks failed\n", failures);
+        return 1;
+    }
+    puts("twin models: all checks passed");
+    return 0;
+}
