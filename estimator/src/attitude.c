@@ -199,11 +199,17 @@ static void finish_status(struct attitude_estimate *e, bool alpha_ok, bool beta_
     }
 }
 
-/* sqrt(a² + b²) of two 1σ in µdeg, saturating, at least 1 (a claimed sd is never 0). */
-static int32_t hypot_udeg(int32_t a, int32_t b) {
-    const uint64_t a2 = (uint64_t)((int64_t)a * a);
-    const uint64_t b2 = (uint64_t)((int64_t)b * b);
-    const uint64_t sum = a2 > UINT64_MAX - b2 ? UINT64_MAX : a2 + b2;
+/* sqrt(a² + b² + c²) of three 1σ in µdeg, saturating, at least 1 (a claimed sd is never
+ * 0): one square root for the three parts of an angle's sd. */
+static int32_t hypot3_udeg(int32_t a, int32_t b, int32_t c) {
+    const int64_t a2s = (int64_t)a * a;
+    const int64_t b2s = (int64_t)b * b;
+    const int64_t c2s = (int64_t)c * c;
+    const uint64_t a2 = (uint64_t)a2s;
+    const uint64_t b2 = (uint64_t)b2s;
+    const uint64_t c2 = (uint64_t)c2s;
+    uint64_t sum = a2 > UINT64_MAX - b2 ? UINT64_MAX : a2 + b2;
+    sum = sum > UINT64_MAX - c2 ? UINT64_MAX : sum + c2;
     const uint32_t root = fix_isqrt_u64(sum);
     return root == 0u ? 1 : (root > (uint32_t)INT32_MAX ? INT32_MAX : (int32_t)root);
 }
@@ -237,14 +243,10 @@ static void settle(const struct attitude_state *st, struct attitude_estimate *e,
     e->beta_sd_udeg = 0;
     e->distance_sd_um = 0;
     if (e->alpha_valid) {
-        e->alpha_sd_udeg = hypot_udeg(
-            hypot_udeg(white_alpha_udeg, angle_sd(st, iw->extra_var_mm2[INTEGRITY_ALPHA], 0u)),
-            extra_alpha_udeg);
+        e->alpha_sd_udeg = hypot3_udeg(white_alpha_udeg, st->extra_udeg[0], extra_alpha_udeg);
     }
     if (e->beta_valid) {
-        e->beta_sd_udeg = hypot_udeg(
-            hypot_udeg(white_beta_udeg, angle_sd(st, iw->extra_var_mm2[INTEGRITY_BETA], 1u)),
-            extra_beta_udeg);
+        e->beta_sd_udeg = hypot3_udeg(white_beta_udeg, st->extra_udeg[1], extra_beta_udeg);
     }
     if (e->distance_valid) {
         const fix_q32_t var =
@@ -526,9 +528,10 @@ static int32_t kalman_lag_udeg(const struct attitude_state *st,
         *moved = true;
         return INT32_MAX;
     }
-    const uint64_t var = (uint64_t)((int64_t)product->sigma_udeg * product->sigma_udeg) +
-                         (uint64_t)(lag_sd * lag_sd) +
-                         (uint64_t)((int64_t)kalman_sigma_udeg * kalman_sigma_udeg);
+    const int64_t p2 = (int64_t)product->sigma_udeg * product->sigma_udeg;
+    const int64_t k2 = (int64_t)kalman_sigma_udeg * kalman_sigma_udeg;
+    const int64_t var_s = fix_sat_add_s64(fix_sat_add_s64(p2, lag_sd * lag_sd), k2);
+    const uint64_t var = (uint64_t)var_s;
     const uint64_t k = st->cfg.motion_sigmas_q8;
     /* d² > k²·var with k in Q8: compare d·256 against k·sqrt(var) */
     if (d * 256u > k * fix_isqrt_u64(var)) {
@@ -632,6 +635,9 @@ FIX_NOINLINE void window_end(struct attitude_state *st, struct attitude_output *
     /* the drift learning takes one window per block of N rows (every window when tumbling) */
     integrity_assess(&st->integrity, &st->icfg, &st->window, w, st->rows % cfg->window == 0u,
                      &st->iw);
+    /* what the window adds to every estimator's angles, as 1σ: computed once */
+    st->extra_udeg[0] = angle_sd(st, st->iw.extra_var_mm2[INTEGRITY_ALPHA], 0u);
+    st->extra_udeg[1] = angle_sd(st, st->iw.extra_var_mm2[INTEGRITY_BETA], 1u);
     out->last_row = st->rows - 1u;
     out->first_row = st->rows - cfg->window;
     out->rows = cfg->window;
@@ -800,14 +806,18 @@ static bool why_append(char *buf, size_t cap, size_t *len, const char *name, cha
         return false;
     }
     if (*len != 0u) {
-        buf[(*len)++] = '+';
+        buf[*len] = '+';
+        (*len)++;
     }
     for (const char *c = name; *c != '\0'; ++c) {
-        buf[(*len)++] = *c;
+        buf[*len] = *c;
+        (*len)++;
     }
     if (sensor != '\0') {
-        buf[(*len)++] = ':';
-        buf[(*len)++] = sensor;
+        buf[*len] = ':';
+        (*len)++;
+        buf[*len] = sensor;
+        (*len)++;
     }
     buf[*len] = '\0';
     return true;

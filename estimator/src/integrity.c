@@ -5,7 +5,7 @@
 
 /* 1/12 mm² (the variance of 1 mm rounding) and 1/4 mm² in Q32. */
 #define Q32_TWELFTH ((fix_q32_t)357913941)
-#define Q32_QUARTER ((fix_q32_t)1 << 30)
+#define Q32_QUARTER ((fix_q32_t)1073741824)
 
 bool integrity_config_valid(const struct integrity_config *cfg) {
     return cfg->range_max_mm != 0u && cfg->range_max_mm < INTEGRITY_NO_TARGET_8190 &&
@@ -19,18 +19,9 @@ void integrity_init(struct integrity_state *st) {
 }
 
 static bool implausible(uint16_t mm, uint16_t range_max_mm) {
-    return mm == 0u || mm > range_max_mm; /* 8190, 8191, 65535 lie above any valid max */
-}
-
-uint8_t integrity_implausible(const uint16_t range_mm[ANGLES_SENSORS], uint8_t present_mask,
-                              uint16_t range_max_mm) {
-    uint8_t m = 0;
-    for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
-        if ((present_mask & (1u << k)) != 0u && implausible(range_mm[k], range_max_mm)) {
-            m = (uint8_t)(m | (1u << k));
-        }
-    }
-    return m;
+    /* 0 or above the max (8190, 8191, 65535 lie above any valid max) in one unsigned
+     * comparison: 0 − 1 wraps to 65535 */
+    return (uint16_t)(mm - 1u) >= range_max_mm;
 }
 
 /* Least-squares coefficients of an axis over a sensor set, in units of 1/2 (α, β: y =
@@ -50,12 +41,36 @@ static int axis_coeffs(enum integrity_axis axis, uint8_t used, int8_t c[ANGLES_S
     int row = -1;
     int unit = 1;
     if (axis == INTEGRITY_ALPHA) {
-        row = (a && cc) ? 0 : (cc && b && d) ? 1 : (a && b && d) ? 2 : -1;
+        if (a && cc) {
+            row = 0;
+        } else if (cc && b && d) {
+            row = 1;
+        } else if (a && b && d) {
+            row = 2;
+        } else {
+            row = -1;
+        }
     } else if (axis == INTEGRITY_BETA) {
-        row = (b && d) ? 3 : (a && b && cc) ? 4 : (a && cc && d) ? 5 : -1;
+        if (b && d) {
+            row = 3;
+        } else if (a && b && cc) {
+            row = 4;
+        } else if (a && cc && d) {
+            row = 5;
+        } else {
+            row = -1;
+        }
     } else {
         unit = 2;
-        row = (a && b && cc && d) ? 6 : (a && cc) ? 7 : (b && d) ? 8 : -1;
+        if (a && b && cc && d) {
+            row = 6;
+        } else if (a && cc) {
+            row = 7;
+        } else if (b && d) {
+            row = 8;
+        } else {
+            row = -1;
+        }
     }
     if (row < 0) {
         return -1;
@@ -82,8 +97,9 @@ bool integrity_axis_var(enum integrity_axis axis, uint8_t used, const fix_q32_t 
 
 /* v² > k²·var for v in Q32 mm, var in Q32 mm², k in Q8: exact in 128 bits. */
 static bool beyond(fix_q32_t v, fix_q32_t var, uint16_t k_q8) {
-    const fix_s128 v2 = fix_s128_mul(v, v);                                          /* Q64 */
-    const fix_s128 lim = fix_s128_shl(fix_s128_mul((int64_t)k_q8 * k_q8, var), 16u); /* Q64 */
+    const fix_s128 v2 = fix_s128_mul(v, v); /* Q64 */
+    const fix_s128 lim =
+        fix_s128_shl(fix_s128_mul((int64_t)k_q8 * (int64_t)k_q8, var), 16u); /* Q64 */
     return fix_s128_cmp(v2, lim) > 0;
 }
 
@@ -92,52 +108,66 @@ static fix_q32_t square_q32(fix_q32_t v) {
     return fix_s128_to_s64(fix_s128_shr_round(fix_s128_mul(v, v), FIX_Q32_SHIFT), NULL);
 }
 
-/* Per-sensor sums of the used readings against their row index (0 = oldest). */
-struct ramp_sums {
-    int64_t n, si, sii, sx, six;
-    int64_t tail_n[2], tail_sx[2]; /* the newest N/8 and N/4 rows: a late step */
-};
-
 /* The ring pass: per-sensor reasons of the readings the window holds, and the ramp sums
  * of the readings the window statistics used (valid and inside the gate). */
 static attitude_why_t scan_rows(const struct integrity_config *cfg, const struct window_state *w,
-                                const struct window_stats *s, struct ramp_sums r[ANGLES_SENSORS]) {
+                                const struct window_stats *s,
+                                struct integrity_ramp_sums r[ANGLES_SENSORS]) {
     attitude_why_t why = 0;
     uint16_t idx = w->oldest;
-    const uint16_t tail_from[2] = {(uint16_t)(w->fill - (w->fill + 7u) / 8u),
-                                   (uint16_t)(w->fill - (w->fill + 3u) / 4u)};
-    for (uint16_t i = 0; i < w->fill; ++i) {
+    const uint32_t eighth = ((uint32_t)w->fill + 7u) / 8u;
+    const uint32_t quarter = ((uint32_t)w->fill + 3u) / 4u;
+    const int32_t tail8 = (int32_t)w->fill - (int32_t)eighth;
+    const int32_t tail4 = (int32_t)w->fill - (int32_t)quarter;
+    int32_t centre[ANGLES_SENSORS];
+    int32_t half[ANGLES_SENSORS];
+    for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
+        centre[k] = s->sensor[k].median_x2_mm;
+        half[k] = s->sensor[k].gate_x2_mm != 0 ? s->sensor[k].gate_x2_mm : INT32_MAX;
+    }
+    for (int32_t i = 0; i < (int32_t)w->fill; ++i) {
         const struct window_row *row = &w->ring[idx];
         idx = (uint16_t)(idx + 1u == w->cfg.length ? 0u : idx + 1u);
-        const uint8_t present = window_row_present(row);
         const uint8_t valid = window_row_valid(row);
+        if (valid != ANGLES_ALL_SENSORS) { /* the rare row: say why each reading is unused */
+            const uint8_t present = window_row_present(row);
+            for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
+                const uint16_t x = row->range_mm[k];
+                if ((valid & (1u << k)) != 0u) {
+                    continue;
+                }
+                if ((present & (1u << k)) == 0u) {
+                    why |= ATTITUDE_WHY_MISSING(k);
+                } else if (x == INTEGRITY_NO_TARGET_8190 || x == INTEGRITY_NO_TARGET_8191 ||
+                           x == INTEGRITY_NO_TARGET_65535) {
+                    why |= ATTITUDE_WHY_NO_TARGET(k);
+                } else if (implausible(x, cfg->range_max_mm)) {
+                    why |= ATTITUDE_WHY_RANGE(k);
+                } else {
+                    why |= ATTITUDE_WHY_FLAGGED(k);
+                }
+            }
+        }
+        const int32_t ii = i * i;
         for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
-            const uint8_t bit = (uint8_t)(1u << k);
-            const uint16_t x = row->range_mm[k];
-            if ((present & bit) == 0u) {
-                why |= ATTITUDE_WHY_MISSING(k);
-            } else if (x == INTEGRITY_NO_TARGET_8190 || x == INTEGRITY_NO_TARGET_8191 ||
-                       x == INTEGRITY_NO_TARGET_65535) {
-                why |= ATTITUDE_WHY_NO_TARGET(k);
-            } else if (implausible(x, cfg->range_max_mm)) {
-                why |= ATTITUDE_WHY_RANGE(k);
-            } else if ((valid & bit) == 0u) {
-                why |= ATTITUDE_WHY_FLAGGED(k);
-            } else {
-                int32_t dev = 2 * (int32_t)x - s->sensor[k].median_x2_mm;
-                dev = dev < 0 ? -dev : dev;
-                if (s->sensor[k].gate_x2_mm == 0 || dev <= s->sensor[k].gate_x2_mm) {
-                    r[k].n++;
-                    r[k].si += i;
-                    r[k].sii += (int64_t)i * i;
-                    r[k].sx += x;
-                    r[k].six += (int64_t)i * x;
-                    for (unsigned t = 0; t < 2u; ++t) {
-                        if (i >= tail_from[t]) {
-                            r[k].tail_n[t]++;
-                            r[k].tail_sx[t] += x;
-                        }
-                    }
+            const int32_t x = row->range_mm[k];
+            int32_t dev = 2 * x - centre[k];
+            dev = dev < 0 ? -dev : dev;
+            if ((valid & (1u << k)) == 0u || dev > half[k]) {
+                continue; /* not used by the window statistics (gate: window_stats.c) */
+            }
+            struct integrity_ramp_sums *rk = &r[k];
+            rk->n++;
+            rk->si += i;
+            rk->sii += ii;
+            rk->sx += x;
+            rk->six += i * x;
+            if (i >= tail4) {
+                rk->tail_n[1]++;
+                rk->tail_sx[1] += x;
+                if (i >= tail8) {
+                    rk->tail_n[0]++;
+                    rk->tail_sx[0] += x;
                 }
             }
         }
@@ -145,56 +175,77 @@ static attitude_why_t scan_rows(const struct integrity_config *cfg, const struct
     return why;
 }
 
+/* (v µm)² in Q32 mm²: v² · 2^32 / 10^6 as v² · round(2^52 / 10^6) / 2^20 (relative error
+ * below 10^-10, and no division at the window end). */
+static fix_q32_t um2_to_q32(uint16_t v) {
+    return fix_mul_shr_s64((int64_t)v * (int64_t)v, (int64_t)4503599627, 20u, NULL);
+}
+
+/* v / d for v >= 0 and d in [1, 65535]: the cheap divider (no 64-bit division). */
+static fix_q32_t div_small(fix_q32_t v, int32_t d) {
+    return (fix_q32_t)fix_div_u64_u16((uint64_t)v, (uint32_t)d);
+}
+
 /* A late step of one sensor: the mean of its newest readings (tail t) minus the window
- * mean (Q32 mm), and its variance s²(1/m − 1/n); 0 and 0 without tail readings. */
-static void tail_step(const struct ramp_sums *r, unsigned t, fix_q32_t mean, fix_q32_t s2,
+ * mean (Q32 mm), and its variance s²(1/m − 1/n) = s²(n − m)/(n m); 0 and 0 without tail
+ * readings. n m <= 256 · 64 fits the 16-bit divider; s² (n − m) saturates. */
+static void tail_step(const struct integrity_ramp_sums *r, unsigned t, fix_q32_t mean, fix_q32_t s2,
                       fix_q32_t *step, fix_q32_t *var) {
     *step = 0;
     *var = 0;
-    if (r->tail_n[t] == 0 || r->tail_n[t] >= r->n) {
+    const int32_t m = r->tail_n[t];
+    if (m == 0 || m >= r->n) {
         return;
     }
-    *step = fix_div_round_s64(r->tail_sx[t] << FIX_Q32_SHIFT, r->tail_n[t]) - mean;
-    *var = fix_muldiv_s64(s2, r->n - r->tail_n[t], r->n * r->tail_n[t], NULL);
+    *step = div_small((fix_q32_t)r->tail_sx[t] << FIX_Q32_SHIFT, m) - mean;
+    *var = div_small(fix_sat_mul_s64(s2, r->n - m), r->n * m);
 }
 
 /* Least-squares ramp of one sensor: the fitted value at the last row minus the mean
  * (Q32 mm), and its variance for per-reading variance s2 (Q32 mm²). Fewer than three
- * readings or one index only: no ramp can be told from noise, 0 and 0. */
-static void ramp(const struct ramp_sums *r, int64_t last, fix_q32_t s2, fix_q32_t *lag,
+ * readings or one index only: no ramp can be told from noise, 0 and 0. The divisions by
+ * n·Σ(i − ī)² use its normalised reciprocal (relative error < 2^-28, plenty for a test
+ * statistic), not a 128-bit division: the window end runs this for every sensor. */
+static void ramp(const struct integrity_ramp_sums *r, int64_t last, fix_q32_t s2, fix_q32_t *lag,
                  fix_q32_t *var) {
     *lag = 0;
     *var = 0;
     if (r->n < 3) {
         return;
     }
-    const int64_t sxx = r->n * r->sii - r->si * r->si; /* n Σ(i − ī)², < 2^40 */
+    const int64_t n = r->n;
+    const int64_t sxx = n * r->sii - (int64_t)r->si * r->si; /* n Σ(i − ī)², < 2^40 */
     if (sxx <= 0) {
         return;
     }
-    const int64_t sxy = r->n * r->six - r->si * r->sx; /* |.| < 2^50 */
-    const int64_t m = r->n * last - r->si;             /* n (i_L − ī), < 2^17 */
-    /* lag = slope (i_L − ī) = sxy m / (n sxx); var = s² (i_L − ī)² / Σ(i − ī)² */
-    const fix_s128 num = fix_s128_shl(fix_s128_mul(sxy, m), FIX_Q32_SHIFT);
-    *lag = fix_s128_div_s64(num, r->n * sxx, NULL);
-    *var = fix_muldiv_s64(s2, m * m, r->n * sxx, NULL);
+    const int64_t sxy = n * r->six - (int64_t)r->si * r->sx; /* |.| < 2^38 */
+    const int64_t m = n * last - r->si;                      /* n (i_L − ī), < 2^17 */
+    /* den = n·sxx = dm·2^e, rm ≈ 2^61/dm: x / den · 2^32 = x · rm / 2^(29 + e), e >= -26 */
+    int32_t e = 0;
+    const int64_t den = n * sxx;
+    const uint32_t dm = fix_norm31((uint64_t)den, &e);
+    const int64_t rm = fix_recip31(dm);
+    const int32_t shift_s = 29 + e;
+    const unsigned shift = (unsigned)shift_s;
+    /* lag = slope (i_L − ī) = sxy m / (n sxx); var = s² (i_L − ī)² / Σ(i − ī)² = s² m²/(n sxx) */
+    *lag = fix_mul_shr_s64(sxy * m, rm, shift, NULL);          /* sxy m < 2^55 */
+    const int64_t q = fix_mul_shr_s64(m * m, rm, shift, NULL); /* m²/(n sxx) in Q32, <= 2^34 */
+    *var = fix_mul_shr_s64(s2, q, FIX_Q32_SHIFT, NULL);
 }
 
 void integrity_assess(struct integrity_state *st, const struct integrity_config *cfg,
                       struct window_state *w, const struct window_stats *s, bool learn,
                       struct integrity_window *out) {
     (void)memset(out, 0, sizeof *out);
-    struct ramp_sums r[ANGLES_SENSORS];
-    (void)memset(r, 0, sizeof r);
+    struct integrity_ramp_sums *r =
+        out->ramp; /* zeroed above; in out, not on the window-end stack */
     out->why = scan_rows(cfg, w, s, r);
 
-    const fix_q32_t prior = fix_muldiv_s64(
-        (int64_t)cfg->offset_stability_um * cfg->offset_stability_um, FIX_Q32_ONE, 1000000, NULL);
-    /* three motion statistics per sensor: the ramp, the newest N/8 and N/4 rows */
-    fix_q32_t lag[3][ANGLES_SENSORS];
-    fix_q32_t lag_var[3][ANGLES_SENSORS];
-    (void)memset(lag, 0, sizeof lag);
-    (void)memset(lag_var, 0, sizeof lag_var);
+    const fix_q32_t prior = um2_to_q32(cfg->offset_stability_um);
+    /* three motion statistics per sensor: the ramp, the newest N/8 and N/4 rows (kept in
+     * out, not on the window-end stack) */
+    fix_q32_t(*lag)[ANGLES_SENSORS] = out->motion_mm;
+    fix_q32_t(*lag_var)[ANGLES_SENSORS] = out->motion_var_mm2;
     fix_q32_t white_sum = 0; /* Σ of what the window sees */
     fix_q32_t base_sum = 0;  /* ... plus what is not learnt: the prior and the rounding */
     fix_q32_t total_sum = 0; /* ... plus the learnt drift: the parity residual's variance */
@@ -206,10 +257,12 @@ void integrity_assess(struct integrity_state *st, const struct integrity_config 
         out->used = (uint8_t)(out->used | (1u << k));
         /* a window of identical readings still has the rounding's 1/12 mm² */
         const fix_q32_t s2 = ss->var_mm2 > Q32_TWELFTH ? ss->var_mm2 : Q32_TWELFTH;
-        out->white_mm2[k] = fix_div_round_s64(s2, ss->used);
+        out->white_mm2[k] = div_small(s2, ss->used);
         /* noise under half a step does not dither the rounding: the mean keeps its error */
         const fix_q32_t quant = ss->var_mm2 < Q32_QUARTER ? Q32_TWELFTH : 0;
-        out->extra_mm2[k] = fix_sat_add_s64(fix_sat_add_s64(st->drift_mm2, prior), quant);
+        /* the learnt drift is a mean of unbiased samples that may be negative: never below 0 */
+        const fix_q32_t drift = st->drift_mm2 > 0 ? st->drift_mm2 : 0;
+        out->extra_mm2[k] = fix_sat_add_s64(fix_sat_add_s64(drift, prior), quant);
         white_sum = fix_sat_add_s64(white_sum, out->white_mm2[k]);
         base_sum = fix_sat_add_s64(
             base_sum, fix_sat_add_s64(out->white_mm2[k], fix_sat_add_s64(prior, quant)));
@@ -226,10 +279,10 @@ void integrity_assess(struct integrity_state *st, const struct integrity_config 
     const struct window_sensor_stats *sc = &s->sensor[ANGLES_C];
     const struct window_sensor_stats *sd = &s->sensor[ANGLES_D];
     if (sa->used != 0u && sc->used != 0u) {
-        out->tan_q32[0] = fix_muldiv_s64(sc->mean_mm - sa->mean_mm, 500, cfg->arm_um, NULL);
+        out->tan_q32[0] = fix_div_round_s64((sc->mean_mm - sa->mean_mm) * 500, cfg->arm_um);
     }
     if (sb->used != 0u && sd->used != 0u) {
-        out->tan_q32[1] = fix_muldiv_s64(sb->mean_mm - sd->mean_mm, 500, cfg->arm_um, NULL);
+        out->tan_q32[1] = fix_div_round_s64((sb->mean_mm - sd->mean_mm) * 500, cfg->arm_um);
     }
 
     /* parity: a flat plate gives x_A + x_C − x_B − x_D = 0 whatever its attitude */
@@ -243,10 +296,15 @@ void integrity_assess(struct integrity_state *st, const struct integrity_config 
              * with what was learnt); a larger wander stays a parity failure */
             fix_q32_t sample = fix_asr_s64(square_q32(out->parity_mm) - base_sum, 2u);
             const fix_q32_t limit = fix_asr_s64(
-                fix_muldiv_s64(base_sum, (int64_t)cfg->parity_sigmas_q8 * cfg->parity_sigmas_q8,
-                               (int64_t)1 << 16, NULL),
+                fix_mul_shr_s64(base_sum,
+                                (int64_t)cfg->parity_sigmas_q8 * (int64_t)cfg->parity_sigmas_q8,
+                                16u, NULL),
                 2u);
-            sample = sample < 0 ? 0 : (sample > limit ? limit : sample);
+            /* negative samples are kept: clipping them at 0 would learn drift from white
+             * noise alone (E[max(0, W(χ² − 1))] = 0.48 W); only the upper clip remains, and
+             * a floor of −base/4 bounds one window's pull downwards */
+            const fix_q32_t floor = -fix_asr_s64(base_sum, 2u);
+            sample = sample < floor ? floor : (sample > limit ? limit : sample);
             const uint16_t cap = (uint16_t)(1u << cfg->drift_shift);
             if (st->blocks < cap) {
                 st->blocks++;
@@ -257,8 +315,7 @@ void integrity_assess(struct integrity_state *st, const struct integrity_config 
     if (out->parity_failed) {
         out->why |= ATTITUDE_WHY_PARITY;
     }
-    const int64_t flag_um = cfg->drift_flag_um;
-    if (st->drift_mm2 > fix_muldiv_s64(flag_um * flag_um, FIX_Q32_ONE, 1000000, NULL)) {
+    if (st->drift_mm2 > um2_to_q32(cfg->drift_flag_um)) {
         out->why |= ATTITUDE_WHY_DRIFT;
     }
 

@@ -20,7 +20,7 @@
  *
  * Everything is integer: angles in micro-degrees, distances in micrometres,
  * so the host and a Cortex-M image produce byte-identical text. No heap, no
- * globals: all state lives in the caller's struct attitude_state (about 4.5 KiB
+ * globals: all state lives in the caller's struct attitude_state (about 5 KiB
  * with the default WINDOW_MAX_SAMPLES = 256).
  */
 #ifndef ESTIMATOR_ATTITUDE_H
@@ -195,6 +195,7 @@ struct attitude_state {
     struct integrity_config icfg;
     struct integrity_state integrity; /* learnt drift */
     struct integrity_window iw;       /* scratch: the last window's integrity facts */
+    int32_t extra_udeg[2];            /* ... what they add to α and β, as 1σ in µdeg */
 };
 
 /* Integrity defaults (sources in docs/estimator-design.md "Integrity"):

@@ -76,8 +76,22 @@ struct integrity_config {
 /* What is learnt across windows: the per-sensor drift variance from the parity
  * residual's mean square beyond the white noise the windows themselves predict. */
 struct integrity_state {
-    fix_q32_t drift_mm2; /* per-sensor drift variance, Q32 mm² */
-    uint16_t blocks;     /* blocks learnt, saturating at 2^drift_shift */
+    fix_q32_t
+        drift_mm2;   /* per-sensor drift variance, Q32 mm² (an unbiased mean: may dip below 0) */
+    uint16_t blocks; /* blocks learnt, saturating at 2^drift_shift */
+};
+
+/* Per-sensor sums of the used readings of a window against their row index (0 = the
+ * oldest), for the motion statistics. int32 suffices: i < 256 and a used reading is
+ * plausible (<= 8189 mm), so Σi² < 5.6e6, Σx < 2.1e6 and Σi·x < 5.4e8. */
+struct integrity_ramp_sums {
+    int32_t n;
+    int32_t si;
+    int32_t sii;
+    int32_t sx;
+    int32_t six;
+    int32_t tail_n[2]; /* the newest N/8 and N/4 rows: a late step */
+    int32_t tail_sx[2];
 };
 
 /* The facts of one window, common to every estimator. */
@@ -90,12 +104,15 @@ struct integrity_window {
     fix_q32_t tan_q32[2];                /* slopes for the delta method (0 if unknown) */
     fix_q32_t parity_mm;                 /* x_A + x_C − x_B − x_D of the means (all four) */
     bool parity_failed;
-    fix_q32_t lag_mm[INTEGRITY_AXES];        /* end-of-window minus window-mean, LS ramp */
-    fix_q32_t lag_var_mm2[INTEGRITY_AXES];   /* its white-noise variance */
-    bool moved[INTEGRITY_AXES];              /* lag beyond motion_sigmas: `motion` */
-    fix_q32_t extra_var_mm2[INTEGRITY_AXES]; /* what each axis adds to a window estimator's
-                                               white variance: drift, prior, quantisation,
-                                               a failed parity and a detected motion */
+    fix_q32_t lag_mm[INTEGRITY_AXES];                /* end-of-window minus window-mean, LS ramp */
+    fix_q32_t lag_var_mm2[INTEGRITY_AXES];           /* its white-noise variance */
+    bool moved[INTEGRITY_AXES];                      /* lag beyond motion_sigmas: `motion` */
+    struct integrity_ramp_sums ramp[ANGLES_SENSORS]; /* scratch of the motion statistics */
+    fix_q32_t motion_mm[3][ANGLES_SENSORS];          /* per sensor: ramp lag, newest N/8 and N/4 */
+    fix_q32_t motion_var_mm2[3][ANGLES_SENSORS];     /* ... and their white-noise variances */
+    fix_q32_t extra_var_mm2[INTEGRITY_AXES];         /* what each axis adds to a window estimator's
+                                                       white variance: drift, prior, quantisation,
+                                                       a failed parity and a detected motion */
 };
 
 /* Config fields as attitude_init checks them: true when usable. */
@@ -105,9 +122,19 @@ bool integrity_config_valid(const struct integrity_config *cfg);
 void integrity_init(struct integrity_state *st);
 
 /* The readings of one sample a part cannot give as valid: bit k set when present[k]
- * and range_mm[k] is 0, a no-target value or above range_max_mm. */
-uint8_t integrity_implausible(const uint16_t range_mm[ANGLES_SENSORS], uint8_t present_mask,
-                              uint16_t range_max_mm);
+ * and range_mm[k] is 0, a no-target value or above range_max_mm (< 8190, so the no-target
+ * values are above it). Inline: it runs on every sample. 0 − 1 wraps to 65535, so one
+ * unsigned comparison per reading says 0 or above the max. */
+static inline uint8_t integrity_implausible(const uint16_t range_mm[ANGLES_SENSORS],
+                                            uint8_t present_mask, uint16_t range_max_mm) {
+    uint8_t m = 0;
+    for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
+        if ((uint16_t)(range_mm[k] - 1u) >= range_max_mm) {
+            m = (uint8_t)(m | (1u << k));
+        }
+    }
+    return (uint8_t)(m & present_mask);
+}
 
 /* Window facts from the window's rows (w, as window_compute left it) and statistics s.
  * learn: this window ends a block of N rows, so the drift learning takes it in. */
