@@ -516,6 +516,13 @@ int vl53_configure_begin(struct vl53_dev *dev) {
         err = call_write(&c, dev->address, VL53_REG_DEFAULT_CONFIG_FIRST, block, sizeof block);
     }
     if (err == HAL_OK) {
+        /* A part that kept power across an MCU reset may hold a result nobody cleared; its
+         * data ready would end the VHV wait at once and the stop would cut the VHV range
+         * short. Clear before the start, as the Linux driver's vl53l1x_start_ranging does
+         * (the ULD's SensorInit does not, assuming a part fresh from boot). */
+        err = call_write_byte(&c, VL53_REG_SYSTEM_INTERRUPT_CLEAR, VL53_INTERRUPT_CLEAR);
+    }
+    if (err == HAL_OK) {
         err = call_write_byte(&c, VL53_REG_SYSTEM_MODE_START, VL53_MODE_START_TIMED);
     }
     if (err == HAL_OK) {

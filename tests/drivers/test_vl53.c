@@ -206,6 +206,7 @@ static void test_scripted_bytes_of_init_and_read(void **state) {
         {0x30, 2, {0x01, 0x0F}, 2, {0xEA, 0xCC}}, /* confirmed there */
         {0x30, 3, {0x00, 0x87, 0x00}, 0, {0}},    /* stop */
         {0x30, 93, {0x00, 0x2D, 0x00, 0x01, 0x01, 0x01, 0x02, 0x00, 0x02, 0x08}, 0, {0}},
+        {0x30, 3, {0x00, 0x86, 0x01}, 0, {0}}, /* clear: no stale result ends the VHV wait */
         {0x30, 3, {0x00, 0x87, 0x40}, 0, {0}}, /* the VHV range */
     };
     check_script(log, fx.rig.bus.record_count, begin, sizeof begin / sizeof begin[0]);

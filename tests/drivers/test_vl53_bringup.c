@@ -137,7 +137,11 @@ static void test_bring_up_from_the_i2c_log(void **state) {
         }
         /* The VHV step exactly as the ULD: after the VHV range's start, clear, stop,
          * 0x0008 = 0x09, 0x000B = 0x00, in that order, before continuous ranging. */
-        const size_t clear = find_write(addr, 0x0086u, 0x01u, 0u);
+        /* The interrupt cleared before the VHV range's start (a stale result must not end
+         * its wait), then the VHV step's own clear after it. */
+        const size_t pre_clear = find_write(addr, 0x0086u, 0x01u, 0u);
+        assert_true(pre_clear < vhv_start);
+        const size_t clear = find_write(addr, 0x0086u, 0x01u, 1u);
         size_t stop = CAP_MAX;
         for (unsigned n = 0; n < 4u && stop == CAP_MAX; ++n) {
             const size_t k = find_write(addr, 0x0087u, 0x00u, n);
@@ -405,6 +409,39 @@ static void test_part_that_kept_power_across_an_mcu_reset(void **state) {
     assert_int_equal(r.range_status, VL53_RANGE_VALID);
 }
 
+/* A part that kept power across an MCU reset may have a result pending (the old firmware
+ * never cleared it). The VHV step must wait for its own range (about 100 ms of ST's block
+ * timing), not take the stale data ready for it and stop the VHV range at once. */
+static void test_vhv_step_ignores_a_stale_interrupt(void **state) {
+    (void)state;
+    for (unsigned i = 1; i < DRV_SENSORS; ++i) {
+        fx.rig_cfg.absent[i] = true;
+    }
+    fx.rig_cfg.sensor[0].xshut_wired = false;
+    fx.sensor_cfg[0].xshut_pin = VL53_PIN_NONE;
+    fx.sensor_cfg[0].address = 0x29u;
+    drv_fixture_build(&fx);
+    drv_sleep(&fx, 2000u);
+    assert_int_equal(vl53_attach(&dev, &fx.sensor_cfg[0]), HAL_OK);
+    assert_int_equal(vl53_wait_boot(&dev), HAL_OK);
+    assert_int_equal(vl53_configure(&dev), HAL_OK);
+    assert_int_equal(vl53_start_ranging(&dev), HAL_OK);
+    drv_sleep(&fx, 100000u); /* ranging; nobody clears: the interrupt is pending */
+    struct sim_vl53 *m = &fx.rig.sensor[0];
+    assert_true(m->irq_pending);
+    struct vl53_dev fresh;
+    assert_int_equal(vl53_attach(&fresh, &fx.sensor_cfg[0]), HAL_OK);
+    assert_int_equal(vl53_wait_boot(&fresh), HAL_OK);
+    assert_true(vl53_warm_boot(&fresh));
+    const uint64_t t0 = drv_now(&fx);
+    assert_int_equal(vl53_configure_begin(&fresh), HAL_OK);
+    assert_int_equal(vl53_configure_finish(&fresh), HAL_OK);
+    const uint64_t took = drv_now(&fx) - t0;
+    print_message("configure after a warm reset with a pending interrupt: %llu us\n",
+                  (unsigned long long)took);
+    assert_true(took >= 100000u); /* the VHV range ran to its end */
+}
+
 static void test_non_blocking_recovery(void **state) {
     (void)state;
     assert_int_equal(vl53_array_attach(&fx.array, &fx.array_cfg), HAL_OK);
@@ -453,6 +490,7 @@ int main(void) {
         cmocka_unit_test_setup(test_long_mode_range_limit, setup),
         cmocka_unit_test_setup(test_stream_count_continues_after_a_stop, setup),
         cmocka_unit_test_setup(test_part_that_kept_power_across_an_mcu_reset, setup),
+        cmocka_unit_test_setup(test_vhv_step_ignores_a_stale_interrupt, setup),
         cmocka_unit_test_setup(test_non_blocking_recovery, setup),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -279,7 +279,7 @@ static void test_stop_silences_estimates_and_raw_stream_sends_samples(void **sta
     assert_true(t.raw >= 140u);
 }
 
-/* A sensor reporting its own hardware fault (raw 2, VCSEL watchdog) is re-initialised by
+/* A sensor reporting its own hardware fault (raw 2 VCSEL watchdog, 1, 17) is re-initialised by
  * the fault manager, alone, and the bus is left alone. */
 static void test_sensor_hardware_fault_reinits_that_sensor(void **state) {
     (void)state;
@@ -297,6 +297,18 @@ static void test_sensor_hardware_fault_reinits_that_sensor(void **state) {
     for (unsigned i = 0; i < 4; ++i) {
         assert_int_equal(t.app.health[i].state, TOF_HEALTH_HEALTHY);
     }
+    /* The other two hardware-fault codes (raw 1 VCSEL continuity, 17 multi-clip) take the
+     * same path, each on its own sensor. */
+    sim_vl53_force_results(&t.rig.sensor[0], 1u, 100u, 1u);
+    run_ms(600);
+    sim_vl53_force_results(&t.rig.sensor[3], 17u, 100u, 1u);
+    run_ms(600);
+    assert_int_equal(t.app.counters.reinits_ok, 3u);
+    assert_int_equal(t.app.counters.bus_recoveries, 0u);
+    assert_int_equal(t.rig.bus.stats.recoveries, 0u);
+    assert_int_equal(t.rig.sensor[0].stats.power_ups, 3u);
+    assert_int_equal(t.rig.sensor[1].stats.power_ups, 2u);
+    assert_int_equal(t.rig.sensor[3].stats.power_ups, 3u);
 }
 
 static void test_malformed_frames_are_counted_and_refused(void **state) {
