@@ -167,6 +167,7 @@ int main(void) {
         .time = q.sim.rig.time,
         .log = {.ops = &semihost_log_ops},
         .output = {.ops = &output_ops},
+        .sensor_pads_at_avdd = true, /* as host_sim: the same bus bytes as its replay */
     };
     for (unsigned i = 0; i < 4u; ++i) {
         q.platform.xshut_pin[i] = SIM_RIG_XSHUT_PIN(i);

@@ -272,6 +272,10 @@ int tof_app_init(struct tof_app *app, const struct tof_platform *platform,
             .polarity = VL53_INT_ACTIVE_HIGH,
             .timing = cfg->timing,
             .pads_at_avdd = platform->sensor_pads_at_avdd,
+            /* The part has no CRC: a distance that differs on a 2-byte re-read is refused, so
+             * a flipped bit cannot reach an `ok` window (docs/driver.md "Integrity"; bus
+             * load 14.35 % at 4 x 50 Hz, within the 15 % goal). */
+            .verify_distance = true,
         };
     }
     app->array_cfg = (struct vl53_array_config){.sensors = app->sensor_cfg, .count = TOF_SENSORS};
