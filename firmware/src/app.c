@@ -78,10 +78,10 @@ static uint64_t next_boundary(uint64_t now_us, uint32_t period_us) {
 }
 
 /*
- * Sensors start ranging at a slot boundary, so every sensor's n-th measurement
- * completes in the same slot: samples are simultaneous across the four sensors
- * and slot k is measurement k. A sensor brought up (or back) is stopped and
- * started at the next boundary by tof_app_step().
+ * Sensors start ranging at the same offset into a slot (start_offset_us), so every
+ * sensor's n-th measurement completes in the same slot: samples are simultaneous
+ * across the four sensors and slot k is measurement k. A sensor brought up (or back)
+ * is stopped and started at the next such offset by tof_app_step().
  */
 static void park_until_boundary(struct tof_app *app, unsigned sensor) {
     struct vl53_dev *dev = vl53_array_sensor(&app->array, sensor);
@@ -207,11 +207,30 @@ static bool manage_sensor(struct tof_app *app, unsigned sensor) {
     return true;
 }
 
+/*
+ * Where in a slot the sensors are started. A VL53L1X ends its first range one timing budget
+ * after the start and the next ones a period apart (ST ULD, timed ranging; sim/'s model does
+ * the same), and a reading belongs to the slot it is read in. Started at a boundary, the
+ * readings would end budget_ms into every slot (15 of 20 ms by default) and one read a few
+ * ms late (four reads, a long iteration) would land in the next slot. So the start is one
+ * budget before a boundary plus FIRST_READING_US: every reading ends that far into its slot,
+ * leaving the rest of the slot (and a window's estimate and telemetry in the iteration after
+ * it) before it would be overwritten or mis-slotted.
+ */
+#define FIRST_READING_US 2000u
+
+static uint32_t start_offset_us(const struct tof_app *app) {
+    const uint32_t period_us = app->assembler_cfg.period_us;
+    const uint32_t budget_us = (uint32_t)app->cfg->timing.budget_ms * 1000u % period_us;
+    return (period_us - budget_us + FIRST_READING_US) % period_us;
+}
+
 static void start_pending_sensors(struct tof_app *app) {
     const uint32_t period_us = app->assembler_cfg.period_us;
-    /* Start only in the first part of a slot, so the first measurement ends in this slot's
-     * successor as every other sensor's does. */
-    if (app->uptime_us % period_us > app->cfg->idle_us) {
+    /* Start only in the idle_us after the start offset, so every sensor's readings end in the
+     * same early part of a slot (see start_offset_us). */
+    const uint64_t shifted = app->uptime_us + period_us - start_offset_us(app);
+    if (shifted % period_us > app->cfg->idle_us) {
         return;
     }
     for (unsigned i = 0; i < TOF_SENSORS; ++i) {
@@ -227,11 +246,14 @@ static void start_pending_sensors(struct tof_app *app) {
 }
 
 /*
- * How long an idle iteration sleeps. The sensors start at a slot boundary, so their
- * readings arrive at the same offset into every slot (phase_us, learnt from the last
+ * How long an idle iteration sleeps. The sensors start at the same offset into a slot, so
+ * their readings arrive at the same offset into every slot (phase_us, learnt from the last
  * sample). Once every sensor has reported for the pending slots there is nothing to do
  * until one idle_us before that offset in the next slot: sleep until then. Otherwise
- * poll every idle_us, which bounds the data-ready latency.
+ * poll every idle_us, which bounds the data-ready latency; with a start pending, wake no
+ * later than the opening of its window (start_pending_sensors), which is only idle_us wide:
+ * iterations of idle_us plus their own work, locked to the slot period, could else step
+ * over it slot after slot (seen in the twin: no start for 60 ms, then a re-init).
  */
 static uint32_t idle_time_us(const struct tof_app *app, uint64_t now_us) {
     const uint32_t lead =
@@ -246,6 +268,15 @@ static uint32_t idle_time_us(const struct tof_app *app, uint64_t now_us) {
     if (!waiting && now_us < next_slot && app->assembler.pending[0].present_mask == 0u) {
         const uint64_t gap = next_slot - now_us;
         return gap < app->assembler_cfg.period_us ? (uint32_t)gap : app->assembler_cfg.period_us;
+    }
+    if (waiting) {
+        const uint32_t period_us = app->assembler_cfg.period_us;
+        const uint32_t into = (uint32_t)((now_us + period_us - start_offset_us(app)) % period_us);
+        if (into <= app->cfg->idle_us) {
+            return 0u; /* in the window now: start in the next iteration */
+        }
+        const uint32_t to_window = period_us - into;
+        return to_window < app->cfg->idle_us ? to_window : app->cfg->idle_us;
     }
     return app->cfg->idle_us;
 }
@@ -362,6 +393,11 @@ void tof_app_step(struct tof_app *app, bool idle) {
     }
 }
 
+void tof_app_idle(struct tof_app *app) {
+    app->platform->time.ops->delay_us(app->platform->time.ctx,
+                                      idle_time_us(app, tof_app_now_us(app)));
+}
+
 int tof_app_set_window(struct tof_app *app, uint16_t window, bool sliding) {
     struct attitude_config next = app->estimator.cfg;
     next.window = window;
@@ -448,10 +484,14 @@ int tof_app_main(const struct tof_platform *platform, const struct tof_app_confi
         service->ops->start(service->ctx, app);
     }
     for (uint32_t n = 0; max_iterations == 0u || n < max_iterations; ++n) {
-        tof_app_step(app, true);
+        /* The service right after the work, the sleep last: what the service sends (its
+         * transmit may block) then follows the readings just taken instead of delaying the
+         * ones the sleep waits for. */
+        tof_app_step(app, false);
         if (has_service && service->ops->poll != NULL) {
             service->ops->poll(service->ctx);
         }
+        tof_app_idle(app);
     }
     return HAL_OK;
 }

@@ -100,7 +100,9 @@ static void on_estimate(void *ctx, const struct tof_estimate_record *record) {
         return;
     }
     send_estimates(link, record);
-    send_health(link);
+    if (link->health_polls == 0u) {
+        link->health_polls = 2u; /* not postponed by later estimates (sliding mode) */
+    }
 }
 
 static void on_sample(void *ctx, const struct tof_sample *sample) {
@@ -229,6 +231,9 @@ void tof_link_poll(struct tof_link *link) {
     const size_t n = link->serial.ops->read(link->serial.ctx, buf, sizeof buf);
     const struct tlm_frame_sink sink = {.on_frame = on_frame, .on_reject = on_reject, .ctx = link};
     tlm_decoder_feed(&link->decoder, buf, n, &sink);
+    if (link->health_polls != 0u && --link->health_polls == 0u) {
+        send_health(link);
+    }
 }
 
 static void service_start(void *ctx, struct tof_app *app) {

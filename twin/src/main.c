@@ -55,7 +55,8 @@ struct run {
     struct tlm_decoder dec;
     FILE *est, *uart;
     enum attitude_estimator primary;
-    uint32_t boots; /* status frames seen (one per boot) */
+    uint32_t boots;         /* boots with a status frame */
+    uint32_t status_resets; /* t.stats.resets when the last boot's status frame came */
 
     uint64_t estimates, other_estimates, written, ok_rows;
     uint64_t unflagged_wrong;
@@ -274,6 +275,30 @@ static void on_estimate(struct run *r, const struct tlm_estimate *m) {
     }
 }
 
+/*
+ * A boot's slot 0 in simulated time, as the firmware defines it (firmware/src/app.c,
+ * tof_app_init): the first whole period after the next slot boundary once init is over, the
+ * boundaries being multiples of the period on the firmware's timeline. Its status frame is
+ * sent right after init and carries that timeline's value in ms (tof_link_send_status: the
+ * uptime tof_app_init last read, the one the boundary was computed from); the period being
+ * a whole number of ms, the boundary follows from it exactly. The timeline counts
+ * microseconds from the SysTick enable (boards/stm32/stm32_systick_time.c), which the twin
+ * saw. host_sim reads the same instant from the firmware's assembler (sim_replay_set_origin).
+ */
+static void start_boot(struct run *r, const struct tlm_status *st) {
+    const uint64_t period_ms = st->period_ms;
+    if (period_ms * 1000u != r->w.period_us || r->t.scs.syst_enabled_ps == UINT64_MAX) {
+        twin_stop(&r->t, TWIN_STOP_DONE,
+                  "the firmware's status frame says period_ms %u (the trace: %u)%s: its slots "
+                  "cannot be matched to trace rows",
+                  st->period_ms, r->w.period_us / 1000u,
+                  r->t.scs.syst_enabled_ps == UINT64_MAX ? ", SysTick never enabled" : "");
+        return;
+    }
+    const uint64_t slot0_fw_us = ((uint64_t)st->uptime_ms / period_ms + 2u) * period_ms * 1000u;
+    twin_world_start_boot(&r->w, r->t.scs.syst_enabled_ps / 1000000u + slot0_fw_us);
+}
+
 static void on_frame(void *ctx, const struct tlm_frame *frame) {
     struct run *r = ctx;
     struct tlm_telemetry msg;
@@ -282,9 +307,12 @@ static void on_frame(void *ctx, const struct tlm_frame *frame) {
     }
     switch (msg.type) {
     case TLM_TYPE_STATUS: {
+        if (r->t.stats.resets == r->status_resets) {
+            break; /* a status frame of the same boot (asked for): the slots are known */
+        }
+        r->status_resets = r->t.stats.resets;
         ++r->boots;
-        const uint64_t now_us = twin_now_us(&r->t);
-        twin_world_mark_boot(&r->w, now_us);
+        start_boot(r, &msg.u.status);
         r->command_sent = false;
         if (!r->command_sent && (msg.u.status.window_n != r->a.window ||
                                  (msg.u.status.mode == TLM_WINDOW_SLIDING) != r->a.sliding)) {
@@ -407,7 +435,7 @@ static uint64_t end_us(const struct run *r) {
         return UINT64_MAX;
     }
     /* Every trace row measured, its estimate sent (one health frame is ~20 ms of UART). */
-    return r->w.origin_ms * 1000u + ((uint64_t)r->row_count + 2u) * r->w.period_us + 200000u;
+    return r->w.origin_us + ((uint64_t)r->row_count + 2u) * r->w.period_us + 200000u;
 }
 
 int main(int argc, char **argv) {
@@ -500,6 +528,7 @@ int main(int argc, char **argv) {
     r->t.host_ctx = r;
     r->t.usart.tx_ctx = r;
     tlm_decoder_init(&r->dec, tlm_message_types(TLM_ACCEPT_TELEMETRY));
+    r->status_resets = UINT32_MAX;
     twin_reset(&r->t, true);
 
     const double trace_s = (double)r->row_count * period_ms / 1000.0;

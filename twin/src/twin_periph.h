@@ -116,8 +116,10 @@ uint64_t twin_iwdg_expiry(const struct twin *t);
 /* ---- System control space: SysTick, NVIC, SCB, FPU/MPU storage (ARMv7-M ARM B3) ---- */
 struct twin_scs {
     uint32_t syst_csr, syst_rvr;
-    uint64_t syst_start; /* cycles at which the counter last (re)started from 0 */
-    uint64_t syst_next;  /* cycles of the next wrap to 0 (UINT64_MAX: disabled) */
+    /* Simulated time (ps) of the last enable of the counter (UINT64_MAX: never since reset):
+     * the board's clock counts from it (boards/stm32/stm32_systick_time.c). */
+    uint64_t syst_enabled_ps;
+    uint64_t syst_next; /* cycles of the next wrap to 0 (UINT64_MAX: disabled) */
     bool countflag;
     uint32_t pending; /* bit n: system exception n pending */
     uint32_t vtor, aircr, scr, ccr, shpr[3], shcsr, cfsr, hfsr, mmfar, bfar, cpacr;

@@ -46,6 +46,7 @@
 void twin_scs_reset(struct twin *t) {
     t->scs = (struct twin_scs){0};
     t->scs.syst_next = UINT64_MAX;
+    t->scs.syst_enabled_ps = UINT64_MAX;
     t->scs.ccr = 0x00000200u;   /* STKALIGN (B3.2.8; reset value on the M4) */
     t->scs.aircr = 0xFA050000u; /* VECTKEYSTAT */
     t->scs.fpccr = 0xC0000000u; /* ASPEN | LSPEN */
@@ -220,6 +221,7 @@ void twin_scs_write(struct twin *t, uint32_t addr, uint32_t v) {
             s->syst_csr = v & (CSR_ENABLE | CSR_TICKINT | CSR_CLKSOURCE);
             if (!was && (v & CSR_ENABLE) != 0u) {
                 restart(t); /* counts from the current value, 0 after a CVR write */
+                s->syst_enabled_ps = twin_now_ps(t);
             } else if ((v & CSR_ENABLE) == 0u) {
                 s->syst_next = UINT64_MAX;
             }

@@ -1,5 +1,5 @@
 /* The twin's simulated world: sim_rig's sensor head fed by trace rows, its clock driven by
- * the emulated core's time, and the trace-row origin found from the firmware's own start. */
+ * the emulated core's time, readings mapped to trace rows by the firmware's own slots. */
 #include "twin_world.h"
 
 #include <inttypes.h>
@@ -7,27 +7,19 @@
 
 #include "hal/hal_err.h"
 
-/* The VL53 models index their readings by completion time in milliseconds: the twin maps
- * them to trace rows itself, because the firmware's slot 0 is only known once it ran. */
-#define INDEX_PERIOD_US 1000u
+/* The VL53 models index their readings by completion time in units of INDEX_PERIOD_US; the
+ * twin maps them to trace rows itself, because a boot's slot 0 is only known once the
+ * firmware has run its bring-up. 100 us keeps the 32-bit index unwrapped for 119 h, longer
+ * than the longest trace tof_twin loads (10^7 rows of 20 ms, 56 h), and is far finer than
+ * the distance of a completion from a slot boundary (the sensors start at a boundary and
+ * finish a timing budget later, the budget at least VL53_IMP_MARGIN_MS short of the period). */
+#define INDEX_PERIOD_US 100u
 
 static int row_next(void *ctx, unsigned sensor, uint32_t sample_index, struct sim_range *out) {
     struct twin_world *w = ctx;
-    const uint64_t ms = sample_index;
-    if (!w->armed || ms * 1000u < w->arm_after_us) {
-        *out = (struct sim_range){.present = false}; /* before the firmware's first slot */
-        return 0;
-    }
-    if (!w->origin_set) {
-        w->origin_set = true;
-        w->origin_ms = ms;
-    }
-    const int64_t row = twin_world_row_at_ms(w, ms);
-    if (w->boot_pending && ms * 1000u >= w->boot_after_us) {
-        w->boot_pending = false;
-        w->boot_row = row;
-    }
+    const int64_t row = twin_world_row_at_us(w, (uint64_t)sample_index * INDEX_PERIOD_US);
     if (row < 0) {
+        /* before the boot's first slot: no reading (never used), as sim_replay does it */
         *out = (struct sim_range){.present = false};
         return 0;
     }
@@ -70,26 +62,25 @@ void twin_world_sync(struct twin_world *w, uint64_t now_us) {
     }
 }
 
-void twin_world_arm_origin(struct twin_world *w, uint64_t after_us) {
-    if (!w->armed) {
-        w->armed = true;
-        w->arm_after_us = after_us;
+void twin_world_start_boot(struct twin_world *w, uint64_t slot0_us) {
+    if (!w->origin_set) {
+        w->origin_set = true;
+        w->origin_us = slot0_us;
+        w->boot_row = 0;
+    } else if (slot0_us <= w->origin_us) {
+        w->boot_row = 0; /* not after a reset of the MCU: cannot happen, stay defined */
+    } else {
+        /* the first trace row that begins at or after the new slot 0 */
+        w->boot_row = (int64_t)((slot0_us - w->origin_us + w->period_us - 1u) / w->period_us);
     }
+    w->boot_origin_us = slot0_us;
 }
 
-void twin_world_mark_boot(struct twin_world *w, uint64_t after_us) {
-    twin_world_arm_origin(w, after_us);
-    w->boot_pending = true;
-    w->boot_after_us = after_us;
-}
-
-int64_t twin_world_row_at_ms(const struct twin_world *w, uint64_t ms) {
-    if (!w->origin_set || ms < w->origin_ms) {
+int64_t twin_world_row_at_us(const struct twin_world *w, uint64_t t_us) {
+    if (!w->origin_set || t_us < w->boot_origin_us) {
         return -1;
     }
-    /* The four sensors start within a few hundred microseconds of the slot boundary, so a
-     * row's completions fall in [origin + k·period, origin + k·period + 1 ms]. */
-    return (int64_t)((ms - w->origin_ms) * 1000u / w->period_us);
+    return w->boot_row + (int64_t)((t_us - w->boot_origin_us) / w->period_us);
 }
 
 static void hex(FILE *f, const uint8_t *b, size_t n) {

@@ -1,7 +1,8 @@
 /*
  * What the twin's peripheral models see of the outside world: the sensor head of sim/
  * (four VL53 models on one I²C bus, sim_rig) behind the NUCLEO-L476RG's wiring, fed by a
- * recorded trace, plus the run's bookkeeping (where trace row 0 falls in simulated time).
+ * recorded trace, plus the run's bookkeeping (where trace row 0 and each boot's slot 0 fall
+ * in simulated time).
  */
 #ifndef TWIN_TWIN_WORLD_H
 #define TWIN_TWIN_WORLD_H
@@ -21,39 +22,36 @@ struct twin_world {
     const struct scene_row *rows;
     size_t row_count;
     uint32_t period_us;
-    /* Trace row 0 is the first measurement that completes after `arm_after_us` (the
-     * firmware's boot status frame); its completion millisecond is origin_ms. */
-    bool armed;
-    uint64_t arm_after_us;
+    /* Trace row 0 is the first boot's slot 0, which begins at origin_us of simulated time
+     * (what host_sim gets from the firmware's assembler, sim_replay_set_origin). */
     bool origin_set;
-    uint64_t origin_ms;
-    /* The firmware numbers its slots from 0 at every boot: the trace row of the current
-     * boot's slot 0 is that of the first measurement completing after its status frame. */
-    bool boot_pending;
-    uint64_t boot_after_us;
+    uint64_t origin_us;
+    /* The firmware numbers its slots from 0 at every boot: the current boot's slot 0
+     * begins at boot_origin_us and is trace row boot_row. */
+    uint64_t boot_origin_us;
     int64_t boot_row;
     int source_error;
     FILE *i2c_log;
     uint64_t transfers;
 };
 
-/* Build the rig over `rows` (kept by pointer) with `faults` (NULL: none). */
+/* Build the rig over `rows` (kept by pointer) with `faults` (NULL: none). Until the first
+ * twin_world_start_boot() the models measure nothing (no data ready), as in host_sim. */
 void twin_world_init(struct twin_world *w, const struct scene_row *rows, size_t count,
                      uint32_t period_us, const struct sim_fault_config *faults);
 
 /* Move the simulated world's clock up to `now_us` (never back). */
 void twin_world_sync(struct twin_world *w, uint64_t now_us);
 
-/* The next measurement completing after `after_us` becomes trace row 0 (first call only;
- * later calls, after a reset of the MCU, keep the origin: the world does not rewind). */
-void twin_world_arm_origin(struct twin_world *w, uint64_t after_us);
+/* A boot of the firmware numbers its slots from 0 at `slot0_us` of simulated time: a
+ * measurement completing in [slot0_us + k·period, + period) is the boot's slot k, trace row
+ * boot_row + k; one completing before slot0_us measures nothing. The first boot's slot 0 is
+ * trace row 0; a later boot (after an MCU reset: the world does not rewind) goes on with
+ * the first trace row that begins at or after its slot 0. */
+void twin_world_start_boot(struct twin_world *w, uint64_t slot0_us);
 
-/* A (re)boot of the firmware ended at `after_us`: the next measurement completing after it
- * is the new boot's slot 0 (w->boot_row). The first call also arms the origin. */
-void twin_world_mark_boot(struct twin_world *w, uint64_t after_us);
-
-/* Trace row of a measurement completed at simulated millisecond `ms` (-1 before row 0). */
-int64_t twin_world_row_at_ms(const struct twin_world *w, uint64_t ms);
+/* Trace row of a measurement completed at simulated microsecond `t_us` (-1: none). */
+int64_t twin_world_row_at_us(const struct twin_world *w, uint64_t t_us);
 
 /* One I²C transaction on the simulated bus (hal_err result), logged if asked. */
 int twin_world_transfer(struct twin_world *w, uint8_t addr7, const uint8_t *tx, size_t tx_len,

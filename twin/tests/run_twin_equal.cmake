@@ -1,5 +1,9 @@
 # The demo trace through the twin (strict mode) gives the EST.csv rows host_sim replay
-# gives with the same options: columns t_ms, alpha_deg, beta_deg, distance_mm, status.
+# gives with the same options: every column (t_ms, angles, distance, status, the three sd and
+# why, DESIGN.md §6).
+# Empty fields (no value, an empty why) are list elements too: without CMP0007 NEW, list()
+# drops them and the columns after one shift.
+cmake_policy(SET CMP0007 NEW)
 if(NOT EXISTS "${ELF}")
   message(FATAL_ERROR "twin test: ${ELF} missing: build the m4 preset first "
                       "(cmake --preset m4 && cmake --build --preset m4)")
@@ -21,7 +25,7 @@ function(columns path out)
   file(STRINGS ${path} lines)
   list(GET lines 0 header)
   string(REPLACE "," ";" names "${header}")
-  set(want t_ms alpha_deg beta_deg distance_mm status)
+  set(want t_ms alpha_deg beta_deg distance_mm status alpha_sd_deg beta_sd_deg distance_sd_mm why)
   set(idx "")
   foreach(w IN LISTS want)
     list(FIND names ${w} i)

@@ -101,6 +101,11 @@ const char *tof_app_error_message(const struct tof_app *app, int err);
 /* One bounded main-loop iteration; `idle` true lets it sleep until the next due reading. */
 void tof_app_step(struct tof_app *app, bool idle);
 
+/* The sleep of an idle iteration on its own (tof_app_step(app, false), other work, then
+ * this): until the next due reading, a pending start's window, or idle_us (bounded by one
+ * period). */
+void tof_app_idle(struct tof_app *app);
+
 /*
  * Change the window length and mode at run time (a command): the estimators restart
  * with the next sample. ATTITUDE_ERR_NONE (0), or attitude_init()'s attitude_error

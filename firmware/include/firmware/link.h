@@ -33,6 +33,7 @@ struct tof_link {
     uint32_t tx_dropped;       /* frames the port did not accept whole */
     uint32_t commands_ok;      /* commands applied */
     uint32_t commands_refused; /* valid commands refused in the current state */
+    uint8_t health_polls;      /* polls until the last window's health frame is sent (0: none) */
 };
 
 /* Start a link over `serial`. */
@@ -41,13 +42,18 @@ void tof_link_init(struct tof_link *link, struct hal_serial serial);
 /* Attach the application the commands act on (after tof_app_init). */
 void tof_link_bind(struct tof_link *link, struct tof_app *app);
 
-/* Handle up to TOF_LINK_RX_PER_POLL received bytes: decode, apply, answer. */
+/* Handle up to TOF_LINK_RX_PER_POLL received bytes: decode, apply, answer; send the last
+ * window's health frame when it is due (see tof_link_output_ops). */
 void tof_link_poll(struct tof_link *link);
 
 /* Send a status frame (also the answer to a status request). */
 void tof_link_send_status(struct tof_link *link);
 
-/* Output ops sending estimates, raw samples and a health frame per window (ctx: the link). */
+/* Output ops sending estimates, raw samples and a health frame per window (ctx: the link).
+ * The health frame goes out at the second tof_link_poll() after the window's estimates, i.e.
+ * after the next main-loop iteration: the window's own iteration already carries the
+ * estimation and its estimate frames, and the 151-byte frame (13 ms at 115200 Bd, the
+ * transmit blocks) on top of them made it outlast a 20 ms slot (the twin, docs/boards.md). */
 extern const struct tof_output_ops tof_link_output_ops;
 
 /* tof_app_main() service ops (ctx: the link): start binds it and sends a status frame,
