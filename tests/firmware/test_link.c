@@ -1,6 +1,7 @@
 /*
  * The firmware on the simulated rig, driven over its telemetry link: commands in
- * (set window, select estimator, status request, stop/start, malformed frames),
+ * (set window, select estimator, set process noise, status request, stop/start,
+ * malformed frames),
  * estimates, health and acks out, decoded with the protocol's own decoder.
  */
 #include <setjmp.h>

@@ -161,8 +161,8 @@ struct tlm_ack {
     uint8_t command;  /* type of the command answered (any byte, for unknown types) */
     uint8_t result;   /* enum tlm_result */
     int8_t error;     /* the firmware's own negative code behind a refusal, unchanged (an
-                         attitude_error for set-window and select-estimator); 0 when there
-                         is none, always 0 in an ack */
+                         attitude_error for set-window, select-estimator and
+                         set-process-noise); 0 when there is none, always 0 in an ack */
 };
 
 /* Firmware version and configuration (TLM_TYPE_STATUS). */
