@@ -14,7 +14,8 @@ CSV), counts malformed frames, and optionally plots the estimates.
 
 Commands for --send: "set-window N [tumbling|sliding]", "estimator NAME"
 (consensus, consensus-paper, kalman, mean), "start", "stop", "status",
-"raw on|off".
+"raw on|off", "process-noise QD,QT|auto" (the Kalman filter's random-walk
+intensities in mm^2/s, up to 6 decimals, as host_sim's --process-noise).
 
 Run it with /usr/bin/python3 (Debian's, with python3-serial and
 python3-matplotlib); the pyenv python3 on PATH has neither.
@@ -51,6 +52,7 @@ T_START = 0x83
 T_STOP = 0x84
 T_STATUS_REQUEST = 0x85
 T_RAW_STREAM = 0x86
+T_SET_PROCESS_NOISE = 0x87
 
 # type -> (name, direction, payload length)
 TYPES = {
@@ -65,6 +67,7 @@ TYPES = {
     T_STOP: ("stop", ACCEPT_COMMANDS, 0),
     T_STATUS_REQUEST: ("status-request", ACCEPT_COMMANDS, 0),
     T_RAW_STREAM: ("raw-stream", ACCEPT_COMMANDS, 1),
+    T_SET_PROCESS_NOISE: ("set-process-noise", ACCEPT_COMMANDS, 9),
 }
 
 RESULTS = ["ok", "unknown-type", "bad-length", "out-of-range", "state"]
@@ -86,6 +89,8 @@ HEALTH_STATES = ["healthy", "suspect", "lost", "recovering"]
 MODES = ["tumbling", "sliding"]
 SENSORS = "ABCD"
 WINDOW_MIN, WINDOW_MAX = 2, 255
+PROCESS_NOISE_AUTO = 0x01  # set-process-noise flags; every other bit is out of range
+UM2_PER_MM2 = 1000000      # set-process-noise intensities travel in um^2/s (u32)
 NO_VALUE = -(2 ** 31)  # INT32_MIN: "no value" in an int32 estimate field
 
 COUNTER_NAMES = ["frames_ok", "bad_crc", "bad_length", "unknown_type", "truncated",
@@ -319,6 +324,12 @@ def _raw_stream(p):
     return p[0] <= 1, {"enable": p[0]}
 
 
+def _set_process_noise(p):
+    qd, qt, flags = struct.unpack("<IIB", p)
+    return (flags & ~PROCESS_NOISE_AUTO) == 0, {"qd_um2_per_s": qd, "qt_um2_per_s": qt,
+                                                "auto": flags & PROCESS_NOISE_AUTO}
+
+
 def _empty(_p):
     return True, {}
 
@@ -326,7 +337,8 @@ def _empty(_p):
 PARSERS = {T_ESTIMATE: _estimate, T_RAW_SAMPLE: _raw, T_HEALTH: _health, T_ACK: _ack,
            T_STATUS: _status, T_SET_WINDOW: _set_window,
            T_SELECT_ESTIMATOR: _select_estimator, T_START: _empty, T_STOP: _empty,
-           T_STATUS_REQUEST: _empty, T_RAW_STREAM: _raw_stream}
+           T_STATUS_REQUEST: _empty, T_RAW_STREAM: _raw_stream,
+           T_SET_PROCESS_NOISE: _set_process_noise}
 
 
 def parse(ftype, payload):
@@ -446,6 +458,10 @@ def format_message(ftype, seq, m):
         return head + "select-estimator estimator=%s" % ESTIMATORS[m["estimator"]]
     if ftype == T_RAW_STREAM:
         return head + "raw-stream enable=%s" % ("on" if m["enable"] else "off")
+    if ftype == T_SET_PROCESS_NOISE:
+        return head + "set-process-noise qd_mm2_per_s=%s qt_mm2_per_s=%s auto=%s" % (
+            format_intensity(m["qd_um2_per_s"]), format_intensity(m["qt_um2_per_s"]),
+            "yes" if m["auto"] else "no")
     return head + name
 
 
@@ -458,7 +474,25 @@ def format_counters(counters):
     return "# " + " ".join("%s=%d" % (k, counters[k]) for k in COUNTER_NAMES)
 
 
+def format_intensity(um2_per_s):
+    """um^2/s as exact mm^2/s text with six decimals (no float rounding)."""
+    return "%d.%06d" % divmod(um2_per_s, UM2_PER_MM2)
+
+
 # --- commands from text (--send) ---------------------------------------------
+
+def parse_intensity(text):
+    """mm^2/s text ("0.5", "12", "0.000001") as whole um^2/s, or None: exact decimal,
+    at most six places, at most 4294.967295 (a u32 of um^2/s on the wire)."""
+    whole, point, frac = text.partition(".")
+    if not whole.isdigit() or (point and not frac.isdigit()) or not text.isascii():
+        return None
+    frac = frac.rstrip("0")
+    if len(frac) > 6:
+        return None  # finer than 1 um^2/s
+    value = int(whole, 10) * UM2_PER_MM2 + int((frac or "0").ljust(6, "0"), 10)
+    return value if value <= 0xFFFFFFFF else None
+
 
 def command_payload(text):
     """(type, payload) of a command line such as "set-window 50 sliding"."""
@@ -499,8 +533,18 @@ def command_payload(text):
         if args[0].lower() not in ("on", "off"):
             raise ProtocolError("'%s': raw takes on or off, got '%s'" % (text, args[0]))
         return T_RAW_STREAM, bytes([1 if args[0].lower() == "on" else 0])
-    raise ProtocolError("unknown command '%s' (set-window, estimator, start, stop, status, raw)"
-                        % verb)
+    if verb in ("process-noise", "set-process-noise"):
+        expect(1, 1, "process-noise QD,QT|auto")
+        if args[0].lower() == "auto":
+            return T_SET_PROCESS_NOISE, struct.pack("<IIB", 0, 0, PROCESS_NOISE_AUTO)
+        parts = args[0].split(",")
+        values = [parse_intensity(v) for v in parts] if len(parts) == 2 else [None]
+        if None in values:
+            raise ProtocolError("'%s': expected QD,QT (mm^2/s, decimals up to 4294.967295, at "
+                                "most 6 places) or auto, got '%s'" % (text, args[0]))
+        return T_SET_PROCESS_NOISE, struct.pack("<IIB", values[0], values[1], 0)
+    raise ProtocolError("unknown command '%s' (set-window, estimator, start, stop, status, raw, "
+                        "process-noise)" % verb)
 
 
 def encode_commands(texts, first_seq=0):

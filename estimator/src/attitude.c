@@ -97,18 +97,6 @@ int attitude_init(struct attitude_state *st, const struct attitude_config *cfg) 
     if (!integrity_config_valid(&icfg)) {
         return ATTITUDE_ERR_INTEGRITY;
     }
-    (void)memset(st, 0, sizeof *st);
-    st->cfg = *cfg;
-    st->icfg = icfg;
-    integrity_init(&st->integrity);
-    st->kalman_rows_since_restart = UINT32_MAX;
-    const struct window_config wcfg = {.arm_um = cfg->arm_um,
-                                       .length = cfg->window,
-                                       .gate_sigmas_q8 = cfg->gate_sigmas_q8,
-                                       .gate_floor_mm = cfg->gate_floor_mm};
-    if (window_init(&st->window, &wcfg) != WINDOW_OK) {
-        return ATTITUDE_ERR_WINDOW; /* unreachable: checked above */
-    }
     struct kalman_config kcfg;
     (void)memset(&kcfg, 0, sizeof kcfg);
     for (unsigned i = 0; i < KALMAN_STATES; ++i) {
@@ -122,7 +110,9 @@ int attitude_init(struct attitude_state *st, const struct attitude_config *cfg) 
     kcfg.warmup_rows = cfg->kalman_warmup_rows;
     kcfg.noise_shift = cfg->kalman_noise_shift;
     kcfg.process_noise_auto = cfg->kalman_process_noise_auto;
-    switch (kalman_init(&st->kalman, &kcfg)) {
+    /* every check before the state is touched: a refusal changes nothing (a run-time
+     * command re-initialising with a new setting keeps the old one) */
+    switch (kalman_config_check(&kcfg)) {
     case KALMAN_OK:
         break;
     case KALMAN_ERR_PROCESS_NOISE:
@@ -135,6 +125,19 @@ int attitude_init(struct attitude_state *st, const struct attitude_config *cfg) 
     default:
         return ATTITUDE_ERR_KALMAN_NOISE_SHIFT;
     }
+    (void)memset(st, 0, sizeof *st);
+    st->cfg = *cfg;
+    st->icfg = icfg;
+    integrity_init(&st->integrity);
+    st->kalman_rows_since_restart = UINT32_MAX;
+    const struct window_config wcfg = {.arm_um = cfg->arm_um,
+                                       .length = cfg->window,
+                                       .gate_sigmas_q8 = cfg->gate_sigmas_q8,
+                                       .gate_floor_mm = cfg->gate_floor_mm};
+    if (window_init(&st->window, &wcfg) != WINDOW_OK) {
+        return ATTITUDE_ERR_WINDOW; /* unreachable: checked above */
+    }
+    (void)kalman_init(&st->kalman, &kcfg); /* checked above */
     return ATTITUDE_ERR_NONE;
 }
 

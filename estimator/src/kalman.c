@@ -21,7 +21,7 @@ static bool tracking(const struct kalman_state *k) {
 
 static void r_changed(struct kalman_state *k);
 
-int kalman_init(struct kalman_state *k, const struct kalman_config *cfg) {
+int kalman_config_check(const struct kalman_config *cfg) {
     for (unsigned i = 0; i < KALMAN_STATES; ++i) {
         if (cfg->process_noise_mm2[i] < 0 || cfg->process_noise_mm2[i] > KALMAN_P0_MM2_Q32 ||
             (KALMAN_TRACKING_BUILT == 0 && cfg->process_noise_mm2[i] != 0)) {
@@ -42,6 +42,14 @@ int kalman_init(struct kalman_state *k, const struct kalman_config *cfg) {
     }
     if (cfg->process_noise_auto && KALMAN_TRACKING_BUILT == 0) {
         return KALMAN_ERR_AUTO;
+    }
+    return KALMAN_OK;
+}
+
+int kalman_init(struct kalman_state *k, const struct kalman_config *cfg) {
+    const int rc = kalman_config_check(cfg);
+    if (rc != KALMAN_OK) {
+        return rc;
     }
     (void)memset(k, 0, sizeof *k);
     k->cfg = *cfg;

@@ -407,6 +407,19 @@ int tof_app_set_window(struct tof_app *app, uint16_t window, bool sliding) {
     return attitude_init(&app->estimator, &next);
 }
 
+int tof_app_set_process_noise(struct tof_app *app, uint32_t qd_um2_per_s, uint32_t qt_um2_per_s,
+                              bool automatic) {
+    struct attitude_config next = app->estimator.cfg;
+    const int rc = tof_estimator_process_noise(&next, app->assembler_cfg.period_us, qd_um2_per_s,
+                                               qt_um2_per_s, automatic);
+    if (rc != ATTITUDE_ERR_NONE) {
+        return rc;
+    }
+    /* attitude_init() checks the whole configuration before it touches the state (the
+     * Kalman filter's Q included): a refusal changes nothing. */
+    return attitude_init(&app->estimator, &next);
+}
+
 int tof_app_set_primary(struct tof_app *app, enum attitude_estimator primary) {
     /* only an estimator that runs (selected in the configuration, built into the image) */
     if ((unsigned)primary >= (unsigned)ATTITUDE_EST_COUNT ||

@@ -100,17 +100,27 @@ int tof_app_config_for_replay(struct tof_app_config *cfg, int32_t arm_um, uint32
     return tof_app_config_check(cfg) == NULL ? HAL_OK : HAL_ERR_INVALID;
 }
 
+int tof_estimator_process_noise(struct attitude_config *est, uint32_t period_us,
+                                uint32_t qd_um2_per_s, uint32_t qt_um2_per_s, bool automatic) {
+    const uint32_t q[3] = {qd_um2_per_s, qt_um2_per_s, qt_um2_per_s};
+    uint32_t per_row[3];
+    for (unsigned i = 0; i < 3u; ++i) {
+        const uint64_t row = ((uint64_t)q[i] * period_us + 500000u) / 1000000u;
+        if (row > UINT32_MAX || (q[i] != 0u && row == 0u)) {
+            return ATTITUDE_ERR_KALMAN_PROCESS_NOISE; /* never a silent Q = 0 */
+        }
+        per_row[i] = (uint32_t)row;
+    }
+    for (unsigned i = 0; i < 3u; ++i) {
+        est->kalman_process_noise_um2[i] = per_row[i];
+    }
+    est->kalman_process_noise_auto = automatic;
+    return ATTITUDE_ERR_NONE;
+}
+
 int tof_app_config_process_noise(struct tof_app_config *cfg, uint32_t qd_um2_per_s,
                                  uint32_t qt_um2_per_s, bool automatic) {
-    const uint64_t period_us = vl53_period_us(&cfg->timing);
-    const uint32_t q[3] = {qd_um2_per_s, qt_um2_per_s, qt_um2_per_s};
-    for (unsigned i = 0; i < 3u; ++i) {
-        const uint64_t per_row = ((uint64_t)q[i] * period_us + 500000u) / 1000000u;
-        if (per_row > UINT32_MAX || (q[i] != 0u && per_row == 0u)) {
-            return HAL_ERR_INVALID;
-        }
-        cfg->estimator.kalman_process_noise_um2[i] = (uint32_t)per_row;
-    }
-    cfg->estimator.kalman_process_noise_auto = automatic;
-    return HAL_OK;
+    const int rc = tof_estimator_process_noise(&cfg->estimator, vl53_period_us(&cfg->timing),
+                                               qd_um2_per_s, qt_um2_per_s, automatic);
+    return rc == ATTITUDE_ERR_NONE ? HAL_OK : HAL_ERR_INVALID;
 }

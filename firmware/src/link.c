@@ -155,8 +155,10 @@ static uint8_t estimator_result(int err) {
     if (err == ATTITUDE_ERR_NONE) {
         return TLM_RESULT_OK;
     }
-    return err == ATTITUDE_ERR_WINDOW || err == ATTITUDE_ERR_MODE ? TLM_RESULT_OUT_OF_RANGE
-                                                                  : TLM_RESULT_STATE;
+    return err == ATTITUDE_ERR_WINDOW || err == ATTITUDE_ERR_MODE ||
+                   err == ATTITUDE_ERR_KALMAN_PROCESS_NOISE
+               ? TLM_RESULT_OUT_OF_RANGE
+               : TLM_RESULT_STATE;
 }
 
 /* Apply a validated command; returns the result code to answer with and sets *error to
@@ -172,6 +174,11 @@ static uint8_t apply(struct tof_link *link, const struct tlm_command *cmd, int *
     case TLM_TYPE_SELECT_ESTIMATOR:
         /* the parser checked the range: a refusal is an estimator that does not run */
         *error = tof_app_set_primary(app, (enum attitude_estimator)cmd->u.estimator);
+        return estimator_result(*error);
+    case TLM_TYPE_SET_PROCESS_NOISE:
+        *error = tof_app_set_process_noise(
+            app, cmd->u.process_noise.qd_um2_per_s, cmd->u.process_noise.qt_um2_per_s,
+            (cmd->u.process_noise.flags & TLM_PROCESS_NOISE_AUTO) != 0u);
         return estimator_result(*error);
     case TLM_TYPE_START:
         tof_app_set_running(app, true);

@@ -1,6 +1,7 @@
 /*
  * The firmware on the simulated rig, driven over its telemetry link: commands in
- * (set window, select estimator, status request, stop/start, malformed frames),
+ * (set window, select estimator, set process noise, status request, stop/start,
+ * malformed frames),
  * estimates, health and acks out, decoded with the protocol's own decoder.
  */
 #include <setjmp.h>
@@ -467,6 +468,71 @@ static void test_estimate_frames_carry_the_estimators_sd_and_why(void **state) {
     }
 }
 
+/* Set-process-noise reaches the application and the Kalman filter runs the new Q (the
+ * intensities times the 20 ms period, as --process-noise QD,QT gives them at init); a value
+ * the estimator refuses is nacked with its own code and changes nothing. */
+static void test_set_process_noise_changes_the_filters_q(void **state) {
+    (void)state;
+    assert_false(t.app.estimator.kalman.process_noise); /* the default: Q = 0 */
+    struct tlm_command cmd = {.type = TLM_TYPE_SET_PROCESS_NOISE};
+    cmd.u.process_noise.qd_um2_per_s = 2000000u; /* 2 mm²/s */
+    cmd.u.process_noise.qt_um2_per_s = 500000u;  /* 0.5 mm²/s */
+    push_command(&cmd, 1);
+    run_ms(100);
+    decode_output();
+    assert_int_equal(t.acks, 1);
+    assert_int_equal(t.nacks, 0);
+    assert_int_equal(t.last_ack_command, TLM_TYPE_SET_PROCESS_NOISE);
+    /* Q per row: 2 mm²/s · 0.02 s = 0.04 mm², 0.5 mm²/s · 0.02 s = 0.01 mm² */
+    assert_int_equal(t.app.estimator.cfg.kalman_process_noise_um2[0], 40000u);
+    assert_int_equal(t.app.estimator.cfg.kalman_process_noise_um2[1], 10000u);
+    assert_int_equal(t.app.estimator.cfg.kalman_process_noise_um2[2], 10000u);
+    assert_true(t.app.estimator.kalman.process_noise);
+    fix_q32_t q[KALMAN_STATES];
+    kalman_process_noise(&t.app.estimator.kalman, q);
+    assert_int_equal(q[0], (fix_q32_t)(((40000ll << 32) + 500000) / 1000000)); /* rounded */
+    assert_int_equal(q[1], (fix_q32_t)(((10000ll << 32) + 500000) / 1000000));
+    assert_int_equal(q[2], q[1]);
+
+    /* 1 µm²/s is 0.02 µm² per row: it would round to Q = 0, a silent change of setting */
+    cmd.u.process_noise.qd_um2_per_s = 1u;
+    push_command(&cmd, 2);
+    /* auto: accepted (the host builds the tracking form, as the flight image does) */
+    cmd.u.process_noise.qd_um2_per_s = 0u;
+    cmd.u.process_noise.qt_um2_per_s = 0u;
+    cmd.u.process_noise.flags = TLM_PROCESS_NOISE_AUTO;
+    push_command(&cmd, 3);
+    t.serial.tx_len = 0; /* decode only what answers commands 2 and 3 */
+    t.acks = 0;
+    run_ms(100);
+    decode_output();
+    assert_int_equal(t.nacks, 1);
+    assert_int_equal(t.last_nack_result, TLM_RESULT_OUT_OF_RANGE);
+    assert_int_equal(t.last_nack_error, ATTITUDE_ERR_KALMAN_PROCESS_NOISE); /* unchanged */
+    assert_int_equal(t.acks, 1);
+    assert_true(t.app.estimator.cfg.kalman_process_noise_auto);
+    assert_int_equal(t.app.estimator.cfg.kalman_process_noise_um2[0], 0u);
+    assert_int_equal(t.link.commands_refused, 1);
+}
+
+/* The application refuses what the estimator refuses, before it touches the state: the
+ * filter keeps its Q and the windows their rows. */
+static void test_refused_process_noise_changes_nothing(void **state) {
+    (void)state;
+    assert_int_equal(tof_app_set_process_noise(&t.app, 3000000u, 0u, false), ATTITUDE_ERR_NONE);
+    run_ms(40 * 20);
+    static struct attitude_state before;
+    memcpy(&before, &t.app.estimator, sizeof before);
+    assert_true(before.rows > 0u);
+    /* 0.02 µm² per row for either intensity: each would round to Q = 0 */
+    assert_int_equal(tof_app_set_process_noise(&t.app, 1u, 0u, false),
+                     ATTITUDE_ERR_KALMAN_PROCESS_NOISE);
+    assert_int_equal(tof_app_set_process_noise(&t.app, 0u, 1u, true),
+                     ATTITUDE_ERR_KALMAN_PROCESS_NOISE);
+    assert_memory_equal(&before, &t.app.estimator, sizeof before);
+    assert_int_equal(t.app.estimator.cfg.kalman_process_noise_um2[0], 60000u);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup(test_default_windows_report_a_parallel_plate, setup),
@@ -480,6 +546,8 @@ int main(void) {
         cmocka_unit_test_setup(test_main_runs_the_link_as_a_service, setup),
         cmocka_unit_test_setup(test_estimate_frames_carry_the_estimators_sd_and_why,
                                setup_no_target),
+        cmocka_unit_test_setup(test_set_process_noise_changes_the_filters_q, setup),
+        cmocka_unit_test_setup(test_refused_process_noise_changes_nothing, setup),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

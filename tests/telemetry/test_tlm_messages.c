@@ -141,8 +141,11 @@ static void test_every_type_has_its_documented_length(void **state) {
     assert_int_equal(tlm_type_payload_length(TLM_TYPE_HEALTH, TLM_ACCEPT_COMMANDS), -1);
     assert_int_equal(tlm_type_payload_length(TLM_TYPE_SET_WINDOW, TLM_ACCEPT_ALL), 3);
     assert_int_equal(tlm_type_payload_length(0x00, TLM_ACCEPT_ALL), -1);
-    assert_int_equal(tlm_type_payload_length(0x87, TLM_ACCEPT_ALL), -1);
+    assert_int_equal(tlm_type_payload_length(TLM_TYPE_SET_PROCESS_NOISE, TLM_ACCEPT_COMMANDS), 9);
+    assert_int_equal(tlm_type_payload_length(TLM_TYPE_SET_PROCESS_NOISE, TLM_ACCEPT_TELEMETRY), -1);
+    assert_int_equal(tlm_type_payload_length(0x88, TLM_ACCEPT_ALL), -1);
     assert_true(tlm_type_is_command(TLM_TYPE_RAW_STREAM));
+    assert_true(tlm_type_is_command(TLM_TYPE_SET_PROCESS_NOISE));
     assert_false(tlm_type_is_command(TLM_TYPE_ACK));
 }
 
@@ -663,31 +666,82 @@ static void test_raw_stream_command(void **state) {
     assert_int_equal(c.bad_length, 1);
 }
 
+static void test_set_process_noise_command(void **state) {
+    (void)state;
+    struct tlm_command cmd;
+    struct tlm_rx_counters c;
+    memset(&c, 0, sizeof c);
+    /* qd 0.5 mm²/s = 500000 µm²/s, qt 0xFFFFFFFF µm²/s (the largest), no flags */
+    const uint8_t fixed[9] = {0x20, 0xA1, 0x07, 0x00, 0xFF, 0xFF, 0xFF, 0xFF, 0x00};
+    assert_int_equal(parse_bytes(TLM_TYPE_SET_PROCESS_NOISE, fixed, 9, &cmd, &c), TLM_RESULT_OK);
+    assert_int_equal(cmd.type, TLM_TYPE_SET_PROCESS_NOISE);
+    assert_int_equal(cmd.u.process_noise.qd_um2_per_s, 500000u);
+    assert_int_equal(cmd.u.process_noise.qt_um2_per_s, UINT32_MAX);
+    assert_int_equal(cmd.u.process_noise.flags, 0);
+    const uint8_t automatic[9] = {0, 0, 0, 0, 0, 0, 0, 0, TLM_PROCESS_NOISE_AUTO};
+    assert_int_equal(parse_bytes(TLM_TYPE_SET_PROCESS_NOISE, automatic, 9, &cmd, &c),
+                     TLM_RESULT_OK);
+    assert_int_equal(cmd.u.process_noise.flags, TLM_PROCESS_NOISE_AUTO);
+    assert_int_equal(cmd.u.process_noise.qd_um2_per_s, 0u);
+    /* every undefined flag bit is out of range, not ignored */
+    for (unsigned bit = 1; bit < 8u; ++bit) {
+        uint8_t bad[9] = {0};
+        bad[8] = (uint8_t)(1u << bit);
+        assert_int_equal(parse_bytes(TLM_TYPE_SET_PROCESS_NOISE, bad, 9, &cmd, &c),
+                         TLM_RESULT_OUT_OF_RANGE);
+    }
+    assert_int_equal(parse_bytes(TLM_TYPE_SET_PROCESS_NOISE, fixed, 8, &cmd, &c),
+                     TLM_RESULT_BAD_LENGTH);
+    const uint8_t ten[10] = {0};
+    assert_int_equal(parse_bytes(TLM_TYPE_SET_PROCESS_NOISE, ten, 10, &cmd, &c),
+                     TLM_RESULT_BAD_LENGTH);
+    assert_int_equal(parse_bytes(TLM_TYPE_SET_PROCESS_NOISE, NULL, 9, &cmd, &c),
+                     TLM_RESULT_BAD_LENGTH);
+    assert_int_equal(c.out_of_range, 7);
+    assert_int_equal(c.bad_length, 3);
+
+    /* the encoder writes exactly that layout, and refuses undefined flags */
+    memset(&cmd, 0, sizeof cmd);
+    cmd.type = TLM_TYPE_SET_PROCESS_NOISE;
+    cmd.u.process_noise.qd_um2_per_s = 500000u;
+    cmd.u.process_noise.qt_um2_per_s = UINT32_MAX;
+    uint8_t out[TLM_FRAME_MAX];
+    assert_int_equal(tlm_encode_command(7, &cmd, out, sizeof out), 9 + 7);
+    assert_int_equal(out[3], TLM_TYPE_SET_PROCESS_NOISE);
+    assert_memory_equal(&out[TLM_HEADER_SIZE], fixed, 9);
+    cmd.u.process_noise.flags = 0x02;
+    assert_int_equal(tlm_encode_command(7, &cmd, out, sizeof out), HAL_ERR_INVALID);
+    cmd.u.process_noise.flags = 0x81;
+    assert_int_equal(tlm_encode_command(7, &cmd, out, sizeof out), HAL_ERR_INVALID);
+    cmd.u.process_noise.flags = TLM_PROCESS_NOISE_AUTO;
+    assert_int_equal(tlm_encode_command(7, &cmd, out, 9 + 6), HAL_ERR_INVALID); /* no room */
+}
+
 static void test_unknown_commands(void **state) {
     (void)state;
     struct tlm_command cmd;
     struct tlm_rx_counters c;
     memset(&c, 0, sizeof c);
-    /* Every byte that is not one of the six command types is an unknown command,
+    /* Every byte that is not one of the seven command types is an unknown command,
      * telemetry types included. */
     unsigned unknown = 0;
     for (unsigned type = 0; type <= 0xFF; ++type) {
         const enum tlm_result r = parse_bytes((uint8_t)type, NULL, 0, &cmd, NULL);
-        if (type >= TLM_TYPE_SET_WINDOW && type <= TLM_TYPE_RAW_STREAM) {
+        if (type >= TLM_TYPE_SET_WINDOW && type <= TLM_TYPE_SET_PROCESS_NOISE) {
             assert_int_not_equal(r, TLM_RESULT_UNKNOWN_TYPE);
         } else {
             assert_int_equal(r, TLM_RESULT_UNKNOWN_TYPE);
             unknown++;
         }
     }
-    assert_int_equal(unknown, 250);
+    assert_int_equal(unknown, 249);
     assert_int_equal(parse_bytes(TLM_TYPE_ESTIMATE, NULL, 0, &cmd, &c), TLM_RESULT_UNKNOWN_TYPE);
     assert_int_equal(c.unknown_type, 1);
 }
 
 static void test_commands_round_trip_through_the_firmware_decoder(void **state) {
     (void)state;
-    struct tlm_command cmds[8];
+    struct tlm_command cmds[10];
     memset(cmds, 0, sizeof cmds);
     cmds[0].type = TLM_TYPE_SET_WINDOW;
     cmds[0].u.set_window.window_n = 100;
@@ -704,9 +758,15 @@ static void test_commands_round_trip_through_the_firmware_decoder(void **state) 
     cmds[6].u.raw_enable = true;
     cmds[7].type = TLM_TYPE_RAW_STREAM;
     cmds[7].u.raw_enable = false;
-    uint8_t stream[8 * 10];
+    cmds[8].type = TLM_TYPE_SET_PROCESS_NOISE;
+    cmds[8].u.process_noise.qd_um2_per_s = 1234567u;
+    cmds[8].u.process_noise.qt_um2_per_s = 89u;
+    cmds[9].type = TLM_TYPE_SET_PROCESS_NOISE;
+    cmds[9].u.process_noise.qd_um2_per_s = UINT32_MAX;
+    cmds[9].u.process_noise.flags = TLM_PROCESS_NOISE_AUTO;
+    uint8_t stream[10 * 16];
     size_t n = 0;
-    for (size_t i = 0; i < 8; ++i) {
+    for (size_t i = 0; i < 10; ++i) {
         const int k = tlm_encode_command((uint8_t)i, &cmds[i], &stream[n], sizeof stream - n);
         assert_true(k > 0);
         n += (size_t)k;
@@ -716,8 +776,8 @@ static void test_commands_round_trip_through_the_firmware_decoder(void **state) 
     const struct tlm_frame_sink sink = recorder_sink(&rec);
     tlm_decoder_init(&dec, tlm_message_types(TLM_ACCEPT_COMMANDS));
     tlm_decoder_feed(&dec, stream, n, &sink);
-    assert_int_equal(rec.frame_count, 8);
-    for (size_t i = 0; i < 8; ++i) {
+    assert_int_equal(rec.frame_count, 10);
+    for (size_t i = 0; i < 10; ++i) {
         const struct tlm_frame frame = recorder_frame(&rec, i);
         struct tlm_command got;
         assert_int_equal(tlm_parse_command(&frame, &got, &dec.counters), TLM_RESULT_OK);
@@ -730,9 +790,15 @@ static void test_commands_round_trip_through_the_firmware_decoder(void **state) 
             assert_int_equal(got.u.estimator, cmds[i].u.estimator);
         } else if (got.type == TLM_TYPE_RAW_STREAM) {
             assert_int_equal(got.u.raw_enable, cmds[i].u.raw_enable);
+        } else if (got.type == TLM_TYPE_SET_PROCESS_NOISE) {
+            assert_int_equal(got.u.process_noise.qd_um2_per_s,
+                             cmds[i].u.process_noise.qd_um2_per_s);
+            assert_int_equal(got.u.process_noise.qt_um2_per_s,
+                             cmds[i].u.process_noise.qt_um2_per_s);
+            assert_int_equal(got.u.process_noise.flags, cmds[i].u.process_noise.flags);
         }
     }
-    assert_int_equal(dec.counters.frames_ok, 8);
+    assert_int_equal(dec.counters.frames_ok, 10);
     assert_int_equal(dec.counters.out_of_range, 0);
 }
 
@@ -775,6 +841,7 @@ int main(void) {
         cmocka_unit_test(test_select_estimator_command),
         cmocka_unit_test(test_empty_commands),
         cmocka_unit_test(test_raw_stream_command),
+        cmocka_unit_test(test_set_process_noise_command),
         cmocka_unit_test(test_unknown_commands),
         cmocka_unit_test(test_commands_round_trip_through_the_firmware_decoder),
         cmocka_unit_test(test_encode_command_validates),

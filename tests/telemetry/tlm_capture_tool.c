@@ -310,6 +310,13 @@ static void build(struct builder *b) {
     cmd.type = TLM_TYPE_RAW_STREAM;
     cmd.u.raw_enable = true;
     add_command(b, &cmd);
+    memset(&cmd, 0, sizeof cmd);
+    cmd.type = TLM_TYPE_SET_PROCESS_NOISE;
+    cmd.u.process_noise.qd_um2_per_s = 4294967295u; /* 4294.967295 mm²/s, the largest */
+    cmd.u.process_noise.qt_um2_per_s = 10000u;      /* 0.01 mm²/s */
+    add_command(b, &cmd);
+    cmd.u.process_noise.flags = TLM_PROCESS_NOISE_AUTO;
+    add_command(b, &cmd);
 
     /* Malformed 7: the capture ends inside a frame (truncated at the flush). */
     m = estimate(12000, TLM_ESTIMATOR_MEAN, 5, 6, 7);

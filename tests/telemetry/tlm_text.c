@@ -88,6 +88,8 @@ static const char *command_name(uint8_t type) {
         return "status-request";
     case TLM_TYPE_RAW_STREAM:
         return "raw-stream";
+    case TLM_TYPE_SET_PROCESS_NOISE:
+        return "set-process-noise";
     default:
         return NULL;
     }
@@ -197,6 +199,16 @@ void tlm_text_command(FILE *out, uint8_t seq, const struct tlm_command *cmd) {
         break;
     case TLM_TYPE_RAW_STREAM:
         fprintf(out, " enable=%s", cmd->u.raw_enable ? "on" : "off");
+        break;
+    case TLM_TYPE_SET_PROCESS_NOISE: /* um²/s printed exactly as mm²/s, six decimals */
+        fprintf(out,
+                " qd_mm2_per_s=%" PRIu32 ".%06" PRIu32 " qt_mm2_per_s=%" PRIu32 ".%06" PRIu32
+                " auto=%s",
+                cmd->u.process_noise.qd_um2_per_s / 1000000u,
+                cmd->u.process_noise.qd_um2_per_s % 1000000u,
+                cmd->u.process_noise.qt_um2_per_s / 1000000u,
+                cmd->u.process_noise.qt_um2_per_s % 1000000u,
+                (cmd->u.process_noise.flags & TLM_PROCESS_NOISE_AUTO) != 0u ? "yes" : "no");
         break;
     default:
         break;

@@ -71,12 +71,30 @@ class EncodeTest(unittest.TestCase):
                          (t.T_SELECT_ESTIMATOR, b"\x01"))
         self.assertEqual(t.command_payload("raw off"), (t.T_RAW_STREAM, b"\x00"))
         self.assertEqual(t.command_payload("status"), (t.T_STATUS_REQUEST, b""))
+        # QD 0.5 mm^2/s = 500000 um^2/s, QT 4294.967295 (the u32 maximum), flags 0
+        self.assertEqual(t.command_payload("process-noise 0.5,4294.967295"),
+                         (t.T_SET_PROCESS_NOISE,
+                          b"\x20\xa1\x07\x00\xff\xff\xff\xff\x00"))
+        self.assertEqual(t.command_payload("set-process-noise 2,0.000001"),
+                         (t.T_SET_PROCESS_NOISE, struct.pack("<IIB", 2000000, 1, 0)))
+        self.assertEqual(t.command_payload("process-noise auto"),
+                         (t.T_SET_PROCESS_NOISE, bytes(8) + b"\x01"))
+        ftype, payload = t.command_payload("process-noise 1.25,0.0100")
+        fields, result = t.parse(ftype, payload)
+        self.assertEqual(result, t.R_OK)
+        self.assertEqual(t.format_message(ftype, 4, fields),
+                         "seq=4 set-process-noise qd_mm2_per_s=1.250000 "
+                         "qt_mm2_per_s=0.010000 auto=no")
 
     def test_bad_commands_name_the_problem(self):
         cases = {"set-window 1": "2..255", "set-window 256": "2..255",
                  "set-window x": "not an integer", "set-window 5 zigzag": "tumbling or sliding",
                  "estimator best": "one of", "raw 2": "on or off", "start now": "usage",
-                 "fly": "unknown command", "": "empty"}
+                 "fly": "unknown command", "": "empty",
+                 "process-noise 1": "QD,QT", "process-noise 1,2,3": "QD,QT",
+                 "process-noise 0.0000001,1": "QD,QT", "process-noise 4294.967296,0": "QD,QT",
+                 "process-noise -1,0": "QD,QT", "process-noise 1e3,0": "QD,QT",
+                 "process-noise ,1": "QD,QT", "process-noise": "usage"}
         for text, fragment in cases.items():
             with self.assertRaises(t.ProtocolError, msg=text) as ctx:
                 t.command_payload(text)
@@ -133,6 +151,10 @@ class DecoderTest(unittest.TestCase):
         self.assertEqual(t.parse(t.T_SET_WINDOW, b"\x00\x01\x00")[1], t.R_OUT_OF_RANGE)
         self.assertEqual(t.parse(t.T_SELECT_ESTIMATOR, b"\x04")[1], t.R_OUT_OF_RANGE)
         self.assertEqual(t.parse(t.T_RAW_STREAM, b"\x02")[1], t.R_OUT_OF_RANGE)
+        for flags in (0x02, 0x80, 0xFF):
+            self.assertEqual(t.parse(t.T_SET_PROCESS_NOISE, bytes(8) + bytes([flags]))[1],
+                             t.R_OUT_OF_RANGE)
+        self.assertEqual(t.parse(t.T_SET_PROCESS_NOISE, bytes(8))[1], t.R_BAD_LENGTH)
         self.assertEqual(t.parse(t.T_START, b"\x00")[1], t.R_BAD_LENGTH)
         self.assertEqual(t.parse(0x42, b"")[1], t.R_UNKNOWN_TYPE)
         ok_with_reason = estimate_payload(why=1)

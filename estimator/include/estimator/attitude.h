@@ -241,7 +241,8 @@ struct attitude_state {
 void attitude_config_default(struct attitude_config *cfg);
 
 /* Checks cfg and starts st. Returns ATTITUDE_ERR_NONE or the attitude_error
- * naming the bad field; st is unusable after an error. */
+ * naming the bad field; every check comes before st is touched, so after an error st
+ * is as it was (a running estimator keeps running; a fresh one is still unusable). */
 int attitude_init(struct attitude_state *st, const struct attitude_config *cfg);
 
 /* Message naming what is wrong for an attitude_error code ("" for none). */

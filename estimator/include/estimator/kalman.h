@@ -147,7 +147,11 @@ struct kalman_result {
     fix_q32_t p_mm2[KALMAN_STATES][KALMAN_STATES]; /* the covariance itself */
 };
 
-/* Checks cfg (a kalman_error naming the bad field) and resets the filter. */
+/* KALMAN_OK, or the kalman_error naming cfg's bad field; touches no state, so a caller
+ * can refuse a configuration before it resets anything. */
+int kalman_config_check(const struct kalman_config *cfg);
+
+/* Checks cfg (kalman_config_check()) and resets the filter. */
 int kalman_init(struct kalman_state *k, const struct kalman_config *cfg);
 
 /* Forgets the state (diffuse prior, warm-up again) but keeps the learned R:

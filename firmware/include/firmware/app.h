@@ -113,6 +113,19 @@ void tof_app_idle(struct tof_app *app);
  */
 int tof_app_set_window(struct tof_app *app, uint16_t window, bool sliding);
 
+/*
+ * Change the Kalman filter's process noise at run time (the set-process-noise command):
+ * random-walk intensities qd (x̄) and qt (a·tan α, a·tan β) in µm²/s, `automatic` to let
+ * the filter learn Q (starting there) and R, as tof_app_config_process_noise() takes them
+ * at init. The estimators restart with the next sample, as after tof_app_set_window().
+ * ATTITUDE_ERR_NONE, or the estimator's attitude_error unchanged with nothing changed:
+ * ATTITUDE_ERR_KALMAN_PROCESS_NOISE for an intensity that rounds to 0 or overflows Q per
+ * row at this sample period, and for any Q > 0 or `automatic` in an image built without
+ * the tracking form (cmake/TofOptions.cmake).
+ */
+int tof_app_set_process_noise(struct tof_app *app, uint32_t qd_um2_per_s, uint32_t qt_um2_per_s,
+                              bool automatic);
+
 /* Choose the primary estimator: ATTITUDE_ERR_NONE, or ATTITUDE_ERR_ESTIMATORS (nothing
  * changed) for an unknown one or one that does not run (not in the configuration's set,
  * or not built into the image), the estimator's own code for that. */

@@ -51,4 +51,14 @@ int tof_app_config_for_replay(struct tof_app_config *cfg, int32_t arm_um, uint32
 int tof_app_config_process_noise(struct tof_app_config *cfg, uint32_t qd_um2_per_s,
                                  uint32_t qt_um2_per_s, bool automatic);
 
+/*
+ * The same conversion into an estimator configuration `est` at sample period `period_us`
+ * (the run-time command's path, tof_app_set_process_noise()): ATTITUDE_ERR_NONE, or
+ * ATTITUDE_ERR_KALMAN_PROCESS_NOISE with `est` unchanged when a non-zero intensity rounds
+ * to 0 per row or a Q per row exceeds 2^32 µm². Whether the image can run that Q is
+ * attitude_init()'s to say.
+ */
+int tof_estimator_process_noise(struct attitude_config *est, uint32_t period_us,
+                                uint32_t qd_um2_per_s, uint32_t qt_um2_per_s, bool automatic);
+
 #endif /* FIRMWARE_CONFIG_H */

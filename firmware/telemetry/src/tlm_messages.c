@@ -26,6 +26,7 @@ static const struct type_info type_table[] = {
     {TLM_TYPE_STOP, TLM_ACCEPT_COMMANDS, TLM_LEN_STOP},
     {TLM_TYPE_STATUS_REQUEST, TLM_ACCEPT_COMMANDS, TLM_LEN_STATUS_REQUEST},
     {TLM_TYPE_RAW_STREAM, TLM_ACCEPT_COMMANDS, TLM_LEN_RAW_STREAM},
+    {TLM_TYPE_SET_PROCESS_NOISE, TLM_ACCEPT_COMMANDS, TLM_LEN_SET_PROCESS_NOISE},
 };
 
 #define TYPE_COUNT (sizeof type_table / sizeof type_table[0])
@@ -466,6 +467,13 @@ static enum tlm_result parse_status(struct reader *r, struct tlm_status *m) {
 
 /* --- commands ------------------------------------------------------------- */
 
+/* The protocol's range of set-process-noise: only the defined flag bits. The intensities
+ * are any uint32; what Q per row they give at the sample period is the estimator's to
+ * accept or refuse (the nack then carries its code). */
+static bool process_noise_is_valid(uint8_t flags) {
+    return (flags & ~TLM_PROCESS_NOISE_AUTO) == 0u;
+}
+
 int tlm_encode_command(uint8_t seq, const struct tlm_command *cmd, uint8_t *out, size_t cap) {
     if (cmd == NULL || out == NULL) {
         return HAL_ERR_INVALID;
@@ -491,6 +499,14 @@ int tlm_encode_command(uint8_t seq, const struct tlm_command *cmd, uint8_t *out,
         break;
     case TLM_TYPE_RAW_STREAM:
         put_u8(&w, cmd->u.raw_enable ? 1u : 0u);
+        break;
+    case TLM_TYPE_SET_PROCESS_NOISE:
+        if (!process_noise_is_valid(cmd->u.process_noise.flags)) {
+            return HAL_ERR_INVALID;
+        }
+        put_u32(&w, cmd->u.process_noise.qd_um2_per_s);
+        put_u32(&w, cmd->u.process_noise.qt_um2_per_s);
+        put_u8(&w, cmd->u.process_noise.flags);
         break;
     default: /* start, stop, status request: no payload */
         break;
@@ -526,6 +542,14 @@ enum tlm_result tlm_parse_command(const struct tlm_frame *frame, struct tlm_comm
             break;
         case TLM_TYPE_RAW_STREAM:
             if (!get_bool(&r, &out->u.raw_enable)) {
+                result = TLM_RESULT_OUT_OF_RANGE;
+            }
+            break;
+        case TLM_TYPE_SET_PROCESS_NOISE:
+            out->u.process_noise.qd_um2_per_s = get_u32(&r);
+            out->u.process_noise.qt_um2_per_s = get_u32(&r);
+            out->u.process_noise.flags = get_u8(&r);
+            if (!process_noise_is_valid(out->u.process_noise.flags)) {
                 result = TLM_RESULT_OUT_OF_RANGE;
             }
             break;

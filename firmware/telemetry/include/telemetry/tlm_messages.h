@@ -34,20 +34,22 @@ enum tlm_type {
     TLM_TYPE_STOP = 0x84,
     TLM_TYPE_STATUS_REQUEST = 0x85,
     TLM_TYPE_RAW_STREAM = 0x86,
+    TLM_TYPE_SET_PROCESS_NOISE = 0x87,
 };
 
 /* Fixed payload length of each type, in bytes. */
-#define TLM_LEN_ESTIMATE         47u
-#define TLM_LEN_RAW_SAMPLE       17u
-#define TLM_LEN_HEALTH           144u
-#define TLM_LEN_ACK              4u
-#define TLM_LEN_STATUS           16u
-#define TLM_LEN_SET_WINDOW       3u
-#define TLM_LEN_SELECT_ESTIMATOR 1u
-#define TLM_LEN_START            0u
-#define TLM_LEN_STOP             0u
-#define TLM_LEN_STATUS_REQUEST   0u
-#define TLM_LEN_RAW_STREAM       1u
+#define TLM_LEN_ESTIMATE          47u
+#define TLM_LEN_RAW_SAMPLE        17u
+#define TLM_LEN_HEALTH            144u
+#define TLM_LEN_ACK               4u
+#define TLM_LEN_STATUS            16u
+#define TLM_LEN_SET_WINDOW        3u
+#define TLM_LEN_SELECT_ESTIMATOR  1u
+#define TLM_LEN_START             0u
+#define TLM_LEN_STOP              0u
+#define TLM_LEN_STATUS_REQUEST    0u
+#define TLM_LEN_RAW_STREAM        1u
+#define TLM_LEN_SET_PROCESS_NOISE 9u
 
 #define TLM_SENSOR_COUNT    4u /* A, B, C, D; bit i of a sensor mask is sensor i */
 #define TLM_SENSOR_MASK_ALL 0x0Fu
@@ -58,6 +60,9 @@ enum tlm_type {
 /* Window length limits of the set-window command and the status message. */
 #define TLM_WINDOW_MIN 2u
 #define TLM_WINDOW_MAX 255u
+
+/* Flags of the set-process-noise command; every other bit is out of range. */
+#define TLM_PROCESS_NOISE_AUTO 0x01u /* the filter learns Q (from qd, qt) and R itself */
 
 enum tlm_estimator {
     TLM_ESTIMATOR_CONSENSUS = 0,       /* the product's default */
@@ -156,8 +161,8 @@ struct tlm_ack {
     uint8_t command;  /* type of the command answered (any byte, for unknown types) */
     uint8_t result;   /* enum tlm_result */
     int8_t error;     /* the firmware's own negative code behind a refusal, unchanged (an
-                         attitude_error for set-window and select-estimator); 0 when there
-                         is none, always 0 in an ack */
+                         attitude_error for set-window, select-estimator and
+                         set-process-noise); 0 when there is none, always 0 in an ack */
 };
 
 /* Firmware version and configuration (TLM_TYPE_STATUS). */
@@ -186,7 +191,7 @@ struct tlm_telemetry {
 
 /* A decoded command, tagged by `type`; the firmware applies it. */
 struct tlm_command {
-    uint8_t type; /* TLM_TYPE_SET_WINDOW .. TLM_TYPE_RAW_STREAM */
+    uint8_t type; /* TLM_TYPE_SET_WINDOW .. TLM_TYPE_SET_PROCESS_NOISE */
     union {
         struct {
             uint16_t window_n; /* TLM_WINDOW_MIN..TLM_WINDOW_MAX */
@@ -194,6 +199,14 @@ struct tlm_command {
         } set_window;
         uint8_t estimator; /* TLM_TYPE_SELECT_ESTIMATOR: enum tlm_estimator */
         bool raw_enable;   /* TLM_TYPE_RAW_STREAM */
+        /* TLM_TYPE_SET_PROCESS_NOISE: the Kalman filter's random-walk intensities in
+         * um²/s, i.e. mm²/s with six decimals fixed (1 mm²/s = 1000000), the units of
+         * tof_app_config_process_noise() and host_sim's --process-noise QD,QT: */
+        struct {
+            uint32_t qd_um2_per_s; /* of the mean distance x̄ */
+            uint32_t qt_um2_per_s; /* of a·tan α and a·tan β */
+            uint8_t flags;         /* TLM_PROCESS_NOISE_* bits */
+        } process_noise;
     } u;
 };
 
