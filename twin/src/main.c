@@ -41,6 +41,7 @@ struct args {
     bool sliding;
     uint64_t seed;
     bool strict, hsi_fail;
+    bool late_command; /* --late-command: accept a window/mode the rows cannot match */
     uint32_t spurious_berr_ppm;
     double max_sim_s;
 };
@@ -80,7 +81,7 @@ static void usage(FILE *f) {
           "                [--mode tumbling|sliding] [--faults SPEC] [--seed S] --out EST.csv\n"
           "                [--uart-out CAPTURE.bin] [--i2c-log BUS.csv] [--strict]\n"
           "                [--coverage FILE] [--report FILE.json] [--hsi-fail]\n"
-          "                [--spurious-berr PPM] [--max-sim-s S]\n",
+          "                [--spurious-berr PPM] [--max-sim-s S] [--late-command]\n",
           f);
 }
 
@@ -109,6 +110,8 @@ static int parse_args(int argc, char **argv, struct args *a) {
             a->strict = true;
         } else if (strcmp(o, "--hsi-fail") == 0) {
             a->hsi_fail = true;
+        } else if (strcmp(o, "--late-command") == 0) {
+            a->late_command = true;
         } else if (o[0] == '-' && o[1] == '-' && !has) {
             fprintf(stderr, "tof_twin: %s needs a value\n", o);
             return -1;
@@ -178,6 +181,24 @@ static int parse_args(int argc, char **argv, struct args *a) {
     if (a->elf == NULL || a->trace == NULL || a->out == NULL) {
         usage(stderr);
         return -1;
+    }
+    /* The flight image boots with window 100, tumbling (tof_app_default_config); another
+     * window or mode is a set-window command, which it reads only about 0.3 s after boot
+     * (USART2 once per 20 ms slot), so its windows no longer start at trace row 0 and the
+     * rows cannot equal host_sim's; in sliding mode its blocking telemetry also trips the
+     * watchdog (docs/boards.md). Refused unless asked for (the coverage run's command path). */
+    if ((a->window != FLIGHT_WINDOW || a->sliding) && !a->late_command) {
+        fprintf(stderr,
+                "tof_twin: --window %u --mode %s: the flight image starts with window %u, "
+                "tumbling; other settings arrive by command after boot, and its rows would not "
+                "be host_sim's (docs/boards.md). Replay them with host_sim, or pass "
+                "--late-command to run the command path anyway\n",
+                a->window, a->sliding ? "sliding" : "tumbling", FLIGHT_WINDOW);
+        return -1;
+    }
+    if (a->late_command && (a->window != FLIGHT_WINDOW || a->sliding)) {
+        fprintf(stderr, "tof_twin: warning: --late-command: the rows are labelled as if the "
+                        "commanded windows started at trace row 0; they are not host_sim's\n");
     }
     return 0;
 }

@@ -7,7 +7,7 @@ set(runs
   "--strict"
   "--strict --faults nack=0.01,reset=0.0005,stuck=0.0005 --seed 7"
   "--strict --spurious-berr 20000"
-  "--strict --window 50 --mode sliding"
+  "--strict --window 50 --mode sliding --late-command"
   "--strict --hsi-fail --max-sim-s 0.3")
 set(files "")
 set(k 0)
