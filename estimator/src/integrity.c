@@ -233,6 +233,33 @@ static void ramp(const struct integrity_ramp_sums *r, int64_t last, fix_q32_t s2
     *var = fix_mul_shr_s64(s2, q, FIX_Q32_SHIFT, NULL);
 }
 
+/* The lag² of the window mean behind its last row under a steady motion, learnt from this
+ * block's axis value y[0] and the previous three, y[1..3] (disjoint blocks of n rows; var:
+ * the per-block variance of the axis value, white noise plus drift and prior). A steady
+ * rate moves y by the same step per block, so it is taken as steady when consecutive steps
+ * differ by no more than 3σ of their difference (var(y0 − 2 y1 + y2) = 6 var; a step
+ * between blocks or a change of rate fails it) and the lag agrees, within 3σ, with the
+ * window's own ramp statistic (ramp, ramp_var): a plate that jumps between static windows
+ * shows no ramp inside them. Then the rate per block is (y0 − y3)/3 and the lag
+ * (n − 1)/(2n) of it: lag = g·(y0 − y3) with g = (n − 1)/(6n) in Q31 (gain_q31); returned
+ * is lag² less its noise variance (2 var g²), so a static plate adds nothing on average;
+ * never below 0. */
+static fix_q32_t steady_lag2(const fix_q32_t y[4], fix_q32_t var, int32_t gain_q31, fix_q32_t ramp,
+                             fix_q32_t ramp_var) {
+    const fix_q32_t var6 = fix_sat_mul_s64(var, 6);
+    if (beyond((y[0] - y[1]) - (y[1] - y[2]), var6, INTEGRITY_MOTION_ALLOW_Q8) ||
+        beyond((y[1] - y[2]) - (y[2] - y[3]), var6, INTEGRITY_MOTION_ALLOW_Q8)) {
+        return 0;
+    }
+    const fix_q32_t lag = fix_mul_q31(y[0] - y[3], gain_q31);
+    const fix_q32_t noise = 2 * fix_mul_q31(fix_mul_q31(var, gain_q31), gain_q31);
+    if (beyond(lag - ramp, fix_sat_add_s64(noise, ramp_var), INTEGRITY_MOTION_ALLOW_Q8)) {
+        return 0;
+    }
+    const fix_q32_t lag2 = square_q32(lag) - noise;
+    return lag2 > 0 ? lag2 : 0;
+}
+
 void integrity_assess(struct integrity_state *st, const struct integrity_config *cfg,
                       struct window_state *w, const struct window_stats *s, bool learn,
                       struct integrity_window *out) {
@@ -321,6 +348,23 @@ void integrity_assess(struct integrity_state *st, const struct integrity_config 
 
     /* per axis: what a window estimator's white variance misses */
     const fix_q32_t parity2 = square_q32(out->parity_mm);
+    /* the steady-motion lag is learnt when this block's sensors were used in the last three
+     * (an axis the window cannot observe learns 0) */
+    if (learn) {
+        (void)memset(st->steady_lag2_mm2, 0, sizeof st->steady_lag2_mm2);
+    }
+    const bool history = learn && (st->block_used[0] & out->used) == out->used &&
+                         (st->block_used[1] & out->used) == out->used &&
+                         (st->block_used[2] & out->used) == out->used;
+    fix_q32_t block_var[ANGLES_SENSORS];
+    for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
+        block_var[k] = fix_sat_add_s64(out->white_mm2[k], out->extra_mm2[k]);
+    }
+    /* (n − 1)/(6n) in Q31 for a block of n = fill rows (6n <= 1536 fits the 16-bit divider;
+     * 0 for n < 2: no lag) */
+    const uint32_t n = w->fill;
+    const int32_t gain_q31 =
+        n >= 2u ? (int32_t)fix_div_u64_u16((uint64_t)(n - 1u) << 31, 6u * n) : 0;
     for (unsigned ax = 0; ax < INTEGRITY_AXES; ++ax) {
         int8_t c[ANGLES_SENSORS];
         const int unit = axis_coeffs((enum integrity_axis)ax, out->used, c);
@@ -338,6 +382,8 @@ void integrity_assess(struct integrity_state *st, const struct integrity_config 
          * motion_sigmas the window is also said to have moved. With none beyond, the ramp
          * stands (its noise, not motion, and not added) */
         bool allow = false;
+        fix_q32_t ramp = 0;
+        fix_q32_t ramp_var = 0;
         for (unsigned m = 0; m < 3u; ++m) {
             int64_t lag_sum = 0;
             for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
@@ -347,6 +393,10 @@ void integrity_assess(struct integrity_state *st, const struct integrity_config 
             fix_q32_t var = 0;
             (void)integrity_axis_var((enum integrity_axis)ax, out->used, lag_var[m], &var);
             const bool big = var > 0 && beyond(v, var, INTEGRITY_MOTION_ALLOW_Q8);
+            if (m == 0u) {
+                ramp = v;
+                ramp_var = var;
+            }
             if (m == 0u || (big && (!allow || fix_abs_u64(v) > fix_abs_u64(out->lag_mm[ax])))) {
                 out->lag_mm[ax] = v;
                 out->lag_var_mm2[ax] = var;
@@ -359,12 +409,36 @@ void integrity_assess(struct integrity_state *st, const struct integrity_config 
             extra = fix_sat_add_s64(
                 extra, fix_asr_s64(fix_sat_mul_s64(parity2, worst), 2u * (unsigned)unit));
         }
-        if (allow) {
-            extra = fix_sat_add_s64(extra, square_q32(out->lag_mm[ax]));
+        if (history) {
+            fix_q32_t y[4];
+            for (unsigned b = 0; b < 4u; ++b) {
+                int64_t sum = 0;
+                for (unsigned k = 0; k < ANGLES_SENSORS; ++k) { /* |c| <= 2, mean < 2^46 */
+                    sum += (b == 0u ? s->sensor[k].mean_mm : st->block_mean_mm[b - 1u][k]) * c[k];
+                }
+                y[b] = fix_asr_s64(sum, (unsigned)unit);
+            }
+            fix_q32_t var = 0;
+            (void)integrity_axis_var((enum integrity_axis)ax, out->used, block_var, &var);
+            st->steady_lag2_mm2[ax] = steady_lag2(y, var, gain_q31, ramp, ramp_var);
         }
+        /* the lag this window shows, or the steady motion's learnt one, whichever is larger */
+        const fix_q32_t seen = allow ? square_q32(out->lag_mm[ax]) : 0;
+        extra =
+            fix_sat_add_s64(extra, seen > st->steady_lag2_mm2[ax] ? seen : st->steady_lag2_mm2[ax]);
         if (out->moved[ax]) {
             out->why |= ATTITUDE_WHY_MOTION;
         }
         out->extra_var_mm2[ax] = extra;
+    }
+    if (learn) {
+        st->block_used[2] = st->block_used[1];
+        st->block_used[1] = st->block_used[0];
+        st->block_used[0] = out->used;
+        for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
+            st->block_mean_mm[2][k] = st->block_mean_mm[1][k];
+            st->block_mean_mm[1][k] = st->block_mean_mm[0][k];
+            st->block_mean_mm[0][k] = s->sensor[k].mean_mm;
+        }
     }
 }

@@ -416,6 +416,92 @@ static void test_motion_late_step(void **state) {
     check_honest(c, 3.0, 0.0, false);
 }
 
+/* The consensus' α across tumbling windows w0..windows-1 of a schedule alpha(row), β = 0,
+ * against the attitude at each window's last row: RMS error / sd, the largest |error| / sd,
+ * and the learnt steady-motion lag² as a share of the α axis' white variance (both
+ * averaged over the windows; white-box: integrity state). */
+struct calibration {
+    double rms_z, max_z, steady_share;
+};
+static struct calibration alpha_calibration(double (*alpha_at)(unsigned row), unsigned windows,
+                                            unsigned w0) {
+    init(ATTITUDE_TUMBLING);
+    double z2 = 0, steady = 0, white = 0;
+    struct calibration c = {0, 0, 0};
+    for (unsigned w = 0; w < windows; ++w) {
+        for (unsigned i = 0; i < N; ++i) {
+            double x[4];
+            ideal(alpha_at(w * N + i), 0, x);
+            uint16_t r[4];
+            for (unsigned k = 0; k < 4; ++k) {
+                r[k] = noisy(x[k], 2.0);
+            }
+            (void)attitude_push_sample(&st, r, all_ok, all_present, &out);
+        }
+        const struct attitude_estimate *e = &out.est[ATTITUDE_EST_CONSENSUS];
+        assert_true(e->alpha_valid);
+        if (w >= w0) {
+            const double z =
+                (e->alpha_udeg / 1e6 - alpha_at(w * N + N - 1)) / (e->alpha_sd_udeg / 1e6);
+            z2 += z * z;
+            c.max_z = fabs(z) > c.max_z ? fabs(z) : c.max_z;
+            steady += (double)st.integrity.steady_lag2_mm2[INTEGRITY_ALPHA];
+            white += (double)(st.iw.white_mm2[0] + st.iw.white_mm2[2]) / 4.0;
+        }
+    }
+    c.rms_z = sqrt(z2 / (windows - w0));
+    c.steady_share = steady / white;
+    return c;
+}
+
+/* 0.9° per window: the window mean lags its last row by about 0.45°, 1.5 of its sd, while
+ * the window's own ramp statistic sees 1σ of it (undetectable in one window). */
+static double slow_ramp(unsigned row) {
+    return -10.0 + 0.009 * row;
+}
+static double level(unsigned row) {
+    (void)row;
+    return 1.0;
+}
+
+/* A ramp too slow for any one window's statistics: the lag learnt from the last four
+ * blocks' means goes into the sd, so over 40 windows (after the four that teach it) the
+ * error stays within 3.5 sd and RMS error / sd is about 1 (without it 1.85, up to 3.3 sd).
+ * A level plate's sd is not padded by it: the learnt lag² averages under 5 % of the white
+ * variance. */
+static void test_steady_ramp_learnt(void **state) {
+    (void)state;
+    const struct calibration ramp = alpha_calibration(slow_ramp, 44, 4);
+    print_message("slow ramp: rms err/sd %.2f, max %.2f, steady lag² %.2f of white\n", ramp.rms_z,
+                  ramp.max_z, ramp.steady_share);
+    assert_true(ramp.rms_z < 1.3 && ramp.rms_z > 0.6);
+    assert_true(ramp.max_z < 3.5);
+    const struct calibration flat = alpha_calibration(level, 200, 4);
+    print_message("level: steady lag² %.4f of white, rms err/sd %.2f\n", flat.steady_share,
+                  flat.rms_z);
+    assert_true(flat.steady_share < 0.05);
+}
+
+/* A plate that jumps to a new α (uniform ±4°) between windows and holds it inside each is
+ * not a steady motion: consecutive steps disagree, or the windows show no ramp. The learnt
+ * lag² averages 0.43 of the white variance here (a chance collinear run of four jumps
+ * with a ramp statistic noisy enough to agree still pads), against 3.0 for the slow ramp
+ * above; the bound is 0.6, and no window beyond 6 sd. */
+static double jump_alpha[64];
+static double jumps(unsigned row) {
+    return jump_alpha[(row / N) % 64u];
+}
+static void test_jumps_are_not_steady_motion(void **state) {
+    (void)state;
+    for (unsigned w = 0; w < 64u; ++w) {
+        jump_alpha[w] = -4.0 + 8.0 * urand();
+    }
+    const struct calibration c = alpha_calibration(jumps, 64, 4);
+    print_message("jumps: steady lag² %.3f of white, rms err/sd %.2f\n", c.steady_share, c.rms_z);
+    assert_true(c.steady_share < 0.6);
+    assert_true(c.max_z < 6.0);
+}
+
 /* Offsets that wander from window to window (each sensor an AR(1) walk of 0.5 mm 1σ,
  * which no status shows): the parity residual's scatter teaches the drift, `drift` is
  * said (flag lowered to 300 µm here) and the sd grows to cover it. */
@@ -490,6 +576,8 @@ int main(void) {
         cmocka_unit_test(test_motion_late_step),
         cmocka_unit_test(test_drift_learnt),
         cmocka_unit_test(test_quantisation_floor),
+        cmocka_unit_test(test_steady_ramp_learnt),
+        cmocka_unit_test(test_jumps_are_not_steady_motion),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -74,11 +74,18 @@ struct integrity_config {
 };
 
 /* What is learnt across windows: the per-sensor drift variance from the parity
- * residual's mean square beyond the white noise the windows themselves predict. */
+ * residual's mean square beyond the white noise the windows themselves predict, and the
+ * lag a steady motion leaves, from the last four blocks' means (a ramp too slow for one
+ * window's statistics to see still puts the window mean behind its last row; held for
+ * the sliding windows until the next block). */
 struct integrity_state {
     fix_q32_t
         drift_mm2;   /* per-sensor drift variance, Q32 mm² (an unbiased mean: may dip below 0) */
     uint16_t blocks; /* blocks learnt, saturating at 2^drift_shift */
+    uint8_t block_used[3];                      /* the previous three blocks' sensor sets */
+    fix_q32_t block_mean_mm[3][ANGLES_SENSORS]; /* ... and their sensor means, newest first */
+    fix_q32_t steady_lag2_mm2[INTEGRITY_AXES];  /* learnt lag² per axis, Q32 mm², held
+                                                   until the next block */
 };
 
 /* Per-sensor sums of the used readings of a window against their row index (0 = the
