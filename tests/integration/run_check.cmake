@@ -2,6 +2,7 @@
 #   CMD, ARGS (;-list)       the command to run
 #   EXPECT_RC (default 0)    its exit status
 #   EXPECT_STDERR            a regex its stderr must match
+#   EXPECT_STDOUT            a regex its stdout must match
 #   COMPARE + GOLDEN         files that must be byte-identical afterwards
 #   EXPECT_FILES             files that must exist and be non-empty
 #   EXPECT_ROWS=file=N       a CSV that must have N lines after its header
@@ -37,6 +38,9 @@ if(NOT rc STREQUAL "${EXPECT_RC}")
 endif()
 if(DEFINED EXPECT_STDERR AND NOT err MATCHES "${EXPECT_STDERR}")
   message(FATAL_ERROR "stderr does not match '${EXPECT_STDERR}':\n${err}")
+endif()
+if(DEFINED EXPECT_STDOUT AND NOT out MATCHES "${EXPECT_STDOUT}")
+  message(FATAL_ERROR "stdout does not match '${EXPECT_STDOUT}':\n${out}")
 endif()
 if(COMPARE)
   execute_process(COMMAND ${CMAKE_COMMAND} -E compare_files ${COMPARE} ${GOLDEN} RESULT_VARIABLE d)
