@@ -149,8 +149,10 @@ int main(void) {
         say("replay: ", q.trace.error);
         return 1;
     }
-    if (tof_app_config_for_replay(&q.cfg, q.trace.arm_um, q.trace.period_ms, window, sliding) !=
-        HAL_OK) {
+    /* short mode, as host_sim chooses for the bundled traces (readings under 1,360 mm at a
+     * 20 ms period, where long mode has no budget); this reader takes no distance_mode */
+    if (tof_app_config_for_replay(&q.cfg, q.trace.arm_um, q.trace.period_ms, window, sliding,
+                                  VL53_DISTANCE_SHORT) != HAL_OK) {
         say("replay: no firmware configuration fits this trace: ", trace_path);
         return 1;
     }

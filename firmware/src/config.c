@@ -69,21 +69,31 @@ const char *tof_app_config_check(const struct tof_app_config *cfg) {
     return NULL;
 }
 
-int tof_app_config_for_replay(struct tof_app_config *cfg, int32_t arm_um, uint32_t period_ms,
-                              uint16_t window, bool sliding) {
-    *cfg = tof_app_default_config;
-    /* The longest VL53L1X budget that leaves the inter-measurement margin. */
+/* The longest VL53L1X budget of `mode` that leaves the inter-measurement margin at
+ * `period_ms`; false when none does. */
+static bool replay_timing(uint32_t period_ms, enum vl53_distance_mode mode,
+                          struct vl53_timing *out) {
     static const uint16_t budgets[] = {500, 200, 100, 50, 33, 20, 15};
-    bool found = false;
-    for (size_t i = 0; i < sizeof budgets / sizeof budgets[0] && !found; ++i) {
-        const struct vl53_timing t = {.mode = VL53_DISTANCE_SHORT,
-                                      .budget_ms = budgets[i],
-                                      .inter_measurement_ms = period_ms};
+    for (size_t i = 0; i < sizeof budgets / sizeof budgets[0]; ++i) {
+        const struct vl53_timing t = {
+            .mode = mode, .budget_ms = budgets[i], .inter_measurement_ms = period_ms};
         if (vl53_timing_check(&t) == HAL_OK) {
-            cfg->timing = t;
-            found = true;
+            *out = t;
+            return true;
         }
     }
+    return false;
+}
+
+bool tof_app_replay_mode_fits(uint32_t period_ms, enum vl53_distance_mode mode) {
+    struct vl53_timing t;
+    return replay_timing(period_ms, mode, &t);
+}
+
+int tof_app_config_for_replay(struct tof_app_config *cfg, int32_t arm_um, uint32_t period_ms,
+                              uint16_t window, bool sliding, enum vl53_distance_mode mode) {
+    *cfg = tof_app_default_config;
+    const bool found = replay_timing(period_ms, mode, &cfg->timing);
     if (!found) {
         return HAL_ERR_INVALID;
     }

@@ -5,6 +5,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "vl53/vl53.h"
+
 const char *const cli_estimator_names[] = {"consensus", "consensus-paper", "kalman", "mean", NULL};
 
 bool cli_parse_u64(const char *text, uint64_t min, uint64_t max, uint64_t *out) {
@@ -120,6 +122,9 @@ static const char replay_help[] =
     "  --i2c-log BUS.csv    every bus transaction: t_us,addr,write,read,result (docs/driver.md)\n"
     "  --process-noise Q    Kalman random-walk intensities QD,QT in mm²/s (x̄; a·tan α and\n"
     "                       a·tan β; Q per row = q·period), or auto (learned); default 0\n"
+    "  --distance-mode M    the parts' mode: short (to 1360 mm) or long (to 4000 mm); default:\n"
+    "                       the trace's '# distance_mode=', else long when it holds readings\n"
+    "                       above 1360 mm and its period admits long mode, else short\n"
     "  --quiet              no summary table on stdout\n"
     "  --help, -h           this text\n"
     "exit status: 0 done, 1 bad input or a failed run, 2 bad command line\n";
@@ -246,6 +251,17 @@ int cli_parse_replay(int argc, char **argv, struct replay_args *out) {
                                    "--process-noise: expected QD,QT (mm²/s, decimals up to "
                                    "4294.967295, at most 6 places) or auto",
                                    v);
+            }
+        } else if (strcmp(arg, "--distance-mode") == 0) {
+            if ((v = option_value(cmd, argc, argv, &i)) == NULL) {
+                return -1;
+            }
+            if (strcmp(v, "short") == 0) {
+                out->distance_mode = (unsigned)VL53_DISTANCE_SHORT;
+            } else if (strcmp(v, "long") == 0) {
+                out->distance_mode = (unsigned)VL53_DISTANCE_LONG;
+            } else {
+                return usage_error(cmd, "--distance-mode: expected short or long", v);
             }
         } else if (strcmp(arg, "--quiet") == 0) {
             out->quiet = true;

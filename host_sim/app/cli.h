@@ -32,7 +32,9 @@ struct replay_args {
      * µm²/s (given in mm²/s); --process-noise auto: learned by the filter */
     uint32_t process_noise_um2_per_s[2];
     bool process_noise_auto;
-    const char *i2c_log_path;  /* --i2c-log BUS.csv: every bus transaction (NULL: none) */
+    const char *i2c_log_path; /* --i2c-log BUS.csv: every bus transaction (NULL: none) */
+    unsigned distance_mode;   /* --distance-mode: 0 unset (the trace's, else from its
+                                 readings), else enum vl53_distance_mode */
 };
 
 struct scenario_args {

@@ -15,6 +15,7 @@
 #include "scene/trace.h"
 #include "sim/sim_fault.h"
 #include "sim/sim_replay.h"
+#include "vl53/vl53.h"
 #include "i2c_log.h"
 
 /* "No value" in tables and JSON (printed as nan / null). */
@@ -114,6 +115,8 @@ struct replay {
     int failed;            /* an output or data error: stop and report */
     uint64_t partial_rows; /* tumbling: rows after the last whole window (no estimate) */
     char time_base[96];
+    enum vl53_distance_mode distance_mode; /* the simulated parts' (choose_distance_mode) */
+    char distance_source[200];             /* why that mode, for the summary and the report */
 };
 
 static struct replay R;
@@ -320,10 +323,100 @@ static int open_inputs(struct replay *r) {
     return 0;
 }
 
+/* The readings of the trace in (1,360, 4,000] mm: what short mode cannot report as valid
+ * and long mode can. A second pass of the reader over the file (the replay's own pass
+ * reports any error in it); *first_line and *first_sensor of the first such reading. */
+static uint64_t long_range_readings(const char *path, unsigned long *first_line,
+                                    unsigned *first_sensor) {
+    static struct trace_reader scan; /* static: the reader holds its block buffer */
+    uint64_t count = 0;
+    FILE *f = fopen(path, "rb");
+    if (f == NULL || trace_reader_open(&scan, f, path) != 0) {
+        if (f != NULL) {
+            fclose(f);
+        }
+        return 0;
+    }
+    struct scene_row row;
+    while (trace_reader_next(&scan, &row) == 0) {
+        for (unsigned k = 0; k < SCENE_SENSORS; ++k) {
+            const uint16_t mm = row.range_mm[k];
+            if (row.present[k] && mm > VL53_RANGE_MAX_SHORT_MM && mm <= VL53_RANGE_MAX_LONG_MM) {
+                if (count++ == 0u) {
+                    *first_line = scan.last_row_line;
+                    *first_sensor = k;
+                }
+            }
+        }
+    }
+    fclose(f);
+    return count;
+}
+
+/* The simulated parts' distance mode: --distance-mode, else the trace's distance_mode,
+ * else long when the trace holds readings only long mode reports (a VL53L1X logging in
+ * its default mode, to 4 m) and the period admits a long-mode budget, else short (the
+ * firmware's own mode, docs/driver.md). Said on stderr when chosen from the readings. */
+static int choose_distance_mode(struct replay *r) {
+    const char *path = r->args->trace_path;
+    const char *stated = trace_reader_meta(&r->reader, "distance_mode");
+    r->distance_mode = VL53_DISTANCE_SHORT;
+    if (r->args->distance_mode != 0u) {
+        r->distance_mode = (enum vl53_distance_mode)r->args->distance_mode;
+        snprintf(r->distance_source, sizeof r->distance_source, "--distance-mode");
+        return 0;
+    }
+    if (stated != NULL) {
+        const unsigned long line = trace_reader_meta_line(&r->reader, "distance_mode");
+        if (strcmp(stated, "long") == 0) {
+            r->distance_mode = VL53_DISTANCE_LONG;
+        } else if (strcmp(stated, "short") != 0) {
+            fprintf(stderr,
+                    "host_sim replay: %s:%lu: distance_mode must be short or long, got '%s'\n",
+                    path, line, stated);
+            return -1;
+        }
+        snprintf(r->distance_source, sizeof r->distance_source, "the trace (line %lu)", line);
+        return 0;
+    }
+    unsigned long line = 0;
+    unsigned sensor = 0;
+    const uint64_t beyond = long_range_readings(path, &line, &sensor);
+    if (beyond == 0u) {
+        snprintf(r->distance_source, sizeof r->distance_source,
+                 "default: no reading above short mode's %u mm", VL53_RANGE_MAX_SHORT_MM);
+        return 0;
+    }
+    const char name = (char)('A' + sensor);
+    if (tof_app_replay_mode_fits(r->period_ms, VL53_DISTANCE_LONG)) {
+        r->distance_mode = VL53_DISTANCE_LONG;
+        snprintf(r->distance_source, sizeof r->distance_source,
+                 "%llu readings above short mode's %u mm, the first at line %lu (sensor %c)",
+                 (unsigned long long)beyond, VL53_RANGE_MAX_SHORT_MM, line, name);
+        fprintf(stderr,
+                "host_sim replay: note: %s: distance mode long (to %u mm): %s; state it with "
+                "'# distance_mode=long' or --distance-mode\n",
+                path, VL53_RANGE_MAX_LONG_MM, r->distance_source);
+    } else {
+        snprintf(r->distance_source, sizeof r->distance_source,
+                 "default: long mode has no budget for period_ms %u", r->period_ms);
+        fprintf(stderr,
+                "host_sim replay: warning: %s: %llu readings above short mode's %u mm (the first "
+                "at line %lu, sensor %c) are flagged: long mode, which reports them, has no "
+                "budget for period_ms %u (at least %u ms)\n",
+                path, (unsigned long long)beyond, VL53_RANGE_MAX_SHORT_MM, line, name, r->period_ms,
+                20u + VL53_IMP_MARGIN_MS);
+    }
+    return 0;
+}
+
 static int configure(struct replay *r) {
     const int32_t arm_um = (int32_t)lround(r->arm_mm * 1000.0);
+    if (choose_distance_mode(r) != 0) {
+        return -1;
+    }
     if (tof_app_config_for_replay(&r->app_cfg, arm_um, r->period_ms, (uint16_t)r->args->window,
-                                  r->args->sliding) != HAL_OK) {
+                                  r->args->sliding, r->distance_mode) != HAL_OK) {
         const char *bad = tof_app_config_check(&r->app_cfg);
         char where[64] = ": period_ms (default: the trace has none)";
         if (r->reader.timing.period_from_meta) {
@@ -331,9 +424,11 @@ static int configure(struct replay *r) {
         }
         fprintf(stderr,
                 "host_sim replay: %s%s: no firmware configuration fits period_ms %u and arm_mm "
-                "%.3f (%s; the shortest period is 15 ms budget + %u ms margin)\n",
+                "%.3f in %s mode (%s; the shortest period is a %u ms budget + %u ms margin)\n",
                 r->args->trace_path, where, r->period_ms, r->arm_mm,
-                bad != NULL ? bad : "no VL53L1X timing budget fits the period", VL53_IMP_MARGIN_MS);
+                r->distance_mode == VL53_DISTANCE_LONG ? "long" : "short",
+                bad != NULL ? bad : "no VL53L1X timing budget fits the period",
+                r->distance_mode == VL53_DISTANCE_LONG ? 20u : 15u, VL53_IMP_MARGIN_MS);
         return -1;
     }
     if (tof_app_config_process_noise(&r->app_cfg, r->args->process_noise_um2_per_s[0],
@@ -596,10 +691,15 @@ static int write_report(struct replay *r, const char *path) {
     fprintf(f,
             "  \"time_base\": {\"period_ms\": %u, \"source\": \"%s\", \"t_ms_repeats\": %llu, "
             "\"t_ms_jumps\": %llu, \"max_jump_ms\": %lu, \"max_jump_line\": %lu},\n"
-            "  \"partial_window_rows\": %llu,\n",
+            "  \"partial_window_rows\": %llu,\n"
+            "  \"distance_mode\": {\"mode\": \"%s\", \"range_max_mm\": %u, \"source\": \"%s\"},\n",
             r->period_ms, tm->period_from_meta ? "trace" : "default",
             (unsigned long long)tm->repeats, (unsigned long long)tm->jumps,
-            (unsigned long)tm->max_jump_ms, tm->max_jump_line, (unsigned long long)r->partial_rows);
+            (unsigned long)tm->max_jump_ms, tm->max_jump_line, (unsigned long long)r->partial_rows,
+            r->distance_mode == VL53_DISTANCE_LONG ? "long" : "short",
+            r->distance_mode == VL53_DISTANCE_LONG ? VL53_RANGE_MAX_LONG_MM
+                                                   : VL53_RANGE_MAX_SHORT_MM,
+            r->distance_source);
     fputs("  \"crb_alpha_deg\": ", f);
     json_number(f, rms(r->crb_sum2_alpha, r->crb_windows));
     fputs(",\n  \"crb_beta_deg\": ", f);
@@ -670,6 +770,11 @@ static void print_summary(struct replay *r) {
            r->args->sliding ? "sliding" : "tumbling", (unsigned long long)r->estimates,
            r->args->estimator);
     printf("time base: %s; windows counted in rows\n", time_base(r));
+    printf("distance mode: %s (to %u mm; %s)\n",
+           r->distance_mode == VL53_DISTANCE_LONG ? "long" : "short",
+           r->distance_mode == VL53_DISTANCE_LONG ? VL53_RANGE_MAX_LONG_MM
+                                                  : VL53_RANGE_MAX_SHORT_MM,
+           r->distance_source);
     printf("%-16s %10s %10s %10s %10s %10s %10s %6s %6s %6s\n", "estimator", "rms_a[deg]",
            "mae_a[deg]", "max_a[deg]", "rms_b[deg]", "mae_b[deg]", "max_b[deg]", "ok", "degr",
            "inval");

@@ -31,15 +31,20 @@ extern const struct tof_app_config tof_app_default_config;
 const char *tof_app_config_check(const struct tof_app_config *cfg);
 
 /*
- * The configuration for replaying a recording made at `period_ms` with arm `arm_um`:
- * the default with the timing, skew, idle time and health timeouts scaled to the
- * period, the window and mode given, and raw samples on. host_sim and the QEMU
- * replay image both use it, so they run the same firmware configuration.
- * HAL_OK, or HAL_ERR_INVALID when no VL53L1X timing fits the period or a value is
- * out of range (tof_app_config_check() names it).
+ * The configuration for replaying a recording made at `period_ms` with arm `arm_um` by
+ * parts in distance mode `mode`: the default with the timing (the longest budget of that
+ * mode that leaves the inter-measurement margin), skew, idle time and health timeouts
+ * scaled to the period, the window and mode given, and raw samples on. host_sim and the
+ * QEMU replay image both use it, so they run the same firmware configuration.
+ * HAL_OK, or HAL_ERR_INVALID when no VL53L1X timing of that mode fits the period or a
+ * value is out of range (tof_app_config_check() names it).
  */
 int tof_app_config_for_replay(struct tof_app_config *cfg, int32_t arm_um, uint32_t period_ms,
-                              uint16_t window, bool sliding);
+                              uint16_t window, bool sliding, enum vl53_distance_mode mode);
+
+/* True when a part in distance mode `mode` has a timing budget that fits `period_ms`
+ * (long mode's shortest is 20 ms, short mode's 15 ms, each plus the 4 ms margin). */
+bool tof_app_replay_mode_fits(uint32_t period_ms, enum vl53_distance_mode mode);
 
 /*
  * The Kalman filter's process noise as random-walk intensities (DESIGN.md §6,
