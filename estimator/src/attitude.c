@@ -679,8 +679,20 @@ FIX_NOINLINE void window_end(struct attitude_state *st, struct attitude_output *
 
     /* R follows each sensor's noise: once per block of N rows */
     if (kalman_on && st->rows % cfg->window == 0u) {
+        bool guess_off = false;
         for (unsigned k = 0; k < ATTITUDE_SENSORS; ++k) {
-            kalman_track_noise(&st->kalman, k, w->sensor[k].var_mm2, w->sensor[k].used);
+            guess_off =
+                kalman_track_noise(&st->kalman, k, w->sensor[k].var_mm2, w->sensor[k].used) ||
+                guess_off;
+        }
+        /* A filter that outlives its window (sliding, or tracking with Q > 0) weighed and
+         * gated the rows so far with the configured R; when the first window's noise
+         * says that guess was off by more than 2x, those rows are over- or under-weighted
+         * for good (a VL53L1X at 2.5 m read 7.3 mm against the 2 mm guess: its first 100
+         * rows, gated at 10 mm, counted 13x and held the estimate 1.8° off): start again
+         * with the learnt R. A tumbling filter with Q = 0 restarts every window anyway. */
+        if (guess_off && (cfg->mode == ATTITUDE_SLIDING || st->kalman.process_noise)) {
+            st->kalman_restart_due = true; /* before the next row: this estimate stands */
         }
     }
 }
@@ -714,6 +726,12 @@ bool attitude_push_sample(struct attitude_state *st, const uint16_t range_mm[ATT
         if (!st->kalman.process_noise) { /* with Q > 0 the filter tracks across windows */
             kalman_reset(&st->kalman);
         }
+    }
+    if (st->kalman_restart_due) { /* the last window found the configured R wrong */
+        st->kalman_restart_due = false;
+        kalman_reset(&st->kalman);
+        st->kalman.restarts++;
+        note_kalman_restart(st);
     }
     struct window_row *newest = window_push(&st->window, ranges, present_mask, valid_mask);
     if (kalman_on) {

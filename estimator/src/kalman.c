@@ -320,23 +320,31 @@ void kalman_flush(struct kalman_state *k, struct kalman_rows *out) {
     }
 }
 
-void kalman_track_noise(struct kalman_state *k, unsigned sensor, fix_q32_t var_mm2,
+bool kalman_track_noise(struct kalman_state *k, unsigned sensor, fix_q32_t var_mm2,
                         uint16_t count) {
     if (count < 2u || sensor >= ANGLES_SENSORS || k->cfg.process_noise_auto) {
-        return;
+        return false;
     }
     /* Bounded like a configured R: a window variance beyond σ = 1024 mm (readings 0 and
      * 65535 mm in one window give 2^31 mm²) would overflow s = hᵀPh + R. */
     const fix_q32_t v = var_mm2 < KALMAN_R_MIN_Q32
                             ? KALMAN_R_MIN_Q32
                             : (var_mm2 > KALMAN_R_MAX_Q32 ? KALMAN_R_MAX_Q32 : var_mm2);
+    bool guess_off = false;
     if (!k->r_tracked[sensor]) {
-        k->r[sensor] = v; /* the configured R was only a guess */
+        const fix_q32_t guess = k->r[sensor];
+        /* more than 2x (4x from 8 to 31 readings, whose variance scatters more; never from
+         * fewer): beyond what χ² scatter gives (χ²_31/31 > 2 and χ²_7/7 > 4 each below
+         * 10^-3) */
+        const int64_t f = count >= 32u ? 2 : (count >= 8u ? 4 : 0);
+        guess_off = f != 0 && v > f * guess; /* v, guess < 2^53 */
+        k->r[sensor] = v;                    /* the configured R was only a guess */
         k->r_tracked[sensor] = true;
     } else {
         k->r[sensor] += fix_asr_s64(v - k->r[sensor], k->cfg.noise_shift);
     }
     r_changed(k);
+    return guess_off;
 }
 
 void kalman_process_noise(const struct kalman_state *k, fix_q32_t q[KALMAN_STATES]) {

@@ -603,14 +603,30 @@ static void test_noise_tracking(void **state) {
     struct kalman_config c = default_config();
     assert_int_equal(kalman_init(&kf, &c), KALMAN_OK);
     const int64_t nine = (int64_t)9 << 32;
-    kalman_track_noise(&kf, 2, nine, 1); /* fewer than 2 readings: ignored */
+    assert_false(kalman_track_noise(&kf, 2, nine, 1)); /* fewer than 2 readings: ignored */
     assert_true(kf.r[2] == (int64_t)4 << 32);
-    kalman_track_noise(&kf, 2, nine, 100); /* first: replaces the guess */
+    /* first: replaces the guess, 9 against 4 mm²: more than twice it, said */
+    assert_true(kalman_track_noise(&kf, 2, nine, 100));
     assert_true(kf.r[2] == nine);
-    kalman_track_noise(&kf, 2, (int64_t)13 << 32, 100); /* then 1/4 of the way */
+    /* then 1/4 of the way, never said (the guess is gone) */
+    assert_false(kalman_track_noise(&kf, 2, (int64_t)13 << 32, 100));
     assert_true(kf.r[2] == (int64_t)10 << 32);
-    kalman_track_noise(&kf, 1, 0, 100); /* zero variance: the 1/12 mm² floor */
+    /* zero variance: the 1/12 mm² floor; a guess too large is not said */
+    assert_false(kalman_track_noise(&kf, 1, 0, 100));
     assert_true(kf.r[1] == 357913941);
+    /* a first variance within 2x of the guess (6 against 4 mm²): replaced, not said */
+    assert_false(kalman_track_noise(&kf, 0, (int64_t)6 << 32, 100));
+    assert_true(kf.r[0] == (int64_t)6 << 32);
+    /* from 8 to 31 readings it takes 4x: 12 mm² of 20 readings is not said, 17 of 8 is */
+    assert_false(kalman_track_noise(&kf, 3, (int64_t)12 << 32, 20));
+    struct kalman_config c2 = default_config();
+    assert_int_equal(kalman_init(&kf, &c2), KALMAN_OK);
+    assert_true(kalman_track_noise(&kf, 3, (int64_t)17 << 32, 8));
+    assert_int_equal(kalman_init(&kf, &c2), KALMAN_OK);
+    assert_false(kalman_track_noise(&kf, 3, (int64_t)100 << 32, 7)); /* 7: never */
+    assert_int_equal(kalman_init(&kf, &c2), KALMAN_OK);
+    assert_true(kalman_track_noise(&kf, 2, nine, 100));
+    kalman_track_noise(&kf, 2, (int64_t)13 << 32, 100);
     kalman_reset(&kf); /* a window reset keeps what was learned */
     assert_true(kf.r[2] == (int64_t)10 << 32);
 }

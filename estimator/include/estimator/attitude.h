@@ -192,6 +192,7 @@ struct attitude_state {
     struct kalman_state kalman;
     uint32_t rows;                      /* rows pushed since attitude_init */
     uint32_t kalman_rows_since_restart; /* since the filter last restarted (UINT32_MAX: never) */
+    bool kalman_restart_due;            /* restart before the next row (R guessed wrong) */
     struct integrity_config icfg;
     struct integrity_state integrity; /* learnt drift */
     struct integrity_window iw;       /* scratch: the last window's integrity facts */

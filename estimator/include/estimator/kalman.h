@@ -183,8 +183,11 @@ void kalman_covariance(const struct kalman_state *k, fix_q32_t p[KALMAN_STATES][
 
 /* Feeds the gated sample variance (Q32 mm²) of `count` readings of a sensor in
  * the last window to its R (first time: replace; then track). count < 2: ignored, and
- * ignored with process_noise_auto, which learns R from consecutive readings instead. */
-void kalman_track_noise(struct kalman_state *k, unsigned sensor, fix_q32_t var_mm2, uint16_t count);
+ * ignored with process_noise_auto, which learns R from consecutive readings instead.
+ * True when it replaced the configured guess by a value more than twice it (four times
+ * from 8 to 31 readings; never from fewer): the rows so far were gated and weighed with
+ * an R too small, so they count too much (a guess too large only wastes some of them). */
+bool kalman_track_noise(struct kalman_state *k, unsigned sensor, fix_q32_t var_mm2, uint16_t count);
 
 /* Current estimate, angles through atan of the state over a, and P. */
 void kalman_estimate(const struct kalman_state *k, int32_t arm_um, struct kalman_result *out);
