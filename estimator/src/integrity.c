@@ -239,13 +239,13 @@ static void ramp(const struct integrity_ramp_sums *r, int64_t last, fix_q32_t s2
  * rate moves y by the same step per block, so it is taken as steady when consecutive steps
  * differ by no more than 3σ of their difference (var(y0 − 2 y1 + y2) = 6 var; a step
  * between blocks or a change of rate fails it) and the lag agrees, within 3σ, with the
- * window's own ramp statistic (ramp, ramp_var): a plate that jumps between static windows
+ * window's own ramp statistic (ramp_lag, ramp_var): a plate that jumps between static windows
  * shows no ramp inside them. Then the rate per block is (y0 − y3)/3 and the lag
  * (n − 1)/(2n) of it: lag = g·(y0 − y3) with g = (n − 1)/(6n) in Q31 (gain_q31); returned
  * is lag² less its noise variance (2 var g²), so a static plate adds nothing on average;
  * never below 0. */
-static fix_q32_t steady_lag2(const fix_q32_t y[4], fix_q32_t var, int32_t gain_q31, fix_q32_t ramp,
-                             fix_q32_t ramp_var) {
+static fix_q32_t steady_lag2(const fix_q32_t y[4], fix_q32_t var, int32_t gain_q31,
+                             fix_q32_t ramp_lag, fix_q32_t ramp_var) {
     const fix_q32_t var6 = fix_sat_mul_s64(var, 6);
     if (beyond((y[0] - y[1]) - (y[1] - y[2]), var6, INTEGRITY_MOTION_ALLOW_Q8) ||
         beyond((y[1] - y[2]) - (y[2] - y[3]), var6, INTEGRITY_MOTION_ALLOW_Q8)) {
@@ -253,7 +253,7 @@ static fix_q32_t steady_lag2(const fix_q32_t y[4], fix_q32_t var, int32_t gain_q
     }
     const fix_q32_t lag = fix_mul_q31(y[0] - y[3], gain_q31);
     const fix_q32_t noise = 2 * fix_mul_q31(fix_mul_q31(var, gain_q31), gain_q31);
-    if (beyond(lag - ramp, fix_sat_add_s64(noise, ramp_var), INTEGRITY_MOTION_ALLOW_Q8)) {
+    if (beyond(lag - ramp_lag, fix_sat_add_s64(noise, ramp_var), INTEGRITY_MOTION_ALLOW_Q8)) {
         return 0;
     }
     const fix_q32_t lag2 = square_q32(lag) - noise;
@@ -363,8 +363,9 @@ void integrity_assess(struct integrity_state *st, const struct integrity_config 
     /* (n − 1)/(6n) in Q31 for a block of n = fill rows (6n <= 1536 fits the 16-bit divider;
      * 0 for n < 2: no lag) */
     const uint32_t n = w->fill;
+    const uint32_t n_less_one = n >= 2u ? n - 1u : 0u;
     const int32_t gain_q31 =
-        n >= 2u ? (int32_t)fix_div_u64_u16((uint64_t)(n - 1u) << 31, 6u * n) : 0;
+        n >= 2u ? (int32_t)fix_div_u64_u16((uint64_t)n_less_one << 31, 6u * n) : 0;
     for (unsigned ax = 0; ax < INTEGRITY_AXES; ++ax) {
         int8_t c[ANGLES_SENSORS];
         const int unit = axis_coeffs((enum integrity_axis)ax, out->used, c);
@@ -382,7 +383,7 @@ void integrity_assess(struct integrity_state *st, const struct integrity_config 
          * motion_sigmas the window is also said to have moved. With none beyond, the ramp
          * stands (its noise, not motion, and not added) */
         bool allow = false;
-        fix_q32_t ramp = 0;
+        fix_q32_t ramp_lag = 0;
         fix_q32_t ramp_var = 0;
         for (unsigned m = 0; m < 3u; ++m) {
             int64_t lag_sum = 0;
@@ -394,7 +395,7 @@ void integrity_assess(struct integrity_state *st, const struct integrity_config 
             (void)integrity_axis_var((enum integrity_axis)ax, out->used, lag_var[m], &var);
             const bool big = var > 0 && beyond(v, var, INTEGRITY_MOTION_ALLOW_Q8);
             if (m == 0u) {
-                ramp = v;
+                ramp_lag = v;
                 ramp_var = var;
             }
             if (m == 0u || (big && (!allow || fix_abs_u64(v) > fix_abs_u64(out->lag_mm[ax])))) {
@@ -420,7 +421,7 @@ void integrity_assess(struct integrity_state *st, const struct integrity_config 
             }
             fix_q32_t var = 0;
             (void)integrity_axis_var((enum integrity_axis)ax, out->used, block_var, &var);
-            st->steady_lag2_mm2[ax] = steady_lag2(y, var, gain_q31, ramp, ramp_var);
+            st->steady_lag2_mm2[ax] = steady_lag2(y, var, gain_q31, ramp_lag, ramp_var);
         }
         /* the lag this window shows, or the steady motion's learnt one, whichever is larger */
         const fix_q32_t seen = allow ? square_q32(out->lag_mm[ax]) : 0;

@@ -336,7 +336,14 @@ bool kalman_track_noise(struct kalman_state *k, unsigned sensor, fix_q32_t var_m
         /* more than 2x (4x from 8 to 31 readings, whose variance scatters more; never from
          * fewer): beyond what χ² scatter gives (χ²_31/31 > 2 and χ²_7/7 > 4 each below
          * 10^-3) */
-        const int64_t f = count >= 32u ? 2 : (count >= 8u ? 4 : 0);
+        int64_t f = 0;
+        if (count >= 32u) {
+            f = 2;
+        } else if (count >= 8u) {
+            f = 4;
+        } else {
+            f = 0;
+        }
         guess_off = f != 0 && v > f * guess; /* v, guess < 2^53 */
         k->r[sensor] = v;                    /* the configured R was only a guess */
         k->r_tracked[sensor] = true;
