@@ -583,8 +583,30 @@ FIX_NOINLINE void run_kalman(struct attitude_state *st,
         lag_b = kalman_lag_udeg(st, &product->beta, ke.beta_udeg, ke.beta_sigma_udeg, 1u, &moved);
         own = moved ? ATTITUDE_WHY_MOTION : 0u;
     }
-    const fix_q32_t p00 = ke.p_mm2[0][0] > 0 ? ke.p_mm2[0][0] : window_white_dist(st);
-    settle(st, e, ke.alpha_sigma_udeg, ke.beta_sigma_udeg, p00, lag_a, lag_b, own);
+    fix_q32_t p00 = ke.p_mm2[0][0] > 0 ? ke.p_mm2[0][0] : window_white_dist(st);
+    int32_t white_a = ke.alpha_sigma_udeg;
+    int32_t white_b = ke.beta_sigma_udeg;
+    bool guessed = false;
+    for (unsigned k = 0; k < ATTITUDE_SENSORS; ++k) {
+        guessed = guessed || ((st->iw.used & (1u << k)) != 0u && !st->kalman.r_tracked[k]);
+    }
+    if (guessed) {
+        /* Until a window has taught R, P rests on the configured guess: the window's own
+         * scatter bounds the white part from below (a VL53L1X at 2.5 m read 7.3 mm against
+         * the 2 mm guess, and the first window claimed a sd 3.6x too small) */
+        fix_q32_t v = 0;
+        if (integrity_axis_var(INTEGRITY_ALPHA, st->iw.used, st->iw.white_mm2, &v)) {
+            const int32_t sd = angle_sd(st, v, 0u);
+            white_a = sd > white_a ? sd : white_a;
+        }
+        if (integrity_axis_var(INTEGRITY_BETA, st->iw.used, st->iw.white_mm2, &v)) {
+            const int32_t sd = angle_sd(st, v, 1u);
+            white_b = sd > white_b ? sd : white_b;
+        }
+        const fix_q32_t d = window_white_dist(st);
+        p00 = d > p00 ? d : p00;
+    }
+    settle(st, e, white_a, white_b, p00, lag_a, lag_b, own);
 }
 
 static void disabled(struct attitude_estimate *e, const struct window_stats *w) {

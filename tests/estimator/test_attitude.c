@@ -202,6 +202,31 @@ static void test_sliding_kalman_restarts_on_a_wrong_noise_guess(void **state) {
     assert_true(err2 <= 1.6 * 1.6 * bound2);
 }
 
+/* The first window, before any window has taught the Kalman filter R: its P rests on the
+ * configured 2 mm guess, so with 7 mm noise its own sd is 3.5x too small; the window's
+ * scatter bounds it from below. On 50 draws the Kalman's first sd is at least 0.9 of the
+ * consensus' (whose sd comes from the window's variances) and its error within 6 sd;
+ * the second window, with R learnt, keeps the filter's own sd. */
+static void test_kalman_first_window_sd_not_from_the_guess(void **state) {
+    (void)state;
+    for (unsigned draw = 0; draw < 50u; ++draw) {
+        init_default(100, ATTITUDE_TUMBLING);
+        double x[4];
+        ideal(2, 1, x);
+        bool ready = false;
+        for (int row = 0; row < 100; ++row) {
+            ready = push_noisy(&st, x, 7.0, all_ok, all_present, &out);
+        }
+        assert_true(ready);
+        const struct attitude_estimate *k = &out.est[ATTITUDE_EST_KALMAN];
+        const struct attitude_estimate *c = &out.est[ATTITUDE_EST_CONSENSUS];
+        assert_true(k->alpha_valid && c->alpha_valid);
+        assert_true(k->alpha_sd_udeg >= 0.9 * c->alpha_sd_udeg);
+        assert_true(k->beta_sd_udeg >= 0.9 * c->beta_sd_udeg);
+        assert_true(fabs(k->alpha_udeg / 1e6 - 2.0) <= 6.0 * k->alpha_sd_udeg / 1e6);
+    }
+}
+
 static void test_exact_plate_all_estimators(void **state) {
     (void)state;
     init_default(20, ATTITUDE_TUMBLING);
@@ -550,6 +575,7 @@ int main(void) {
         cmocka_unit_test(test_names),
         cmocka_unit_test(test_tumbling_boundaries),
         cmocka_unit_test(test_sliding_boundaries),
+        cmocka_unit_test(test_kalman_first_window_sd_not_from_the_guess),
         cmocka_unit_test(test_sliding_kalman_restarts_on_a_wrong_noise_guess),
         cmocka_unit_test(test_exact_plate_all_estimators),
         cmocka_unit_test(test_noisy_static_plate),
