@@ -507,10 +507,11 @@ static void run_mean(struct attitude_state *st, struct attitude_estimate *e) {
 }
 
 /* A filter that is never reset (sliding mode) can lag a moving plate by more than its
- * window. Its distance d from the window's end-point estimate (the product's value plus
- * the window's lag when it moved) beyond the noise of that comparison, sqrt(d² − var),
- * is this estimate's own lag (unbiased for the lag², so no padding when static); d beyond
- * motion_sigmas is `motion`. */
+ * window, and one restarted inside its window answers from the few rows since, which may
+ * hold readings the window's gate left out. Its distance d from the window's end-point
+ * estimate (the product's value plus the window's lag when it moved) beyond the noise of
+ * that comparison, sqrt(d² − var), is this estimate's own lag or error (unbiased for its
+ * square, so no padding when they agree); d beyond motion_sigmas is *moved. */
 static int32_t kalman_lag_udeg(const struct attitude_state *st,
                                const struct consensus_axis *product, int32_t kalman_udeg,
                                int32_t kalman_sigma_udeg, unsigned axis, bool *moved) {
@@ -569,19 +570,25 @@ FIX_NOINLINE void run_kalman(struct attitude_state *st,
     e->beta_sigma_udeg = ke.beta_sigma_udeg;
     e->distance_valid = ke.alpha_observable || ke.beta_observable;
     e->distance_um = e->distance_valid ? q32_mm_to_um(ke.distance_mm) : 0;
-    if (st->kalman_rows_since_restart < st->cfg.window) { /* restarted inside the window */
+    const bool restarted = st->kalman_rows_since_restart < st->cfg.window; /* inside it */
+    if (restarted) {
         e->reason = ATTITUDE_REASON_KALMAN_RESTARTED;
     }
     finish_status(e, ke.alpha_observable, ke.beta_observable);
     int32_t lag_a = 0;
     int32_t lag_b = 0;
     attitude_why_t own = 0;
-    if (st->cfg.mode == ATTITUDE_SLIDING && product != NULL) {
+    /* compared with the window's own estimate when the filter outlives the window (sliding)
+     * or restarted inside it: its few rows since then may hold readings the window's gate
+     * left out (a VL53L1X's no-target values look plausible), and the sd must say so */
+    if ((st->cfg.mode == ATTITUDE_SLIDING || restarted) && product != NULL) {
         bool moved = false;
         lag_a =
             kalman_lag_udeg(st, &product->alpha, ke.alpha_udeg, ke.alpha_sigma_udeg, 0u, &moved);
         lag_b = kalman_lag_udeg(st, &product->beta, ke.beta_udeg, ke.beta_sigma_udeg, 1u, &moved);
-        own = moved ? ATTITUDE_WHY_MOTION : 0u;
+        /* a restarted tumbling window is already degraded (kalman-restarted); only a
+         * filter that outlives its windows has moved with the plate */
+        own = moved && st->cfg.mode == ATTITUDE_SLIDING ? ATTITUDE_WHY_MOTION : 0u;
     }
     fix_q32_t p00 = ke.p_mm2[0][0] > 0 ? ke.p_mm2[0][0] : window_white_dist(st);
     int32_t white_a = ke.alpha_sigma_udeg;

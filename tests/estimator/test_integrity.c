@@ -278,6 +278,36 @@ static void test_random_fifth_corrupted(void **state) {
     inject(fifth_random, 200);
 }
 
+/* A VL53L1X's "no target" as a logger without the status column records it: plausible
+ * values scattered over 4..1954 mm (a real one, michaelrenoo/cpp-anti-collision-vl53l1x
+ * lux8900-nichts.csv), in sensor C for the second half of each window. The window's gate
+ * drops them; the Kalman filter's lock-out restarts it inside the window, and its few
+ * rows since then may hold some: its sd must cover that (without the comparison with
+ * the window's estimate after such a restart, answered 6.9 sd off on real data). */
+static bool c_no_target_garbage(unsigned i, uint16_t r[4]) {
+    if (i < N / 2u) {
+        return false;
+    }
+    r[2] = (uint16_t)(4 + urand() * 1950);
+    return false; /* plausible: nothing marks these readings as invalid */
+}
+
+static void test_plausible_no_target_garbage(void **state) {
+    (void)state;
+    init(ATTITUDE_TUMBLING);
+    unsigned ok = 0;
+    for (unsigned w = 0; w < 200u; ++w) {
+        const double alpha = -5 + 10 * urand(), beta = -5 + 10 * urand();
+        bool bad = false;
+        assert_true(window(alpha, beta, c_no_target_garbage, &bad));
+        for (unsigned e = 0; e < ATTITUDE_EST_COUNT; ++e) {
+            check_honest(&out.est[e], alpha, beta, false);
+            ok += out.est[e].status == ATTITUDE_OK ? 1u : 0u;
+        }
+    }
+    assert_int_equal(ok, 0); /* the gate's rejections, parity or the restart say why */
+}
+
 static bool d_beyond_range(unsigned i, uint16_t r[4]) {
     if (i == 17u) {
         r[3] = 5000; /* above the 4000 mm of the default mode's range */
@@ -568,6 +598,7 @@ int main(void) {
         cmocka_unit_test(test_all_four_no_target_is_invalid),
         cmocka_unit_test(test_alternating_zero_and_65535),
         cmocka_unit_test(test_random_fifth_corrupted),
+        cmocka_unit_test(test_plausible_no_target_garbage),
         cmocka_unit_test(test_range_one_reading),
         cmocka_unit_test(test_flagged_missing_rejected),
         cmocka_unit_test(test_parity),
