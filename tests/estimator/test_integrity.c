@@ -20,6 +20,15 @@
 
 #define TEST_PI 3.14159265358979323846
 #define N       100
+#ifndef RAMP_SEED
+#define RAMP_SEED 0xD1B54A32D192ED03u
+#endif
+#ifndef JUMP_SEED
+#define JUMP_SEED 0x9E3779B97F4A7C15u
+#endif
+#ifndef DRIFT_SEED
+#define DRIFT_SEED 0x2545F4914F6CDD1Du
+#endif
 
 static struct attitude_state st;
 static struct attitude_output out;
@@ -501,6 +510,7 @@ static double level(unsigned row) {
  * variance. */
 static void test_steady_ramp_learnt(void **state) {
     (void)state;
+    rs = RAMP_SEED; /* its own noise, whatever ran before */
     const struct calibration ramp = alpha_calibration(slow_ramp, 44, 4);
     print_message("slow ramp: rms err/sd %.2f, max %.2f, steady lag² %.2f of white\n", ramp.rms_z,
                   ramp.max_z, ramp.steady_share);
@@ -513,22 +523,24 @@ static void test_steady_ramp_learnt(void **state) {
 }
 
 /* A plate that jumps to a new α (uniform ±4°) between windows and holds it inside each is
- * not a steady motion: consecutive steps disagree, or the windows show no ramp. The learnt
- * lag² averages 0.43 of the white variance here (a chance collinear run of four jumps
- * with a ramp statistic noisy enough to agree still pads), against 3.0 for the slow ramp
- * above; the bound is 0.6, and no window beyond 6 sd. */
-static double jump_alpha[64];
+ * not a steady motion: consecutive steps disagree, or the windows show no ramp. Over 400
+ * windows the learnt lag² averages 0.26 to 0.49 of the white variance (10 seeds; a chance
+ * collinear run of four jumps with a ramp statistic noisy enough to agree still pads),
+ * against 3.0 for the slow ramp above; the bound is 0.8, and no window beyond 6 sd. */
+#define JUMP_WINDOWS 400u
+static double jump_alpha[JUMP_WINDOWS];
 static double jumps(unsigned row) {
-    return jump_alpha[(row / N) % 64u];
+    return jump_alpha[(row / N) % JUMP_WINDOWS];
 }
 static void test_jumps_are_not_steady_motion(void **state) {
     (void)state;
-    for (unsigned w = 0; w < 64u; ++w) {
+    rs = JUMP_SEED; /* its own noise, whatever ran before */
+    for (unsigned w = 0; w < JUMP_WINDOWS; ++w) {
         jump_alpha[w] = -4.0 + 8.0 * urand();
     }
-    const struct calibration c = alpha_calibration(jumps, 64, 4);
+    const struct calibration c = alpha_calibration(jumps, JUMP_WINDOWS, 4);
     print_message("jumps: steady lag² %.3f of white, rms err/sd %.2f\n", c.steady_share, c.rms_z);
-    assert_true(c.steady_share < 0.6);
+    assert_true(c.steady_share < 0.8);
     assert_true(c.max_z < 6.0);
 }
 
@@ -537,6 +549,7 @@ static void test_jumps_are_not_steady_motion(void **state) {
  * said (flag lowered to 300 µm here) and the sd grows to cover it. */
 static void test_drift_learnt(void **state) {
     (void)state;
+    rs = DRIFT_SEED; /* its own noise, whatever ran before */
     struct attitude_config cfg;
     attitude_config_default(&cfg);
     cfg.window = N;
@@ -556,7 +569,7 @@ static void test_drift_learnt(void **state) {
             (void)attitude_push_sample(&st, r, all_ok, all_present, &out);
         }
         for (unsigned k = 0; k < 4; ++k) {
-            offset[k] = 0.9 * offset[k] + 0.22 * gauss();
+            offset[k] = 0.5 * offset[k] + 0.433 * gauss();
         }
         const struct attitude_estimate *c = &out.est[ATTITUDE_EST_CONSENSUS];
         if (w == 0u) {
