@@ -4,6 +4,7 @@
 
 #include "firmware/text.h"
 #include "semihost.h"
+#include "vl53/vl53.h"
 
 static int fail(struct qemu_trace *t, uint32_t col, const char *what) {
     struct tof_text out;
@@ -186,6 +187,15 @@ int qemu_trace_open(struct qemu_trace *t, const char *path) {
                 return fail(t, (uint32_t)(kv - t->line) + 8u, "arm_mm is not a length in mm");
             }
             have_arm = true;
+        } else if (strncmp(kv, "distance_mode=", 14) == 0) {
+            const char *v = kv + 14;
+            if (strcmp(v, "short") == 0) {
+                t->distance_mode = (uint8_t)VL53_DISTANCE_SHORT;
+            } else if (strcmp(v, "long") == 0) {
+                t->distance_mode = (uint8_t)VL53_DISTANCE_LONG;
+            } else {
+                return fail(t, (uint32_t)(v - t->line) + 1u, "distance_mode is not short or long");
+            }
         } else if (strncmp(kv, "period_ms=", 10) == 0) {
             const char *v = kv + 10;
             if (!parse_uint(v, (uint32_t)strlen(v), 10000u, &t->period_ms) || t->period_ms == 0u) {
@@ -221,6 +231,11 @@ static int parse_row(struct qemu_trace *t) {
             }
             if ((int)col == t->col_range[k]) {
                 row.range_mm[k] = (uint16_t)v;
+                if (t->long_fits && v > VL53_RANGE_MAX_SHORT_MM && v <= VL53_RANGE_MAX_LONG_MM) {
+                    return fail(t, pos + 1u,
+                                "a reading only long mode reports, and no '# distance_mode=': "
+                                "state it (host_sim chooses long for this trace)");
+                }
             }
             if ((int)col == t->col_status[k] && len > 0u) {
                 if (!parse_uint(s + pos, len, 255u, &v)) {

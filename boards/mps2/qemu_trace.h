@@ -35,6 +35,11 @@ struct qemu_trace {
     uint8_t columns;
     int32_t arm_um;
     uint32_t period_ms;
+    uint8_t distance_mode; /* '# distance_mode=': 1 short, 2 long (enum vl53_distance_mode);
+                              0 unstated */
+    bool long_fits;        /* unstated, and the period admits a long-mode budget: a reading
+                              only long mode reports is an error (host_sim would read the
+                              trace ahead and choose long; this reader cannot) */
     struct qemu_trace_row ring[QEMU_TRACE_RING];
     uint32_t rows;   /* rows parsed so far (row i is in ring[i % RING] if i + RING > rows) */
     bool done;       /* end of file reached */

@@ -507,11 +507,13 @@ static void run_mean(struct attitude_state *st, struct attitude_estimate *e) {
 }
 
 /* A filter that is never reset (sliding mode) can lag a moving plate by more than its
- * window, and one restarted inside its window answers from the few rows since, which may
- * hold readings the window's gate left out. Its distance d from the window's end-point
- * estimate (the product's value plus the window's lag when it moved) beyond the noise of
- * that comparison, sqrt(d² − var), is this estimate's own lag or error (unbiased for its
- * square, so no padding when they agree); d beyond motion_sigmas is *moved. */
+ * window; a tumbling one answers from rows the window's gate may have dropped (garbage in
+ * its warm-up, a VL53L1X's plausible no-target values after a lock-out restart). Its
+ * distance d from the window's estimate (sliding: the end point, the product's value plus
+ * the window's lag when it moved; tumbling: the product's value) beyond the noise of that
+ * comparison, sqrt(d² − var), is this estimate's own lag or error (unbiased for its
+ * square, so no padding when they agree); d beyond motion_sigmas sets *moved (when
+ * moved is not NULL). */
 static int32_t kalman_lag_udeg(const struct attitude_state *st,
                                const struct consensus_axis *product, int32_t kalman_udeg,
                                int32_t kalman_sigma_udeg, unsigned axis, bool *moved) {
@@ -521,7 +523,9 @@ static int32_t kalman_lag_udeg(const struct attitude_state *st,
     const struct integrity_window *iw = &st->iw;
     int64_t lag = 0;
     int64_t lag_sd = 0;
-    if (iw->moved[axis]) {
+    /* a tumbling filter is a window estimator: it lags as the product does, so it is
+     * compared with the product itself, not with the window's end point */
+    if (iw->moved[axis] && st->cfg.mode == ATTITUDE_SLIDING) {
         lag = angle_sd(st, square_mm2(iw->lag_mm[axis]), axis);
         lag = iw->lag_mm[axis] < 0 ? -lag : lag;
         lag_sd = angle_sd(st, iw->lag_var_mm2[axis], axis);
@@ -529,7 +533,9 @@ static int32_t kalman_lag_udeg(const struct attitude_state *st,
     const int64_t delta = (int64_t)kalman_udeg - product->angle_udeg - lag;
     const uint64_t d = fix_abs_u64(delta);
     if (d > (uint64_t)INT32_MAX) {
-        *moved = true;
+        if (moved != NULL) {
+            *moved = true;
+        }
         return INT32_MAX;
     }
     const int64_t p2 = (int64_t)product->sigma_udeg * product->sigma_udeg;
@@ -537,8 +543,8 @@ static int32_t kalman_lag_udeg(const struct attitude_state *st,
     const int64_t var_s = fix_sat_add_s64(fix_sat_add_s64(p2, lag_sd * lag_sd), k2);
     const uint64_t var = (uint64_t)var_s;
     const uint64_t k = st->cfg.motion_sigmas_q8;
-    /* d² > k²·var with k in Q8: compare d·256 against k·sqrt(var) */
-    if (d * 256u > k * fix_isqrt_u64(var)) {
+    /* d² > k²·var with k in Q8: compare d·256 against k·sqrt(var) (moved NULL: not asked) */
+    if (moved != NULL && d * 256u > k * fix_isqrt_u64(var)) {
         *moved = true;
     }
     return d * d > var ? (int32_t)fix_isqrt_u64(d * d - var) : 0;
@@ -578,17 +584,14 @@ FIX_NOINLINE void run_kalman(struct attitude_state *st,
     int32_t lag_a = 0;
     int32_t lag_b = 0;
     attitude_why_t own = 0;
-    /* compared with the window's own estimate when the filter outlives the window (sliding)
-     * or restarted inside it: its few rows since then may hold readings the window's gate
-     * left out (a VL53L1X's no-target values look plausible), and the sd must say so */
-    if ((st->cfg.mode == ATTITUDE_SLIDING || restarted) && product != NULL) {
+    if (product != NULL) { /* compared with the window's own estimate, every window */
+        /* only a filter that outlives its windows has moved with the plate; a tumbling
+         * one that disagrees with its window is wrong, and its sd says by how much */
         bool moved = false;
-        lag_a =
-            kalman_lag_udeg(st, &product->alpha, ke.alpha_udeg, ke.alpha_sigma_udeg, 0u, &moved);
-        lag_b = kalman_lag_udeg(st, &product->beta, ke.beta_udeg, ke.beta_sigma_udeg, 1u, &moved);
-        /* a restarted tumbling window is already degraded (kalman-restarted); only a
-         * filter that outlives its windows has moved with the plate */
-        own = moved && st->cfg.mode == ATTITUDE_SLIDING ? ATTITUDE_WHY_MOTION : 0u;
+        bool *ask = st->cfg.mode == ATTITUDE_SLIDING ? &moved : NULL;
+        lag_a = kalman_lag_udeg(st, &product->alpha, ke.alpha_udeg, ke.alpha_sigma_udeg, 0u, ask);
+        lag_b = kalman_lag_udeg(st, &product->beta, ke.beta_udeg, ke.beta_sigma_udeg, 1u, ask);
+        own = moved ? ATTITUDE_WHY_MOTION : 0u;
     }
     fix_q32_t p00 = ke.p_mm2[0][0] > 0 ? ke.p_mm2[0][0] : window_white_dist(st);
     int32_t white_a = ke.alpha_sigma_udeg;
@@ -597,18 +600,20 @@ FIX_NOINLINE void run_kalman(struct attitude_state *st,
     for (unsigned k = 0; k < ATTITUDE_SENSORS; ++k) {
         guessed = guessed || ((st->iw.used & (1u << k)) != 0u && !st->kalman.r_tracked[k]);
     }
-    if (guessed) {
-        /* Until a window has taught R, P rests on the configured guess: the window's own
-         * scatter bounds the white part from below (a VL53L1X at 2.5 m read 7.3 mm against
-         * the 2 mm guess, and the first window claimed a sd 3.6x too small) */
-        fix_q32_t v = 0;
-        if (integrity_axis_var(INTEGRITY_ALPHA, st->iw.used, st->iw.white_mm2, &v)) {
-            const int32_t sd = angle_sd(st, v, 0u);
-            white_a = sd > white_a ? sd : white_a;
+    /* The window's own scatter (the product's predicted σ) bounds the white part from below
+     * when the filter's rows are the window's (tumbling with Q = 0, or restarted inside it:
+     * its P rests on the tracked R, the window's on what it holds) and, for a filter that
+     * outlives its windows, until a window has taught R (P rests on the configured guess: a
+     * VL53L1X at 2.5 m read 7.3 mm against the 2 mm guess, and the first window claimed a
+     * sd 3.6x too small). `auto` learns R from the readings themselves. */
+    const bool window_rows =
+        (st->cfg.mode == ATTITUDE_TUMBLING && !st->kalman.process_noise) || restarted;
+    if (product != NULL && (window_rows || (guessed && !st->kalman.cfg.process_noise_auto))) {
+        if (product->alpha.status == CONSENSUS_OK && product->alpha.sigma_udeg > white_a) {
+            white_a = product->alpha.sigma_udeg;
         }
-        if (integrity_axis_var(INTEGRITY_BETA, st->iw.used, st->iw.white_mm2, &v)) {
-            const int32_t sd = angle_sd(st, v, 1u);
-            white_b = sd > white_b ? sd : white_b;
+        if (product->beta.status == CONSENSUS_OK && product->beta.sigma_udeg > white_b) {
+            white_b = product->beta.sigma_udeg;
         }
         const fix_q32_t d = window_white_dist(st);
         p00 = d > p00 ? d : p00;
@@ -678,8 +683,10 @@ FIX_NOINLINE void window_end(struct attitude_state *st, struct attitude_output *
     (void)memset(&product, 0, sizeof product);
     /* masked with the build's set, so the compiler drops what is not built */
     const uint8_t want = cfg->estimators & ATTITUDE_EST_BUILT;
+    /* the Kalman filter is checked against the product's window estimate */
     const bool need_product = (want & (ATTITUDE_EST_BIT(ATTITUDE_EST_CONSENSUS) |
-                                       ATTITUDE_EST_BIT(ATTITUDE_EST_PAPER))) != 0u;
+                                       ATTITUDE_EST_BIT(ATTITUDE_EST_PAPER))) != 0u ||
+                              kalman_on;
     struct attitude_estimate scratch;
     (void)memset(&scratch, 0, sizeof scratch);
     if (need_product) {
@@ -696,7 +703,7 @@ FIX_NOINLINE void window_end(struct attitude_state *st, struct attitude_output *
         disabled(&out->est[ATTITUDE_EST_PAPER], w);
     }
     if (kalman_on) {
-        run_kalman(st, need_product ? &product : NULL, &out->est[ATTITUDE_EST_KALMAN]);
+        run_kalman(st, &product, &out->est[ATTITUDE_EST_KALMAN]); /* need_product holds */
     } else {
         disabled(&out->est[ATTITUDE_EST_KALMAN], w);
     }
@@ -747,6 +754,12 @@ bool attitude_push_sample(struct attitude_state *st, const uint16_t range_mm[ATT
     /* 0, no-target values and readings beyond the mode's range are never used, whatever
      * their status: the window answers from the other sensors */
     valid_mask &= (uint8_t)~integrity_implausible(ranges, present_mask, cfg->range_max_mm);
+    if (st->kalman_restart_due) { /* the last window found the configured R wrong */
+        st->kalman_restart_due = false;
+        kalman_reset(&st->kalman);
+        st->kalman.restarts++;
+        note_kalman_restart(st); /* before this row: it is the filter's first */
+    }
     if (st->kalman_rows_since_restart < UINT32_MAX) {
         st->kalman_rows_since_restart++;
     }
@@ -755,12 +768,6 @@ bool attitude_push_sample(struct attitude_state *st, const uint16_t range_mm[ATT
         if (!st->kalman.process_noise) { /* with Q > 0 the filter tracks across windows */
             kalman_reset(&st->kalman);
         }
-    }
-    if (st->kalman_restart_due) { /* the last window found the configured R wrong */
-        st->kalman_restart_due = false;
-        kalman_reset(&st->kalman);
-        st->kalman.restarts++;
-        note_kalman_restart(st);
     }
     struct window_row *newest = window_push(&st->window, ranges, present_mask, valid_mask);
     if (kalman_on) {

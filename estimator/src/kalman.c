@@ -332,7 +332,8 @@ bool kalman_track_noise(struct kalman_state *k, unsigned sensor, fix_q32_t var_m
                             : (var_mm2 > KALMAN_R_MAX_Q32 ? KALMAN_R_MAX_Q32 : var_mm2);
     bool guess_off = false;
     if (!k->r_tracked[sensor]) {
-        const fix_q32_t guess = k->r[sensor];
+        /* against the configured guess (a lock-out may have raised k->r x4 already) */
+        const fix_q32_t guess = k->cfg.initial_noise_mm2[sensor];
         /* more than 2x (4x from 8 to 31 readings, whose variance scatters more; never from
          * fewer): beyond what χ² scatter gives (χ²_31/31 > 2 and χ²_7/7 > 4 each below
          * 10^-3) */

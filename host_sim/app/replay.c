@@ -5,6 +5,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #include "estimator/attitude.h"
 #include "firmware/app.h"
@@ -324,25 +325,32 @@ static int open_inputs(struct replay *r) {
 }
 
 /* The readings of the trace in (1,360, 4,000] mm: what short mode cannot report as valid
- * and long mode can. A second pass of the reader over the file (the replay's own pass
- * reports any error in it); *first_line and *first_sensor of the first such reading. */
-static uint64_t long_range_readings(const char *path, unsigned long *first_line,
-                                    unsigned *first_sensor) {
+ * and long mode can. A second pass of the reader over the file; *first_line and
+ * *first_sensor of the first such reading. -1 when the file is not a regular one (a pipe
+ * cannot be read twice) or does not parse to its end (the replay's own pass reports
+ * that), else the count. */
+static int64_t long_range_readings(const char *path, unsigned long *first_line,
+                                   unsigned *first_sensor) {
     static struct trace_reader scan; /* static: the reader holds its block buffer */
-    uint64_t count = 0;
+    struct stat sb;
+    if (stat(path, &sb) != 0 || !S_ISREG(sb.st_mode)) {
+        return -1;
+    }
     FILE *f = fopen(path, "rb");
     if (f == NULL || trace_reader_open(&scan, f, path) != 0) {
         if (f != NULL) {
             fclose(f);
         }
-        return 0;
+        return -1;
     }
+    int64_t count = 0;
     struct scene_row row;
-    while (trace_reader_next(&scan, &row) == 0) {
+    int rc = 0;
+    while ((rc = trace_reader_next(&scan, &row)) == 0) {
         for (unsigned k = 0; k < SCENE_SENSORS; ++k) {
             const uint16_t mm = row.range_mm[k];
             if (row.present[k] && mm > VL53_RANGE_MAX_SHORT_MM && mm <= VL53_RANGE_MAX_LONG_MM) {
-                if (count++ == 0u) {
+                if (count++ == 0) {
                     *first_line = scan.last_row_line;
                     *first_sensor = k;
                 }
@@ -350,16 +358,23 @@ static uint64_t long_range_readings(const char *path, unsigned long *first_line,
         }
     }
     fclose(f);
-    return count;
+    return rc == 1 ? count : -1;
 }
 
-/* The simulated parts' distance mode: --distance-mode, else the trace's distance_mode,
- * else long when the trace holds readings only long mode reports (a VL53L1X logging in
- * its default mode, to 4 m) and the period admits a long-mode budget, else short (the
- * firmware's own mode, docs/driver.md). Said on stderr when chosen from the readings. */
+/* The simulated parts' distance mode: --distance-mode, else the trace's distance_mode
+ * (checked either way), else long when the trace holds readings only long mode reports (a
+ * VL53L1X logging in its default mode, to 4 m) and the period admits a long-mode budget,
+ * else short (the firmware's own mode, docs/driver.md). Said on stderr when chosen from
+ * the readings, or when they could not be read ahead. */
 static int choose_distance_mode(struct replay *r) {
     const char *path = r->args->trace_path;
     const char *stated = trace_reader_meta(&r->reader, "distance_mode");
+    const unsigned long meta_line = trace_reader_meta_line(&r->reader, "distance_mode");
+    if (stated != NULL && strcmp(stated, "long") != 0 && strcmp(stated, "short") != 0) {
+        fprintf(stderr, "host_sim replay: %s:%lu: distance_mode must be short or long, got '%s'\n",
+                path, meta_line, stated);
+        return -1;
+    }
     r->distance_mode = VL53_DISTANCE_SHORT;
     if (r->args->distance_mode != 0u) {
         r->distance_mode = (enum vl53_distance_mode)r->args->distance_mode;
@@ -367,32 +382,35 @@ static int choose_distance_mode(struct replay *r) {
         return 0;
     }
     if (stated != NULL) {
-        const unsigned long line = trace_reader_meta_line(&r->reader, "distance_mode");
-        if (strcmp(stated, "long") == 0) {
-            r->distance_mode = VL53_DISTANCE_LONG;
-        } else if (strcmp(stated, "short") != 0) {
-            fprintf(stderr,
-                    "host_sim replay: %s:%lu: distance_mode must be short or long, got '%s'\n",
-                    path, line, stated);
-            return -1;
-        }
-        snprintf(r->distance_source, sizeof r->distance_source, "the trace (line %lu)", line);
+        r->distance_mode = strcmp(stated, "long") == 0 ? VL53_DISTANCE_LONG : VL53_DISTANCE_SHORT;
+        snprintf(r->distance_source, sizeof r->distance_source, "the trace (line %lu)", meta_line);
         return 0;
     }
     unsigned long line = 0;
     unsigned sensor = 0;
-    const uint64_t beyond = long_range_readings(path, &line, &sensor);
-    if (beyond == 0u) {
+    const int64_t beyond = long_range_readings(path, &line, &sensor);
+    if (beyond < 0) {
         snprintf(r->distance_source, sizeof r->distance_source,
-                 "default: no reading above short mode's %u mm", VL53_RANGE_MAX_SHORT_MM);
+                 "default: the readings could not be read ahead");
+        fprintf(stderr,
+                "host_sim replay: note: %s: not a regular file that parses to its end, so its "
+                "readings were not read ahead for the distance mode: short (to %u mm) unless "
+                "'# distance_mode=' or --distance-mode says otherwise\n",
+                path, VL53_RANGE_MAX_SHORT_MM);
+        return 0;
+    }
+    if (beyond == 0) {
+        snprintf(r->distance_source, sizeof r->distance_source,
+                 "default: no reading in (%u, %u] mm", VL53_RANGE_MAX_SHORT_MM,
+                 VL53_RANGE_MAX_LONG_MM);
         return 0;
     }
     const char name = (char)('A' + sensor);
     if (tof_app_replay_mode_fits(r->period_ms, VL53_DISTANCE_LONG)) {
         r->distance_mode = VL53_DISTANCE_LONG;
         snprintf(r->distance_source, sizeof r->distance_source,
-                 "%llu readings above short mode's %u mm, the first at line %lu (sensor %c)",
-                 (unsigned long long)beyond, VL53_RANGE_MAX_SHORT_MM, line, name);
+                 "%lld readings above short mode's %u mm, the first at line %lu (sensor %c)",
+                 (long long)beyond, VL53_RANGE_MAX_SHORT_MM, line, name);
         fprintf(stderr,
                 "host_sim replay: note: %s: distance mode long (to %u mm): %s; state it with "
                 "'# distance_mode=long' or --distance-mode\n",
@@ -401,10 +419,10 @@ static int choose_distance_mode(struct replay *r) {
         snprintf(r->distance_source, sizeof r->distance_source,
                  "default: long mode has no budget for period_ms %u", r->period_ms);
         fprintf(stderr,
-                "host_sim replay: warning: %s: %llu readings above short mode's %u mm (the first "
+                "host_sim replay: warning: %s: %lld readings above short mode's %u mm (the first "
                 "at line %lu, sensor %c) are flagged: long mode, which reports them, has no "
                 "budget for period_ms %u (at least %u ms)\n",
-                path, (unsigned long long)beyond, VL53_RANGE_MAX_SHORT_MM, line, name, r->period_ms,
+                path, (long long)beyond, VL53_RANGE_MAX_SHORT_MM, line, name, r->period_ms,
                 20u + VL53_IMP_MARGIN_MS);
     }
     return 0;

@@ -65,8 +65,11 @@ struct harness {
     bool have_last;
     uint32_t identical_run; /* identical complete valid rows ending at the newest */
     struct row ring[ATTITUDE_WINDOW_MAX];
-    bool restarted;            /* the Kalman filter ever restarted */
-    uint32_t last_restart_row; /* row during whose push (or window flush) it last did */
+    bool restarted;             /* the Kalman filter ever restarted */
+    uint32_t restart_first_row; /* the restarted filter's first row: the one after the row
+                                   during whose push a lock-out restarted it, or that row
+                                   itself when the restart came before it (a wrong R guess
+                                   found at the last window's end) */
     uint32_t restarts_seen;
 };
 
@@ -241,7 +244,7 @@ static void fed_counts(unsigned k, uint16_t n, uint16_t *flagged, uint16_t *miss
 }
 
 static bool restart_inside_window(const struct attitude_output *out) {
-    return h.restarted && h.last_restart_row >= out->first_row;
+    return h.restarted && h.restart_first_row > out->first_row;
 }
 
 static void check_estimate(const struct attitude_output *out, enum attitude_estimator which) {
@@ -435,7 +438,9 @@ static void push_row(const struct row *r) {
     if (h.st[0].kalman.restarts != h.restarts_seen) {
         h.restarts_seen = h.st[0].kalman.restarts;
         h.restarted = true;
-        h.last_restart_row = h.rows;
+        /* the facade counts the filter's rows: 0 after a restart during this row, 1 when
+         * this row was the restarted filter's first */
+        h.restart_first_row = h.rows + (h.st[0].kalman_rows_since_restart == 0u ? 1u : 0u);
     }
     h.rows++;
     const uint16_t n = h.cfg.window;
@@ -532,7 +537,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
     h.identical_run = 0;
     h.restarted = false;
     h.restarts_seen = 0;
-    h.last_restart_row = 0;
+    h.restart_first_row = 0;
     h.row_limit = ROWS_MAX;
     if (h.cfg.mode == ATTITUDE_SLIDING && SLIDING_WORK_MAX / h.cfg.window < h.row_limit) {
         h.row_limit = SLIDING_WORK_MAX / h.cfg.window;

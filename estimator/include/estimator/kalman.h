@@ -117,8 +117,9 @@ struct kalman_state {
     uint8_t warm_rows;
     uint16_t warm_range[KALMAN_WARMUP_MAX][ANGLES_SENSORS];
     uint8_t warm_valid[KALMAN_WARMUP_MAX];
-    uint8_t reject_run[ANGLES_SENSORS];   /* consecutive gated-out readings per sensor */
-    uint32_t restarts;                    /* lock-outs and definiteness failures */
+    uint8_t reject_run[ANGLES_SENSORS]; /* consecutive gated-out readings per sensor */
+    uint32_t restarts; /* lock-outs, definiteness failures, and the facade's restart on a wrong R
+                          guess */
     uint32_t numeric_restarts;            /* definiteness failures alone (covariance form) */
     uint64_t gate_s_max;                  /* s up to which s·k² fits 64 bits (fast gate) */
     uint64_t gate_accept[ANGLES_SENSORS]; /* e24² below this: inside the gate for any s >= R */
