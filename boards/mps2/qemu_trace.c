@@ -189,13 +189,11 @@ int qemu_trace_open(struct qemu_trace *t, const char *path) {
             have_arm = true;
         } else if (strncmp(kv, "distance_mode=", 14) == 0) {
             const char *v = kv + 14;
-            if (strcmp(v, "short") == 0) {
-                t->distance_mode = (uint8_t)VL53_DISTANCE_SHORT;
-            } else if (strcmp(v, "long") == 0) {
-                t->distance_mode = (uint8_t)VL53_DISTANCE_LONG;
-            } else {
+            enum vl53_distance_mode mode;
+            if (!vl53_distance_mode_from_name(v, &mode)) {
                 return fail(t, (uint32_t)(v - t->line) + 1u, "distance_mode is not short or long");
             }
+            t->distance_mode = (uint8_t)mode;
         } else if (strncmp(kv, "period_ms=", 10) == 0) {
             const char *v = kv + 10;
             if (!parse_uint(v, (uint32_t)strlen(v), 10000u, &t->period_ms) || t->period_ms == 0u) {

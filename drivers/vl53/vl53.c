@@ -6,6 +6,7 @@
 #include "vl53/vl53.h"
 
 #include <stddef.h>
+#include <string.h>
 
 #include "hal/hal_err.h"
 #include "hal/hal_i2c_reg.h"
@@ -66,6 +67,13 @@ static const struct timing_entry *find_timing(const struct vl53_timing *timing) 
         }
     }
     return NULL;
+}
+
+uint16_t vl53_shortest_budget_ms(enum vl53_distance_mode mode) {
+    if (mode == VL53_DISTANCE_LONG) {
+        return long_mode_timing[0].budget_ms;
+    }
+    return mode == VL53_DISTANCE_SHORT ? short_mode_timing[0].budget_ms : 0u;
 }
 
 int vl53_timing_check(const struct vl53_timing *timing) {
@@ -808,11 +816,30 @@ static void decode_result(const uint8_t *block, uint32_t time_us, struct vl53_re
     result->flags = 0u;
 }
 
+uint16_t vl53_range_max_mm(enum vl53_distance_mode mode) {
+    return mode == VL53_DISTANCE_LONG ? (uint16_t)VL53_RANGE_MAX_LONG_MM
+                                      : (uint16_t)VL53_RANGE_MAX_SHORT_MM;
+}
+
+const char *vl53_distance_mode_name(enum vl53_distance_mode mode) {
+    return mode == VL53_DISTANCE_LONG ? "long" : "short";
+}
+
+bool vl53_distance_mode_from_name(const char *name, enum vl53_distance_mode *mode) {
+    if (strcmp(name, "short") == 0) {
+        *mode = VL53_DISTANCE_SHORT;
+        return true;
+    }
+    if (strcmp(name, "long") == 0) {
+        *mode = VL53_DISTANCE_LONG;
+        return true;
+    }
+    return false;
+}
+
 /* A distance the part cannot report as a valid reading in `mode` (see vl53.h). */
 static bool implausible_distance(uint16_t mm, enum vl53_distance_mode mode) {
-    const uint16_t max_mm =
-        mode == VL53_DISTANCE_LONG ? VL53_RANGE_MAX_LONG_MM : VL53_RANGE_MAX_SHORT_MM;
-    return mm == 0u || mm > max_mm; /* covers 8190, 8191 and 65535, all beyond 4 m */
+    return mm == 0u || mm > vl53_range_max_mm(mode); /* 8190, 8191, 65535: beyond 4 m */
 }
 
 /* The marks of a result that passed the stream check: first-after-start, plausibility. */

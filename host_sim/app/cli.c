@@ -256,13 +256,11 @@ int cli_parse_replay(int argc, char **argv, struct replay_args *out) {
             if ((v = option_value(cmd, argc, argv, &i)) == NULL) {
                 return -1;
             }
-            if (strcmp(v, "short") == 0) {
-                out->distance_mode = (unsigned)VL53_DISTANCE_SHORT;
-            } else if (strcmp(v, "long") == 0) {
-                out->distance_mode = (unsigned)VL53_DISTANCE_LONG;
-            } else {
+            enum vl53_distance_mode mode;
+            if (!vl53_distance_mode_from_name(v, &mode)) {
                 return usage_error(cmd, "--distance-mode: expected short or long", v);
             }
+            out->distance_mode = (unsigned)mode;
         } else if (strcmp(arg, "--quiet") == 0) {
             out->quiet = true;
         } else if (arg[0] == '-' && arg[1] != '\0') {

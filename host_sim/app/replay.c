@@ -370,7 +370,8 @@ static int choose_distance_mode(struct replay *r) {
     const char *path = r->args->trace_path;
     const char *stated = trace_reader_meta(&r->reader, "distance_mode");
     const unsigned long meta_line = trace_reader_meta_line(&r->reader, "distance_mode");
-    if (stated != NULL && strcmp(stated, "long") != 0 && strcmp(stated, "short") != 0) {
+    enum vl53_distance_mode stated_mode = VL53_DISTANCE_SHORT;
+    if (stated != NULL && !vl53_distance_mode_from_name(stated, &stated_mode)) {
         fprintf(stderr, "host_sim replay: %s:%lu: distance_mode must be short or long, got '%s'\n",
                 path, meta_line, stated);
         return -1;
@@ -382,7 +383,7 @@ static int choose_distance_mode(struct replay *r) {
         return 0;
     }
     if (stated != NULL) {
-        r->distance_mode = strcmp(stated, "long") == 0 ? VL53_DISTANCE_LONG : VL53_DISTANCE_SHORT;
+        r->distance_mode = stated_mode;
         snprintf(r->distance_source, sizeof r->distance_source, "the trace (line %lu)", meta_line);
         return 0;
     }
@@ -423,7 +424,7 @@ static int choose_distance_mode(struct replay *r) {
                 "at line %lu, sensor %c) are flagged: long mode, which reports them, has no "
                 "budget for period_ms %u (at least %u ms)\n",
                 path, (long long)beyond, VL53_RANGE_MAX_SHORT_MM, line, name, r->period_ms,
-                20u + VL53_IMP_MARGIN_MS);
+                vl53_shortest_budget_ms(VL53_DISTANCE_LONG) + VL53_IMP_MARGIN_MS);
     }
     return 0;
 }
@@ -444,9 +445,9 @@ static int configure(struct replay *r) {
                 "host_sim replay: %s%s: no firmware configuration fits period_ms %u and arm_mm "
                 "%.3f in %s mode (%s; the shortest period is a %u ms budget + %u ms margin)\n",
                 r->args->trace_path, where, r->period_ms, r->arm_mm,
-                r->distance_mode == VL53_DISTANCE_LONG ? "long" : "short",
+                vl53_distance_mode_name(r->distance_mode),
                 bad != NULL ? bad : "no VL53L1X timing budget fits the period",
-                r->distance_mode == VL53_DISTANCE_LONG ? 20u : 15u, VL53_IMP_MARGIN_MS);
+                (unsigned)vl53_shortest_budget_ms(r->distance_mode), VL53_IMP_MARGIN_MS);
         return -1;
     }
     if (tof_app_config_process_noise(&r->app_cfg, r->args->process_noise_um2_per_s[0],
@@ -714,9 +715,7 @@ static int write_report(struct replay *r, const char *path) {
             r->period_ms, tm->period_from_meta ? "trace" : "default",
             (unsigned long long)tm->repeats, (unsigned long long)tm->jumps,
             (unsigned long)tm->max_jump_ms, tm->max_jump_line, (unsigned long long)r->partial_rows,
-            r->distance_mode == VL53_DISTANCE_LONG ? "long" : "short",
-            r->distance_mode == VL53_DISTANCE_LONG ? VL53_RANGE_MAX_LONG_MM
-                                                   : VL53_RANGE_MAX_SHORT_MM,
+            vl53_distance_mode_name(r->distance_mode), vl53_range_max_mm(r->distance_mode),
             r->distance_source);
     fputs("  \"crb_alpha_deg\": ", f);
     json_number(f, rms(r->crb_sum2_alpha, r->crb_windows));
@@ -788,11 +787,8 @@ static void print_summary(struct replay *r) {
            r->args->sliding ? "sliding" : "tumbling", (unsigned long long)r->estimates,
            r->args->estimator);
     printf("time base: %s; windows counted in rows\n", time_base(r));
-    printf("distance mode: %s (to %u mm; %s)\n",
-           r->distance_mode == VL53_DISTANCE_LONG ? "long" : "short",
-           r->distance_mode == VL53_DISTANCE_LONG ? VL53_RANGE_MAX_LONG_MM
-                                                  : VL53_RANGE_MAX_SHORT_MM,
-           r->distance_source);
+    printf("distance mode: %s (to %u mm; %s)\n", vl53_distance_mode_name(r->distance_mode),
+           vl53_range_max_mm(r->distance_mode), r->distance_source);
     printf("%-16s %10s %10s %10s %10s %10s %10s %6s %6s %6s\n", "estimator", "rms_a[deg]",
            "mae_a[deg]", "max_a[deg]", "rms_b[deg]", "mae_b[deg]", "max_b[deg]", "ok", "degr",
            "inval");

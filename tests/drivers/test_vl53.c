@@ -104,6 +104,27 @@ static void test_config_checks(void **state) {
     assert_int_equal(fx.rig.bus.stats.transactions, 0u);
 }
 
+/* The distance modes' facts and names, as replays and traces use them: the largest valid
+ * distance, the shortest budget, and the spelling both ways (anything else refused). */
+static void test_distance_mode_facts(void **state) {
+    (void)state;
+    assert_int_equal(vl53_range_max_mm(VL53_DISTANCE_SHORT), 1360);
+    assert_int_equal(vl53_range_max_mm(VL53_DISTANCE_LONG), 4000);
+    assert_int_equal(vl53_shortest_budget_ms(VL53_DISTANCE_SHORT), 15);
+    assert_int_equal(vl53_shortest_budget_ms(VL53_DISTANCE_LONG), 20);
+    assert_int_equal(vl53_shortest_budget_ms((enum vl53_distance_mode)7), 0);
+    enum vl53_distance_mode m = VL53_DISTANCE_SHORT;
+    assert_true(vl53_distance_mode_from_name("long", &m));
+    assert_int_equal(m, VL53_DISTANCE_LONG);
+    assert_string_equal(vl53_distance_mode_name(m), "long");
+    assert_true(vl53_distance_mode_from_name("short", &m));
+    assert_int_equal(m, VL53_DISTANCE_SHORT);
+    assert_string_equal(vl53_distance_mode_name(m), "short");
+    assert_false(vl53_distance_mode_from_name("LONG", &m));
+    assert_false(vl53_distance_mode_from_name("", &m));
+    assert_int_equal(m, VL53_DISTANCE_SHORT); /* untouched when refused */
+}
+
 static void test_timing_table(void **state) {
     (void)state;
     static const uint16_t budgets[] = {15u, 20u, 33u, 50u, 100u, 200u, 500u};
@@ -623,6 +644,7 @@ int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup(test_config_checks, setup),
         cmocka_unit_test_setup(test_timing_table, setup),
+        cmocka_unit_test(test_distance_mode_facts),
         cmocka_unit_test_setup(test_happy_path, setup),
         cmocka_unit_test_setup(test_scripted_bytes_of_init_and_read, setup),
         cmocka_unit_test_setup(test_vendor_block_override_and_vhv_step, setup),

@@ -76,6 +76,19 @@ enum vl53_distance_mode {
  * "up to 4 m"); a reading beyond it is implausible. */
 #define VL53_RANGE_MAX_SHORT_MM 1360u
 #define VL53_RANGE_MAX_LONG_MM  4000u
+
+/* The largest distance `mode` reports as valid (short's for anything but long). */
+uint16_t vl53_range_max_mm(enum vl53_distance_mode mode);
+
+/* The shortest timing budget `mode` has (short 15 ms, long 20 ms; [ULD] tables), or 0 for
+ * an unknown mode. */
+uint16_t vl53_shortest_budget_ms(enum vl53_distance_mode mode);
+
+/* "short" or "long" (as traces and command lines spell them); "short" for anything but long. */
+const char *vl53_distance_mode_name(enum vl53_distance_mode mode);
+
+/* The mode spelled `name` ("short", "long"): true and *mode set, or false for any other. */
+bool vl53_distance_mode_from_name(const char *name, enum vl53_distance_mode *mode);
 /* Distances no valid reading has: 8190/8191 are the no-target codes, 65535 what a read of
  * an undriven bus (all ones) gives, 0 a target at the window. */
 #define VL53_NO_TARGET_MM     8190u
