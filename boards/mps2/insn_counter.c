@@ -1,3 +1,4 @@
+/* Exact instruction counts under QEMU -icount from CMSDK timer 0 (insn_counter.h). */
 #include "insn_counter.h"
 
 #define TIMER0_BASE   0x40000000u /* AN385/AN386 memory map: CMSDK timer 0 */

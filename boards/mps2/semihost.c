@@ -1,3 +1,4 @@
+/* Arm semihosting calls for the QEMU images: console, files, exit (semihost.h). */
 #include "semihost.h"
 
 #include <string.h>

@@ -1,3 +1,4 @@
+/* STM32 GPIO pin helpers and the hal_gpio implementation on them (stm32_gpio.h). */
 #include "stm32_gpio.h"
 
 #include "hal/hal_err.h"

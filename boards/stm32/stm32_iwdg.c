@@ -1,3 +1,4 @@
+/* hal_watchdog on the STM32 independent watchdog (stm32_iwdg.h). */
 #include "stm32_iwdg.h"
 
 #include <stddef.h>

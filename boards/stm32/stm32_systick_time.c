@@ -1,3 +1,4 @@
+/* hal_time on the Cortex-M SysTick (stm32_systick_time.h). */
 #include "stm32_systick_time.h"
 
 #include <stddef.h>

@@ -1,3 +1,4 @@
+/* Transmit on an STM32 USARTv2 for the log and telemetry link (stm32_usart.h). */
 #include "stm32_usart.h"
 
 /* USARTv2 register offsets and bits (RM0351 §40.8 / RM0444 §33.8). */

@@ -1,3 +1,5 @@
+/* Sample assembly: the four sensors' readings grouped into samples by time slot
+ * (firmware/assembler.h). */
 #include "firmware/assembler.h"
 
 #include <string.h>

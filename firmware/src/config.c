@@ -1,3 +1,4 @@
+/* The firmware's configuration: defaults and the checks made at init (firmware/config.h). */
 #include "firmware/config.h"
 
 #include <stddef.h>

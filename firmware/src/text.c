@@ -1,3 +1,4 @@
+/* Integer-only text formatting, the same bytes on every target (firmware/text.h). */
 #include "firmware/text.h"
 
 static void put(struct tof_text *t, char c) {

@@ -1,3 +1,4 @@
+/* The simulated monotonic clock and its hal_time implementation (sim/sim_clock.h). */
 #include "sim/sim_clock.h"
 
 void sim_clock_init(struct sim_clock *clock, uint64_t start_us) {

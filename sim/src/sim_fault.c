@@ -1,3 +1,5 @@
+/* Fault-injection settings of the simulated bus: names, parsing and validation
+ * (sim/sim_fault.h). */
 #include "sim/sim_fault.h"
 
 static const char *const fault_names[SIM_FAULT_COUNT] = {

@@ -1,3 +1,4 @@
+/* The simulated GPIO controller, whose pins wire to device models (sim/sim_gpio.h). */
 #include "sim/sim_gpio.h"
 
 #include <stddef.h>

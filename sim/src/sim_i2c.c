@@ -235,6 +235,43 @@ static bool drawn(uint32_t hits, enum sim_fault_kind kind) {
     return (hits & (1u << kind)) != 0u;
 }
 
+/* The transfer reaches the matched targets (all of them drive the bus: open drain), then
+ * the faults drawn for after delivery: garbage, a flipped result bit, a stuck DRDY line.
+ * Inlined like its caller, so the fault-free path keeps no fault branch. */
+static inline __attribute__((always_inline)) int
+deliver(struct sim_i2c_bus *bus, uint64_t start_us, const size_t *matched, size_t count,
+        const uint8_t *tx, size_t tx_len, uint8_t *rx, size_t rx_len, uint32_t hits,
+        uint32_t *fault_mask, uint32_t *duration_ns) {
+    int result;
+    const struct sim_i2c_target *first = &bus->targets[matched[0]];
+    result = first->ops->transfer(first->ctx, tx, tx_len, rx, rx_len);
+    for (size_t m = 1; m < count && result == HAL_OK; ++m) {
+        const struct sim_i2c_target *t = &bus->targets[matched[m]];
+        uint8_t driven[SIM_I2C_MAX_TRANSFER];
+        result = t->ops->transfer(t->ctx, tx, tx_len, driven, rx_len);
+        for (size_t i = 0; i < rx_len; ++i) {
+            rx[i] &= driven[i]; /* open-drain: a 0 from anyone wins */
+        }
+    }
+    *duration_ns = wire_ns(bus, result == HAL_OK ? transfer_bits(tx_len, rx_len) : 20u);
+    if (result == HAL_OK && rx_len > 0u && drawn(hits, SIM_FAULT_GARBAGE)) {
+        fill_garbage(bus, rx, rx_len);
+        count_injection(bus, SIM_FAULT_GARBAGE, start_us, fault_mask);
+    }
+    if (result == HAL_OK && rx_len > 0u && drawn(hits, SIM_FAULT_BITFLIP) &&
+        first->ops->flip_result_bit(first->ctx, tx, tx_len, rx, rx_len,
+                                    sim_prng_below(&bus->prng, 8u * SIM_I2C_MAX_TRANSFER))) {
+        count_injection(bus, SIM_FAULT_BITFLIP, start_us, fault_mask);
+    }
+    if (drawn(hits, SIM_FAULT_DRDY_HIGH) && first->ops->inject(first->ctx, SIM_FAULT_DRDY_HIGH)) {
+        count_injection(bus, SIM_FAULT_DRDY_HIGH, start_us, fault_mask);
+    }
+    if (drawn(hits, SIM_FAULT_DRDY_LOW) && first->ops->inject(first->ctx, SIM_FAULT_DRDY_LOW)) {
+        count_injection(bus, SIM_FAULT_DRDY_LOW, start_us, fault_mask);
+    }
+    return result;
+}
+
 /* One transaction after the request checks, with `hits` the fault kinds drawn for it (bit
  * k: kind k). Inlined into its two callers, so the fault-free one (hits = 0) loses every
  * fault branch at compile time. */
@@ -289,33 +326,8 @@ transaction(struct sim_i2c_bus *bus, uint64_t start_us, uint8_t addr7, const uin
         duration_ns = wire_ns(bus, 10u) + timeout_ns_of(timeout_us) + wire_ns(bus, 1u);
         result = HAL_ERR_TIMEOUT;
     } else {
-        const struct sim_i2c_target *first = &bus->targets[matched[0]];
-        result = first->ops->transfer(first->ctx, tx, tx_len, rx, rx_len);
-        for (size_t m = 1; m < count && result == HAL_OK; ++m) {
-            const struct sim_i2c_target *t = &bus->targets[matched[m]];
-            uint8_t driven[SIM_I2C_MAX_TRANSFER];
-            result = t->ops->transfer(t->ctx, tx, tx_len, driven, rx_len);
-            for (size_t i = 0; i < rx_len; ++i) {
-                rx[i] &= driven[i]; /* open-drain: a 0 from anyone wins */
-            }
-        }
-        duration_ns = wire_ns(bus, result == HAL_OK ? transfer_bits(tx_len, rx_len) : 20u);
-        if (result == HAL_OK && rx_len > 0u && drawn(hits, SIM_FAULT_GARBAGE)) {
-            fill_garbage(bus, rx, rx_len);
-            count_injection(bus, SIM_FAULT_GARBAGE, start_us, &fault_mask);
-        }
-        if (result == HAL_OK && rx_len > 0u && drawn(hits, SIM_FAULT_BITFLIP) &&
-            first->ops->flip_result_bit(first->ctx, tx, tx_len, rx, rx_len,
-                                        sim_prng_below(&bus->prng, 8u * SIM_I2C_MAX_TRANSFER))) {
-            count_injection(bus, SIM_FAULT_BITFLIP, start_us, &fault_mask);
-        }
-        if (drawn(hits, SIM_FAULT_DRDY_HIGH) &&
-            first->ops->inject(first->ctx, SIM_FAULT_DRDY_HIGH)) {
-            count_injection(bus, SIM_FAULT_DRDY_HIGH, start_us, &fault_mask);
-        }
-        if (drawn(hits, SIM_FAULT_DRDY_LOW) && first->ops->inject(first->ctx, SIM_FAULT_DRDY_LOW)) {
-            count_injection(bus, SIM_FAULT_DRDY_LOW, start_us, &fault_mask);
-        }
+        result = deliver(bus, start_us, matched, count, tx, tx_len, rx, rx_len, hits, &fault_mask,
+                         &duration_ns);
     }
     spend(bus, duration_ns);
     note(bus, start_us, duration_ns, addr7, result, fault_mask, tx, tx_len, rx,

@@ -1,3 +1,4 @@
+/* The simulator's seeded xorshift64* generator (sim/sim_prng.h). */
 #include "sim/sim_prng.h"
 
 void sim_prng_seed(struct sim_prng *prng, uint32_t seed) {

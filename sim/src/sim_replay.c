@@ -1,3 +1,5 @@
+/* The replay harness host_sim and the QEMU image share: trace rows into the four models
+ * (sim/sim_replay.h). */
 #include "sim/sim_replay.h"
 
 static int row_next(void *ctx, unsigned sensor, uint32_t sample_index, struct sim_range *out) {

@@ -1,3 +1,5 @@
+/* The simulated sensor head: clock, bus, GPIO and four VL53 models wired together
+ * (sim/sim_rig.h). */
 #include "sim/sim_rig.h"
 
 #include <stddef.h>

@@ -1,3 +1,4 @@
+/* The benchmark's float baseline: the estimator's algorithms written plainly in float. */
 #include "float_baseline.h"
 
 #include <math.h>

@@ -1,3 +1,4 @@
+/* Register-level fakes of the STM32 peripherals for the board drivers' host tests. */
 #include "fake_stm32.h"
 
 #include <setjmp.h>

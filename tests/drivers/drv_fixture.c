@@ -1,3 +1,4 @@
+/* Shared set-up of the driver tests: a simulated head and the product's driver configuration. */
 #include "drv_fixture.h"
 
 #include <string.h>

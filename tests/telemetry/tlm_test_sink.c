@@ -1,3 +1,4 @@
+/* Test helper: a frame sink that records every frame and rejection it is given. */
 #include "tlm_test_sink.h"
 
 #include <stdio.h>

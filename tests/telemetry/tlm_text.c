@@ -1,3 +1,5 @@
+/* Test helper: the canonical one-line text of every message, as tools/tof_telemetry.py prints
+ * it. */
 #include "tlm_text.h"
 
 #include <inttypes.h>

@@ -1,3 +1,4 @@
+/* CRC-16/CCITT-FALSE of every telemetry frame (telemetry/tlm_crc.h). */
 #include "telemetry/tlm_crc.h"
 
 /*
