@@ -69,12 +69,12 @@ void twin_systick_update(struct twin *t) {
     s->syst_next += wraps * p;
     s->countflag = true;
     if ((s->syst_csr & CSR_TICKINT) != 0u) {
-        twin_set_pending(t, EXC_SYSTICK, true);
+        twin_svc_set_pending(&t->svc, EXC_SYSTICK, true);
         if (wraps > 1u) {
             /* The core could not take a tick in time (interrupts masked for > 1 ms): on
              * hardware a tick is lost the same way. */
             fprintf(t->log, "tof_twin: %llu SysTick wraps merged at t = %llu us\n",
-                    (unsigned long long)wraps, (unsigned long long)twin_now_us(t));
+                    (unsigned long long)wraps, (unsigned long long)twin_svc_now_us(&t->svc));
         }
     }
 }
@@ -127,7 +127,7 @@ uint32_t twin_scs_read(struct twin *t, uint32_t addr) {
              * a delay or idle loop. Let this iteration take IDLE_WARP_US, so the loop ends
              * after fewer iterations at the same time (never across a SysTick wrap, never
              * inside one reading). */
-            twin_warp_to(t, twin_now_ps(t) + IDLE_WARP_US * 1000000ull);
+            twin_svc_warp_to(&t->svc, twin_svc_now_ps(&t->svc) + IDLE_WARP_US * 1000000ull);
         }
         t->scs_only_since_cvr = true;
         t->last_cvr_cycles = t->cycles;
@@ -186,7 +186,8 @@ uint32_t twin_scs_read(struct twin *t, uint32_t addr) {
     case FPDSCR:
         return s->fpdscr;
     default:
-        twin_violation(t, "system control space", addr, "SCS register the twin does not model");
+        twin_svc_violation(&t->svc, "system control space", addr,
+                           "SCS register the twin does not model");
         return 0u;
     }
 }
@@ -195,8 +196,8 @@ void twin_scs_write(struct twin *t, uint32_t addr, uint32_t v) {
     struct twin_scs *s = &t->scs;
     if (addr >= 0xE000E100u && addr < 0xE000E120u) {
         if (v != 0u) {
-            twin_violation(t, "NVIC_ISER", v,
-                           "external interrupt enabled: the twin models no peripheral IRQ");
+            twin_svc_violation(&t->svc, "NVIC_ISER", v,
+                               "external interrupt enabled: the twin models no peripheral IRQ");
         }
         s->nvic_iser[(addr - 0xE000E100u) / 4u] |= v;
         return;
@@ -213,15 +214,15 @@ void twin_scs_write(struct twin *t, uint32_t addr, uint32_t v) {
     case SYST_CSR:
         twin_systick_update(t);
         if ((v & CSR_CLKSOURCE) == 0u && (v & CSR_ENABLE) != 0u) {
-            twin_violation(t, "SYST_CSR", v,
-                           "SysTick from the external reference (HCLK/8) is not modelled");
+            twin_svc_violation(&t->svc, "SYST_CSR", v,
+                               "SysTick from the external reference (HCLK/8) is not modelled");
         }
         {
             const bool was = (s->syst_csr & CSR_ENABLE) != 0u;
             s->syst_csr = v & (CSR_ENABLE | CSR_TICKINT | CSR_CLKSOURCE);
             if (!was && (v & CSR_ENABLE) != 0u) {
                 restart(t); /* counts from the current value, 0 after a CVR write */
-                s->syst_enabled_ps = twin_now_ps(t);
+                s->syst_enabled_ps = twin_svc_now_ps(&t->svc);
             } else if ((v & CSR_ENABLE) == 0u) {
                 s->syst_next = UINT64_MAX;
             }
@@ -236,13 +237,13 @@ void twin_scs_write(struct twin *t, uint32_t addr, uint32_t v) {
         break;
     case ICSR:
         if ((v & ICSR_PENDSTSET) != 0u) {
-            twin_set_pending(t, EXC_SYSTICK, true);
+            twin_svc_set_pending(&t->svc, EXC_SYSTICK, true);
         }
         if ((v & ICSR_PENDSTCLR) != 0u) {
-            twin_set_pending(t, EXC_SYSTICK, false);
+            twin_svc_set_pending(&t->svc, EXC_SYSTICK, false);
         }
         if ((v & ICSR_PENDSVSET) != 0u) {
-            twin_set_pending(t, EXC_PENDSV, true);
+            twin_svc_set_pending(&t->svc, EXC_PENDSV, true);
         }
         break;
     case VTOR:
@@ -250,14 +251,15 @@ void twin_scs_write(struct twin *t, uint32_t addr, uint32_t v) {
         break;
     case AIRCR:
         if ((v >> 16) != 0x05FAu) {
-            twin_violation(t, "SCB_AIRCR", v, "write without VECTKEY 0x05FA is ignored (B3.2.6)");
+            twin_svc_violation(&t->svc, "SCB_AIRCR", v,
+                               "write without VECTKEY 0x05FA is ignored (B3.2.6)");
             break;
         }
         s->aircr = v & 0x0700u;
         if ((v & (1u << 2)) != 0u) { /* SYSRESETREQ */
             t->reset_pending = true;
             t->watchdog_reset = false;
-            twin_kick(t);
+            twin_svc_kick(&t->svc);
         }
         break;
     case SCR:
@@ -292,7 +294,8 @@ void twin_scs_write(struct twin *t, uint32_t addr, uint32_t v) {
     case MPU_CTRL:
         s->mpu_ctrl = v;
         if ((v & 1u) != 0u) {
-            twin_violation(t, "MPU_CTRL", v, "MPU enabled: region checks are not modelled");
+            twin_svc_violation(&t->svc, "MPU_CTRL", v,
+                               "MPU enabled: region checks are not modelled");
         }
         break;
     case MPU_RNR:
@@ -314,7 +317,8 @@ void twin_scs_write(struct twin *t, uint32_t addr, uint32_t v) {
         s->fpdscr = v;
         break;
     default:
-        twin_violation(t, "system control space", addr, "SCS register the twin does not model");
+        twin_svc_violation(&t->svc, "system control space", addr,
+                           "SCS register the twin does not model");
         break;
     }
 }
