@@ -407,28 +407,33 @@ static void deliver_pending(struct twin *t) {
     }
 }
 
+/* A pending reset (watchdog or SYSRESETREQ): its flag in RCC_CSR, a note, then the reset. */
+static void system_reset(struct twin *t) {
+    if (t->watchdog_reset) {
+        t->stats.watchdog_resets++;
+        t->rcc.csr |= 1u << 29; /* IWDGRSTF (RM0351 §6.4.29) */
+        uint32_t wpc = 0, wlr = 0;
+        uc_reg_read(t->uc, UC_ARM_REG_PC, &wpc);
+        uc_reg_read(t->uc, UC_ARM_REG_LR, &wlr);
+        fprintf(t->log,
+                "tof_twin: watchdog reset at t = %llu us (pc 0x%08x, lr 0x%08x, "
+                "%u exceptions active)\n",
+                (unsigned long long)twin_now_us(t), wpc, wlr, t->nactive);
+    } else {
+        t->stats.software_resets++;
+        t->rcc.csr |= 1u << 28; /* SFTRSTF */
+        if (t->trace_mmio) {
+            fprintf(t->log, "tof_twin: software reset at t = %llu us\n",
+                    (unsigned long long)twin_now_us(t));
+        }
+    }
+    twin_reset(t, false);
+}
+
 void twin_run(struct twin *t) {
     while (t->stop == TWIN_RUNNING) {
         if (t->reset_pending) {
-            if (t->watchdog_reset) {
-                t->stats.watchdog_resets++;
-                t->rcc.csr |= 1u << 29; /* IWDGRSTF (RM0351 §6.4.29) */
-                uint32_t wpc = 0, wlr = 0;
-                uc_reg_read(t->uc, UC_ARM_REG_PC, &wpc);
-                uc_reg_read(t->uc, UC_ARM_REG_LR, &wlr);
-                fprintf(t->log,
-                        "tof_twin: watchdog reset at t = %llu us (pc 0x%08x, lr 0x%08x, "
-                        "%u exceptions active)\n",
-                        (unsigned long long)twin_now_us(t), wpc, wlr, t->nactive);
-            } else {
-                t->stats.software_resets++;
-                t->rcc.csr |= 1u << 28; /* SFTRSTF */
-                if (t->trace_mmio) {
-                    fprintf(t->log, "tof_twin: software reset at t = %llu us\n",
-                            (unsigned long long)twin_now_us(t));
-                }
-            }
-            twin_reset(t, false);
+            system_reset(t);
         }
         twin_systick_update(t);
         if (t->host_poll != NULL) {

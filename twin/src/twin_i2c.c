@@ -315,6 +315,33 @@ static void start(struct twin *t, uint32_t cr2) {
     }
 }
 
+/* A write of CR2: a new NBYTES after TCR, START (a transfer begins) or STOP. */
+static void cr2_write(struct twin *t, uint32_t v) {
+    struct twin_i2c *i = &t->i2c;
+    if ((i->isr & ISR_TCR) != 0u && (v & CR2_START) == 0u) {
+        /* RM0351 §39.4.8 "Master transmitter", NBYTES > 255: a new NBYTES after TCR. */
+        i->cr2 = v;
+        i->isr &= ~ISR_TCR;
+        i->nbytes = (v >> 16) & 0xFFu;
+        i->isr |= i->reading ? 0u : ISR_TXIS;
+        return;
+    }
+    i->cr2 = v & ~(CR2_START | CR2_STOP);
+    if ((v & CR2_START) != 0u) {
+        if ((i->cr1 & CR1_PE) == 0u) {
+            twin_svc_violation(&t->svc, "I2C1_CR2", v, "START with PE = 0 (RM0351 §39.7.2)");
+            return;
+        }
+        start(t, v);
+    } else if ((v & CR2_STOP) != 0u && i->active) {
+        if (!i->reading && i->tx_len > 0u && !transact(t, NULL, 0u)) {
+            return;
+        }
+        i->isr &= ~ISR_TC;
+        finish_stop(t, 1u);
+    }
+}
+
 void twin_i2c_write(struct twin *t, uint32_t off, uint32_t v) {
     struct twin_i2c *i = &t->i2c;
     update(t);
@@ -330,28 +357,7 @@ void twin_i2c_write(struct twin *t, uint32_t off, uint32_t v) {
         i->cr1 = v;
         break;
     case I2C_CR2:
-        if ((i->isr & ISR_TCR) != 0u && (v & CR2_START) == 0u) {
-            /* RM0351 §39.4.8 "Master transmitter", NBYTES > 255: a new NBYTES after TCR. */
-            i->cr2 = v;
-            i->isr &= ~ISR_TCR;
-            i->nbytes = (v >> 16) & 0xFFu;
-            i->isr |= i->reading ? 0u : ISR_TXIS;
-            break;
-        }
-        i->cr2 = v & ~(CR2_START | CR2_STOP);
-        if ((v & CR2_START) != 0u) {
-            if ((i->cr1 & CR1_PE) == 0u) {
-                twin_svc_violation(&t->svc, "I2C1_CR2", v, "START with PE = 0 (RM0351 §39.7.2)");
-                break;
-            }
-            start(t, v);
-        } else if ((v & CR2_STOP) != 0u && i->active) {
-            if (!i->reading && i->tx_len > 0u && !transact(t, NULL, 0u)) {
-                break;
-            }
-            i->isr &= ~ISR_TC;
-            finish_stop(t, 1u);
-        }
+        cr2_write(t, v);
         break;
     case I2C_OAR1:
         i->oar1 = v;
