@@ -1,8 +1,7 @@
 #!/usr/bin/env python3
 """Each top-level folder keeps its rule (DESIGN.md section 3, README "Layout").
 
-For every C/C++ file of the folders below: which of our folders its quoted #includes
-reach, and whether floating point (`float`, `double`, a floating literal) appears once
+For every C/C++ file of the folders below: which of our folders its #includes reach, and whether floating point (`float`, `double`, a floating literal) appears once
 comments, strings and character literals are stripped. Floating point is allowed only
 in pose/ (the camera pose pipeline), host_sim/, twin/ and tests/; pose/ includes
 nothing of ours but itself, and only host_sim/camera/ and tests/ include pose/.
@@ -30,7 +29,7 @@ MAY_INCLUDE = {
 FLOAT_ALLOWED = {"pose", "host_sim", "twin", "tests"}
 SOURCE_EXT = (".c", ".h", ".cpp", ".hpp", ".cc")
 
-INCLUDE = re.compile(r'^[ \t]*#[ \t]*include[ \t]*"([^"]+)"', re.M)
+INCLUDE = re.compile(r'^[ \t]*#[ \t]*include[ \t]*(?:"([^"]+)"|<([^>]+)>)', re.M)
 FLOAT_WORD = re.compile(r"\b(float|double)\b")
 # A decimal floating constant (1.5, .5f, 2e3, 1.f) or a hexadecimal one (0x1p-3);
 # not part of an identifier or a pp-number like a version 1.2.3 inside #if.
@@ -141,13 +140,17 @@ def check(root):
         if key is not None:
             allowed = MAY_INCLUDE[key] | {folder}
             for m in INCLUDE.finditer(with_strings):
-                targets = resolve(rel, m.group(1), by_inc, by_base, fileset)
+                if m.group(1) is not None:
+                    targets = resolve(rel, m.group(1), by_inc, by_base, fileset)
+                else:  # <...>: ours only if it names a header below one of our include/ dirs
+                    targets = by_inc.get(m.group(2), set())
+                inc = m.group(1) or m.group(2)
                 # a name several folders define is ours if one of them is allowed
                 if targets and not any(top(t) in allowed for t in targets):
                     line = with_strings.count("\n", 0, m.start()) + 1
                     owners = ", ".join(sorted({top(t) + "/" for t in targets}))
                     bad.append("%s:%d: includes \"%s\" of %s; %s/ may include %s" % (
-                        rel, line, m.group(1), owners, key,
+                        rel, line, inc, owners, key,
                         ", ".join(sorted(a + "/" for a in allowed))))
         if folder not in FLOAT_ALLOWED:
             for no, text in enumerate(code.split("\n"), 1):
