@@ -49,7 +49,7 @@ def main():
             results.append({"cpu": c, "impl": impl, "op": op, "insn": int(insn)})
 
     if a.pose_script:
-        # The camera pose pipeline (estimator/pose, float on the M4F's FPU): one frame at
+        # The camera pose pipeline (pose/, float on the M4F's FPU): one frame at
         # about 0.7 m and one at about 3 m, instructions for the whole pipeline.
         out = run(["bash", a.pose_script] + ([a.pose_out] if a.pose_out else []), timeout=900)
         for block in re.findall(r"frame \d+\n((?:  .*\n?)+)", out):

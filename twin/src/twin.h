@@ -18,6 +18,7 @@
 #include <unicorn/unicorn.h>
 
 #include "twin_periph.h"
+#include "twin_services.h"
 
 /* Memory map: RM0351 §2.2.2 Table 1 and "Embedded SRAM" (SRAM2 is also seen at
  * 0x20018000, right after SRAM1, on the STM32L476); boot from main flash aliases it at 0
@@ -101,6 +102,10 @@ struct twin {
     struct twin_scs scs;
     uint32_t dbgmcu_apb1fzr1;
 
+    /* Time, warps, pending exceptions and violations for the peripheral models: the core's
+     * (twin_core_services), set by twin_init. Models use only this, never the functions below. */
+    struct twin_services svc;
+
     struct twin_world *world;
     /* Called between emulation slices (at least every SysTick period): the host side's
      * own timers (command retries). May be NULL. */
@@ -123,6 +128,11 @@ void twin_reset(struct twin *t, bool power_on);
 /* Run until something stops it (t->stop set) or until `limit_ps` of simulated time. */
 void twin_run(struct twin *t);
 
+/* ---- twin_core_services.c: time, warps, stops; the models reach them through t->svc ---- */
+
+/* The services of core `t` as the models see them (twin_services.h). */
+struct twin_services twin_core_services(struct twin *t);
+
 /* Current simulated time. */
 uint64_t twin_now_ps(const struct twin *t);
 static inline uint64_t twin_now_us(const struct twin *t) {
@@ -131,6 +141,10 @@ static inline uint64_t twin_now_us(const struct twin *t) {
 
 /* Cycles of the core clock in `ps` picoseconds (rounded up). */
 uint64_t twin_ps_to_cycles(const struct twin *t, uint64_t ps);
+
+/* The core cycle count of the next event the core must stop at: SysTick's next wrap, the
+ * watchdog's expiry or the run limit, whichever comes first. */
+uint64_t twin_earliest_event(struct twin *t);
 
 /* A poll of a register whose next change is at `ps`: move time there at once (as if the
  * poll loop had run that long), but never across a SysTick wrap or the watchdog's expiry,

@@ -15,16 +15,16 @@ static bool clocked(struct twin *t, uint32_t base, uint32_t addr, uint32_t value
     }
     char reg[48];
     snprintf(reg, sizeof reg, "%s 0x%08x", write ? "write" : "read", addr);
-    twin_violation(t, reg, value,
-                   "peripheral used before its clock is enabled in RCC (RM0351 §6.2, §6.4)");
+    twin_svc_violation(&t->svc, reg, value,
+                       "peripheral used before its clock is enabled in RCC (RM0351 §6.2, §6.4)");
     return false;
 }
 
 static void reserved(struct twin *t, uint32_t addr, uint32_t value, bool write) {
     char reg[48];
     snprintf(reg, sizeof reg, "%s 0x%08x", write ? "write" : "read", addr);
-    twin_violation(t, reg, value,
-                   "reserved address or register the twin does not model (RM0351 Table 1)");
+    twin_svc_violation(&t->svc, reg, value,
+                       "reserved address or register the twin does not model (RM0351 Table 1)");
 }
 
 static bool word_access(struct twin *t, uint32_t addr, unsigned size, uint32_t value) {
@@ -33,7 +33,8 @@ static bool word_access(struct twin *t, uint32_t addr, unsigned size, uint32_t v
     }
     char reg[48];
     snprintf(reg, sizeof reg, "%u-byte access 0x%08x", size, addr);
-    twin_violation(t, reg, value, "peripheral registers are accessed as aligned 32-bit words");
+    twin_svc_violation(&t->svc, reg, value,
+                       "peripheral registers are accessed as aligned 32-bit words");
     return false;
 }
 

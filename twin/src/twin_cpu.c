@@ -1,6 +1,5 @@
 /* The twin's core: Unicorn's Cortex-M4 with the memory map, time from retired instructions,
  * and the M-profile exception model (entry, return, faults, reset) Unicorn does not have. */
-#include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -17,101 +16,6 @@
 #define XPSR_ALIGN         (1u << 9) /* stacked xPSR bit 9: the frame was realigned (B1.5.7) */
 #define XPSR_T             (1u << 24)
 #define XPSR_IT_MASK       0x0600FC00u /* EPSR.ICI/IT: bits 26:25 and 15:10 (B1.4.2) */
-
-uint64_t twin_now_ps(const struct twin *t) {
-    return t->base_ps + (t->cycles - t->base_cycles) * (1000000000000ull / t->sysclk_hz);
-}
-
-uint64_t twin_ps_to_cycles(const struct twin *t, uint64_t ps) {
-    const uint64_t per = 1000000000000ull / t->sysclk_hz;
-    return (ps + per - 1u) / per;
-}
-
-void twin_set_sysclk(struct twin *t, uint32_t hz) {
-    t->base_ps = twin_now_ps(t);
-    t->base_cycles = t->cycles;
-    t->sysclk_hz = hz;
-}
-
-/* Never uc_emu_stop() from a memory callback: Unicorn then restarts from the block's first
- * instruction (measured: the block's earlier stores ran twice). The block hook stops the core
- * at the next block boundary instead, where the state is exact. */
-void twin_kick(struct twin *t) {
-    t->next_event = t->cycles;
-}
-
-static uint64_t earliest_event(struct twin *t) {
-    uint64_t e = t->scs.syst_next;
-    const uint64_t w = twin_iwdg_expiry(t);
-    if (w != UINT64_MAX) {
-        const uint64_t now = twin_now_ps(t);
-        const uint64_t wc = t->cycles + (w > now ? twin_ps_to_cycles(t, w - now) : 0u);
-        e = wc < e ? wc : e;
-    }
-    if (t->limit_ps != 0u) {
-        const uint64_t now = twin_now_ps(t);
-        const uint64_t lc =
-            t->cycles + (t->limit_ps > now ? twin_ps_to_cycles(t, t->limit_ps - now) : 0u);
-        e = lc < e ? lc : e;
-    }
-    return e;
-}
-
-void twin_warp_to(struct twin *t, uint64_t ps) {
-    const uint64_t now = twin_now_ps(t);
-    if (ps <= now) {
-        return;
-    }
-    uint64_t target = t->cycles + twin_ps_to_cycles(t, ps - now);
-    const uint64_t e = earliest_event(t);
-    if (target > e) {
-        target = e;
-    }
-    if (target > t->cycles) {
-        t->stats.warps++;
-        t->stats.warped_cycles += target - t->cycles;
-        t->cycles = target;
-    }
-    if (t->cycles >= t->next_event) {
-        twin_kick(t);
-    }
-}
-
-void twin_violation(struct twin *t, const char *reg, uint32_t value, const char *rule) {
-    if (t->stop != TWIN_RUNNING) {
-        return;
-    }
-    uint32_t pc = 0;
-    uc_reg_read(t->uc, UC_ARM_REG_PC, &pc);
-    if (t->strict) {
-        twin_stop(t, TWIN_STOP_VIOLATION, "strict: %s = 0x%08x at pc 0x%08x, t = %llu us: %s", reg,
-                  value, pc, (unsigned long long)twin_now_us(t), rule);
-    } else {
-        fprintf(t->log, "tof_twin: warning: %s = 0x%08x at pc 0x%08x: %s\n", reg, value, pc, rule);
-    }
-}
-
-void twin_stop(struct twin *t, enum twin_stop why, const char *fmt, ...) {
-    if (t->stop != TWIN_RUNNING) {
-        return;
-    }
-    t->stop = why;
-    va_list ap;
-    va_start(ap, fmt);
-    /* NOLINTNEXTLINE(clang-analyzer-valist.Uninitialized): va_start just above */
-    vsnprintf(t->stop_msg, sizeof t->stop_msg, fmt, ap);
-    va_end(ap);
-    twin_kick(t);
-}
-
-void twin_set_pending(struct twin *t, unsigned exc, bool pending) {
-    if (pending) {
-        t->scs.pending |= 1u << exc;
-        twin_kick(t);
-    } else {
-        t->scs.pending &= ~(1u << exc);
-    }
-}
 
 /* ---- memory-mapped I/O: every access goes to twin_bus ---- */
 
@@ -221,6 +125,7 @@ static void hook_intr(uc_engine *uc, uint32_t intno, void *user) {
 
 int twin_init(struct twin *t, bool strict, FILE *log) {
     memset(t, 0, sizeof *t);
+    t->svc = twin_core_services(t);
     t->strict = strict;
     t->log = log;
     t->intr_no = -1;
@@ -502,28 +407,33 @@ static void deliver_pending(struct twin *t) {
     }
 }
 
+/* A pending reset (watchdog or SYSRESETREQ): its flag in RCC_CSR, a note, then the reset. */
+static void system_reset(struct twin *t) {
+    if (t->watchdog_reset) {
+        t->stats.watchdog_resets++;
+        t->rcc.csr |= 1u << 29; /* IWDGRSTF (RM0351 §6.4.29) */
+        uint32_t wpc = 0, wlr = 0;
+        uc_reg_read(t->uc, UC_ARM_REG_PC, &wpc);
+        uc_reg_read(t->uc, UC_ARM_REG_LR, &wlr);
+        fprintf(t->log,
+                "tof_twin: watchdog reset at t = %llu us (pc 0x%08x, lr 0x%08x, "
+                "%u exceptions active)\n",
+                (unsigned long long)twin_now_us(t), wpc, wlr, t->nactive);
+    } else {
+        t->stats.software_resets++;
+        t->rcc.csr |= 1u << 28; /* SFTRSTF */
+        if (t->trace_mmio) {
+            fprintf(t->log, "tof_twin: software reset at t = %llu us\n",
+                    (unsigned long long)twin_now_us(t));
+        }
+    }
+    twin_reset(t, false);
+}
+
 void twin_run(struct twin *t) {
     while (t->stop == TWIN_RUNNING) {
         if (t->reset_pending) {
-            if (t->watchdog_reset) {
-                t->stats.watchdog_resets++;
-                t->rcc.csr |= 1u << 29; /* IWDGRSTF (RM0351 §6.4.29) */
-                uint32_t wpc = 0, wlr = 0;
-                uc_reg_read(t->uc, UC_ARM_REG_PC, &wpc);
-                uc_reg_read(t->uc, UC_ARM_REG_LR, &wlr);
-                fprintf(t->log,
-                        "tof_twin: watchdog reset at t = %llu us (pc 0x%08x, lr 0x%08x, "
-                        "%u exceptions active)\n",
-                        (unsigned long long)twin_now_us(t), wpc, wlr, t->nactive);
-            } else {
-                t->stats.software_resets++;
-                t->rcc.csr |= 1u << 28; /* SFTRSTF */
-                if (t->trace_mmio) {
-                    fprintf(t->log, "tof_twin: software reset at t = %llu us\n",
-                            (unsigned long long)twin_now_us(t));
-                }
-            }
-            twin_reset(t, false);
+            system_reset(t);
         }
         twin_systick_update(t);
         if (t->host_poll != NULL) {
@@ -542,7 +452,7 @@ void twin_run(struct twin *t) {
         if (t->stop != TWIN_RUNNING) {
             break;
         }
-        const uint64_t e = earliest_event(t);
+        const uint64_t e = twin_earliest_event(t);
         if (t->next_event <= t->cycles || t->next_event > e) {
             t->next_event = e;
         }

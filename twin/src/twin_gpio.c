@@ -101,7 +101,7 @@ static void update_outputs(struct twin *t) {
     if (t->world == NULL) {
         return;
     }
-    twin_world_sync(t->world, twin_now_us(t));
+    twin_world_sync(t->world, twin_svc_now_us(&t->svc));
     for (unsigned i = 0; i < WIRES; ++i) {
         const struct wire *w = &wires[i];
         if (w->role == XSHUT) {
@@ -169,7 +169,7 @@ uint32_t twin_gpio_read(struct twin *t, unsigned port, uint32_t off) {
         return g->pupdr;
     case GPIO_IDR:
         if (t->world != NULL) {
-            twin_world_sync(t->world, twin_now_us(t));
+            twin_world_sync(t->world, twin_svc_now_us(&t->svc));
         }
         return idr(t, port);
     case GPIO_ODR:
@@ -186,7 +186,7 @@ uint32_t twin_gpio_read(struct twin *t, unsigned port, uint32_t off) {
     case GPIO_ASCR:
         return g->ascr;
     default:
-        twin_violation(t, "GPIO register", off, "reserved GPIO offset (RM0351 §8.5.13)");
+        twin_svc_violation(&t->svc, "GPIO register", off, "reserved GPIO offset (RM0351 §8.5.13)");
         return 0u;
     }
 }
@@ -209,14 +209,14 @@ static void check_af(struct twin *t, unsigned port) {
         if ((i2c && af != 4u) || (uart && af != 7u) || (!i2c && !uart)) {
             char reg[32];
             snprintf(reg, sizeof reg, "GPIO%c MODER pin %u", 'A' + port, pin);
-            twin_violation(t, reg, af,
-                           "pin in alternate-function mode with a function the board does not "
-                           "wire there (DS10198 Table 17)");
+            twin_svc_violation(&t->svc, reg, af,
+                               "pin in alternate-function mode with a function the board does not "
+                               "wire there (DS10198 Table 17)");
         }
         if (i2c && (t->gpio[port].otyper & (1u << pin)) == 0u) {
-            twin_violation(t, "GPIOB OTYPER", t->gpio[port].otyper,
-                           "I2C pin in push-pull mode: I2C lines must be open-drain (RM0351 "
-                           "§39.3)");
+            twin_svc_violation(&t->svc, "GPIOB OTYPER", t->gpio[port].otyper,
+                               "I2C pin in push-pull mode: I2C lines must be open-drain (RM0351 "
+                               "§39.3)");
         }
     }
 }
@@ -260,10 +260,10 @@ void twin_gpio_write(struct twin *t, unsigned port, uint32_t off, uint32_t v) {
         g->ascr = v;
         break;
     case GPIO_IDR:
-        twin_violation(t, "GPIO IDR", v, "IDR is read-only (RM0351 §8.5.5)");
+        twin_svc_violation(&t->svc, "GPIO IDR", v, "IDR is read-only (RM0351 §8.5.5)");
         break;
     default:
-        twin_violation(t, "GPIO register", off, "reserved GPIO offset (RM0351 §8.5.13)");
+        twin_svc_violation(&t->svc, "GPIO register", off, "reserved GPIO offset (RM0351 §8.5.13)");
         break;
     }
     update_outputs(t);

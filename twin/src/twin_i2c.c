@@ -1,5 +1,4 @@
-/*
- * I2C1 of the twin: the STM32 I2Cv2 peripheral in master mode (RM0351 §39.4.8 "I2C master
+/* I2C1 of the twin: the STM32 I2Cv2 peripheral in master mode (RM0351 §39.4.8 "I2C master
  * mode", §39.7 registers) in front of the simulated bus. The firmware's byte-level sequence
  * (CR2 START/NBYTES/RD_WRN/AUTOEND/RELOAD, TXIS/TXDR, RXNE/RXDR, TC/TCR, STOPF) is turned
  * into the bus's transaction-level calls: a write phase followed by a repeated START read
@@ -59,7 +58,7 @@ static uint64_t bit_ps(const struct twin *t) {
 
 static void schedule(struct twin *t, uint32_t ev, uint64_t bits) {
     t->i2c.event = ev;
-    t->i2c.event_ps = twin_now_ps(t) + bits * bit_ps(t);
+    t->i2c.event_ps = twin_svc_now_ps(&t->svc) + bits * bit_ps(t);
 }
 
 static uint32_t prng_next(struct twin_i2c *i) {
@@ -103,7 +102,7 @@ static bool transact(struct twin *t, uint8_t *rx, size_t rx_len) {
     struct twin_i2c *i = &t->i2c;
     int rc = HAL_ERR_ADDR_NACK;
     if (t->world != NULL) {
-        twin_world_sync(t->world, twin_now_us(t));
+        twin_world_sync(t->world, twin_svc_now_us(&t->svc));
         rc = twin_world_transfer(t->world, i->addr7, i->tx, i->tx_len, rx, rx_len);
     }
     i->tx_len = 0;
@@ -196,8 +195,8 @@ static void process(struct twin *t, uint32_t ev) {
 
 static void update(struct twin *t) {
     struct twin_i2c *i = &t->i2c;
-    for (unsigned guard = 0; guard < 8u && i->event != EV_NONE && i->event_ps <= twin_now_ps(t);
-         ++guard) {
+    for (unsigned guard = 0;
+         guard < 8u && i->event != EV_NONE && i->event_ps <= twin_svc_now_ps(&t->svc); ++guard) {
         const uint32_t ev = i->event;
         i->event = EV_NONE;
         i->event_ps = UINT64_MAX;
@@ -244,7 +243,7 @@ uint32_t twin_i2c_read(struct twin *t, uint32_t off) {
         update(t);
         if (i->event != EV_NONE) {
             /* A poll: the flag it waits for comes with the next bus event. */
-            twin_warp_to(t, i->event_ps);
+            twin_svc_warp_to(&t->svc, i->event_ps);
             update(t);
         }
         return i->isr;
@@ -265,7 +264,7 @@ uint32_t twin_i2c_read(struct twin *t, uint32_t off) {
     case I2C_TXDR:
         return i->txdr;
     default:
-        twin_violation(t, "I2C1 register", off, "reserved I2C offset (RM0351 §39.7.12)");
+        twin_svc_violation(&t->svc, "I2C1 register", off, "reserved I2C offset (RM0351 §39.7.12)");
         return 0u;
     }
 }
@@ -275,13 +274,14 @@ static void start(struct twin *t, uint32_t cr2) {
     const bool read = (cr2 & CR2_RD_WRN) != 0u;
     const uint8_t addr7 = (uint8_t)((cr2 >> 1) & 0x7Fu);
     if ((cr2 & (1u << 11)) != 0u) {
-        twin_violation(t, "I2C1_CR2", cr2, "10-bit addressing is not modelled by the twin");
+        twin_svc_violation(&t->svc, "I2C1_CR2", cr2,
+                           "10-bit addressing is not modelled by the twin");
         return;
     }
     if (i->active && (i->isr & ISR_TC) == 0u) {
-        twin_violation(t, "I2C1_CR2", cr2,
-                       "START while a transfer is running (RM0351 §39.7.2: START only when "
-                       "the bus is free or, for a repeated start, TC = 1)");
+        twin_svc_violation(&t->svc, "I2C1_CR2", cr2,
+                           "START while a transfer is running (RM0351 §39.7.2: START only when "
+                           "the bus is free or, for a repeated start, TC = 1)");
         return;
     }
     if (i->active && !i->reading && i->tx_len > 0u && (!read || addr7 != i->addr7)) {
@@ -302,7 +302,8 @@ static void start(struct twin *t, uint32_t cr2) {
         return;
     }
     if ((cr2 & CR2_RELOAD) != 0u) {
-        twin_violation(t, "I2C1_CR2", cr2, "reads longer than 255 bytes are not modelled");
+        twin_svc_violation(&t->svc, "I2C1_CR2", cr2,
+                           "reads longer than 255 bytes are not modelled");
         return;
     }
     i->rx_len = i->nbytes;
@@ -311,6 +312,33 @@ static void start(struct twin *t, uint32_t cr2) {
         schedule(t, EV_ADDR, 10u);
     } else if (i->event == EV_STOP) {
         schedule(t, EV_STOP, 11u); /* NACK on the address, then the automatic STOP */
+    }
+}
+
+/* A write of CR2: a new NBYTES after TCR, START (a transfer begins) or STOP. */
+static void cr2_write(struct twin *t, uint32_t v) {
+    struct twin_i2c *i = &t->i2c;
+    if ((i->isr & ISR_TCR) != 0u && (v & CR2_START) == 0u) {
+        /* RM0351 §39.4.8 "Master transmitter", NBYTES > 255: a new NBYTES after TCR. */
+        i->cr2 = v;
+        i->isr &= ~ISR_TCR;
+        i->nbytes = (v >> 16) & 0xFFu;
+        i->isr |= i->reading ? 0u : ISR_TXIS;
+        return;
+    }
+    i->cr2 = v & ~(CR2_START | CR2_STOP);
+    if ((v & CR2_START) != 0u) {
+        if ((i->cr1 & CR1_PE) == 0u) {
+            twin_svc_violation(&t->svc, "I2C1_CR2", v, "START with PE = 0 (RM0351 §39.7.2)");
+            return;
+        }
+        start(t, v);
+    } else if ((v & CR2_STOP) != 0u && i->active) {
+        if (!i->reading && i->tx_len > 0u && !transact(t, NULL, 0u)) {
+            return;
+        }
+        i->isr &= ~ISR_TC;
+        finish_stop(t, 1u);
     }
 }
 
@@ -323,34 +351,13 @@ void twin_i2c_write(struct twin *t, uint32_t off, uint32_t v) {
             software_reset(t);
         }
         if ((v & ~(CR1_PE | 0xF00u | (1u << 12))) != 0u) {
-            twin_violation(t, "I2C1_CR1", v,
-                           "interrupts, DMA, slave features are not modelled (polled master)");
+            twin_svc_violation(&t->svc, "I2C1_CR1", v,
+                               "interrupts, DMA, slave features are not modelled (polled master)");
         }
         i->cr1 = v;
         break;
     case I2C_CR2:
-        if ((i->isr & ISR_TCR) != 0u && (v & CR2_START) == 0u) {
-            /* RM0351 §39.4.8 "Master transmitter", NBYTES > 255: a new NBYTES after TCR. */
-            i->cr2 = v;
-            i->isr &= ~ISR_TCR;
-            i->nbytes = (v >> 16) & 0xFFu;
-            i->isr |= i->reading ? 0u : ISR_TXIS;
-            break;
-        }
-        i->cr2 = v & ~(CR2_START | CR2_STOP);
-        if ((v & CR2_START) != 0u) {
-            if ((i->cr1 & CR1_PE) == 0u) {
-                twin_violation(t, "I2C1_CR2", v, "START with PE = 0 (RM0351 §39.7.2)");
-                break;
-            }
-            start(t, v);
-        } else if ((v & CR2_STOP) != 0u && i->active) {
-            if (!i->reading && i->tx_len > 0u && !transact(t, NULL, 0u)) {
-                break;
-            }
-            i->isr &= ~ISR_TC;
-            finish_stop(t, 1u);
-        }
+        cr2_write(t, v);
         break;
     case I2C_OAR1:
         i->oar1 = v;
@@ -360,9 +367,9 @@ void twin_i2c_write(struct twin *t, uint32_t off, uint32_t v) {
         break;
     case I2C_TIMINGR:
         if ((i->cr1 & CR1_PE) != 0u) {
-            twin_violation(t, "I2C1_TIMINGR", v,
-                           "TIMINGR written while PE = 1 (RM0351 §39.7.5: only when the "
-                           "I2C is disabled)");
+            twin_svc_violation(&t->svc, "I2C1_TIMINGR", v,
+                               "TIMINGR written while PE = 1 (RM0351 §39.7.5: only when the "
+                               "I2C is disabled)");
         }
         i->timingr = v;
         break;
@@ -380,9 +387,9 @@ void twin_i2c_write(struct twin *t, uint32_t off, uint32_t v) {
         break;
     case I2C_TXDR:
         if ((i->isr & ISR_TXE) == 0u) {
-            twin_violation(t, "I2C1_TXDR", v,
-                           "TXDR written while TXE = 0: the byte not yet sent is overwritten "
-                           "(RM0351 §39.7.11)");
+            twin_svc_violation(&t->svc, "I2C1_TXDR", v,
+                               "TXDR written while TXE = 0: the byte not yet sent is overwritten "
+                               "(RM0351 §39.7.11)");
         }
         i->txdr = v & 0xFFu;
         if (i->active && !i->reading && (i->isr & ISR_TXIS) != 0u) {
@@ -397,7 +404,7 @@ void twin_i2c_write(struct twin *t, uint32_t off, uint32_t v) {
         }
         break;
     default:
-        twin_violation(t, "I2C1 register", off, "reserved I2C offset (RM0351 §39.7.12)");
+        twin_svc_violation(&t->svc, "I2C1 register", off, "reserved I2C offset (RM0351 §39.7.12)");
         break;
     }
 }

@@ -43,10 +43,10 @@ uint32_t twin_iwdg_read(struct twin *t, uint32_t off) {
         return w->rlr;
     case IWDG_SR:
         if (w->sr != 0u) {
-            if (twin_now_ps(t) < w->update_done_ps) {
-                twin_warp_to(t, w->update_done_ps); /* an update poll */
+            if (twin_svc_now_ps(&t->svc) < w->update_done_ps) {
+                twin_svc_warp_to(&t->svc, w->update_done_ps); /* an update poll */
             }
-            if (twin_now_ps(t) >= w->update_done_ps) {
+            if (twin_svc_now_ps(&t->svc) >= w->update_done_ps) {
                 w->sr = 0u;
             }
         }
@@ -54,13 +54,13 @@ uint32_t twin_iwdg_read(struct twin *t, uint32_t off) {
     case IWDG_WINR:
         return w->winr;
     default:
-        twin_violation(t, "IWDG register", off, "reserved IWDG offset (RM0351 §32.4.6)");
+        twin_svc_violation(&t->svc, "IWDG register", off, "reserved IWDG offset (RM0351 §32.4.6)");
         return 0u;
     }
 }
 
 static void reload(struct twin *t) {
-    t->iwdg.expire_ps = twin_now_ps(t) + timeout_ps(&t->iwdg);
+    t->iwdg.expire_ps = twin_svc_now_ps(&t->svc) + timeout_ps(&t->iwdg);
     t->iwdg.kicks++;
 }
 
@@ -78,10 +78,10 @@ void twin_iwdg_write(struct twin *t, uint32_t off, uint32_t v) {
             break;    /* PR, RLR, WINR writable */
         case 0xAAAAu: /* refresh; also write-protects again */
             w->unlocked = false;
-            if (w->sr != 0u && twin_now_ps(t) < w->update_done_ps) {
-                twin_violation(t, "IWDG_KR", v,
-                               "refresh while PVU/RVU are set: the old prescaler or reload is "
-                               "used (RM0351 §32.4.4)");
+            if (w->sr != 0u && twin_svc_now_ps(&t->svc) < w->update_done_ps) {
+                twin_svc_violation(&t->svc, "IWDG_KR", v,
+                                   "refresh while PVU/RVU are set: the old prescaler or reload is "
+                                   "used (RM0351 §32.4.4)");
             }
             if (w->running) {
                 reload(t);
@@ -96,8 +96,8 @@ void twin_iwdg_write(struct twin *t, uint32_t off, uint32_t v) {
     case IWDG_RLR:
     case IWDG_WINR:
         if (!w->unlocked) {
-            twin_violation(t, "IWDG_PR/RLR/WINR", v,
-                           "written without the 0x5555 key: ignored (RM0351 §32.3.6)");
+            twin_svc_violation(&t->svc, "IWDG_PR/RLR/WINR", v,
+                               "written without the 0x5555 key: ignored (RM0351 §32.3.6)");
             break;
         }
         if (off == IWDG_PR) {
@@ -110,10 +110,10 @@ void twin_iwdg_write(struct twin *t, uint32_t off, uint32_t v) {
             w->winr = v & 0xFFFu;
             w->sr |= 4u;
         }
-        w->update_done_ps = twin_now_ps(t) + UPDATE_PS;
+        w->update_done_ps = twin_svc_now_ps(&t->svc) + UPDATE_PS;
         break;
     default:
-        twin_violation(t, "IWDG register", off, "reserved IWDG offset (RM0351 §32.4.6)");
+        twin_svc_violation(&t->svc, "IWDG register", off, "reserved IWDG offset (RM0351 §32.4.6)");
         break;
     }
 }

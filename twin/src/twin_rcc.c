@@ -62,7 +62,7 @@ bool twin_rcc_clock_on(const struct twin *t, uint32_t base) {
 
 static uint32_t cr_now(struct twin *t) {
     struct twin_rcc *r = &t->rcc;
-    if (r->hsi_ready_ps != UINT64_MAX && twin_now_ps(t) >= r->hsi_ready_ps) {
+    if (r->hsi_ready_ps != UINT64_MAX && twin_svc_now_ps(&t->svc) >= r->hsi_ready_ps) {
         r->cr |= CR_HSIRDY;
     }
     return r->cr;
@@ -74,7 +74,7 @@ uint32_t twin_rcc_read(struct twin *t, uint32_t off) {
     case RCC_CR:
         if ((r->cr & CR_HSION) != 0u && (r->cr & CR_HSIRDY) == 0u &&
             r->hsi_ready_ps != UINT64_MAX) {
-            twin_warp_to(t, r->hsi_ready_ps); /* a ready poll: skip to the ready edge */
+            twin_svc_warp_to(&t->svc, r->hsi_ready_ps); /* a ready poll: skip to the ready edge */
         }
         return cr_now(t);
     case RCC_ICSCR:
@@ -105,7 +105,7 @@ uint32_t twin_rcc_read(struct twin *t, uint32_t off) {
     case RCC_CSR:
         return r->csr;
     default:
-        twin_violation(t, "RCC register", off, "RCC offset the twin does not model");
+        twin_svc_violation(&t->svc, "RCC register", off, "RCC offset the twin does not model");
         return 0u;
     }
 }
@@ -120,7 +120,7 @@ static void clock_switch(struct twin *t, uint32_t sw) {
     } else if (sw == 1u && (cr_now(t) & CR_HSIRDY) != 0u) {
         hz = TWIN_HSI16_HZ;
     } else if (sw >= 2u) {
-        twin_violation(t, "RCC_CFGR.SW", sw, "HSE and PLL are not modelled by the twin");
+        twin_svc_violation(&t->svc, "RCC_CFGR.SW", sw, "HSE and PLL are not modelled by the twin");
         return;
     }
     if (hz == 0u) {
@@ -129,10 +129,11 @@ static void clock_switch(struct twin *t, uint32_t sw) {
     /* RM0351 §3.3.3 Table 12 "Number of wait states according to CPU clock (HCLK)
      * frequency": range 1 needs LATENCY >= 1 above 16 MHz. */
     if (hz > 16000000u && (t->flash_if.acr & 7u) == 0u) {
-        twin_violation(t, "RCC_CFGR.SW", sw, "SYSCLK above 16 MHz with FLASH_ACR.LATENCY = 0");
+        twin_svc_violation(&t->svc, "RCC_CFGR.SW", sw,
+                           "SYSCLK above 16 MHz with FLASH_ACR.LATENCY = 0");
     }
     r->cfgr = (r->cfgr & ~0xCu) | (sw << 2);
-    twin_set_sysclk(t, hz);
+    twin_svc_set_sysclk(&t->svc, hz);
 }
 
 void twin_rcc_write(struct twin *t, uint32_t off, uint32_t v) {
@@ -143,16 +144,18 @@ void twin_rcc_write(struct twin *t, uint32_t off, uint32_t v) {
         const bool hsi_was = (r->cr & CR_HSION) != 0u;
         r->cr = (r->cr & ro) | (v & ~ro);
         if ((v & CR_HSION) != 0u && !hsi_was) {
-            r->hsi_ready_ps = r->hsi_broken ? UINT64_MAX : twin_now_ps(t) + HSI_STARTUP_PS;
+            r->hsi_ready_ps =
+                r->hsi_broken ? UINT64_MAX : twin_svc_now_ps(&t->svc) + HSI_STARTUP_PS;
         } else if ((v & CR_HSION) == 0u) {
             if ((r->cfgr & 0xCu) == 0x4u) {
-                twin_violation(t, "RCC_CR.HSION", v, "HSI16 switched off while it is SYSCLK");
+                twin_svc_violation(&t->svc, "RCC_CR.HSION", v,
+                                   "HSI16 switched off while it is SYSCLK");
             }
             r->cr &= ~CR_HSIRDY;
             r->hsi_ready_ps = UINT64_MAX;
         }
         if ((v & CR_MSION) == 0u && (r->cfgr & 0xCu) == 0u) {
-            twin_violation(t, "RCC_CR.MSION", v, "MSI switched off while it is SYSCLK");
+            twin_svc_violation(&t->svc, "RCC_CR.MSION", v, "MSI switched off while it is SYSCLK");
         }
         break;
     }
@@ -162,8 +165,8 @@ void twin_rcc_write(struct twin *t, uint32_t off, uint32_t v) {
     case RCC_CFGR:
         r->cfgr = (r->cfgr & 0xCu) | (v & ~0xCu);
         if (((v >> 4) & 0xFu) != 0u || ((v >> 8) & 0x3Fu) != 0u) {
-            twin_violation(t, "RCC_CFGR", v,
-                           "AHB/APB prescalers other than /1 are not modelled by the twin");
+            twin_svc_violation(&t->svc, "RCC_CFGR", v,
+                               "AHB/APB prescalers other than /1 are not modelled by the twin");
         }
         clock_switch(t, v & 3u);
         break;
@@ -206,7 +209,7 @@ void twin_rcc_write(struct twin *t, uint32_t off, uint32_t v) {
         }
         break;
     default:
-        twin_violation(t, "RCC register", off, "RCC offset the twin does not model");
+        twin_svc_violation(&t->svc, "RCC register", off, "RCC offset the twin does not model");
         break;
     }
 }
@@ -215,7 +218,8 @@ uint32_t twin_flash_if_read(struct twin *t, uint32_t off) {
     if (off == 0u) {
         return t->flash_if.acr;
     }
-    twin_violation(t, "FLASH register", off, "flash interface register the twin does not model");
+    twin_svc_violation(&t->svc, "FLASH register", off,
+                       "flash interface register the twin does not model");
     return 0u;
 }
 
@@ -223,9 +227,11 @@ void twin_flash_if_write(struct twin *t, uint32_t off, uint32_t v) {
     if (off == 0u) {
         t->flash_if.acr = v;
         if (t->sysclk_hz > 16000000u && (v & 7u) == 0u) {
-            twin_violation(t, "FLASH_ACR", v, "LATENCY 0 above 16 MHz (RM0351 §3.3.3 Table 12)");
+            twin_svc_violation(&t->svc, "FLASH_ACR", v,
+                               "LATENCY 0 above 16 MHz (RM0351 §3.3.3 Table 12)");
         }
         return;
     }
-    twin_violation(t, "FLASH register", off, "flash interface register the twin does not model");
+    twin_svc_violation(&t->svc, "FLASH register", off,
+                       "flash interface register the twin does not model");
 }

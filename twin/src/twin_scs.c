@@ -69,12 +69,12 @@ void twin_systick_update(struct twin *t) {
     s->syst_next += wraps * p;
     s->countflag = true;
     if ((s->syst_csr & CSR_TICKINT) != 0u) {
-        twin_set_pending(t, EXC_SYSTICK, true);
+        twin_svc_set_pending(&t->svc, EXC_SYSTICK, true);
         if (wraps > 1u) {
             /* The core could not take a tick in time (interrupts masked for > 1 ms): on
              * hardware a tick is lost the same way. */
             fprintf(t->log, "tof_twin: %llu SysTick wraps merged at t = %llu us\n",
-                    (unsigned long long)wraps, (unsigned long long)twin_now_us(t));
+                    (unsigned long long)wraps, (unsigned long long)twin_svc_now_us(&t->svc));
         }
     }
 }
@@ -102,6 +102,92 @@ static void restart(struct twin *t) {
     }
 }
 
+/* A read of SYST_CVR, which also spots delay and idle loops (twin_scs_read). */
+static uint32_t cvr_read(struct twin *t) {
+    if (t->scs_only_since_cvr && t->scs_prev[0] == SYST_CVR && t->scs_prev[1] == ICSR &&
+        t->cycles - t->last_cvr_cycles < IDLE_POLL_CYCLES) {
+        /* A whole time reading (CVR, ICSR, CVR: the before/pending/after of a wrap-safe
+         * read) just ended, and a new one starts with no other peripheral access since:
+         * a delay or idle loop. Let this iteration take IDLE_WARP_US, so the loop ends
+         * after fewer iterations at the same time (never across a SysTick wrap, never
+         * inside one reading). */
+        twin_svc_warp_to(&t->svc, twin_svc_now_ps(&t->svc) + IDLE_WARP_US * 1000000ull);
+    }
+    t->scs_only_since_cvr = true;
+    t->last_cvr_cycles = t->cycles;
+    t->scs_prev[1] = t->scs_prev[0];
+    t->scs_prev[0] = SYST_CVR;
+    return cvr(t);
+}
+
+/* The SCB, MPU and FPU registers the twin only stores: their value into *v, or false if
+ * `addr` is none of them. */
+static bool stored_read(const struct twin_scs *s, uint32_t addr, uint32_t *v) {
+    switch (addr) {
+    case VTOR:
+        *v = s->vtor;
+        return true;
+    case AIRCR:
+        *v = (s->aircr & 0xFFFFu) | 0xFA050000u;
+        return true;
+    case SCR:
+        *v = s->scr;
+        return true;
+    case CCR:
+        *v = s->ccr;
+        return true;
+    case SHPR1:
+    case SHPR1 + 4u:
+    case SHPR1 + 8u:
+        *v = s->shpr[(addr - SHPR1) / 4u];
+        return true;
+    case SHCSR:
+        *v = s->shcsr;
+        return true;
+    case CFSR:
+        *v = s->cfsr;
+        return true;
+    case HFSR:
+        *v = s->hfsr;
+        return true;
+    case MMFAR:
+        *v = s->mmfar;
+        return true;
+    case BFAR:
+        *v = s->bfar;
+        return true;
+    case CPACR:
+        *v = s->cpacr;
+        return true;
+    case MPU_TYPE:
+        *v = 8u << 8; /* 8 regions (Cortex-M4 TRM §4.5) */
+        return true;
+    case MPU_CTRL:
+        *v = s->mpu_ctrl;
+        return true;
+    case MPU_RNR:
+        *v = s->mpu_rnr;
+        return true;
+    case MPU_RBAR:
+        *v = s->mpu_rbar[s->mpu_rnr & 7u];
+        return true;
+    case MPU_RASR:
+        *v = s->mpu_rasr[s->mpu_rnr & 7u];
+        return true;
+    case FPCCR:
+        *v = s->fpccr;
+        return true;
+    case FPCAR:
+        *v = s->fpcar;
+        return true;
+    case FPDSCR:
+        *v = s->fpdscr;
+        return true;
+    default:
+        return false;
+    }
+}
+
 uint32_t twin_scs_read(struct twin *t, uint32_t addr) {
     struct twin_scs *s = &t->scs;
     if (addr >= 0xE000E100u && addr < 0xE000E120u) {
@@ -120,20 +206,7 @@ uint32_t twin_scs_read(struct twin *t, uint32_t addr) {
     case SYST_RVR:
         return s->syst_rvr;
     case SYST_CVR:
-        if (t->scs_only_since_cvr && t->scs_prev[0] == SYST_CVR && t->scs_prev[1] == ICSR &&
-            t->cycles - t->last_cvr_cycles < IDLE_POLL_CYCLES) {
-            /* A whole time reading (CVR, ICSR, CVR: the before/pending/after of a wrap-safe
-             * read) just ended, and a new one starts with no other peripheral access since:
-             * a delay or idle loop. Let this iteration take IDLE_WARP_US, so the loop ends
-             * after fewer iterations at the same time (never across a SysTick wrap, never
-             * inside one reading). */
-            twin_warp_to(t, twin_now_ps(t) + IDLE_WARP_US * 1000000ull);
-        }
-        t->scs_only_since_cvr = true;
-        t->last_cvr_cycles = t->cycles;
-        t->scs_prev[1] = t->scs_prev[0];
-        t->scs_prev[0] = SYST_CVR;
-        return cvr(t);
+        return cvr_read(t);
     case SYST_CALIB:
         return 0x40000000u | (TWIN_HSI16_HZ / 8000u - 1u); /* NOREF; not exact */
     case CPUID:
@@ -145,120 +218,24 @@ uint32_t twin_scs_read(struct twin *t, uint32_t addr) {
         return ((s->pending >> EXC_SYSTICK) & 1u ? ICSR_PENDSTSET : 0u) |
                ((s->pending >> EXC_PENDSV) & 1u ? ICSR_PENDSVSET : 0u) |
                (t->nactive > 0u ? t->active[t->nactive - 1u] : 0u);
-    case VTOR:
-        return s->vtor;
-    case AIRCR:
-        return (s->aircr & 0xFFFFu) | 0xFA050000u;
-    case SCR:
-        return s->scr;
-    case CCR:
-        return s->ccr;
-    case SHPR1:
-    case SHPR1 + 4u:
-    case SHPR1 + 8u:
-        return s->shpr[(addr - SHPR1) / 4u];
-    case SHCSR:
-        return s->shcsr;
-    case CFSR:
-        return s->cfsr;
-    case HFSR:
-        return s->hfsr;
-    case MMFAR:
-        return s->mmfar;
-    case BFAR:
-        return s->bfar;
-    case CPACR:
-        return s->cpacr;
-    case MPU_TYPE:
-        return 8u << 8; /* 8 regions (Cortex-M4 TRM §4.5) */
-    case MPU_CTRL:
-        return s->mpu_ctrl;
-    case MPU_RNR:
-        return s->mpu_rnr;
-    case MPU_RBAR:
-        return s->mpu_rbar[s->mpu_rnr & 7u];
-    case MPU_RASR:
-        return s->mpu_rasr[s->mpu_rnr & 7u];
-    case FPCCR:
-        return s->fpccr;
-    case FPCAR:
-        return s->fpcar;
-    case FPDSCR:
-        return s->fpdscr;
-    default:
-        twin_violation(t, "system control space", addr, "SCS register the twin does not model");
+    default: {
+        uint32_t v = 0u;
+        if (stored_read(s, addr, &v)) {
+            return v;
+        }
+        twin_svc_violation(&t->svc, "system control space", addr,
+                           "SCS register the twin does not model");
         return 0u;
+    }
     }
 }
 
-void twin_scs_write(struct twin *t, uint32_t addr, uint32_t v) {
-    struct twin_scs *s = &t->scs;
-    if (addr >= 0xE000E100u && addr < 0xE000E120u) {
-        if (v != 0u) {
-            twin_violation(t, "NVIC_ISER", v,
-                           "external interrupt enabled: the twin models no peripheral IRQ");
-        }
-        s->nvic_iser[(addr - 0xE000E100u) / 4u] |= v;
-        return;
-    }
-    if (addr >= 0xE000E180u && addr < 0xE000E1A0u) {
-        s->nvic_iser[(addr - 0xE000E180u) / 4u] &= ~v;
-        return;
-    }
-    if (addr >= 0xE000E400u && addr < 0xE000E400u + 4u * 64u) {
-        s->nvic_ipr[(addr - 0xE000E400u) / 4u] = v;
-        return;
-    }
+/* The SCB, MPU and FPU registers the twin only stores (no side effect but the write), or
+ * false if `addr` is none of them. */
+static bool stored_write(struct twin_scs *s, uint32_t addr, uint32_t v) {
     switch (addr) {
-    case SYST_CSR:
-        twin_systick_update(t);
-        if ((v & CSR_CLKSOURCE) == 0u && (v & CSR_ENABLE) != 0u) {
-            twin_violation(t, "SYST_CSR", v,
-                           "SysTick from the external reference (HCLK/8) is not modelled");
-        }
-        {
-            const bool was = (s->syst_csr & CSR_ENABLE) != 0u;
-            s->syst_csr = v & (CSR_ENABLE | CSR_TICKINT | CSR_CLKSOURCE);
-            if (!was && (v & CSR_ENABLE) != 0u) {
-                restart(t); /* counts from the current value, 0 after a CVR write */
-                s->syst_enabled_ps = twin_now_ps(t);
-            } else if ((v & CSR_ENABLE) == 0u) {
-                s->syst_next = UINT64_MAX;
-            }
-        }
-        break;
-    case SYST_RVR:
-        s->syst_rvr = v & 0xFFFFFFu;
-        break;
-    case SYST_CVR:
-        s->countflag = false;
-        restart(t);
-        break;
-    case ICSR:
-        if ((v & ICSR_PENDSTSET) != 0u) {
-            twin_set_pending(t, EXC_SYSTICK, true);
-        }
-        if ((v & ICSR_PENDSTCLR) != 0u) {
-            twin_set_pending(t, EXC_SYSTICK, false);
-        }
-        if ((v & ICSR_PENDSVSET) != 0u) {
-            twin_set_pending(t, EXC_PENDSV, true);
-        }
-        break;
     case VTOR:
         s->vtor = v & 0xFFFFFF80u;
-        break;
-    case AIRCR:
-        if ((v >> 16) != 0x05FAu) {
-            twin_violation(t, "SCB_AIRCR", v, "write without VECTKEY 0x05FA is ignored (B3.2.6)");
-            break;
-        }
-        s->aircr = v & 0x0700u;
-        if ((v & (1u << 2)) != 0u) { /* SYSRESETREQ */
-            t->reset_pending = true;
-            t->watchdog_reset = false;
-            twin_kick(t);
-        }
         break;
     case SCR:
         s->scr = v;
@@ -289,12 +266,6 @@ void twin_scs_write(struct twin *t, uint32_t addr, uint32_t v) {
     case CPACR:
         s->cpacr = v;
         break;
-    case MPU_CTRL:
-        s->mpu_ctrl = v;
-        if ((v & 1u) != 0u) {
-            twin_violation(t, "MPU_CTRL", v, "MPU enabled: region checks are not modelled");
-        }
-        break;
     case MPU_RNR:
         s->mpu_rnr = v & 7u;
         break;
@@ -314,7 +285,94 @@ void twin_scs_write(struct twin *t, uint32_t addr, uint32_t v) {
         s->fpdscr = v;
         break;
     default:
-        twin_violation(t, "system control space", addr, "SCS register the twin does not model");
+        return false;
+    }
+    return true;
+}
+
+/* A write of SYST_CSR: enabling the counter starts it (and the board's clock) now. */
+static void syst_csr_write(struct twin *t, uint32_t v) {
+    struct twin_scs *s = &t->scs;
+    twin_systick_update(t);
+    if ((v & CSR_CLKSOURCE) == 0u && (v & CSR_ENABLE) != 0u) {
+        twin_svc_violation(&t->svc, "SYST_CSR", v,
+                           "SysTick from the external reference (HCLK/8) is not modelled");
+    }
+    const bool was = (s->syst_csr & CSR_ENABLE) != 0u;
+    s->syst_csr = v & (CSR_ENABLE | CSR_TICKINT | CSR_CLKSOURCE);
+    if (!was && (v & CSR_ENABLE) != 0u) {
+        restart(t); /* counts from the current value, 0 after a CVR write */
+        s->syst_enabled_ps = twin_svc_now_ps(&t->svc);
+    } else if ((v & CSR_ENABLE) == 0u) {
+        s->syst_next = UINT64_MAX;
+    }
+}
+
+void twin_scs_write(struct twin *t, uint32_t addr, uint32_t v) {
+    struct twin_scs *s = &t->scs;
+    if (addr >= 0xE000E100u && addr < 0xE000E120u) {
+        if (v != 0u) {
+            twin_svc_violation(&t->svc, "NVIC_ISER", v,
+                               "external interrupt enabled: the twin models no peripheral IRQ");
+        }
+        s->nvic_iser[(addr - 0xE000E100u) / 4u] |= v;
+        return;
+    }
+    if (addr >= 0xE000E180u && addr < 0xE000E1A0u) {
+        s->nvic_iser[(addr - 0xE000E180u) / 4u] &= ~v;
+        return;
+    }
+    if (addr >= 0xE000E400u && addr < 0xE000E400u + 4u * 64u) {
+        s->nvic_ipr[(addr - 0xE000E400u) / 4u] = v;
+        return;
+    }
+    switch (addr) {
+    case SYST_CSR:
+        syst_csr_write(t, v);
+        break;
+    case SYST_RVR:
+        s->syst_rvr = v & 0xFFFFFFu;
+        break;
+    case SYST_CVR:
+        s->countflag = false;
+        restart(t);
+        break;
+    case ICSR:
+        if ((v & ICSR_PENDSTSET) != 0u) {
+            twin_svc_set_pending(&t->svc, EXC_SYSTICK, true);
+        }
+        if ((v & ICSR_PENDSTCLR) != 0u) {
+            twin_svc_set_pending(&t->svc, EXC_SYSTICK, false);
+        }
+        if ((v & ICSR_PENDSVSET) != 0u) {
+            twin_svc_set_pending(&t->svc, EXC_PENDSV, true);
+        }
+        break;
+    case AIRCR:
+        if ((v >> 16) != 0x05FAu) {
+            twin_svc_violation(&t->svc, "SCB_AIRCR", v,
+                               "write without VECTKEY 0x05FA is ignored (B3.2.6)");
+            break;
+        }
+        s->aircr = v & 0x0700u;
+        if ((v & (1u << 2)) != 0u) { /* SYSRESETREQ */
+            t->reset_pending = true;
+            t->watchdog_reset = false;
+            twin_svc_kick(&t->svc);
+        }
+        break;
+    case MPU_CTRL:
+        s->mpu_ctrl = v;
+        if ((v & 1u) != 0u) {
+            twin_svc_violation(&t->svc, "MPU_CTRL", v,
+                               "MPU enabled: region checks are not modelled");
+        }
+        break;
+    default:
+        if (!stored_write(s, addr, v)) {
+            twin_svc_violation(&t->svc, "system control space", addr,
+                               "SCS register the twin does not model");
+        }
         break;
     }
 }

@@ -44,7 +44,7 @@ static uint64_t rx_gap_ps(const struct twin *t) {
 
 static void update(struct twin *t) {
     struct twin_usart *u = &t->usart;
-    const uint64_t now = twin_now_ps(t);
+    const uint64_t now = twin_svc_now_ps(&t->svc);
     if (u->shift_busy && now >= u->shift_done_ps) {
         u->shift_busy = false;
         if (u->on_tx != NULL) {
@@ -96,7 +96,7 @@ bool twin_usart_send_to_mcu(struct twin *t, const uint8_t *data, unsigned len) {
         return false;
     }
     if (u->rx_count == 0u) {
-        u->rx_next_ps = twin_now_ps(t) + rx_gap_ps(t);
+        u->rx_next_ps = twin_svc_now_ps(&t->svc) + rx_gap_ps(t);
     }
     for (unsigned k = 0; k < len; ++k) {
         u->rxq[(u->rx_head + u->rx_count) % TWIN_USART_RXQ] = data[k];
@@ -129,7 +129,8 @@ uint32_t twin_usart_read(struct twin *t, uint32_t off) {
             v |= ((u->cr1 & CR1_TE) != 0u ? ISR_TEACK : 0u) | ((u->cr1 & CR1_RE) ? ISR_REACK : 0u);
         }
         if ((v & ISR_TXE) == 0u && u->shift_busy) {
-            twin_warp_to(t, u->shift_done_ps); /* a TXE poll: skip to the end of the frame */
+            twin_svc_warp_to(&t->svc,
+                             u->shift_done_ps); /* a TXE poll: skip to the end of the frame */
             update(t);
             v = (v & ~(ISR_TXE | ISR_TC)) | (u->isr & (ISR_TXE | ISR_TC | ISR_RXNE));
         }
@@ -143,7 +144,8 @@ uint32_t twin_usart_read(struct twin *t, uint32_t off) {
     case USART_TDR:
         return u->tdr;
     default:
-        twin_violation(t, "USART2 register", off, "reserved USART offset (RM0351 §40.8.12)");
+        twin_svc_violation(&t->svc, "USART2 register", off,
+                           "reserved USART offset (RM0351 §40.8.12)");
         return 0u;
     }
 }
@@ -158,8 +160,8 @@ void twin_usart_write(struct twin *t, uint32_t off, uint32_t v) {
     case USART_CR2:
     case USART_CR3:
         if ((u->cr1 & CR1_UE) != 0u) {
-            twin_violation(t, off == USART_CR2 ? "USART2_CR2" : "USART2_CR3", v,
-                           "written while UE = 1 (RM0351 §40.8.2/§40.8.3)");
+            twin_svc_violation(&t->svc, off == USART_CR2 ? "USART2_CR2" : "USART2_CR3", v,
+                               "written while UE = 1 (RM0351 §40.8.2/§40.8.3)");
         }
         if (off == USART_CR2) {
             u->cr2 = v;
@@ -169,7 +171,8 @@ void twin_usart_write(struct twin *t, uint32_t off, uint32_t v) {
         break;
     case USART_BRR:
         if ((u->cr1 & CR1_UE) != 0u) {
-            twin_violation(t, "USART2_BRR", v, "BRR written while UE = 1 (RM0351 §40.8.4)");
+            twin_svc_violation(&t->svc, "USART2_BRR", v,
+                               "BRR written while UE = 1 (RM0351 §40.8.4)");
         }
         u->brr = v & 0xFFFFu;
         break;
@@ -186,29 +189,32 @@ void twin_usart_write(struct twin *t, uint32_t off, uint32_t v) {
         break;
     case USART_TDR:
         if ((u->cr1 & (CR1_UE | CR1_TE)) != (CR1_UE | CR1_TE)) {
-            twin_violation(t, "USART2_TDR", v, "TDR written with UE or TE clear: nothing is sent");
+            twin_svc_violation(&t->svc, "USART2_TDR", v,
+                               "TDR written with UE or TE clear: nothing is sent");
             break;
         }
         if ((u->isr & ISR_TXE) == 0u) {
-            twin_violation(t, "USART2_TDR", v,
-                           "TDR written while TXE = 0 (RM0351 §40.8.9: the previous byte is lost)");
+            twin_svc_violation(
+                &t->svc, "USART2_TDR", v,
+                "TDR written while TXE = 0 (RM0351 §40.8.9: the previous byte is lost)");
         }
         u->tdr = v & 0x1FFu;
         u->isr &= ~ISR_TC;
         if (!u->shift_busy) {
             u->shift = (uint8_t)v;
             u->shift_busy = true;
-            u->shift_done_ps = twin_now_ps(t) + frame_ps(t);
+            u->shift_done_ps = twin_svc_now_ps(&t->svc) + frame_ps(t);
         } else {
             u->isr &= ~ISR_TXE;
         }
         break;
     case USART_ISR:
     case USART_RDR:
-        twin_violation(t, "USART2 read-only register", v, "ISR and RDR are read-only");
+        twin_svc_violation(&t->svc, "USART2 read-only register", v, "ISR and RDR are read-only");
         break;
     default:
-        twin_violation(t, "USART2 register", off, "reserved USART offset (RM0351 §40.8.12)");
+        twin_svc_violation(&t->svc, "USART2 register", off,
+                           "reserved USART offset (RM0351 §40.8.12)");
         break;
     }
 }

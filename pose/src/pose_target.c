@@ -1,5 +1,4 @@
-/*
- * The paper's cooperative target (§2.1, Fig. 1c): a black plate with eight
+/* The paper's cooperative target (§2.1, Fig. 1c): a black plate with eight
  * circular reflectors in two L-shaped groups of four. Markers 1-4 are 35 mm
  * across, 5-8 are 80 mm; markers 1, 3, 4, 7 stand 100 mm above the plate and
  * 2, 5, 6, 8 stand 150 mm. The paper gives no positions in the plate plane, so

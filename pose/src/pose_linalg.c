@@ -1,5 +1,4 @@
-/*
- * 3x3 SVD (one-sided Jacobi), weighted absolute orientation and the perspective
+/* 3x3 SVD (one-sided Jacobi), weighted absolute orientation and the perspective
  * image of a circle's centre. Single precision throughout.
  */
 #include "pose/pose_linalg.h"

@@ -1,6 +1,4 @@
-/*
- * The pose pipeline: configuration, extraction -> matching -> pose (paper §3-5).
- */
+/* The pose pipeline: configuration, extraction -> matching -> pose (paper §3-5). */
 #include "pose/pose.h"
 
 #include <math.h>

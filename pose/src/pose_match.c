@@ -1,5 +1,4 @@
-/*
- * Deterministic annealing matcher (paper §4.2-4.3). See pose_match.h for the
+/* Deterministic annealing matcher (paper §4.2-4.3). See pose_match.h for the
  * departures from the paper and why.
  */
 #include "pose/pose_match.h"

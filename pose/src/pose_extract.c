@@ -1,5 +1,4 @@
-/*
- * Reflector extraction (paper §3). The active pixel set is not copied: it is the
+/* Reflector extraction (paper §3). The active pixel set is not copied: it is the
  * set of pixels whose raw gray is at least `cut_level` (the gray threshold, raised
  * by the cap when needed), so membership is a compare against the caller's frame
  * buffer. Pixels that also pass the nLoG threshold are stored as horizontal runs,

@@ -1,0 +1,93 @@
+/*
+ * The tof_twin command-line tool's own state, shared by its files: the options
+ * (tof_twin_args.c), the host side of the UART that decodes the firmware's telemetry into
+ * EST.csv rows (tof_twin_host.c), the coverage file, summary and report (tof_twin_report.c)
+ * and the run itself (main.c). The twin (struct twin, twin.h) knows nothing of it.
+ */
+#ifndef TWIN_TOF_TWIN_H
+#define TWIN_TOF_TWIN_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+
+#include "estimator/attitude.h"
+#include "scene/trace.h"
+#include "telemetry/tlm_frame.h"
+#include "telemetry/tlm_messages.h"
+#include "twin.h"
+#include "twin_world.h"
+
+#define FLIGHT_WINDOW    100u /* tof_app_default_config: ATTITUDE_CONFIG_DEFAULT window */
+#define FLIGHT_ARM_UM    30000
+#define FLIGHT_PERIOD_MS 20u
+
+struct args {
+    const char *elf, *trace, *out, *uart_out, *i2c_log, *coverage, *report, *faults;
+    const char *estimator;
+    unsigned window;
+    bool sliding;
+    uint64_t seed;
+    bool strict, hsi_fail;
+    bool late_command; /* --late-command: accept a window/mode the rows cannot match */
+    uint32_t spurious_berr_ppm;
+    double max_sim_s;
+};
+
+struct run {
+    struct args a;
+    struct twin t;
+    struct twin_world w;
+    struct scene_row *rows;
+    size_t row_count;
+    struct trace_meta meta;
+    struct tlm_decoder dec;
+    FILE *est, *uart;
+    enum attitude_estimator primary;
+    uint32_t boots;         /* boots with a status frame */
+    uint32_t status_resets; /* t.stats.resets when the last boot's status frame came */
+
+    uint64_t estimates, other_estimates, written, ok_rows;
+    uint64_t unflagged_wrong;
+    uint64_t faults_text, banners;
+    uint32_t acks_bad, acks_ok;
+    bool command_sent, command_needed;
+    struct tlm_command command;
+    uint64_t command_at_us;
+    unsigned command_tries;
+    char line[128];
+    size_t line_len;
+    char last_fault[128];
+    struct tlm_health health; /* the last health frame */
+    uint64_t health_frames;
+};
+
+/* ---- tof_twin_args.c ---- */
+
+/* The command line into `a` (defaults for what it does not say). 0, or -1 after a message
+ * on stderr. --help prints the usage and exits 0. */
+int tof_twin_parse_args(int argc, char **argv, struct args *a);
+
+/* ---- tof_twin_host.c: what a host on the other end of USART2 does ---- */
+
+/* USART2's transmitter callback (twin_usart on_tx, ctx: struct run): the capture file, text
+ * lines, and the telemetry decoder, whose estimate frames become EST.csv rows. */
+void tof_twin_on_uart_byte(void *ctx, uint8_t byte, uint64_t now_ps);
+
+/* The host's timers between emulation slices (struct twin host_poll, ctx: struct run): the
+ * set-window command, sent again until acknowledged. */
+void tof_twin_host_poll(void *ctx);
+
+/* ---- tof_twin_report.c ---- */
+
+/* The executed flash halfwords as address ranges into a->coverage. 0, or -1 (message). */
+int tof_twin_write_coverage(const struct run *r);
+
+/* The one-line summary on stderr. */
+void tof_twin_print_summary(const struct run *r, bool finished, double host_s);
+
+/* The run's report JSON into a->report (DESIGN §6 keys). 0, or -1 (message). */
+int tof_twin_write_report(const struct run *r, bool finished, double host_s);
+
+#endif /* TWIN_TOF_TWIN_H */

@@ -1,0 +1,75 @@
+/* tof_twin's outputs after the run: the executed flash ranges (coverage), the one-line
+ * summary and the report JSON (DESIGN.md §6 keeps its keys). */
+#include <errno.h>
+#include <inttypes.h>
+#include <string.h>
+
+#include "tof_twin.h"
+
+int tof_twin_write_coverage(const struct run *r) {
+    FILE *f = fopen(r->a.coverage, "w");
+    if (f == NULL) {
+        fprintf(stderr, "tof_twin: %s: %s\n", r->a.coverage, strerror(errno));
+        return -1;
+    }
+    fputs("# executed flash ranges [start, end) from the twin's block hook\n", f);
+    const uint32_t n = TWIN_FLASH_SIZE / 2u;
+    for (uint32_t i = 0; i < n;) {
+        if (!r->t.covered[i]) {
+            ++i;
+            continue;
+        }
+        uint32_t j = i;
+        while (j < n && r->t.covered[j]) {
+            ++j;
+        }
+        fprintf(f, "0x%08x 0x%08x\n", TWIN_FLASH_BASE + 2u * i, TWIN_FLASH_BASE + 2u * j);
+        i = j;
+    }
+    return fclose(f);
+}
+
+void tof_twin_print_summary(const struct run *r, bool finished, double host_s) {
+    const double minsn = (double)r->t.stats.instructions / 1e6;
+    fprintf(stderr,
+            "tof_twin: %s: %.3f s simulated, %.2f s host, %.1f M instructions (%.1f M/s), "
+            "%" PRIu64 " estimates (%" PRIu64 " rows written), %u boots, %u watchdog resets, "
+            "%u HardFaults, %" PRIu64 " unflagged wrong\n",
+            finished ? "done" : "FAILED", (double)twin_now_ps(&r->t) / 1e12, host_s, minsn,
+            host_s > 0 ? minsn / host_s : 0.0, r->estimates, r->written, r->boots,
+            r->t.stats.watchdog_resets, r->t.stats.hardfaults, r->unflagged_wrong);
+}
+
+int tof_twin_write_report(const struct run *r, bool finished, double host_s) {
+    const double minsn = (double)r->t.stats.instructions / 1e6;
+    FILE *f = fopen(r->a.report, "w");
+    if (f == NULL) {
+        fprintf(stderr, "tof_twin: %s: %s\n", r->a.report, strerror(errno));
+        return -1;
+    }
+    fprintf(f,
+            "{\"finished\": %s, \"stop\": \"%s\", \"sim_s\": %.6f, \"host_s\": %.3f,\n"
+            " \"instructions\": %" PRIu64 ", \"minsn_per_s\": %.2f, \"warps\": %" PRIu64 ",\n"
+            " \"mmio_reads\": %" PRIu64 ", \"mmio_writes\": %" PRIu64 ",\n"
+            " \"estimates\": %" PRIu64 ", \"rows_written\": %" PRIu64 ", \"ok_rows\": %" PRIu64
+            ", \"unflagged_wrong\": %" PRIu64 ",\n"
+            " \"boots\": %u, \"banners\": %" PRIu64 ", \"resets\": %u, \"watchdog_resets\": %u,"
+            " \"software_resets\": %u, \"hardfaults\": %u, \"fault_pc\": %u, \"fault_addr\": %u,\n"
+            " \"fault_lines\": %" PRIu64 ", \"last_fault\": \"%s\", \"systicks\": %u,\n"
+            " \"i2c_transfers\": %" PRIu64 ", \"spurious_berr\": %u, \"bus_recoveries\": %u,"
+            " \"commands_refused\": %u,\n"
+            " \"health_frames\": %" PRIu64 ", \"loop_overruns\": %u, \"loop_max_us\": %u,"
+            " \"tx_dropped\": %u, \"uart_overruns\": %" PRIu64 "}\n",
+            finished ? "true" : "false", finished ? "" : r->t.stop_msg,
+            (double)twin_now_ps(&r->t) / 1e12, host_s, r->t.stats.instructions,
+            host_s > 0 ? minsn / host_s : 0.0, r->t.stats.warps, r->t.stats.mmio_reads,
+            r->t.stats.mmio_writes, r->estimates, r->written, r->ok_rows, r->unflagged_wrong,
+            r->boots, r->banners, r->t.stats.resets, r->t.stats.watchdog_resets,
+            r->t.stats.software_resets, r->t.stats.hardfaults, r->t.fault_pc, r->t.fault_addr,
+            r->faults_text, r->last_fault, r->t.stats.exceptions[15], r->w.transfers,
+            r->t.i2c.berr_injected, r->w.rig.bus.stats.recoveries, r->acks_bad, r->health_frames,
+            r->health.loop_overruns, r->health.loop_max_us, r->health.tx_dropped,
+            r->t.usart.overruns);
+    fclose(f);
+    return 0;
+}
