@@ -1,3 +1,4 @@
+/* The names of the hal error codes, for logs. */
 #include "hal/hal_err.h"
 
 const char *hal_err_name(int err) {

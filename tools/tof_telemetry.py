@@ -294,7 +294,9 @@ def _health(p):
 
 def _ack(p):
     # error: the firmware's own negative code behind a nack, unchanged (an attitude_error
-    # of estimator/attitude.h for set-window and select-estimator); 0 in an ack.
+    # of estimator/attitude.h for set-window and select-estimator); 0 in an ack. Each
+    # module's codes have a block of their own (docs/errors.md: -1..-31 hal_err,
+    # -64..-79 attitude_error), so the number alone says whose it is.
     echo_seq, command, result, error = struct.unpack("<BBBb", p)
     valid = result < len(RESULTS) and error <= 0 and (result != R_OK or error == 0)
     return valid, {"echo_seq": echo_seq, "command": command, "result": result, "error": error}

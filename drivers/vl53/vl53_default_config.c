@@ -1,6 +1,6 @@
+/* ST's default configuration of the VL53L1X, registers 0x2D..0x87, as facts. */
 /*
- * ST's default configuration of the VL53L1X, registers 0x2D..0x87, as facts: one line per
- * register, its value and (where ST names it) its meaning.
+ * One line per register, its value and (where ST names it) its meaning.
  *
  * Source: ST VL53L1X Ultra Lite Driver STSW-IMG009, VL53L1X_api.c, table
  * VL51L1X_DEFAULT_CONFIGURATION (ST publishes it dual-licensed, BSD-3-Clause). Cross-checked

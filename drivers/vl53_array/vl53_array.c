@@ -1,7 +1,7 @@
+/* Sensor-array bring-up and recovery over the VL53 driver. */
 /*
- * Sensor-array bring-up and recovery over the VL53 driver. Every sensor powers up
- * at 0x29, so only one may be out of reset while it is at that address; the checks
- * below make sure of it before each release instead of assuming it.
+ * Every sensor powers up at 0x29, so only one may be out of reset while it is at that address; the
+ * checks below make sure of it before each release instead of assuming it.
  */
 #include "vl53_array/vl53_array.h"
 

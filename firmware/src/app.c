@@ -6,9 +6,8 @@
 #include "firmware/text.h"
 #include "hal/hal_err.h"
 
-/* Error code -> counter slot (codes -1..-11 of hal_err.h; anything else lands in 0). */
-static unsigned error_slot(int err) {
-    return (err < 0 && err >= -11) ? (unsigned)(-err) : 0u;
+unsigned tof_app_error_slot(int err) {
+    return (err < 0 && err >= HAL_ERR_LAST) ? (unsigned)(-err) : TOF_ERROR_SLOT_OTHER;
 }
 
 void tof_log_line(const struct tof_platform *platform, const char *text) {
@@ -93,7 +92,7 @@ static void park_until_boundary(struct tof_app *app, unsigned sensor) {
 
 static void note_error(struct tof_app *app, unsigned sensor, int err) {
     ++app->counters.read_errors[sensor];
-    ++app->counters.errors_by_code[error_slot(err)];
+    ++app->counters.errors_by_code[tof_app_error_slot(err)];
     const enum tof_health_state before = app->health[sensor].state;
     const bool bus_wide = err == HAL_ERR_BUS_STUCK || err == HAL_ERR_BUS_BUSY;
     /* The sensor reported its own hardware fault: re-initialise it, the bus is fine. */
@@ -159,7 +158,7 @@ static void reinit_done(struct tof_app *app, unsigned sensor, int rc) {
         park_until_boundary(app, sensor);
     } else {
         ++app->counters.reinits_failed;
-        ++app->counters.errors_by_code[error_slot(rc)];
+        ++app->counters.errors_by_code[tof_app_error_slot(rc)];
         if (rc == HAL_ERR_BUS_STUCK || rc == HAL_ERR_BUS_BUSY) {
             /* A stuck bus fails every re-init: free it, or the sensor can never come back. */
             const int bus_rc = vl53_array_recover_bus(&app->array);
@@ -465,10 +464,8 @@ void tof_app_get_health(const struct tof_app *app, struct tof_app_health *out) {
 }
 
 const char *tof_app_error_message(const struct tof_app *app, int err) {
-    if (err != 0 && err == app->estimator_error) {
-        return attitude_error_message(err);
-    }
-    return hal_err_name(err);
+    (void)app;
+    return err < HAL_ERR_BLOCK_END ? attitude_error_message(err) : hal_err_name(err);
 }
 
 /* Not inlined: its line buffer stays off the main loop's stack (tools/stack_check.py). */

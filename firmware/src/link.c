@@ -79,12 +79,17 @@ static void send_health(struct tof_link *link) {
     msg.bus.busy = h.errors_by_code[-HAL_ERR_BUS_BUSY];
     msg.bus.timeout = h.errors_by_code[-HAL_ERR_TIMEOUT];
     msg.bus.stuck = h.errors_by_code[-HAL_ERR_BUS_STUCK];
-    for (int code = -HAL_ERR_INVALID; code <= -HAL_ERR_IO; ++code) {
-        if (code != -HAL_ERR_BUS_STUCK) {
-            msg.bus.other += h.errors_by_code[code];
+    /* The frame has no room for the rest (docs/telemetry.md §5.3): every other hal code,
+     * HAL_ERR_DEVICE among them, and any other module's code count as "other". */
+    for (unsigned slot = 0; slot < TOF_ERROR_SLOTS; ++slot) {
+        const bool own_field =
+            slot == (unsigned)-HAL_ERR_ADDR_NACK || slot == (unsigned)-HAL_ERR_DATA_NACK ||
+            slot == (unsigned)-HAL_ERR_BUS_BUSY || slot == (unsigned)-HAL_ERR_TIMEOUT ||
+            slot == (unsigned)-HAL_ERR_BUS_STUCK;
+        if (!own_field) {
+            msg.bus.other += h.errors_by_code[slot];
         }
     }
-    msg.bus.other += h.errors_by_code[0];
     msg.bus.recoveries = h.bus_recoveries;
     msg.loop_overruns = h.overruns;
     msg.loop_max_us = h.max_iteration_us;

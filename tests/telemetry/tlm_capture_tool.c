@@ -228,7 +228,7 @@ static void build(struct builder *b) {
     ack.u.ack = (struct tlm_ack){.echo_seq = 5,
                                  .command = TLM_TYPE_SET_WINDOW,
                                  .result = TLM_RESULT_OUT_OF_RANGE,
-                                 .error = -2}; /* ATTITUDE_ERR_WINDOW, unchanged */
+                                 .error = ATTITUDE_ERR_WINDOW}; /* unchanged */
     add_telemetry(b, &ack);
     ack.u.ack = (struct tlm_ack){.echo_seq = 6, .command = 0x99, .result = 1};
     add_telemetry(b, &ack);

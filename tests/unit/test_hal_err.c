@@ -10,8 +10,8 @@
 
 static void test_every_code_has_a_distinct_name(void **state) {
     (void)state;
-    const char *names[13];
-    for (int code = 0; code >= HAL_ERR_DEVICE; --code) {
+    const char *names[HAL_ERR_COUNT + 1];
+    for (int code = 0; code >= HAL_ERR_LAST; --code) {
         const char *name = hal_err_name(code);
         assert_non_null(name);
         assert_string_not_equal(name, "UNKNOWN");
@@ -25,7 +25,7 @@ static void test_every_code_has_a_distinct_name(void **state) {
 
 static void test_unknown_code(void **state) {
     (void)state;
-    assert_string_equal(hal_err_name(HAL_ERR_DEVICE - 1), "UNKNOWN");
+    assert_string_equal(hal_err_name(HAL_ERR_LAST - 1), "UNKNOWN");
     assert_string_equal(hal_err_name(1), "UNKNOWN");
 }
 

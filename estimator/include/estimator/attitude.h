@@ -95,24 +95,25 @@ enum attitude_reason {
 /* Longest text attitude_why_format() can write, terminator included (every bit set). */
 #define ATTITUDE_WHY_TEXT_MAX 544u
 
-/* Errors of attitude_init, one per configuration field (negative). */
+/* Errors of attitude_init, one per configuration field (negative), in the attitude
+ * block -64..-79 of the one error convention (docs/errors.md). */
 enum attitude_error {
     ATTITUDE_ERR_NONE = 0,
-    ATTITUDE_ERR_ARM = -1,                  /* arm_um outside [1000, 1000000] */
-    ATTITUDE_ERR_WINDOW = -2,               /* window outside [2, ATTITUDE_WINDOW_MAX] */
-    ATTITUDE_ERR_MODE = -3,                 /* mode neither tumbling nor sliding */
-    ATTITUDE_ERR_ESTIMATORS = -4,           /* estimators empty, with unknown bits or not built */
-    ATTITUDE_ERR_TOLERANCE = -5,            /* consensus_tolerance_udeg outside [1, 10000000] */
-    ATTITUDE_ERR_PAPER_ITERATIONS = -6,     /* paper_max_iterations is 0 */
-    ATTITUDE_ERR_KALMAN_PROCESS_NOISE = -7, /* kalman_process_noise_um2 above 2^32, or not 0
-                                               (or auto) without KALMAN_TRACKING_BUILT */
-    ATTITUDE_ERR_KALMAN_MEASUREMENT_NOISE = -8, /* a kalman_initial_noise_um2 below the
-                                                   1/12 mm² of 1 mm rounding */
-    ATTITUDE_ERR_KALMAN_WARMUP = -9,            /* kalman_warmup_rows outside 1..8 */
-    ATTITUDE_ERR_KALMAN_NOISE_SHIFT = -10,      /* kalman_noise_shift above 8 */
-    ATTITUDE_ERR_NULL = -11,                    /* a NULL pointer */
-    ATTITUDE_ERR_INTEGRITY = -12, /* an integrity field out of range (estimator/integrity.h) */
-    ATTITUDE_ERR_BUFFER = -13,    /* attitude_why_format: the buffer is too small */
+    ATTITUDE_ERR_ARM = -64,                  /* arm_um outside [1000, 1000000] */
+    ATTITUDE_ERR_WINDOW = -65,               /* window outside [2, ATTITUDE_WINDOW_MAX] */
+    ATTITUDE_ERR_MODE = -66,                 /* mode neither tumbling nor sliding */
+    ATTITUDE_ERR_ESTIMATORS = -67,           /* estimators empty, with unknown bits or not built */
+    ATTITUDE_ERR_TOLERANCE = -68,            /* consensus_tolerance_udeg outside [1, 10000000] */
+    ATTITUDE_ERR_PAPER_ITERATIONS = -69,     /* paper_max_iterations is 0 */
+    ATTITUDE_ERR_KALMAN_PROCESS_NOISE = -70, /* kalman_process_noise_um2 above 2^32, or not 0
+                                                (or auto) without KALMAN_TRACKING_BUILT */
+    ATTITUDE_ERR_KALMAN_MEASUREMENT_NOISE = -71, /* a kalman_initial_noise_um2 below the
+                                                    1/12 mm² of 1 mm rounding */
+    ATTITUDE_ERR_KALMAN_WARMUP = -72,            /* kalman_warmup_rows outside 1..8 */
+    ATTITUDE_ERR_KALMAN_NOISE_SHIFT = -73,       /* kalman_noise_shift above 8 */
+    ATTITUDE_ERR_NULL = -74,                     /* a NULL pointer */
+    ATTITUDE_ERR_INTEGRITY = -75, /* an integrity field out of range (estimator/integrity.h) */
+    ATTITUDE_ERR_BUFFER = -76,    /* attitude_why_format: the buffer is too small */
 };
 
 struct attitude_config {

@@ -87,14 +87,16 @@
  * and checks at compile time that it fits). */
 #define KALMAN_FORM_WORDS 27u /* the tracking form, the larger */
 
+/* Errors of the Kalman filter's configuration, in its block -48..-63 of the one error
+ * convention (docs/errors.md). */
 enum kalman_error {
     KALMAN_OK = 0,
-    KALMAN_ERR_PROCESS_NOISE = -1,     /* a Q entry negative or above P0, or non-zero
-                                          without KALMAN_TRACKING_BUILT */
-    KALMAN_ERR_MEASUREMENT_NOISE = -2, /* an initial R not in [1/12 mm², 2^20 mm²] */
-    KALMAN_ERR_WARMUP = -3,            /* warmup_rows outside 1..KALMAN_WARMUP_MAX */
-    KALMAN_ERR_NOISE_SHIFT = -4,       /* noise_shift above 8 */
-    KALMAN_ERR_AUTO = -5,              /* process_noise_auto without KALMAN_TRACKING_BUILT */
+    KALMAN_ERR_PROCESS_NOISE = -48,     /* a Q entry negative or above P0, or non-zero
+                                           without KALMAN_TRACKING_BUILT */
+    KALMAN_ERR_MEASUREMENT_NOISE = -49, /* an initial R not in [1/12 mm², 2^20 mm²] */
+    KALMAN_ERR_WARMUP = -50,            /* warmup_rows outside 1..KALMAN_WARMUP_MAX */
+    KALMAN_ERR_NOISE_SHIFT = -51,       /* noise_shift above 8 */
+    KALMAN_ERR_AUTO = -52,              /* process_noise_auto without KALMAN_TRACKING_BUILT */
 };
 
 struct kalman_config {

@@ -43,11 +43,12 @@
 /* Packed upper triangle of a 5×5 symmetric matrix: 15 entries. */
 #define WINDOW_PAIRS 15u
 
-/* Errors of window_init (negative, one per bad field). */
+/* Errors of window_init (negative, one per bad field), in the window's block -32..-47 of
+ * the one error convention (docs/errors.md). */
 enum window_error {
     WINDOW_OK = 0,
-    WINDOW_ERR_ARM = -1,    /* arm_um outside [ANGLES_ARM_MIN_UM, ANGLES_ARM_MAX_UM] */
-    WINDOW_ERR_LENGTH = -2, /* length outside [WINDOW_MIN_SAMPLES, WINDOW_MAX_SAMPLES] */
+    WINDOW_ERR_ARM = -32,    /* arm_um outside [ANGLES_ARM_MIN_UM, ANGLES_ARM_MAX_UM] */
+    WINDOW_ERR_LENGTH = -33, /* length outside [WINDOW_MIN_SAMPLES, WINDOW_MAX_SAMPLES] */
 };
 
 struct window_config {

@@ -19,6 +19,7 @@
 #include "firmware/config.h"
 #include "firmware/health.h"
 #include "firmware/platform.h"
+#include "hal/hal_err.h"
 #include "vl53_array/vl53_array.h"
 
 /* Firmware identity, printed at boot and in status telemetry. */
@@ -38,6 +39,14 @@ struct tof_estimate_record {
     struct attitude_output output; /* output.last_row is the sample (slot) index */
 };
 
+/* Slots of errors_by_code: slot -err for each hal code -1..HAL_ERR_LAST, slot 0
+ * (TOF_ERROR_SLOT_OTHER) for a code of another module's block (docs/errors.md). */
+#define TOF_ERROR_SLOT_OTHER 0u
+#define TOF_ERROR_SLOTS      ((unsigned)HAL_ERR_COUNT + 1u)
+
+/* The errors_by_code slot that counts `err` (TOF_ERROR_SLOTS above). */
+unsigned tof_app_error_slot(int err);
+
 struct tof_event {
     enum tof_event_kind kind;
     uint64_t t_us;
@@ -52,7 +61,7 @@ struct tof_app_counters {
     uint32_t max_iteration_us;
     uint32_t readings; /* good readings fed to the assembler */
     uint32_t read_errors[TOF_SENSORS];
-    uint32_t errors_by_code[12]; /* index -err for hal_err codes -1..-11 */
+    uint32_t errors_by_code[TOF_ERROR_SLOTS]; /* tof_app_error_slot(err) */
     uint32_t reinits_ok;
     uint32_t reinits_failed;
     uint32_t bus_recoveries;
@@ -88,14 +97,17 @@ struct tof_app {
  * reported and left to the fault manager. Returns HAL_OK; HAL_ERR_INVALID for a bad
  * application configuration or platform; a hal_err from attaching the sensors; or,
  * when the estimator refuses cfg->estimator, attitude_init()'s attitude_error
- * unchanged, also kept in app->estimator_error (tof_app_error_message() tells the two
- * conventions apart). Nothing else stops the application from running.
+ * unchanged, also kept in app->estimator_error; the two kinds have disjoint numbers
+ * (docs/errors.md), and tof_app_error_message() names either. Nothing else stops the application
+ * from running.
  */
 int tof_app_init(struct tof_app *app, const struct tof_platform *platform,
                  const struct tof_app_config *cfg);
 
-/* What error `err` from this application's calls means: the estimator's message when
- * it is the estimator's refusal (app->estimator_error), else hal_err_name(). */
+/* What error `err` from this application's calls means: attitude_error_message() for a
+ * code below the hal block (the estimator's refusals reach the application as
+ * attitude_error codes), else hal_err_name(). `app` is not needed since the blocks
+ * became disjoint (docs/errors.md); it stays for the callers. */
 const char *tof_app_error_message(const struct tof_app *app, int err);
 
 /* One bounded main-loop iteration; `idle` true lets it sleep until the next due reading. */
@@ -155,9 +167,9 @@ void tof_app_get_status(const struct tof_app *app, struct tof_app_status *out);
 struct tof_app_health {
     uint64_t uptime_us;
     enum tof_health_state state[TOF_SENSORS];
-    uint32_t losses[TOF_SENSORS];      /* times each sensor was declared lost */
-    uint32_t read_errors[TOF_SENSORS]; /* failed polls of each sensor */
-    uint32_t errors_by_code[12];       /* index -err for hal_err codes -1..-11, 0 other */
+    uint32_t losses[TOF_SENSORS];             /* times each sensor was declared lost */
+    uint32_t read_errors[TOF_SENSORS];        /* failed polls of each sensor */
+    uint32_t errors_by_code[TOF_ERROR_SLOTS]; /* tof_app_error_slot(err) */
     uint32_t bus_recoveries;
     uint32_t overruns; /* iterations longer than loop_budget_us */
     uint32_t max_iteration_us;

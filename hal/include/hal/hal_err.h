@@ -1,6 +1,17 @@
 /*
  * One error convention for hal/, drivers/ and firmware/: 0 is success, a
  * negative value names the failure, and callers pass it up unchanged.
+ *
+ * Every module that returns error codes owns a block of negative numbers no other
+ * module uses, so a code names its failure whoever passes it up (docs/errors.md).
+ * The estimator does not include hal/, so this table and docs/errors.md are where the
+ * blocks are written down; tests/unit/test_error_convention.c checks them:
+ *
+ *     -1 ..  -31   hal_err (this file): hal/, drivers/, firmware/, sim/, boards/
+ *    -32 ..  -47   enum window_error    (estimator/window_stats.h)
+ *    -48 ..  -63   enum kalman_error    (estimator/kalman.h)
+ *    -64 ..  -79   enum attitude_error  (estimator/attitude.h)
+ *    -80 .. -128   free (a nack carries a code in an i8: nothing below -128)
  */
 #ifndef HAL_ERR_H
 #define HAL_ERR_H
@@ -19,7 +30,15 @@ enum hal_err {
     HAL_ERR_CORRUPT = -10,    /* data failed a plausibility or integrity check */
     HAL_ERR_IO = -11,         /* other I/O failure (file, UART) */
     HAL_ERR_DEVICE = -12,     /* the device reported a fault of its own (e.g. VL53 hardware fail) */
+    /* A new code goes here, next to the last, and HAL_ERR_LAST moves to it. */
 };
+
+/* The last (most negative) hal code: the codes are -1..HAL_ERR_LAST, every one named. */
+#define HAL_ERR_LAST HAL_ERR_DEVICE
+/* How many hal codes there are; a table with a slot per code is sized from it. */
+#define HAL_ERR_COUNT (-(int)HAL_ERR_LAST)
+/* The most negative number of the hal block (the table above); HAL_ERR_LAST stays above. */
+#define HAL_ERR_BLOCK_END (-31)
 
 /* Short constant name of an error code, for logs ("ADDR_NACK"); never NULL. */
 const char *hal_err_name(int err);

@@ -138,7 +138,7 @@ struct tlm_bus_counters {
     uint32_t busy;       /* HAL_ERR_BUS_BUSY */
     uint32_t timeout;    /* HAL_ERR_TIMEOUT */
     uint32_t stuck;      /* HAL_ERR_BUS_STUCK */
-    uint32_t other;      /* any other error code */
+    uint32_t other;      /* any other code (HAL_ERR_DEVICE, other blocks: docs/errors.md) */
     uint32_t recoveries; /* bus recovery sequences run */
 };
 
