@@ -11,7 +11,8 @@
  *    -32 ..  -47   enum window_error    (estimator/window_stats.h)
  *    -48 ..  -63   enum kalman_error    (estimator/kalman.h)
  *    -64 ..  -79   enum attitude_error  (estimator/attitude.h)
- *    -80 .. -128   free (a nack carries a code in an i8: nothing below -128)
+ *    -80 .. -95    pose_err: the camera pose pipeline (pose/, host only)
+ *    -96 .. -128   free (a nack carries a code in an i8: nothing below -128)
  */
 #ifndef HAL_ERR_H
 #define HAL_ERR_H

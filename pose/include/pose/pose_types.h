@@ -32,13 +32,14 @@ extern "C" {
 #define POSE_MAX_WIDTH      1024u /* frame width limit (run coordinates are 16-bit) */
 #define POSE_MAX_HEIGHT     1024u
 
-/* Errors: 0 success, negative values name the failure (one convention, passed up). */
+/* Errors: 0 success, negative values name the failure (one convention, passed up); the
+ * block -80..-95 is pose's (docs/errors.md). */
 enum pose_err {
     POSE_OK = 0,
-    POSE_ERR_INVALID = -1,    /* NULL argument or inconsistent configuration */
-    POSE_ERR_FRAME = -2,      /* frame size or pixel value outside what was configured */
-    POSE_ERR_DEGENERATE = -3, /* point set cannot define a rotation (collinear, too few) */
-    POSE_ERR_NO_CONVERGE = -4 /* an iterative solver hit its iteration bound */
+    POSE_ERR_INVALID = -80,    /* NULL argument or inconsistent configuration */
+    POSE_ERR_FRAME = -81,      /* frame size or pixel value outside what was configured */
+    POSE_ERR_DEGENERATE = -82, /* point set cannot define a rotation (collinear, too few) */
+    POSE_ERR_NO_CONVERGE = -83 /* an iterative solver hit its iteration bound */
 };
 
 /* Short constant name of an error code ("INVALID"); never NULL. */
