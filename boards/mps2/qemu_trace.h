@@ -39,7 +39,7 @@ struct qemu_trace {
     struct qemu_trace_row ring[QEMU_TRACE_RING];
     uint32_t rows;   /* rows parsed so far (row i is in ring[i % RING] if i + RING > rows) */
     bool done;       /* end of file reached */
-    char error[160]; /* non-empty after an error: "file:line:col: what" */
+    char error[320]; /* non-empty after an error: "file:line:col: what" */
 };
 
 /* Open `path` and read the version line, metadata and header; choose the distance mode.
