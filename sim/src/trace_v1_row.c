@@ -158,6 +158,7 @@ static inline void decimal_value(const char *int_start, const char *end, long e,
             d->units *= 10u;
         }
     }
+    d->over = d->over || d->units >= DECIMAL_CAP;
 }
 
 /*
