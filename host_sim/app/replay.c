@@ -1,8 +1,8 @@
+/* host_sim replay's loop: trace rows through the simulated world and the firmware (replay.h). */
 /*
- * host_sim replay: the replay loop (replay.h). The trace's rows drive the simulated world
- * and the unchanged firmware; its outputs go to the statistics (replay_stats), the
- * estimate CSV and the plot data (replay_plot); the distance mode is replay_mode's, the
- * words after the run replay_report's.
+ * The firmware's outputs go to the statistics (replay_stats), the estimate CSV and the
+ * plot data (replay_plot); the distance mode is replay_mode's, the words after the run
+ * replay_report's. Every call points down from here: none of them calls back.
  */
 #include "replay.h"
 

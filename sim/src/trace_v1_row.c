@@ -179,16 +179,19 @@ scan_decimal(const char **pp, unsigned decimals, struct decimal *d) {
         ++p;
     }
     const char *const int_start = p;
-    while (is_digit(*p)) {
-        ++p;
+    uint64_t mantissa = 0; /* all digits as one integer: exact up to 19 of them */
+    for (; is_digit(*p); ++p) {
+        mantissa = mantissa * 10u + (uint64_t)(*p - '0');
     }
     size_t digits = (size_t)(p - int_start);
+    size_t frac_digits = 0;
     if (*p == '.') {
         const char *const frac_start = ++p;
-        while (is_digit(*p)) {
-            ++p;
+        for (; is_digit(*p); ++p) {
+            mantissa = mantissa * 10u + (uint64_t)(*p - '0');
         }
-        digits += (size_t)(p - frac_start);
+        frac_digits = (size_t)(p - frac_start);
+        digits += frac_digits;
     }
     if (digits == 0u) {
         return PARSE_SYNTAX;
@@ -216,6 +219,15 @@ scan_decimal(const char **pp, unsigned decimals, struct decimal *d) {
         if (!at_field_end(p)) {
             return PARSE_SYNTAX;
         }
+    }
+    if (e == 0 && frac_digits <= decimals && digits + (decimals - frac_digits) < 18u) {
+        /* What traces hold (the writer's 6 decimals): the digits as one integer, scaled to
+         * the unit (decimals <= 6); the general path below places each digit. */
+        static const uint64_t pow10[7] = {1u, 10u, 100u, 1000u, 10000u, 100000u, 1000000u};
+        d->units = mantissa * pow10[decimals - frac_digits]; /* below 10^17: exact */
+        d->nonzero = mantissa != 0u;
+        *pp = p;
+        return PARSE_OK;
     }
     decimal_value(int_start, digits_end, e, decimals, d);
     *pp = p;
@@ -342,8 +354,8 @@ static void check_timing(struct trace_v1_reader *r, uint32_t t_ms) {
 }
 
 /* A truth field: empty is allowed (DESIGN.md §5); a value beyond its range is an error. */
-static inline enum parse_result scan_truth(const char **pp, unsigned t, size_t at,
-                                           struct trace_v1_row *row) {
+static inline __attribute__((always_inline)) enum parse_result
+scan_truth(const char **pp, unsigned t, size_t at, struct trace_v1_row *row) {
     struct decimal d;
     enum parse_result pr = scan_decimal(pp, truth_decimals[t], &d);
     if (pr == PARSE_EMPTY) {
@@ -366,32 +378,55 @@ static inline enum parse_result scan_truth(const char **pp, unsigned t, size_t a
     return PARSE_OK;
 }
 
-/* One field of the row as column use (its trace_column + 1, 0 unknown) says. */
-static inline enum parse_result scan_field(const char **pp, unsigned use, size_t at,
-                                           struct trace_v1_row *row, uint64_t *max) {
+/* One field of the row as column use (its trace_column + 1, 0 unknown) says; *max is the
+ * field's largest value, for its message. A switch, as the row parser's hot path. */
+static inline __attribute__((always_inline)) enum parse_result
+scan_field(const char **pp, unsigned use, size_t at, struct trace_v1_row *row, uint64_t *max) {
     uint64_t v = 0;
     enum parse_result pr = PARSE_OK;
-    if (use == 0u) { /* a column this reader does not use */
+    switch (use) {
+    case 0u: /* a column this reader does not use */
         while (!at_field_end(*pp)) {
             ++*pp;
         }
-    } else if (use == TRACE_COL_T_MS + 1u) {
+        break;
+    case TRACE_COL_T_MS + 1u:
         *max = UINT32_MAX;
         pr = scan_uint(pp, *max, &v);
         row->t_ms = (uint32_t)v;
-    } else if (use <= TRACE_COL_D_MM + 1u) {
+        break;
+    case TRACE_COL_A_MM + 1u:
+    case TRACE_COL_B_MM + 1u:
+    case TRACE_COL_C_MM + 1u:
+    case TRACE_COL_D_MM + 1u:
         *max = UINT16_MAX;
         pr = scan_uint(pp, *max, &v);
         row->range_mm[use - 1u - TRACE_COL_A_MM] = (uint16_t)v;
-    } else if (use <= TRACE_COL_D_ST + 1u) {
+        break;
+    case TRACE_COL_A_ST + 1u:
+    case TRACE_COL_B_ST + 1u:
+    case TRACE_COL_C_ST + 1u:
+    case TRACE_COL_D_ST + 1u:
         *max = UINT8_MAX;
         pr = scan_uint(pp, *max, &v);
         row->status[use - 1u - TRACE_COL_A_ST] = (uint8_t)v;
-    } else {
+        break;
+    default: /* alpha_deg, beta_deg, distance_mm */
         *max = use == TRACE_COL_DISTANCE + 1u ? UINT16_MAX : 90u;
         pr = scan_truth(pp, use - 1u - TRACE_COL_ALPHA, at, row);
+        break;
     }
     return pr;
+}
+
+/* The field that failed (pr, at start), or the row's wrong field count first. -1. */
+static int row_error(struct trace_v1_reader *r, const char *start, unsigned use,
+                     enum parse_result pr, uint64_t max) {
+    if (check_field_count(r) != 0) {
+        return -1;
+    }
+    const struct trace_field f = field_at(r, (size_t)(start - r->line));
+    return field_error(r, &f, (enum trace_column)(use - 1u), pr, max);
 }
 
 /*
@@ -403,28 +438,32 @@ static inline enum parse_result scan_field(const char **pp, unsigned use, size_t
 int trace_v1_parse_row(struct trace_v1_reader *r, struct trace_v1_row *row) {
     const char *const line = r->line;
     const char *p = line;
-    size_t t_start = 0; /* offset of the t_ms field, for its message */
+    const char *t_start = line; /* the t_ms field, for its message */
     memset(row, 0, sizeof *row);
-    for (unsigned n = 0; n < r->n_columns; ++n) {
+    /* Bounded: each turn passes a ',' of the line or ends. */
+    for (unsigned n = 0;; ++n) {
         const char *const start = p;
         const unsigned use = r->column_use[n];
         uint64_t max = 0;
         const enum parse_result pr = scan_field(&p, use, (size_t)(start - line), row, &max);
-        t_start = use == TRACE_COL_T_MS + 1u ? (size_t)(start - line) : t_start;
         if (pr != PARSE_OK) {
-            if (check_field_count(r) != 0) {
-                return -1;
+            return row_error(r, start, use, pr, max);
+        }
+        t_start = use == TRACE_COL_T_MS + 1u ? start : t_start;
+        if (*p == ',') {
+            if (n + 1u == r->n_columns) {
+                return check_field_count(r); /* long row */
             }
-            const struct trace_field f = field_at(r, (size_t)(start - line));
-            return field_error(r, &f, (enum trace_column)(use - 1u), pr, max);
+            ++p;
+        } else { /* the end of the line */
+            if (n + 1u < r->n_columns) {
+                return check_field_count(r); /* short row */
+            }
+            break;
         }
-        if (*p == ',' ? n + 1u == r->n_columns : n + 1u < r->n_columns) {
-            return check_field_count(r); /* a long or a short row */
-        }
-        ++p; /* past the ',' (or the end, and the loop ends) */
     }
     if (r->rows > 0u && row->t_ms < r->last_t_ms) {
-        const struct trace_field f = field_at(r, t_start);
+        const struct trace_field f = field_at(r, (size_t)(t_start - line));
         struct trace_msg m = trace_msg_begin(r, r->line_no, (uint32_t)f.col);
         trace_msg_str(&m, "t_ms ");
         trace_msg_u64(&m, row->t_ms);

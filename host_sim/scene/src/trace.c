@@ -95,26 +95,28 @@ int trace_reader_next(struct trace_reader *r, struct scene_row *row) {
         return rc < 0 ? core_failed(r) : rc;
     }
     row->t_ms = v.t_ms;
-    for (unsigned k = 0; k < SCENE_SENSORS; ++k) {
-        row->range_mm[k] = v.range_mm[k];
-        row->status[k] = v.status[k];
-        row->present[k] = v.present[k];
-    }
+    memcpy(row->range_mm, v.range_mm, sizeof row->range_mm);
+    memcpy(row->status, v.status, sizeof row->status);
+    memcpy(row->present, v.present, sizeof row->present);
     const char *line = r->core.line;
     row->has_alpha = v.has[TRACE_TRUTH_ALPHA];
     row->has_beta = v.has[TRACE_TRUTH_BETA];
     row->has_distance = v.has[TRACE_TRUTH_DISTANCE];
-    row->alpha_deg = row->has_alpha
-                         ? to_double(v.truth[TRACE_TRUTH_ALPHA], v.exact[TRACE_TRUTH_ALPHA], 1e6,
-                                     line + v.truth_at[TRACE_TRUTH_ALPHA])
-                         : 0.0;
-    row->beta_deg = row->has_beta ? to_double(v.truth[TRACE_TRUTH_BETA], v.exact[TRACE_TRUTH_BETA],
-                                              1e6, line + v.truth_at[TRACE_TRUTH_BETA])
-                                  : 0.0;
-    row->distance_mm = row->has_distance
-                           ? to_double(v.truth[TRACE_TRUTH_DISTANCE], v.exact[TRACE_TRUTH_DISTANCE],
-                                       1e3, line + v.truth_at[TRACE_TRUTH_DISTANCE])
-                           : 0.0;
+    row->alpha_deg = 0.0;
+    row->beta_deg = 0.0;
+    row->distance_mm = 0.0;
+    if (row->has_alpha) {
+        row->alpha_deg = to_double(v.truth[TRACE_TRUTH_ALPHA], v.exact[TRACE_TRUTH_ALPHA], 1e6,
+                                   line + v.truth_at[TRACE_TRUTH_ALPHA]);
+    }
+    if (row->has_beta) {
+        row->beta_deg = to_double(v.truth[TRACE_TRUTH_BETA], v.exact[TRACE_TRUTH_BETA], 1e6,
+                                  line + v.truth_at[TRACE_TRUTH_BETA]);
+    }
+    if (row->has_distance) {
+        row->distance_mm = to_double(v.truth[TRACE_TRUTH_DISTANCE], v.exact[TRACE_TRUTH_DISTANCE],
+                                     1e3, line + v.truth_at[TRACE_TRUTH_DISTANCE]);
+    }
     r->rows = r->core.rows;
     r->last_row_line = r->core.last_row_line;
     return 0;
