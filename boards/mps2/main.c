@@ -149,16 +149,10 @@ int main(void) {
         say("replay: ", q.trace.error);
         return 1;
     }
-    /* the trace's distance_mode, else short; host_sim's choice from the readings needs them
-     * read ahead, which this reader does not: it fails on a reading only long mode reports
-     * when long mode would fit the period, so the two never differ in silence */
-    const enum vl53_distance_mode mode = q.trace.distance_mode == (uint8_t)VL53_DISTANCE_LONG
-                                             ? VL53_DISTANCE_LONG
-                                             : VL53_DISTANCE_SHORT;
-    q.trace.long_fits = q.trace.distance_mode == 0u &&
-                        tof_app_replay_mode_fits(q.trace.period_ms, VL53_DISTANCE_LONG);
+    /* the mode qemu_trace chose by sim/'s policy (the trace's distance_mode, else short; it
+     * fails on a reading that would make host_sim, reading ahead, choose long) */
     if (tof_app_config_for_replay(&q.cfg, q.trace.arm_um, q.trace.period_ms, window, sliding,
-                                  mode) != HAL_OK) {
+                                  q.trace.mode) != HAL_OK) {
         say("replay: no firmware configuration fits this trace: ", trace_path);
         return 1;
     }

@@ -1,17 +1,22 @@
+/* The QEMU replay image's trace input: semihosting under sim/'s trace v1 reader (qemu_trace.h). */
 #include "qemu_trace.h"
 
 #include <string.h>
 
+#include "firmware/config.h"
 #include "firmware/text.h"
 #include "semihost.h"
-#include "vl53/vl53.h"
 
-static int fail(struct qemu_trace *t, uint32_t col, const char *what) {
+_Static_assert((int)TRACE_MODE_SHORT == (int)VL53_DISTANCE_SHORT &&
+                   (int)TRACE_MODE_LONG == (int)VL53_DISTANCE_LONG,
+               "sim/trace_v1.h's modes carry the driver's numbers");
+
+static int fail(struct qemu_trace *t, uint32_t line, uint32_t col, const char *what) {
     struct tof_text out;
     tof_text_init(&out, t->error, sizeof t->error);
     tof_text_str(&out, t->path);
     tof_text_str(&out, ":");
-    tof_text_u64(&out, t->line_no);
+    tof_text_u64(&out, line);
     tof_text_str(&out, ":");
     tof_text_u64(&out, col);
     tof_text_str(&out, ": ");
@@ -19,241 +24,101 @@ static int fail(struct qemu_trace *t, uint32_t col, const char *what) {
     return -1;
 }
 
-/* Next line into t->line. 1 with a line, 0 at the end, -1 on an error. */
-static int next_line(struct qemu_trace *t) {
-    uint32_t len = 0;
-    bool any = false;
-    for (uint32_t guard = 0; guard <= QEMU_TRACE_LINE + 1u; ++guard) {
-        if (t->block_pos == t->block_len) {
-            if (t->eof) {
-                break;
-            }
-            const int n = semihost_read(t->handle, t->block, sizeof t->block);
-            if (n < 0) {
-                ++t->line_no;
-                return fail(t, 1, "read error");
-            }
-            t->block_len = (uint32_t)n;
-            t->block_pos = 0;
-            if (n == 0) {
-                t->eof = true;
-                break;
-            }
-        }
-        const char c = t->block[t->block_pos++];
-        any = true;
-        if (c == '\n') {
-            break;
-        }
-        if (c == '\0') {
-            ++t->line_no;
-            return fail(t, len + 1u, "NUL byte");
-        }
-        if (len == QEMU_TRACE_LINE) {
-            ++t->line_no;
-            return fail(t, len + 1u, "line too long");
-        }
-        t->line[len++] = c;
-        guard = 0; /* the bound is per character: a line ends within LINE + 1 of them */
-    }
-    if (!any) {
-        return 0;
-    }
-    if (len > 0u && t->line[len - 1u] == '\r') {
-        --len;
-    }
-    t->line[len] = '\0';
-    ++t->line_no;
-    return 1;
+static int reader_failed(struct qemu_trace *t) {
+    return fail(t, t->reader.err.line, t->reader.err.col, t->reader.err.msg);
 }
 
-/* Parse a non-negative decimal integer field [s, s+len) into *v (<= max). */
-static bool parse_uint(const char *s, uint32_t len, uint32_t max, uint32_t *v) {
-    if (len == 0u || len > 10u) {
-        return false;
-    }
-    uint64_t acc = 0;
-    for (uint32_t i = 0; i < len; ++i) {
-        if (s[i] < '0' || s[i] > '9') {
-            return false;
-        }
-        acc = acc * 10u + (uint64_t)(s[i] - '0');
-    }
-    if (acc > max) {
-        return false;
-    }
-    *v = (uint32_t)acc;
-    return true;
+static int32_t read_semihost(void *ctx, unsigned char *buf, uint32_t len) {
+    const struct qemu_trace *t = ctx;
+    return semihost_read(t->handle, buf, len);
 }
 
-/* "30", "30.0", "29.5": millimetres with up to three decimals, as micrometres. */
-static bool parse_mm_as_um(const char *s, int32_t *um) {
-    uint32_t whole = 0;
-    uint32_t i = 0;
-    while (s[i] >= '0' && s[i] <= '9' && i < 7u) {
-        whole = whole * 10u + (uint32_t)(s[i] - '0');
-        ++i;
+/* What the image needs of the metadata: arm_mm in whole µm, period_ms 1..10000, and the
+ * distance mode by sim/'s policy with no evidence yet. 0, or -1 with t->error. */
+static int read_meta(struct qemu_trace *t) {
+    const struct trace_v1_meta *m = &t->reader.meta;
+    if (!m->arm_exact) {
+        return fail(t, trace_v1_meta_line(&t->reader, "arm_mm"), 1u,
+                    "arm_mm is not a length in whole micrometres");
     }
-    if (i == 0u) {
-        return false;
+    t->arm_um = m->arm_um;
+    t->period_ms = t->reader.timing.period_ms; /* or TRACE_DEFAULT_PERIOD_MS */
+    if (t->period_ms > 10000u) {
+        return fail(t, trace_v1_meta_line(&t->reader, "period_ms"), 1u,
+                    "period_ms is not 1..10000");
     }
-    uint32_t frac = 0;
-    uint32_t scale = 1000u;
-    if (s[i] == '.') {
-        ++i;
-        for (uint32_t d = 0; s[i] >= '0' && s[i] <= '9'; ++d, ++i) {
-            if (d < 3u) {
-                scale /= 10u;
-                frac += (uint32_t)(s[i] - '0') * scale;
-            } else if (s[i] != '0') {
-                return false; /* finer than a micrometre: not representable here */
-            }
-        }
+    const char *stated = trace_v1_meta(&t->reader, "distance_mode");
+    enum vl53_distance_mode mode = VL53_DISTANCE_SHORT;
+    if (stated != NULL && !vl53_distance_mode_from_name(stated, &mode)) {
+        return fail(t, trace_v1_meta_line(&t->reader, "distance_mode"), 1u,
+                    "distance_mode is not short or long");
     }
-    if (s[i] != '\0') {
-        return false;
-    }
-    *um = (int32_t)(whole * 1000u + frac);
-    return true;
-}
-
-static const char *const column_names[9] = {"t_ms", "a_mm", "b_mm", "c_mm", "d_mm",
-                                            "a_st", "b_st", "c_st", "d_st"};
-
-static int parse_header(struct qemu_trace *t) {
-    int8_t *slots[9] = {&t->col_t,         &t->col_range[0],  &t->col_range[1],
-                        &t->col_range[2],  &t->col_range[3],  &t->col_status[0],
-                        &t->col_status[1], &t->col_status[2], &t->col_status[3]};
-    for (unsigned k = 0; k < 9u; ++k) {
-        *slots[k] = -1;
-    }
-    uint32_t col = 0;
-    const char *s = t->line;
-    for (uint32_t pos = 0; col < 64u; ++col) {
-        uint32_t end = pos;
-        while (s[end] != ',' && s[end] != '\0') {
-            ++end;
-        }
-        for (unsigned k = 0; k < 9u; ++k) {
-            if (strlen(column_names[k]) == end - pos &&
-                strncmp(column_names[k], s + pos, end - pos) == 0) {
-                *slots[k] = (int8_t)col;
-            }
-        }
-        if (s[end] == '\0') {
-            break;
-        }
-        pos = end + 1u;
-    }
-    t->columns = (uint8_t)(col + 1u);
-    for (unsigned k = 0; k < 5u; ++k) {
-        if (*slots[k] < 0) {
-            return fail(t, 1, "missing column");
-        }
-    }
+    t->stated = stated != NULL ? (enum trace_mode)mode : TRACE_MODE_UNSTATED;
+    t->long_fits = tof_app_replay_mode_fits(t->period_ms, VL53_DISTANCE_LONG);
+    t->mode = (enum vl53_distance_mode)trace_mode_choose(TRACE_MODE_UNSTATED, t->stated, NULL,
+                                                         t->long_fits)
+                  .mode;
+    t->evidence = (struct trace_mode_evidence){.short_max_mm = VL53_RANGE_MAX_SHORT_MM,
+                                               .long_max_mm = VL53_RANGE_MAX_LONG_MM};
     return 0;
 }
 
 int qemu_trace_open(struct qemu_trace *t, const char *path) {
     memset(t, 0, sizeof *t);
     t->path = path;
-    t->period_ms = 20;
     t->handle = semihost_open(path, SEMIHOST_MODE_READ_BINARY);
     if (t->handle < 0) {
-        return fail(t, 0, "cannot open");
+        return fail(t, 0, 0, "cannot open");
     }
-    int rc = next_line(t);
-    if (rc <= 0 || strcmp(t->line, "# tof-trace v1") != 0) {
-        return rc < 0 ? -1 : fail(t, 1, "first line must be '# tof-trace v1'");
+    const struct trace_v1_input in = {.read = read_semihost, .ctx = t};
+    if (trace_v1_open(&t->reader, in, t->block, sizeof t->block) != 0) {
+        return reader_failed(t);
     }
-    bool have_arm = false;
-    for (uint32_t n = 0; n < 64u; ++n) {
-        rc = next_line(t);
-        if (rc <= 0) {
-            return rc < 0 ? -1 : fail(t, 1, "no header line");
-        }
-        if (t->line[0] != '#') {
-            if (!have_arm) {
-                return fail(t, 1, "missing arm_mm");
-            }
-            return parse_header(t);
-        }
-        const char *kv = t->line + 1;
-        while (*kv == ' ') {
-            ++kv;
-        }
-        if (strncmp(kv, "arm_mm=", 7) == 0) {
-            if (!parse_mm_as_um(kv + 7, &t->arm_um)) {
-                return fail(t, (uint32_t)(kv - t->line) + 8u, "arm_mm is not a length in mm");
-            }
-            have_arm = true;
-        } else if (strncmp(kv, "distance_mode=", 14) == 0) {
-            const char *v = kv + 14;
-            enum vl53_distance_mode mode;
-            if (!vl53_distance_mode_from_name(v, &mode)) {
-                return fail(t, (uint32_t)(v - t->line) + 1u, "distance_mode is not short or long");
-            }
-            t->distance_mode = (uint8_t)mode;
-        } else if (strncmp(kv, "period_ms=", 10) == 0) {
-            const char *v = kv + 10;
-            if (!parse_uint(v, (uint32_t)strlen(v), 10000u, &t->period_ms) || t->period_ms == 0u) {
-                return fail(t, (uint32_t)(v - t->line) + 1u, "period_ms is not 1..10000");
-            }
-        }
-    }
-    return fail(t, 1, "too many metadata lines");
+    return read_meta(t);
 }
 
-/* Parse the current line as row number t->rows. 0, or -1 with t->error. */
-static int parse_row(struct qemu_trace *t) {
-    struct qemu_trace_row row = {0};
-    uint32_t col = 0;
-    uint32_t pos = 0;
-    const char *s = t->line;
-    for (; col < t->columns; ++col) {
-        uint32_t end = pos;
-        while (s[end] != ',' && s[end] != '\0') {
-            ++end;
+/* 1-based column of field `field` of the reader's current line. */
+static uint32_t field_column(const struct trace_v1_reader *r, int field) {
+    uint32_t col = 1;
+    for (uint32_t i = 0; i < r->line_len && field > 0; ++i) {
+        if (r->line[i] == ',') {
+            --field;
+            col = i + 2u;
         }
-        uint32_t v = 0;
-        const uint32_t len = end - pos;
-        if ((int)col == t->col_t) {
-            if (!parse_uint(s + pos, len, UINT32_MAX, &v)) {
-                return fail(t, pos + 1u, "t_ms is not a non-negative integer");
-            }
-            row.t_ms = v;
-        }
-        for (unsigned k = 0; k < 4u; ++k) {
-            if ((int)col == t->col_range[k] && !parse_uint(s + pos, len, 65535u, &v)) {
-                return fail(t, pos + 1u, "range is not an integer 0..65535 mm");
-            }
-            if ((int)col == t->col_range[k]) {
-                row.range_mm[k] = (uint16_t)v;
-                if (t->long_fits && v > VL53_RANGE_MAX_SHORT_MM && v <= VL53_RANGE_MAX_LONG_MM) {
-                    return fail(t, pos + 1u,
-                                "a reading only long mode reports, and no '# distance_mode=': "
-                                "state it (host_sim chooses long for this trace)");
-                }
-            }
-            if ((int)col == t->col_status[k] && len > 0u) {
-                if (!parse_uint(s + pos, len, 255u, &v)) {
-                    return fail(t, pos + 1u, "status is not an integer 0..255");
-                }
-                row.status[k] = (uint8_t)v;
-            }
-        }
-        if (s[end] == '\0') {
-            break;
-        }
-        pos = end + 1u;
     }
-    if (col + 1u != t->columns || s[pos - 1u] == '\0') {
-        return fail(t, pos + 1u, col + 1u < t->columns ? "short row" : "long row");
+    return col;
+}
+
+/* The row's readings as evidence: one that would make sim/'s policy choose other than
+ * the mode the image runs is an error, since host_sim, reading ahead, would. */
+static int check_mode(struct qemu_trace *t, const struct trace_v1_row *row) {
+    const uint64_t before = t->evidence.count;
+    trace_mode_evidence_add(&t->evidence, row, t->reader.last_row_line);
+    if (before != 0u || t->evidence.count == 0u ||
+        trace_mode_choose(TRACE_MODE_UNSTATED, t->stated, &t->evidence, t->long_fits).mode ==
+            (enum trace_mode)t->mode) {
+        return 0;
     }
-    if (t->rows > 0u && row.t_ms < t->ring[(t->rows - 1u) % QEMU_TRACE_RING].t_ms) {
-        return fail(t, (uint32_t)t->col_t + 1u, "time goes backwards");
+    const int field = t->reader.column_of[TRACE_COL_A_MM + t->evidence.first_sensor];
+    return fail(t, t->reader.last_row_line, field_column(&t->reader, field),
+                "a reading only long mode reports, and no '# distance_mode=': "
+                "state it (host_sim chooses long for this trace)");
+}
+
+/* The next row into the ring. 0, 1 at the end, or -1 with t->error. */
+static int read_row(struct qemu_trace *t) {
+    struct trace_v1_row v;
+    const int rc = trace_v1_next(&t->reader, &v);
+    if (rc != 0) {
+        return rc < 0 ? reader_failed(t) : 1;
     }
-    t->ring[t->rows % QEMU_TRACE_RING] = row;
+    if (check_mode(t, &v) != 0) {
+        return -1;
+    }
+    struct qemu_trace_row *row = &t->ring[t->rows % QEMU_TRACE_RING];
+    row->t_ms = v.t_ms;
+    memcpy(row->range_mm, v.range_mm, sizeof row->range_mm);
+    memcpy(row->status, v.status, sizeof row->status);
     ++t->rows;
     return 0;
 }
@@ -263,21 +128,17 @@ int qemu_trace_row(struct qemu_trace *t, uint32_t index, const struct qemu_trace
         return -1;
     }
     for (uint32_t guard = 0; index >= t->rows && !t->done && guard < QEMU_TRACE_RING; ++guard) {
-        const int rc = next_line(t);
+        const int rc = read_row(t);
         if (rc < 0) {
             return -1;
         }
-        if (rc == 0) {
-            t->done = true;
-        } else if (t->line[0] != '#' && parse_row(t) != 0) {
-            return -1;
-        }
+        t->done = rc == 1;
     }
     if (index >= t->rows) {
-        return t->done ? 1 : fail(t, 0, "row requested too far ahead");
+        return t->done ? 1 : fail(t, 0, 0, "row requested too far ahead");
     }
     if (index + QEMU_TRACE_RING < t->rows) {
-        return fail(t, 0, "row no longer held");
+        return fail(t, 0, 0, "row no longer held");
     }
     *row = &t->ring[index % QEMU_TRACE_RING];
     return 0;
@@ -289,7 +150,7 @@ static int source_next(void *ctx, unsigned sensor, uint32_t sample_index, struct
     if (rc != 0) {
         return rc;
     }
-    const bool missing = row->status[sensor] == 255u; /* no reading (docs/traces.md) */
+    const bool missing = row->status[sensor] == TRACE_STATUS_NO_READING; /* docs/traces.md */
     *out = (struct sim_range){.distance_mm = row->range_mm[sensor],
                               .range_status = missing ? 0u : row->status[sensor],
                               .present = !missing};

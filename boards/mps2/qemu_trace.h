@@ -1,10 +1,11 @@
 /*
  * The QEMU replay image's trace input: trace v1 (DESIGN.md §5) read through
- * semihosting and parsed with integers only. It reads what the firmware needs
- * (t_ms, the four ranges and statuses, arm_mm and period_ms) and reports
- * malformed input as file:line:column like host_sim's reader; the ground-truth
- * columns are not needed on target and are skipped. A status of 255 with range
- * 0 is a sensor that produced no reading (docs/traces.md), as on the host.
+ * semihosting by the one trace v1 reader (sim/trace_v1.h), so its rules and messages
+ * ("file:line:column: what") are host_sim's. It keeps the last rows in a ring for the
+ * device models and the output, and chooses the parts' distance mode by sim/'s policy
+ * (trace_mode_choose) with the evidence read so far: it cannot read the trace ahead as
+ * host_sim does, so a reading that would make the policy choose long when the trace
+ * does not state its mode is an error, and the two never differ in silence.
  */
 #ifndef BOARDS_MPS2_QEMU_TRACE_H
 #define BOARDS_MPS2_QEMU_TRACE_H
@@ -13,9 +14,10 @@
 #include <stdint.h>
 
 #include "sim/range_source.h"
+#include "sim/trace_v1.h"
+#include "vl53/vl53.h"
 
-#define QEMU_TRACE_RING 64u   /* rows kept for the device models and the output */
-#define QEMU_TRACE_LINE 1024u /* longest accepted line, as on the host */
+#define QEMU_TRACE_RING 64u /* rows kept for the device models and the output */
 
 struct qemu_trace_row {
     uint32_t t_ms;
@@ -26,27 +28,22 @@ struct qemu_trace_row {
 struct qemu_trace {
     int handle;
     const char *path;
-    char block[512];
-    uint32_t block_len, block_pos;
-    bool eof;
-    char line[QEMU_TRACE_LINE + 1u];
-    uint32_t line_no;
-    int8_t col_t, col_range[4], col_status[4]; /* header column of each field, -1 absent */
-    uint8_t columns;
+    unsigned char block[512];
+    struct trace_v1_reader reader;
     int32_t arm_um;
     uint32_t period_ms;
-    uint8_t distance_mode; /* '# distance_mode=': 1 short, 2 long (enum vl53_distance_mode);
-                              0 unstated */
-    bool long_fits;        /* unstated, and the period admits a long-mode budget: a reading
-                              only long mode reports is an error (host_sim would read the
-                              trace ahead and choose long; this reader cannot) */
+    enum trace_mode stated;              /* the trace's distance_mode, or unstated */
+    bool long_fits;                      /* the period admits a long-mode budget */
+    enum vl53_distance_mode mode;        /* the parts' mode, chosen at open */
+    struct trace_mode_evidence evidence; /* readings only long mode reports, so far */
     struct qemu_trace_row ring[QEMU_TRACE_RING];
     uint32_t rows;   /* rows parsed so far (row i is in ring[i % RING] if i + RING > rows) */
     bool done;       /* end of file reached */
-    char error[160]; /* non-empty after an error: "file:line:col: what" */
+    char error[320]; /* non-empty after an error: "file:line:col: what" */
 };
 
-/* Open `path` and read the version line, metadata and header. 0, or -1 with t->error. */
+/* Open `path` and read the version line, metadata and header; choose the distance mode.
+ * 0, or -1 with t->error. */
 int qemu_trace_open(struct qemu_trace *t, const char *path);
 
 /*

@@ -111,7 +111,7 @@ static int cmd_check(const char *path) {
            (unsigned long long)tm->repeats, (unsigned long long)tm->jumps,
            reader.bom ? "; a UTF-8 byte-order mark was skipped" : "");
     for (unsigned i = 0; i < tm->note_count; ++i) {
-        printf("  %s:%lu: t_ms %lu after %lu (%s)\n", path, tm->notes[i].line,
+        printf("  %s:%lu: t_ms %lu after %lu (%s)\n", path, (unsigned long)tm->notes[i].line,
                (unsigned long)tm->notes[i].t_ms, (unsigned long)tm->notes[i].prev_t_ms,
                tm->notes[i].kind == TRACE_TIME_REPEAT ? "repeated" : "jump");
     }

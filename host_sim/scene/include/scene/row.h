@@ -27,6 +27,8 @@ struct scene_row {
     bool present[SCENE_SENSORS];      /* false: no reading (range 0, status 255) */
     bool has_alpha, has_beta;         /* ground truth available for this row */
     double alpha_deg, beta_deg;       /* ground truth (only meaningful if has_*) */
+    bool has_distance;                /* truth x̄ (a trace's distance_mm column) */
+    double distance_mm;
 };
 
 /* True when sensor k of row is present with status 0 (a valid reading). */

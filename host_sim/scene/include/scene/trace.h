@@ -1,5 +1,5 @@
 /*
- * Recorded trace format v1 (DESIGN.md §5): reader and writer.
+ * Recorded trace format v1 (DESIGN.md §5): host_sim's reader and the writer.
  *
  *   # tof-trace v1
  *   # arm_mm=30.0
@@ -7,11 +7,12 @@
  *   t_ms,a_mm,b_mm,c_mm,d_mm,a_st,b_st,c_st,d_st,alpha_deg,beta_deg
  *   0,98,101,102,100,0,0,0,0,1.000,0.000
  *
- * The reader streams from a FILE* one row at a time with a bounded line buffer
- * and rejects, never repairs: every malformed input ends with an error message
- * "file:line:column: what" (grammar and rules in docs/traces.md). A status of
- * 255 (SCENE_STATUS_NO_READING) marks a sensor that gave no reading: the row
- * then has present[k] = false.
+ * The reader is the one trace v1 reader of sim/ (sim/trace_v1.h: integer C, every
+ * target) with the host's parts around it: a FILE* or a memory buffer as its input, a
+ * 64 KB block, the file name in front of its messages ("file:line:column: what") and its
+ * fixed-point values as doubles (the same doubles strtod gives for the text). A status of
+ * 255 (SCENE_STATUS_NO_READING) marks a sensor that gave no reading: the row then has
+ * present[k] = false.
  */
 #ifndef SCENE_TRACE_H
 #define SCENE_TRACE_H
@@ -22,92 +23,34 @@
 #include <stdio.h>
 
 #include "scene/row.h"
+#include "sim/trace_v1.h"
 
-#define TRACE_LINE_MAX    1024u /* bytes per line without the newline; longer is an error */
-#define TRACE_MAX_COLUMNS 64u   /* header fields */
-#define TRACE_MAX_META    32u   /* "# key=value" lines */
-#define TRACE_KEY_MAX     32u   /* bytes of a key, including the terminator */
-#define TRACE_VALUE_MAX   128u  /* bytes of a value, including the terminator */
-#define TRACE_ERR_MAX     1024u
-#define TRACE_IO_BLOCK    65536u
-/* The time base when a trace has no period_ms: the scenarios' and the shared
- * recording's 20 ms (docs/traces.md). host_sim replay uses the same default. */
-#define TRACE_DEFAULT_PERIOD_MS 20u
-#define TRACE_TIMING_NOTES      8u /* irregular time stamps kept with their line */
+#define TRACE_ERR_MAX  1024u
+#define TRACE_IO_BLOCK 65536u
 
-/* Columns the reader knows, in trace_column order. */
-enum trace_column {
-    TRACE_COL_T_MS,
-    TRACE_COL_A_MM,
-    TRACE_COL_B_MM,
-    TRACE_COL_C_MM,
-    TRACE_COL_D_MM,
-    TRACE_COL_A_ST,
-    TRACE_COL_B_ST,
-    TRACE_COL_C_ST,
-    TRACE_COL_D_ST,
-    TRACE_COL_ALPHA,
-    TRACE_COL_BETA,
-    TRACE_COL_COUNT
-};
-
+/* The metadata with arm_mm as a double (what host_sim computes with). */
 struct trace_meta {
     double arm_mm;      /* required: a, mm, finite and > 0 */
     uint32_t period_ms; /* optional, > 0; 0 when absent */
     unsigned count;     /* every key=value line, arm_mm and period_ms included */
     char key[TRACE_MAX_META][TRACE_KEY_MAX];
     char value[TRACE_MAX_META][TRACE_VALUE_MAX];
-    unsigned long line[TRACE_MAX_META]; /* line of each key=value, for messages */
-};
-
-/* Irregular time stamps: t_ms equal to the previous row's, or more than two periods
- * after it. Not errors (real loggers skip and stall); the replay reports them. */
-enum trace_timing_kind { TRACE_TIME_REPEAT = 1, TRACE_TIME_JUMP = 2 };
-
-struct trace_timing_note {
-    unsigned long line;
-    uint32_t t_ms, prev_t_ms;
-    uint8_t kind; /* enum trace_timing_kind */
-};
-
-struct trace_timing {
-    uint32_t period_ms;    /* the time base checked against: period_ms, else the default */
-    bool period_from_meta; /* false: TRACE_DEFAULT_PERIOD_MS, the trace has no period_ms */
-    uint64_t repeats;      /* rows whose t_ms equals the previous row's */
-    uint64_t jumps;        /* rows more than 2 * period_ms after the previous row */
-    uint32_t max_jump_ms;  /* the largest such step, and its line */
-    unsigned long max_jump_line;
-    unsigned note_count; /* the first TRACE_TIMING_NOTES irregular rows, in line order */
-    struct trace_timing_note notes[TRACE_TIMING_NOTES];
+    uint32_t line[TRACE_MAX_META]; /* line of each key=value, for messages */
 };
 
 struct trace_reader {
+    struct trace_v1_reader core; /* the reader proper */
     /* input: a FILE, or a memory buffer when file is NULL */
     FILE *file;
     const unsigned char *mem;
     size_t mem_len, mem_pos;
     char name[256]; /* for messages (truncated with "..." if longer) */
     unsigned char block[TRACE_IO_BLOCK];
-    size_t block_len, block_pos;
-    bool eof;
-    /* current line */
-    char line[TRACE_LINE_MAX + 1u];
-    size_t line_len;
-    unsigned long line_no;
-    /* header */
     struct trace_meta meta;
-    unsigned n_columns;                    /* fields in the header */
-    int column_of[TRACE_COL_COUNT];        /* field index of each known column, -1 if absent */
-    uint8_t column_use[TRACE_MAX_COLUMNS]; /* per field: its trace_column + 1, 0 if unknown */
-    unsigned long header_line;
-    /* rows */
-    uint64_t rows; /* rows returned so far */
-    uint32_t last_t_ms;
+    /* copies of the core's, kept current for the host's users */
+    uint64_t rows;               /* rows returned so far */
     unsigned long last_row_line; /* line of the last row returned */
-    struct trace_timing timing;
-    bool bom;                 /* the file began with a UTF-8 byte-order mark (skipped) */
-    unsigned long empty_line; /* first empty line seen after the header; 0 = none */
-    int state;                /* 0 reading, 1 ended, -1 failed */
+    bool bom;                    /* the file began with a UTF-8 byte-order mark (skipped) */
     char err[TRACE_ERR_MAX];
 };
 

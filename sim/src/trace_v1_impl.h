@@ -1,0 +1,63 @@
+/*
+ * The trace v1 reader's own parts (not for its users): the message builder
+ * (trace_v1_msg.c, the bottom), the field scanners and the row parser (trace_v1_row.c),
+ * both called by the reader proper (trace_v1.c) and never calling it.
+ */
+#ifndef SIM_TRACE_V1_IMPL_H
+#define SIM_TRACE_V1_IMPL_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "sim/trace_v1.h"
+
+/* ---- messages (trace_v1_msg.c) ---- */
+
+/* A message being built into r->err.msg; always NUL-terminated, cut at its end. */
+struct trace_msg {
+    char *s;
+    uint32_t len, cap;
+};
+
+/* Starts the failure at line, col: clears r->err.msg and sets its place. */
+struct trace_msg trace_msg_begin(struct trace_v1_reader *r, uint32_t line, uint32_t col);
+void trace_msg_str(struct trace_msg *m, const char *s);
+void trace_msg_u64(struct trace_msg *m, uint64_t v);
+/* A bounded, printable quote of untrusted text: 40 bytes at most, then "..."; bytes
+ * outside printable ASCII as '?'. */
+void trace_msg_quote(struct trace_msg *m, const char *s, size_t len);
+/* Fails the reader. Returns -1. */
+int trace_msg_fail(struct trace_v1_reader *r);
+
+/* The whole message what at line, col. Returns -1. */
+int trace_v1_fail(struct trace_v1_reader *r, uint32_t line, uint32_t col, const char *what);
+/* before + 'quote of s[0..len)' + after at line, col. Returns -1. */
+int trace_v1_fail_q(struct trace_v1_reader *r, uint32_t line, uint32_t col, const char *before,
+                    const char *s, size_t len, const char *after);
+
+/* ---- fields and rows (trace_v1_row.c) ---- */
+
+extern const char *const trace_v1_column_names[TRACE_COL_COUNT];
+
+/* A field of a line: s after leading blanks, len without trailing blanks, col the 1-based
+ * column of s (of the field start if it is blank). */
+struct trace_field {
+    const char *s;
+    size_t len;
+    size_t col;
+};
+
+struct trace_field trace_v1_make_field(const char *line, size_t start, size_t end);
+
+/* A whole metadata value as one unsigned integer in 1..max: 0, or -1 (not one). */
+int trace_v1_meta_uint(const struct trace_field *f, uint64_t max, uint64_t *out);
+
+/* A whole metadata value as a positive decimal in units of 10^-decimals: 0 with *units
+ * (saturated at INT32_MAX) and *exact, or -1 (not a positive number). */
+int trace_v1_meta_positive(const struct trace_field *f, unsigned decimals, int32_t *units,
+                           bool *exact);
+
+/* Parses r->line as the next row (checks, timing notes, counters). 0, or -1 failed. */
+int trace_v1_parse_row(struct trace_v1_reader *r, struct trace_v1_row *row);
+
+#endif /* SIM_TRACE_V1_IMPL_H */
