@@ -1,3 +1,4 @@
+/* The fault manager's per-sensor health state machine (firmware/health.h). */
 #include "firmware/health.h"
 
 static void enter(struct tof_health *h, enum tof_health_state state, uint32_t now_ms) {

@@ -1,3 +1,4 @@
+/* host_sim's command line: subcommands, their options and their --help (cli.h). */
 #include "cli.h"
 
 #include <errno.h>
