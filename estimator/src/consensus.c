@@ -175,10 +175,11 @@ static fix_q32_t iterate_product(struct consensus_axis *ax, fix_q32_t tol_q32) {
     return c;
 }
 
-static void product_axis(const struct consensus_product_input *in, const struct product_prep *pp,
-                         const struct axis_frame *f, struct consensus_axis *ax) {
-    (void)memset(ax, 0, sizeof *ax);
-    const struct consensus_sensor *s = in->sensor;
+/* The weights of the slopes the sensors give on this axis (ax->used, ax->weight) and the
+ * variance of a·t̂ (Q28 mm², *var_at); false when the axis is unobservable (ax untouched). */
+static bool product_weights(const struct consensus_sensor *s, const struct product_prep *pp,
+                            const struct axis_frame *f, struct consensus_axis *ax,
+                            fix_q28_t *var_at) {
     const bool has_low = s[f->low].used;
     const bool has_high = s[f->high].used;
     const bool has_refs = s[f->ref1].used && s[f->ref2].used;
@@ -186,12 +187,6 @@ static void product_axis(const struct consensus_product_input *in, const struct 
     const fix_q28_t v_high = pp->var_mean[f->high];
     /* m = var of the reference midpoint (m_ref1 + m_ref2)/2 */
     const fix_q28_t m = has_refs ? (pp->var_mean[f->ref1] + pp->var_mean[f->ref2] + 2) / 4 : 0;
-
-    fix_q32_t other = 0; /* t̂ of the other axis in this frame: (ref1 − ref2)/2a */
-    if (has_refs) {
-        other = slope_q32(s[f->ref1].mean_mm, s[f->ref2].mean_mm, &pp->arm, 2u);
-    }
-    fix_q28_t var_at = 0; /* variance of a·t̂ in Q28 mm² */
     if (has_low && has_high && has_refs) {
         ax->used = 0x1F;
         /* π_low ∝ 2m + V_high, π_high ∝ 2m + V_low; π5 = 2·min, the rest split. Every
@@ -211,23 +206,39 @@ static void product_axis(const struct consensus_product_input *in, const struct 
         /* var(a·t̂) = (V_l V_h + m (V_l + V_h)) / (V_l + V_h + 4m)
          *          = V_l · V_h/D + m · (V_l + V_h)/D, both fractions below 1 */
         const int64_t d = v_low + v_high + 4 * m;
-        var_at = fix_mul_q31(v_low, fraction_q31(v_high, d)) +
-                 fix_mul_q31(m, fraction_q31(v_low + v_high, d));
+        *var_at = fix_mul_q31(v_low, fraction_q31(v_high, d)) +
+                  fix_mul_q31(m, fraction_q31(v_low + v_high, d));
     } else if (!has_low && has_high && has_refs) {
         ax->used = 0x0C; /* v3, v4: (high − M)/a */
         ax->weight[2] = FIX_Q30_ONE / 2;
         ax->weight[3] = FIX_Q30_ONE / 2;
-        var_at = v_high + m;
+        *var_at = v_high + m;
     } else if (has_low && !has_high && has_refs) {
         ax->used = 0x03; /* v1, v2: (M − low)/a */
         ax->weight[0] = FIX_Q30_ONE / 2;
         ax->weight[1] = FIX_Q30_ONE / 2;
-        var_at = v_low + m;
+        *var_at = v_low + m;
     } else if (has_low && has_high) {
         ax->used = 0x10; /* a reference is missing: v5 alone */
         ax->weight[4] = FIX_Q30_ONE;
-        var_at = (v_low + v_high + 2) / 4;
+        *var_at = (v_low + v_high + 2) / 4;
     } else {
+        return false;
+    }
+    return true;
+}
+
+static void product_axis(const struct consensus_product_input *in, const struct product_prep *pp,
+                         const struct axis_frame *f, struct consensus_axis *ax) {
+    (void)memset(ax, 0, sizeof *ax);
+    const struct consensus_sensor *s = in->sensor;
+    const bool has_refs = s[f->ref1].used && s[f->ref2].used;
+    fix_q32_t other = 0; /* t̂ of the other axis in this frame: (ref1 − ref2)/2a */
+    if (has_refs) {
+        other = slope_q32(s[f->ref1].mean_mm, s[f->ref2].mean_mm, &pp->arm, 2u);
+    }
+    fix_q28_t var_at = 0; /* variance of a·t̂ in Q28 mm² */
+    if (!product_weights(s, pp, f, ax, &var_at)) {
         ax->status = CONSENSUS_UNOBSERVABLE;
         return;
     }
