@@ -175,75 +175,11 @@ static fix_q32_t iterate_product(struct consensus_axis *ax, fix_q32_t tol_q32) {
     return c;
 }
 
-/* The weights of the slopes the sensors give on this axis (ax->used, ax->weight) and the
- * variance of a·t̂ (Q28 mm², *var_at); false when the axis is unobservable (ax untouched). */
-static bool product_weights(const struct consensus_sensor *s, const struct product_prep *pp,
-                            const struct axis_frame *f, struct consensus_axis *ax,
-                            fix_q28_t *var_at) {
-    const bool has_low = s[f->low].used;
-    const bool has_high = s[f->high].used;
-    const bool has_refs = s[f->ref1].used && s[f->ref2].used;
-    const fix_q28_t v_low = pp->var_mean[f->low];
-    const fix_q28_t v_high = pp->var_mean[f->high];
-    /* m = var of the reference midpoint (m_ref1 + m_ref2)/2 */
-    const fix_q28_t m = has_refs ? (pp->var_mean[f->ref1] + pp->var_mean[f->ref2] + 2) / 4 : 0;
-    if (has_low && has_high && has_refs) {
-        ax->used = 0x1F;
-        /* π_low ∝ 2m + V_high, π_high ∝ 2m + V_low; π5 = 2·min, the rest split. Every
-         * V < 2^59 (a variance below 2^31 mm² over n >= 1), so no sum overflows. */
-        const int64_t w_low = 2 * m + v_high;
-        const int64_t w_high = 2 * m + v_low;
-        /* equal halves exactly (equal noise: π = e5, mean(α5) as a slope) */
-        const fix_q30_t pi_low =
-            w_low == w_high ? FIX_Q30_ONE / 2 : fraction_q31(w_low, w_low + w_high) / 2;
-        const fix_q30_t pi_high = FIX_Q30_ONE - pi_low;
-        const fix_q30_t common = pi_low < pi_high ? pi_low : pi_high;
-        ax->weight[4] = 2 * common;
-        ax->weight[0] = (pi_low - common) / 2;
-        ax->weight[1] = pi_low - common - ax->weight[0];
-        ax->weight[2] = (pi_high - common) / 2;
-        ax->weight[3] = pi_high - common - ax->weight[2];
-        /* var(a·t̂) = (V_l V_h + m (V_l + V_h)) / (V_l + V_h + 4m)
-         *          = V_l · V_h/D + m · (V_l + V_h)/D, both fractions below 1 */
-        const int64_t d = v_low + v_high + 4 * m;
-        *var_at = fix_mul_q31(v_low, fraction_q31(v_high, d)) +
-                  fix_mul_q31(m, fraction_q31(v_low + v_high, d));
-    } else if (!has_low && has_high && has_refs) {
-        ax->used = 0x0C; /* v3, v4: (high − M)/a */
-        ax->weight[2] = FIX_Q30_ONE / 2;
-        ax->weight[3] = FIX_Q30_ONE / 2;
-        *var_at = v_high + m;
-    } else if (has_low && !has_high && has_refs) {
-        ax->used = 0x03; /* v1, v2: (M − low)/a */
-        ax->weight[0] = FIX_Q30_ONE / 2;
-        ax->weight[1] = FIX_Q30_ONE / 2;
-        *var_at = v_low + m;
-    } else if (has_low && has_high) {
-        ax->used = 0x10; /* a reference is missing: v5 alone */
-        ax->weight[4] = FIX_Q30_ONE;
-        *var_at = (v_low + v_high + 2) / 4;
-    } else {
-        return false;
-    }
-    return true;
-}
-
-static void product_axis(const struct consensus_product_input *in, const struct product_prep *pp,
-                         const struct axis_frame *f, struct consensus_axis *ax) {
-    (void)memset(ax, 0, sizeof *ax);
-    const struct consensus_sensor *s = in->sensor;
-    const bool has_refs = s[f->ref1].used && s[f->ref2].used;
-    fix_q32_t other = 0; /* t̂ of the other axis in this frame: (ref1 − ref2)/2a */
-    if (has_refs) {
-        other = slope_q32(s[f->ref1].mean_mm, s[f->ref2].mean_mm, &pp->arm, 2u);
-    }
-    fix_q28_t var_at = 0; /* variance of a·t̂ in Q28 mm² */
-    if (!product_weights(s, pp, f, ax, &var_at)) {
-        ax->status = CONSENSUS_UNOBSERVABLE;
-        return;
-    }
-
-    /* v(0): the five slopes of Eq. 1 in this frame, compensated by `other` */
+/* v(0): the five slopes of Eq. 1 in this frame that ax->used selects, compensated by
+ * `other` (t̂ of the other axis). Inlined: product_axis's one call. */
+FIX_INLINE void initial_slopes(const struct consensus_sensor *s, const struct product_prep *pp,
+                               const struct axis_frame *f, fix_q32_t other,
+                               struct consensus_axis *ax) {
     const fix_q32_t low = s[f->low].mean_mm;
     const fix_q32_t high = s[f->high].mean_mm;
     const fix_q32_t r1 = s[f->ref1].mean_mm;
@@ -263,6 +199,66 @@ static void product_axis(const struct consensus_product_input *in, const struct 
     if ((ax->used & 0x10u) != 0u) {
         ax->initial[4] = slope_q32(high, low, &pp->arm, 2u); /* s5 = t */
     }
+}
+
+static void product_axis(const struct consensus_product_input *in, const struct product_prep *pp,
+                         const struct axis_frame *f, struct consensus_axis *ax) {
+    (void)memset(ax, 0, sizeof *ax);
+    const struct consensus_sensor *s = in->sensor;
+    const bool has_low = s[f->low].used;
+    const bool has_high = s[f->high].used;
+    const bool has_refs = s[f->ref1].used && s[f->ref2].used;
+    const fix_q28_t v_low = pp->var_mean[f->low];
+    const fix_q28_t v_high = pp->var_mean[f->high];
+    /* m = var of the reference midpoint (m_ref1 + m_ref2)/2 */
+    const fix_q28_t m = has_refs ? (pp->var_mean[f->ref1] + pp->var_mean[f->ref2] + 2) / 4 : 0;
+
+    fix_q32_t other = 0; /* t̂ of the other axis in this frame: (ref1 − ref2)/2a */
+    if (has_refs) {
+        other = slope_q32(s[f->ref1].mean_mm, s[f->ref2].mean_mm, &pp->arm, 2u);
+    }
+    fix_q28_t var_at = 0; /* variance of a·t̂ in Q28 mm² */
+    if (has_low && has_high && has_refs) {
+        ax->used = 0x1F;
+        /* π_low ∝ 2m + V_high, π_high ∝ 2m + V_low; π5 = 2·min, the rest split. Every
+         * V < 2^59 (a variance below 2^31 mm² over n >= 1), so no sum overflows. */
+        const int64_t w_low = 2 * m + v_high;
+        const int64_t w_high = 2 * m + v_low;
+        /* equal halves exactly (equal noise: π = e5, mean(α5) as a slope) */
+        const fix_q30_t pi_low =
+            w_low == w_high ? FIX_Q30_ONE / 2 : fraction_q31(w_low, w_low + w_high) / 2;
+        const fix_q30_t pi_high = FIX_Q30_ONE - pi_low;
+        const fix_q30_t common = pi_low < pi_high ? pi_low : pi_high;
+        ax->weight[4] = 2 * common;
+        ax->weight[0] = (pi_low - common) / 2;
+        ax->weight[1] = pi_low - common - ax->weight[0];
+        ax->weight[2] = (pi_high - common) / 2;
+        ax->weight[3] = pi_high - common - ax->weight[2];
+        /* var(a·t̂) = (V_l V_h + m (V_l + V_h)) / (V_l + V_h + 4m)
+         *          = V_l · V_h/D + m · (V_l + V_h)/D, both fractions below 1 */
+        const int64_t d = v_low + v_high + 4 * m;
+        var_at = fix_mul_q31(v_low, fraction_q31(v_high, d)) +
+                 fix_mul_q31(m, fraction_q31(v_low + v_high, d));
+    } else if (!has_low && has_high && has_refs) {
+        ax->used = 0x0C; /* v3, v4: (high − M)/a */
+        ax->weight[2] = FIX_Q30_ONE / 2;
+        ax->weight[3] = FIX_Q30_ONE / 2;
+        var_at = v_high + m;
+    } else if (has_low && !has_high && has_refs) {
+        ax->used = 0x03; /* v1, v2: (M − low)/a */
+        ax->weight[0] = FIX_Q30_ONE / 2;
+        ax->weight[1] = FIX_Q30_ONE / 2;
+        var_at = v_low + m;
+    } else if (has_low && has_high) {
+        ax->used = 0x10; /* a reference is missing: v5 alone */
+        ax->weight[4] = FIX_Q30_ONE;
+        var_at = (v_low + v_high + 2) / 4;
+    } else {
+        ax->status = CONSENSUS_UNOBSERVABLE;
+        return;
+    }
+
+    initial_slopes(s, pp, f, other, ax);
     ax->tan_q32 = iterate_product(ax, pp->tol_q32);
     ax->angle_udeg = fix_atan_q32_udeg(ax->tan_q32);
     ax->sigma_udeg = fix_angle_sigma_udeg(fix_sat_mul_s64(var_at, 16), in->arm_um, ax->tan_q32);

@@ -72,3 +72,9 @@ bool integrity_axis_var(enum integrity_axis axis, uint8_t used, const fix_q32_t 
     *var_mm2 = fix_asr_s64(sum, 2u * (unsigned)unit);
     return true;
 }
+
+void integrity_axes_coeffs(uint8_t used, struct integrity_axes_coeffs *ac) {
+    for (unsigned ax = 0; ax < INTEGRITY_AXES; ++ax) {
+        ac->unit[ax] = integrity_axis_coeffs((enum integrity_axis)ax, used, ac->c[ax]);
+    }
+}

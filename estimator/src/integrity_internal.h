@@ -54,6 +54,13 @@ static inline fix_q32_t integrity_div_small(fix_q32_t v, int32_t d) {
  * the set does not observe the axis. */
 int integrity_axis_coeffs(enum integrity_axis axis, uint8_t used, int8_t c[ANGLES_SENSORS]);
 
+/* The three axes' coefficients over one window's sensor set, found once per window. */
+struct integrity_axes_coeffs {
+    int8_t c[INTEGRITY_AXES][ANGLES_SENSORS];
+    int unit[INTEGRITY_AXES]; /* < 0: the set does not observe the axis */
+};
+void integrity_axes_coeffs(uint8_t used, struct integrity_axes_coeffs *ac);
+
 /* --- integrity_noise.c ------------------------------------------------------------------ */
 
 /* Sums over the used sensors of the variance of their window means. */
@@ -76,9 +83,10 @@ void integrity_parity(struct integrity_state *st, const struct integrity_config 
                       const struct window_stats *s, const struct integrity_noise_sums *sums,
                       bool learn, struct integrity_window *out);
 
-/* What a failed parity adds to an axis with coefficients c (unit: their log2 unit): the
- * disagreement may sit in any one sensor, so the worst one's share. */
-fix_q32_t integrity_parity_cover(fix_q32_t parity_mm, const int8_t c[ANGLES_SENSORS], int unit);
+/* What a failed parity (its residual squared: parity2_mm2) adds to an axis with
+ * coefficients c (unit: their log2 unit): the disagreement may sit in any one sensor, so
+ * the worst one's share. */
+fix_q32_t integrity_parity_cover(fix_q32_t parity2_mm2, const int8_t c[ANGLES_SENSORS], int unit);
 
 /* --- integrity_motion.c ------------------------------------------------------------------ */
 
@@ -87,12 +95,13 @@ fix_q32_t integrity_parity_cover(fix_q32_t parity_mm, const int8_t c[ANGLES_SENS
 void integrity_motion_sensors(const struct window_state *w, const struct window_stats *s,
                               struct integrity_window *out);
 
-/* Per axis the window observes: its lag (out->lag_mm, lag_var_mm2, moved, the `motion`
- * bit), the steady-motion lag learnt when learn, and in lag2_mm2[axis] the lag² it adds
- * to the axis' variance (0 for an axis not observed). */
+/* Per axis the window observes (ac: the axes' coefficients): its lag (out->lag_mm,
+ * lag_var_mm2, moved, the `motion` bit), the steady-motion lag learnt when learn, and in
+ * lag2_mm2[axis] the lag² it adds to the axis' variance (0 for an axis not observed). */
 void integrity_motion_axes(struct integrity_state *st, const struct integrity_config *cfg,
                            const struct window_state *w, const struct window_stats *s, bool learn,
-                           struct integrity_window *out, fix_q32_t lag2_mm2[INTEGRITY_AXES]);
+                           const struct integrity_axes_coeffs *ac, struct integrity_window *out,
+                           fix_q32_t lag2_mm2[INTEGRITY_AXES]);
 
 /* At the end of a block: this block's sensor set and means join the history. */
 void integrity_motion_remember(struct integrity_state *st, const struct window_stats *s,

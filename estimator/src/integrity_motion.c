@@ -136,7 +136,8 @@ static bool axis_lag(const struct integrity_config *cfg, enum integrity_axis ax,
  * (y[1..3], from the history), and the per-block variance of the axis value (white noise
  * plus drift and prior). */
 static fix_q32_t block_values(const struct integrity_state *st, const struct window_stats *s,
-                              const struct integrity_window *out, enum integrity_axis ax,
+                              const struct integrity_window *out,
+                              const fix_q32_t block_var[ANGLES_SENSORS], enum integrity_axis ax,
                               const int8_t c[ANGLES_SENSORS], int unit, fix_q32_t y[4]) {
     for (unsigned b = 0; b < 4u; ++b) {
         int64_t sum = 0;
@@ -145,10 +146,6 @@ static fix_q32_t block_values(const struct integrity_state *st, const struct win
         }
         y[b] = fix_asr_s64(sum, (unsigned)unit);
     }
-    fix_q32_t block_var[ANGLES_SENSORS];
-    for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
-        block_var[k] = fix_sat_add_s64(out->white_mm2[k], out->extra_mm2[k]);
-    }
     fix_q32_t var = 0;
     (void)integrity_axis_var(ax, out->used, block_var, &var);
     return var;
@@ -156,7 +153,8 @@ static fix_q32_t block_values(const struct integrity_state *st, const struct win
 
 void integrity_motion_axes(struct integrity_state *st, const struct integrity_config *cfg,
                            const struct window_state *w, const struct window_stats *s, bool learn,
-                           struct integrity_window *out, fix_q32_t lag2_mm2[INTEGRITY_AXES]) {
+                           const struct integrity_axes_coeffs *ac, struct integrity_window *out,
+                           fix_q32_t lag2_mm2[INTEGRITY_AXES]) {
     /* the steady-motion lag is learnt when this block's sensors were used in the last three
      * (an axis the window cannot observe learns 0) */
     if (learn) {
@@ -165,6 +163,10 @@ void integrity_motion_axes(struct integrity_state *st, const struct integrity_co
     const bool history = learn && (st->block_used[0] & out->used) == out->used &&
                          (st->block_used[1] & out->used) == out->used &&
                          (st->block_used[2] & out->used) == out->used;
+    fix_q32_t block_var[ANGLES_SENSORS]; /* per-block variance of each sensor's mean */
+    for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
+        block_var[k] = fix_sat_add_s64(out->white_mm2[k], out->extra_mm2[k]);
+    }
     /* (n − 1)/(6n) in Q31 for a block of n = fill rows (6n <= 1536 fits the 16-bit divider;
      * 0 for n < 2: no lag) */
     const uint32_t n = w->fill;
@@ -173,8 +175,8 @@ void integrity_motion_axes(struct integrity_state *st, const struct integrity_co
         n >= 2u ? (int32_t)fix_div_u64_u16((uint64_t)n_less_one << 31, 6u * n) : 0;
     for (unsigned ax = 0; ax < INTEGRITY_AXES; ++ax) {
         lag2_mm2[ax] = 0;
-        int8_t c[ANGLES_SENSORS];
-        const int unit = integrity_axis_coeffs((enum integrity_axis)ax, out->used, c);
+        const int8_t *c = ac->c[ax];
+        const int unit = ac->unit[ax];
         if (unit < 0) {
             continue;
         }
@@ -184,7 +186,8 @@ void integrity_motion_axes(struct integrity_state *st, const struct integrity_co
             axis_lag(cfg, (enum integrity_axis)ax, c, unit, out, &ramp_lag, &ramp_var);
         if (history) {
             fix_q32_t y[4];
-            const fix_q32_t var = block_values(st, s, out, (enum integrity_axis)ax, c, unit, y);
+            const fix_q32_t var =
+                block_values(st, s, out, block_var, (enum integrity_axis)ax, c, unit, y);
             st->steady_lag2_mm2[ax] = steady_lag2(y, var, gain_q31, ramp_lag, ramp_var);
         }
         /* the lag this window shows, or the steady motion's learnt one, whichever is larger */

@@ -47,11 +47,10 @@ void integrity_parity(struct integrity_state *st, const struct integrity_config 
     }
 }
 
-fix_q32_t integrity_parity_cover(fix_q32_t parity_mm, const int8_t c[ANGLES_SENSORS], int unit) {
+fix_q32_t integrity_parity_cover(fix_q32_t parity2_mm2, const int8_t c[ANGLES_SENSORS], int unit) {
     int64_t worst = 0;
     for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
         worst = (int64_t)c[k] * c[k] > worst ? (int64_t)c[k] * c[k] : worst;
     }
-    const fix_q32_t parity2 = integrity_square_q32(parity_mm);
-    return fix_asr_s64(fix_sat_mul_s64(parity2, worst), 2u * (unsigned)unit);
+    return fix_asr_s64(fix_sat_mul_s64(parity2_mm2, worst), 2u * (unsigned)unit);
 }
