@@ -1,5 +1,5 @@
-/* The estimator facade's dispatcher (estimator/attitude.h): init, the per-row dispatch and
- * the window end, calling the parts of estimator/src/attitude_internal.h. */
+/* The estimator facade's dispatcher: init, the per-row dispatch and the window end. */
+/* See estimator/attitude.h; the parts it calls: estimator/src/attitude_internal.h. */
 #include "estimator/attitude.h"
 
 #include <string.h>

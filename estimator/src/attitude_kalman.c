@@ -1,5 +1,5 @@
-/* The facade's Kalman policy: restarts, row outcomes, noise learning, and the comparison
- * of the filter's estimate with the window's product estimate. */
+/* The facade's Kalman policy: restarts, row outcomes, noise learning, the lag check. */
+/* The lag check compares the filter's estimate with the window's product estimate. */
 #include <string.h>
 
 #include "attitude_internal.h"

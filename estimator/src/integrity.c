@@ -1,5 +1,6 @@
-/* Window integrity (see estimator/integrity.h): the ring pass and the orchestration of the
- * noise budget, parity, motion and each axis' extra variance (estimator/src/integrity_*.c). */
+/* Window integrity (estimator/integrity.h): the ring pass and integrity_assess(). */
+/* integrity_assess() orchestrates the noise budget, parity, motion and each axis' extra
+ * variance (estimator/src/integrity_*.c, integrity_internal.h). */
 #include "estimator/integrity.h"
 
 #include <string.h>

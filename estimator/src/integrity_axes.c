@@ -1,5 +1,4 @@
-/* The axes of an estimate as least-squares combinations of the sensor means over a set of
- * sensors (see estimator/integrity.h, integrity_axis_var). */
+/* The axes as least-squares combinations of the sensor means over a set of sensors. */
 #include <string.h>
 
 #include "integrity_internal.h"

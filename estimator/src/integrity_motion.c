@@ -1,6 +1,7 @@
-/* Motion inside a window and across blocks: each sensor's least-squares ramp and late
- * steps, each axis' lag behind its last row (`motion`), and the lag a steady motion too
- * slow for one window leaves, learnt from the last four blocks' means. */
+/* Motion in a window and across blocks: ramps, late steps, the steady-motion lag. */
+/* Each sensor's least-squares ramp and late steps, each axis' lag behind its last row
+ * (`motion`), and the lag a steady motion too slow for one window leaves, learnt from the
+ * last four blocks' means. */
 #include <string.h>
 
 #include "integrity_internal.h"

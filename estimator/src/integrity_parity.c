@@ -1,5 +1,5 @@
-/* The parity test of a window (a flat plate gives x_A + x_C − x_B − x_D = 0 whatever its
- * attitude) and the per-sensor drift its residual teaches across blocks. */
+/* The parity test of a window and the per-sensor drift its residual teaches. */
+/* A flat plate gives x_A + x_C − x_B − x_D = 0 whatever its attitude. */
 #include "integrity_internal.h"
 
 /* One block's drift sample: the parity residual's mean square beyond what is not learnt
