@@ -176,7 +176,9 @@ bool attitude_push_sample(struct attitude_state *st, const uint16_t range_mm[ATT
     /* 0, no-target values and readings beyond the mode's range are never used, whatever
      * their status: the window answers from the other sensors */
     valid_mask &= (uint8_t)~integrity_implausible(ranges, present_mask, cfg->range_max_mm);
-    attitude_kalman_row_start(st); /* a restart due, the rows since the last */
+    if (kalman_on) { /* a restart due, the rows since the last: read by the filter only */
+        attitude_kalman_row_start(st);
+    }
     if (cfg->mode == ATTITUDE_TUMBLING && st->rows % cfg->window == 0u) {
         window_clear(&st->window);
         if (!st->kalman.process_noise) { /* with Q > 0 the filter tracks across windows */
