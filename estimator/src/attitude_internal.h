@@ -74,8 +74,19 @@ void attitude_run_mean(struct attitude_state *st, struct attitude_estimate *e);
 void attitude_run_kalman(struct attitude_state *st, const struct consensus_product_result *product,
                          struct attitude_estimate *e);
 
-/* Before each row: a restart the last window asked for, and the rows since the last. */
-void attitude_kalman_row_start(struct attitude_state *st);
+/* The restart the last window asked for (st->kalman_restart_due), before this row. */
+void attitude_kalman_restart(struct attitude_state *st);
+
+/* Before each row: a restart the last window asked for, and the rows since the last.
+ * Inline: it runs on every row, and a restart is rare. */
+static inline void attitude_kalman_row_start(struct attitude_state *st) {
+    if (st->kalman_restart_due) { /* the last window found the configured R wrong */
+        attitude_kalman_restart(st);
+    }
+    if (st->kalman_rows_since_restart < UINT32_MAX) {
+        st->kalman_rows_since_restart++;
+    }
+}
 
 /* The row just pushed into the window (newest: its ring row) through the filter, its
  * outcomes kept in the ring rows. */

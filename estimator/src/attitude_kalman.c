@@ -45,16 +45,11 @@ static void record_kalman_rows(struct attitude_state *st, const struct kalman_ro
     }
 }
 
-void attitude_kalman_row_start(struct attitude_state *st) {
-    if (st->kalman_restart_due) { /* the last window found the configured R wrong */
-        st->kalman_restart_due = false;
-        kalman_reset(&st->kalman);
-        st->kalman.restarts++;
-        note_kalman_restart(st); /* before this row: it is the filter's first */
-    }
-    if (st->kalman_rows_since_restart < UINT32_MAX) {
-        st->kalman_rows_since_restart++;
-    }
+void attitude_kalman_restart(struct attitude_state *st) {
+    st->kalman_restart_due = false;
+    kalman_reset(&st->kalman);
+    st->kalman.restarts++;
+    note_kalman_restart(st); /* before this row: it is the filter's first */
 }
 
 void attitude_kalman_push_row(struct attitude_state *st, const uint16_t ranges[ATTITUDE_SENSORS],
