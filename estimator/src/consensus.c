@@ -175,6 +175,32 @@ static fix_q32_t iterate_product(struct consensus_axis *ax, fix_q32_t tol_q32) {
     return c;
 }
 
+/* v(0): the five slopes of Eq. 1 in this frame that ax->used selects, compensated by
+ * `other` (t̂ of the other axis). Inlined: product_axis's one call. */
+FIX_INLINE void initial_slopes(const struct consensus_sensor *s, const struct product_prep *pp,
+                               const struct axis_frame *f, fix_q32_t other,
+                               struct consensus_axis *ax) {
+    const fix_q32_t low = s[f->low].mean_mm;
+    const fix_q32_t high = s[f->high].mean_mm;
+    const fix_q32_t r1 = s[f->ref1].mean_mm;
+    const fix_q32_t r2 = s[f->ref2].mean_mm;
+    if ((ax->used & 0x01u) != 0u) {
+        ax->initial[0] = slope_q32(r1, low, &pp->arm, 1u) - other; /* s1 = t + o */
+    }
+    if ((ax->used & 0x02u) != 0u) {
+        ax->initial[1] = slope_q32(r2, low, &pp->arm, 1u) + other; /* s2 = t − o */
+    }
+    if ((ax->used & 0x04u) != 0u) {
+        ax->initial[2] = slope_q32(high, r1, &pp->arm, 1u) + other; /* s3 = t − o */
+    }
+    if ((ax->used & 0x08u) != 0u) {
+        ax->initial[3] = slope_q32(high, r2, &pp->arm, 1u) - other; /* s4 = t + o */
+    }
+    if ((ax->used & 0x10u) != 0u) {
+        ax->initial[4] = slope_q32(high, low, &pp->arm, 2u); /* s5 = t */
+    }
+}
+
 static void product_axis(const struct consensus_product_input *in, const struct product_prep *pp,
                          const struct axis_frame *f, struct consensus_axis *ax) {
     (void)memset(ax, 0, sizeof *ax);
@@ -232,26 +258,7 @@ static void product_axis(const struct consensus_product_input *in, const struct 
         return;
     }
 
-    /* v(0): the five slopes of Eq. 1 in this frame, compensated by `other` */
-    const fix_q32_t low = s[f->low].mean_mm;
-    const fix_q32_t high = s[f->high].mean_mm;
-    const fix_q32_t r1 = s[f->ref1].mean_mm;
-    const fix_q32_t r2 = s[f->ref2].mean_mm;
-    if ((ax->used & 0x01u) != 0u) {
-        ax->initial[0] = slope_q32(r1, low, &pp->arm, 1u) - other; /* s1 = t + o */
-    }
-    if ((ax->used & 0x02u) != 0u) {
-        ax->initial[1] = slope_q32(r2, low, &pp->arm, 1u) + other; /* s2 = t − o */
-    }
-    if ((ax->used & 0x04u) != 0u) {
-        ax->initial[2] = slope_q32(high, r1, &pp->arm, 1u) + other; /* s3 = t − o */
-    }
-    if ((ax->used & 0x08u) != 0u) {
-        ax->initial[3] = slope_q32(high, r2, &pp->arm, 1u) - other; /* s4 = t + o */
-    }
-    if ((ax->used & 0x10u) != 0u) {
-        ax->initial[4] = slope_q32(high, low, &pp->arm, 2u); /* s5 = t */
-    }
+    initial_slopes(s, pp, f, other, ax);
     ax->tan_q32 = iterate_product(ax, pp->tol_q32);
     ax->angle_udeg = fix_atan_q32_udeg(ax->tan_q32);
     ax->sigma_udeg = fix_angle_sigma_udeg(fix_sat_mul_s64(var_at, 16), in->arm_um, ax->tan_q32);

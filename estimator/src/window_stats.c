@@ -317,6 +317,46 @@ FIX_NOINLINE void hist_gate(const struct window_state *w, unsigned k, int32_t x_
     *mad_x2 = mad;
 }
 
+/* The medians and MAD (x2 mm) of the sensors in `bisect` by bisection over their value
+ * ranges [x_min, x_max] (upper medians only for those in `even`): the sensors whose
+ * readings a histogram cannot hold. Same definitions as hist_gate(). */
+static void bisect_gate(const struct window_state *w, uint8_t bisect, uint8_t even,
+                        const int32_t x_min[ANGLES_SENSORS], const int32_t x_max[ANGLES_SENSORS],
+                        const uint16_t lo_rank[ANGLES_SENSORS],
+                        const uint16_t hi_rank[ANGLES_SENSORS], int32_t median_x2[ANGLES_SENSORS],
+                        int32_t mad_x2[ANGLES_SENSORS]) {
+    const int32_t none[ANGLES_SENSORS] = {0, 0, 0, 0};
+    int32_t x_lo[ANGLES_SENSORS];
+    int32_t x_hi[ANGLES_SENSORS];
+    int32_t top[ANGLES_SENSORS];
+    for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
+        x_lo[k] = x_min[k];
+        top[k] = x_max[k];
+    }
+    select_ranks(w, bisect, false, none, lo_rank, x_lo, top); /* lower medians */
+    for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
+        x_hi[k] = x_lo[k];
+        top[k] = x_max[k];
+    }
+    select_ranks(w, even, false, none, hi_rank, x_hi, top); /* upper medians (even n) */
+    /* MAD as the lower median of the deviations, in the same x2 units: every
+     * deviation |2x − median_x2| lies in [0, 2 (x_max − x_min)] */
+    int32_t centre[ANGLES_SENSORS];
+    int32_t mad[ANGLES_SENSORS];
+    for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
+        centre[k] = x_lo[k] + x_hi[k];
+        mad[k] = 0;
+        top[k] = 2 * (x_max[k] - x_min[k]);
+    }
+    select_ranks(w, bisect, true, centre, lo_rank, mad, top);
+    for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
+        if ((bisect & (1u << k)) != 0u) {
+            median_x2[k] = centre[k];
+            mad_x2[k] = mad[k];
+        }
+    }
+}
+
 /* The gate of every sensor with valid readings: median and half-width (both x2 mm) and
  * whether the gate applies (off, or nothing to gate: false). */
 static void gate_sensors(const struct window_state *w, const uint16_t count[ANGLES_SENSORS],
@@ -370,36 +410,7 @@ static void gate_sensors(const struct window_state *w, const uint16_t count[ANGL
         }
     }
     if (bisect != 0u) {
-        const int32_t none[ANGLES_SENSORS] = {0, 0, 0, 0};
-        int32_t x_lo[ANGLES_SENSORS];
-        int32_t x_hi[ANGLES_SENSORS];
-        int32_t top[ANGLES_SENSORS];
-        for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
-            x_lo[k] = x_min[k];
-            top[k] = x_max[k];
-        }
-        select_ranks(w, bisect, false, none, lo_rank, x_lo, top); /* lower medians */
-        for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
-            x_hi[k] = x_lo[k];
-            top[k] = x_max[k];
-        }
-        select_ranks(w, even, false, none, hi_rank, x_hi, top); /* upper medians (even n) */
-        /* MAD as the lower median of the deviations, in the same x2 units: every
-         * deviation |2x − median_x2| lies in [0, 2 (x_max − x_min)] */
-        int32_t centre[ANGLES_SENSORS];
-        int32_t mad[ANGLES_SENSORS];
-        for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
-            centre[k] = x_lo[k] + x_hi[k];
-            mad[k] = 0;
-            top[k] = 2 * (x_max[k] - x_min[k]);
-        }
-        select_ranks(w, bisect, true, centre, lo_rank, mad, top);
-        for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
-            if ((bisect & (1u << k)) != 0u) {
-                median_x2[k] = centre[k];
-                mad_x2[k] = mad[k];
-            }
-        }
+        bisect_gate(w, bisect, even, x_min, x_max, lo_rank, hi_rank, median_x2, mad_x2);
     }
     for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
         if (gate_on[k]) {

@@ -30,6 +30,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "estimator/attitude_why.h"
 #include "estimator/consensus.h"
 #include "estimator/integrity.h"
 #include "estimator/kalman.h"
@@ -63,35 +64,6 @@ enum attitude_status {
     ATTITUDE_INVALID = 2,  /* no estimate: see the reason; the invalid axes read 0 */
 };
 
-enum attitude_reason {
-    ATTITUDE_REASON_NONE = 0,
-    ATTITUDE_REASON_FLAGGED_DATA,       /* degraded: readings flagged, missing or gated out */
-    ATTITUDE_REASON_SENSOR_MISSING,     /* degraded: a sensor gave nothing usable: 3 sensors */
-    ATTITUDE_REASON_KALMAN_RESTARTED,   /* degraded: the filter restarted inside the window */
-    ATTITUDE_REASON_ALPHA_UNOBSERVABLE, /* invalid: α cannot be determined (β may be valid) */
-    ATTITUDE_REASON_BETA_UNOBSERVABLE,  /* invalid: β cannot be determined (α may be valid) */
-    ATTITUDE_REASON_UNOBSERVABLE,       /* invalid: neither angle */
-    ATTITUDE_REASON_DISABLED,           /* invalid: estimator not selected in the config */
-    ATTITUDE_REASON_NO_CONVERGENCE,     /* invalid: product consensus missed its proven bound */
-    ATTITUDE_REASON_PAPER_TOO_FEW_ROWS, /* invalid: fewer than 2 rows with all four sensors */
-    ATTITUDE_REASON_PAPER_NONPOSITIVE_VARIANCE,
-    ATTITUDE_REASON_PAPER_ZERO_COVARIANCE,
-    ATTITUDE_REASON_PAPER_ZERO_ROW_SUM,
-    ATTITUDE_REASON_PAPER_NEGATIVE_ROW_SUM,
-    ATTITUDE_REASON_PAPER_OVERFLOW,
-    ATTITUDE_REASON_PAPER_DIVERGED,
-    ATTITUDE_REASON_PAPER_NO_CONVERGENCE,
-    ATTITUDE_REASON_PAPER_OUTSIDE_HULL,
-    ATTITUDE_REASON_PAPER_INCONSISTENT, /* converged, but too far from the product estimate */
-    ATTITUDE_REASON_COUNT,
-};
-
-/* The why set (attitude_why_t and its per-sensor and window bits) is defined in
- * estimator/integrity.h; here, one bit per enum attitude_reason value r (NONE has none;
- * the summaries flagged-data and sensor-missing appear only when no other bit says why).
- * An estimate is `ok` exactly when both angles are valid and its set is empty. */
-#define ATTITUDE_WHY_REASON_SHIFT 32u
-#define ATTITUDE_WHY_REASON(r)    ((attitude_why_t)1u << (ATTITUDE_WHY_REASON_SHIFT + (unsigned)(r)))
 /* Longest text attitude_why_format() can write, terminator included (every bit set). */
 #define ATTITUDE_WHY_TEXT_MAX 544u
 

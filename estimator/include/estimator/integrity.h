@@ -18,34 +18,9 @@
 #include <stdint.h>
 
 #include "estimator/angles.h"
+#include "estimator/attitude_why.h"
 #include "estimator/fixmath.h"
 #include "estimator/window_stats.h"
-
-/*
- * Why an estimate is not `ok`: a set of reasons (DESIGN.md §6 `why`), one bit each.
- * Per sensor k (0..3 = A..D):
- *   no-target:X  a reading the part gives when it saw nothing (8190, 8191, 65535),
- *                whatever its status: never used
- *   range:X      a reading of 0 or beyond the mode's range (range_max_mm): never used
- *   flagged:X    a reading with a non-zero range status
- *   missing:X    no reading at all (the sensor did not deliver)
- *   rejected:X   a status-0 reading the estimator's outlier gate left out
- * Per window:
- *   parity       the sensors disagree with a flat plate: x_A + x_C − x_B − x_D beyond
- *                what their sd allows; the sd then covers that disagreement in any one
- *   motion       the plate moved inside the window (a step or ramp): the sd includes it
- *   drift        the learnt drift of the sensors' offsets exceeds drift_flag_um
- * and one bit per enum attitude_reason value r (ATTITUDE_WHY_REASON(r), attitude.h).
- */
-typedef uint64_t attitude_why_t;
-#define ATTITUDE_WHY_NO_TARGET(k) ((attitude_why_t)1u << (0u + (unsigned)(k)))
-#define ATTITUDE_WHY_RANGE(k)     ((attitude_why_t)1u << (4u + (unsigned)(k)))
-#define ATTITUDE_WHY_FLAGGED(k)   ((attitude_why_t)1u << (8u + (unsigned)(k)))
-#define ATTITUDE_WHY_MISSING(k)   ((attitude_why_t)1u << (12u + (unsigned)(k)))
-#define ATTITUDE_WHY_REJECTED(k)  ((attitude_why_t)1u << (16u + (unsigned)(k)))
-#define ATTITUDE_WHY_PARITY       ((attitude_why_t)1u << 20u)
-#define ATTITUDE_WHY_MOTION       ((attitude_why_t)1u << 21u)
-#define ATTITUDE_WHY_DRIFT        ((attitude_why_t)1u << 22u)
 
 /* The readings no VL53 part gives as a measurement (UM2039 / UM2356: 8190 and 8191 are
  * the VL53L0X's "no target" / out-of-range values, which popular Arduino libraries log

@@ -1,0 +1,56 @@
+/* The parity test of a window and the per-sensor drift its residual teaches. */
+/* A flat plate gives x_A + x_C − x_B − x_D = 0 whatever its attitude. */
+#include "integrity_internal.h"
+
+/* One block's drift sample: the parity residual's mean square beyond what is not learnt
+ * (base), shared by four sensors, clipped (see below); st->drift_mm2 takes it in. */
+static void learn_drift(struct integrity_state *st, const struct integrity_config *cfg,
+                        fix_q32_t parity_mm, fix_q32_t base_sum) {
+    /* mean square beyond what is not learnt, shared by four sensors, clipped at a
+     * residual on the test's threshold without learnt drift: a faulty window cannot
+     * teach the test to accept it, nor can a run of them (the limit does not grow
+     * with what was learnt); a larger wander stays a parity failure */
+    fix_q32_t sample = fix_asr_s64(integrity_square_q32(parity_mm) - base_sum, 2u);
+    const fix_q32_t limit = fix_asr_s64(
+        fix_mul_shr_s64(base_sum, (int64_t)cfg->parity_sigmas_q8 * (int64_t)cfg->parity_sigmas_q8,
+                        16u, NULL),
+        2u);
+    /* negative samples are kept: clipping them at 0 would learn drift from white
+     * noise alone (E[max(0, W(χ² − 1))] = 0.48 W); only the upper clip remains, and
+     * a floor of −base/4 bounds one window's pull downwards */
+    const fix_q32_t floor = -fix_asr_s64(base_sum, 2u);
+    sample = sample < floor ? floor : (sample > limit ? limit : sample);
+    const uint16_t cap = (uint16_t)(1u << cfg->drift_shift);
+    if (st->blocks < cap) {
+        st->blocks++;
+    }
+    st->drift_mm2 += fix_div_round_s64(sample - st->drift_mm2, st->blocks);
+}
+
+void integrity_parity(struct integrity_state *st, const struct integrity_config *cfg,
+                      const struct window_stats *s, const struct integrity_noise_sums *sums,
+                      bool learn, struct integrity_window *out) {
+    if (out->used == ANGLES_ALL_SENSORS) {
+        const struct window_sensor_stats *sn = s->sensor;
+        out->parity_mm = sn[ANGLES_A].mean_mm + sn[ANGLES_C].mean_mm - sn[ANGLES_B].mean_mm -
+                         sn[ANGLES_D].mean_mm;
+        out->parity_failed = integrity_beyond(out->parity_mm, sums->total, cfg->parity_sigmas_q8);
+        if (learn) {
+            learn_drift(st, cfg, out->parity_mm, sums->base);
+        }
+    }
+    if (out->parity_failed) {
+        out->why |= ATTITUDE_WHY_PARITY;
+    }
+    if (st->drift_mm2 > integrity_um2_to_q32(cfg->drift_flag_um)) {
+        out->why |= ATTITUDE_WHY_DRIFT;
+    }
+}
+
+fix_q32_t integrity_parity_cover(fix_q32_t parity2_mm2, const int8_t c[ANGLES_SENSORS], int unit) {
+    int64_t worst = 0;
+    for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
+        worst = (int64_t)c[k] * c[k] > worst ? (int64_t)c[k] * c[k] : worst;
+    }
+    return fix_asr_s64(fix_sat_mul_s64(parity2_mm2, worst), 2u * (unsigned)unit);
+}
