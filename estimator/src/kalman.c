@@ -1,30 +1,15 @@
 /* The Kalman filter of Eq. 5 / Alg. 2, its shared part (init, gate, warm-up, lock-out,
- * noise tracking, estimate): see estimator/kalman.h; the forms are kalman_track.c,
- * kalman_info.c and kalman_info_fast.c (kalman_form.h). */
+ * noise tracking, estimate): see estimator/kalman.h; the update is kalman_track.c
+ * (kalman_track.h). */
 #include <string.h>
 
-#include "kalman_form.h"
-
-_Static_assert(KALMAN_TRACKING_BUILT != 0 || KALMAN_INFORMATION_BUILT != 0,
-               "the Kalman filter needs at least one form built (cmake/TofOptions.cmake)");
-
-/* The form this filter runs: the tracking form for Q > 0, the information form for Q = 0;
- * an image with only the tracking form built runs it for Q = 0 too (kalman.h). */
-static bool tracking(const struct kalman_state *k) {
-#if KALMAN_TRACKING_BUILT && KALMAN_INFORMATION_BUILT
-    return k->process_noise;
-#else
-    (void)k;
-    return KALMAN_TRACKING_BUILT != 0;
-#endif
-}
+#include "kalman_track.h"
 
 static void r_changed(struct kalman_state *k);
 
 int kalman_config_check(const struct kalman_config *cfg) {
     for (unsigned i = 0; i < KALMAN_STATES; ++i) {
-        if (cfg->process_noise_mm2[i] < 0 || cfg->process_noise_mm2[i] > KALMAN_P0_MM2_Q32 ||
-            (KALMAN_TRACKING_BUILT == 0 && cfg->process_noise_mm2[i] != 0)) {
+        if (cfg->process_noise_mm2[i] < 0 || cfg->process_noise_mm2[i] > KALMAN_P0_MM2_Q32) {
             return KALMAN_ERR_PROCESS_NOISE;
         }
     }
@@ -39,9 +24,6 @@ int kalman_config_check(const struct kalman_config *cfg) {
     }
     if (cfg->noise_shift > 8u) {
         return KALMAN_ERR_NOISE_SHIFT;
-    }
-    if (cfg->process_noise_auto && KALMAN_TRACKING_BUILT == 0) {
-        return KALMAN_ERR_AUTO;
     }
     return KALMAN_OK;
 }
@@ -67,15 +49,7 @@ int kalman_init(struct kalman_state *k, const struct kalman_config *cfg) {
 
 void kalman_reset(struct kalman_state *k) {
     (void)memset(k->x, 0, sizeof k->x);
-    if (tracking(k)) {
-#if KALMAN_TRACKING_BUILT
-        kalman_track_reset(k);
-#endif
-    } else {
-#if KALMAN_INFORMATION_BUILT
-        kalman_info_reset(k);
-#endif
-    }
+    kalman_track_reset(k);
     k->started = false;
     k->warm_rows = 0;
     (void)memset(k->reject_run, 0, sizeof k->reject_run);
@@ -120,30 +94,7 @@ static void gate_refresh_accept(struct kalman_state *k) {
 /* Everything that depends on R, after R changed. */
 static void r_changed(struct kalman_state *k) {
     gate_refresh_accept(k);
-    if (tracking(k)) {
-#if KALMAN_TRACKING_BUILT
-        kalman_track_r_changed(k);
-#endif
-    } else {
-#if KALMAN_INFORMATION_BUILT
-        kalman_info_r_changed(k);
-#endif
-    }
-}
-
-/* One row of either form (no prediction): returns the sensors accepted. */
-static uint8_t update_any(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENSORS],
-                          uint8_t valid_mask, bool gate, uint8_t *rejected) {
-#if KALMAN_TRACKING_BUILT
-    if (tracking(k)) {
-        return kalman_track_row(k, range_mm, valid_mask, gate, rejected);
-    }
-#endif
-#if KALMAN_INFORMATION_BUILT
-    return kalman_info_row(k, range_mm, valid_mask, gate, rejected);
-#else
-    return 0u; /* unreachable: tracking() is true when only the tracking form is built */
-#endif
+    kalman_track_r_changed(k);
 }
 
 bool kalman_update(struct kalman_state *k, unsigned sensor, uint16_t range_mm, bool gate) {
@@ -153,30 +104,11 @@ bool kalman_update(struct kalman_state *k, unsigned sensor, uint16_t range_mm, b
     uint16_t range[ANGLES_SENSORS] = {0, 0, 0, 0};
     range[sensor] = range_mm;
     uint8_t rejected;
-    return update_any(k, range, (uint8_t)(1u << sensor), gate, &rejected) != 0u;
+    return kalman_track_row(k, range, (uint8_t)(1u << sensor), gate, &rejected) != 0u;
 }
 
 void kalman_covariance(const struct kalman_state *k, fix_q32_t p[KALMAN_STATES][KALMAN_STATES]) {
-    if (tracking(k)) {
-#if KALMAN_TRACKING_BUILT
-        kalman_track_covariance(k, p);
-#endif
-    } else {
-#if KALMAN_INFORMATION_BUILT
-        kalman_info_covariance(k, p);
-#endif
-    }
-}
-
-/* The prediction of a row (the tracking form; the information form has no Q). */
-static void predict(struct kalman_state *k) {
-#if KALMAN_TRACKING_BUILT
-    if (tracking(k)) {
-        kalman_track_predict(k);
-    }
-#else
-    (void)k;
-#endif
+    kalman_track_covariance(k, p);
 }
 
 /* The warm-up: per-sensor median of the buffered rows, gate, then updates. */
@@ -215,15 +147,10 @@ static void flush_warmup(struct kalman_state *k, struct kalman_rows *out) {
     k->x[0] = start_n > 0 ? fix_div_round_s64(start_sum * FIX_Q32_ONE, start_n) : 0;
     k->x[1] = 0;
     k->x[2] = 0;
-#if KALMAN_INFORMATION_BUILT
-    if (!tracking(k)) {
-        kalman_info_start(k);
-    }
-#endif
 
     out->count = k->warm_rows;
     for (unsigned r = 0; r < k->warm_rows; ++r) {
-        predict(k);
+        kalman_track_predict(k);
         uint8_t used = 0;
         uint8_t rejected = 0;
         for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
@@ -249,7 +176,7 @@ static void flush_warmup(struct kalman_state *k, struct kalman_rows *out) {
         }
         if (used != 0u) {
             uint8_t none;
-            (void)update_any(k, k->warm_range[r], used, false, &none);
+            (void)kalman_track_row(k, k->warm_range[r], used, false, &none);
         }
         out->used[r] = used;
         out->rejected[r] = rejected;
@@ -263,11 +190,9 @@ void kalman_push_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENS
                      uint8_t valid_in, struct kalman_rows *out) {
     out->count = 0;
     const uint8_t valid_mask = (uint8_t)(valid_in & ANGLES_ALL_SENSORS);
-#if KALMAN_TRACKING_BUILT
     if (k->cfg.process_noise_auto && kalman_track_adapt(k, range_mm, valid_mask)) {
         r_changed(k);
     }
-#endif
     if (!k->started) {
         (void)memcpy(k->warm_range[k->warm_rows], range_mm, sizeof k->warm_range[0]);
         k->warm_valid[k->warm_rows] = valid_mask;
@@ -277,9 +202,9 @@ void kalman_push_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENS
         }
         return;
     }
-    predict(k);
+    kalman_track_predict(k);
     uint8_t rejected = 0;
-    const uint8_t used = update_any(k, range_mm, valid_mask, true, &rejected);
+    const uint8_t used = kalman_track_row(k, range_mm, valid_mask, true, &rejected);
     out->count = 1;
     out->used[0] = used;
     out->rejected[0] = rejected;

@@ -1,13 +1,14 @@
-/* The Kalman filter's tracking form (any Q, the covariance form): see estimator/kalman.h. */
+/* The Kalman filter's update, the covariance form for any Q (the one filter of every build):
+ * see estimator/kalman.h. */
 #include <string.h>
 
-#include "kalman_form.h"
+#include "kalman_track.h"
 
 /* Rows of Eq. 5 with the slopes scaled by a: A [1, −1, 0], B [1, 0, 1], C [1, 1, 0],
  * D [1, 0, −1]: h = e0 + σ e_j (update_exact, block_update). */
 
 static void diffuse_covariance(struct kalman_state *k) {
-    struct kalman_cov *cv = kalman_cov_of(k);
+    struct kalman_cov *cv = &k->cov;
     cv->bvalid = false;
     cv->steady = false;
     cv->predict_pending = false;
@@ -48,7 +49,7 @@ static bool covariance_healthy(const fix_q32_t p[KALMAN_STATES][KALMAN_STATES]) 
  * every entry from exact 128-bit products with one rounding. */
 static void joseph_update(struct kalman_state *k, const fix_q32_t g[KALMAN_STATES], fix_q32_t s,
                           fix_q32_t e, bool *ovf) {
-    struct kalman_cov *cv = kalman_cov_of(k);
+    struct kalman_cov *cv = &k->cov;
     fix_q30_t gain[KALMAN_STATES];
     for (unsigned i = 0; i < KALMAN_STATES; ++i) {
         gain[i] = fix_muldiv_s64(g[i], FIX_Q30_ONE, s, ovf);
@@ -83,7 +84,7 @@ static void joseph_update(struct kalman_state *k, const fix_q32_t g[KALMAN_STATE
  * no definiteness check. */
 static bool update_exact(struct kalman_state *k, unsigned sensor, fix_q32_t z_mm, bool gate,
                          bool *ovf) {
-    struct kalman_cov *cv = kalman_cov_of(k);
+    struct kalman_cov *cv = &k->cov;
     const unsigned j = kalman_h_index(sensor);
     const bool minus = kalman_h_minus(sensor);
     fix_q32_t g[KALMAN_STATES];
@@ -171,7 +172,7 @@ FIX_INLINE int32_t to_block(int64_t v, int32_t e) {
 
 /* The block of the current p (cv->bm, cv->be); false when P is not well scaled for it. */
 static bool block_from_p(struct kalman_state *k) {
-    struct kalman_cov *cv = kalman_cov_of(k);
+    struct kalman_cov *cv = &k->cov;
     cv->bvalid = false;
     const int64_t d0 = cv->p[0][0];
     const int64_t d1 = cv->p[1][1];
@@ -205,7 +206,7 @@ static bool block_from_p(struct kalman_state *k) {
 /* The block for the next row: kept while it is fresh and its largest diagonal still has
  * 26 bits, else taken afresh from p. */
 static bool block_ready(struct kalman_state *k) {
-    struct kalman_cov *cv = kalman_cov_of(k);
+    struct kalman_cov *cv = &k->cov;
     if (cv->bvalid && cv->brows < BLOCK_MAX_ROWS) {
         const int32_t *m = cv->bm;
         const int32_t top = m[0] > m[3] ? (m[0] > m[5] ? m[0] : m[5]) : (m[3] > m[5] ? m[3] : m[5]);
@@ -219,7 +220,7 @@ static bool block_ready(struct kalman_state *k) {
 /* True when the mantissas prove p positive definite (kalman.h's check) with a margin
  * for their drift from p; false means "not proven" (then p itself is checked). */
 static bool block_healthy(const struct kalman_state *k) {
-    const struct kalman_cov *cv = kalman_cov_of_c(k);
+    const struct kalman_cov *cv = &k->cov;
     const int32_t *m = cv->bm;
     const int32_t mg = BLOCK_CHECK_MARGIN;
     const int32_t d0 = m[0] - mg;
@@ -237,7 +238,7 @@ static void block_apply(struct kalman_state *k, struct pblock *b) {
     /* the packed upper triangle's row and column (a loop: cold code, half the bytes) */
     static const uint8_t row_of[6] = {0u, 0u, 0u, 1u, 1u, 2u};
     static const uint8_t col_of[6] = {0u, 1u, 2u, 1u, 2u, 2u};
-    struct kalman_cov *cv = kalman_cov_of(k);
+    struct kalman_cov *cv = &k->cov;
     const int32_t sh_signed = 31 - cv->be;
     const unsigned sh = (unsigned)sh_signed; /* in [1, 61] */
     for (unsigned i = 0; i < 6u; ++i) {
@@ -251,7 +252,7 @@ static void block_apply(struct kalman_state *k, struct pblock *b) {
 
 /* The decrease t = g_i k_j of one entry: exactly into dec, rounded into the mantissa. */
 FIX_INLINE void block_sub(struct kalman_state *k, struct pblock *b, unsigned idx, int64_t t) {
-    struct kalman_cov *cv = kalman_cov_of(k);
+    struct kalman_cov *cv = &k->cov;
     b->dec[idx] += t;
     /* round(t / 2^31), |t| < 2^62: the floor is the two's complement bits (hi << 1) |
      * (lo >> 31), the rounding bit is bit 30 */
@@ -267,7 +268,7 @@ FIX_INLINE void block_sub(struct kalman_state *k, struct pblock *b, unsigned idx
  * conditions above fail (nothing changed). */
 static int block_update(struct kalman_state *k, struct pblock *b, unsigned sensor, fix_q32_t z_mm,
                         bool gate) {
-    struct kalman_cov *cv = kalman_cov_of(k);
+    struct kalman_cov *cv = &k->cov;
     int32_t *m = cv->bm;
     /* The int32 sums below rely on |m| <= max P_ii < 2^28, true of a block when it is
      * taken; a nearly singular P can lose it inside a row (the updates overshoot and a
@@ -383,7 +384,7 @@ static int block_update(struct kalman_state *k, struct pblock *b, unsigned senso
 static uint8_t update_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENSORS],
                           uint8_t valid_mask, bool gate, uint8_t *rejected, bool *ovf, bool *proven,
                           uint8_t *by_block) {
-    struct kalman_cov *cv = kalman_cov_of(k);
+    struct kalman_cov *cv = &k->cov;
     struct pblock b;
     b.dec[0] = 0;
     b.dec[1] = 0;
@@ -437,7 +438,7 @@ static uint8_t update_row(struct kalman_state *k, const uint16_t range_mm[ANGLES
 /* After a failed check or an overflow: forget the covariance, keep the state; counted,
  * never silent. */
 static void check_covariance(struct kalman_state *k, bool ovf, bool proven) {
-    struct kalman_cov *cv = kalman_cov_of(k);
+    struct kalman_cov *cv = &k->cov;
     if (ovf || (!proven && !covariance_healthy(cv->p))) {
         diffuse_covariance(k);
         k->numeric_restarts++;
@@ -447,7 +448,7 @@ static void check_covariance(struct kalman_state *k, bool ovf, bool proven) {
 
 /* P += Q, each diagonal bounded. */
 static void add_process_noise(struct kalman_state *k) {
-    struct kalman_cov *cv = kalman_cov_of(k);
+    struct kalman_cov *cv = &k->cov;
     cv->bvalid = false; /* p changes outside the block */
     for (unsigned i = 0; i < KALMAN_STATES; ++i) {
         if (cv->p[i][i] < KALMAN_P_MAX_Q32) { /* a long outage saturates here, never overflows */
@@ -460,7 +461,7 @@ static void add_process_noise(struct kalman_state *k) {
 /* The prediction is applied by the row that follows it (kalman_track_row): a steady row
  * leaves P at its fixed point, so it needs none. */
 void kalman_track_predict(struct kalman_state *k) {
-    struct kalman_cov *cv = kalman_cov_of(k);
+    struct kalman_cov *cv = &k->cov;
     if (cv->predict_pending) {
         add_process_noise(k); /* the previous one, whose row had no reading */
     }
@@ -472,7 +473,7 @@ void kalman_track_reset(struct kalman_state *k) {
 }
 
 void kalman_track_r_changed(struct kalman_state *k) {
-    kalman_cov_of(k)->steady = false; /* the fixed point moved */
+    k->cov.steady = false; /* the fixed point moved */
 }
 
 /* --- the steady state -------------------------------------------------------------------
@@ -488,7 +489,7 @@ void kalman_track_r_changed(struct kalman_state *k) {
 /* One steady row, all four readings; false (x unchanged) when one may be gated out or
  * is 128 mm or more from its prediction. */
 static bool steady_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENSORS], bool gate) {
-    const struct kalman_cov *cv = kalman_cov_of_c(k);
+    const struct kalman_cov *cv = &k->cov;
     const fix_q32_t x0 = k->x[0];
     const fix_q32_t x1 = k->x[1];
     const fix_q32_t x2 = k->x[2];
@@ -520,7 +521,7 @@ static bool steady_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SE
  * of P: the kept gains are within that of the fixed point's, costing the estimate's
  * variance only that squared. */
 static bool settled(const struct kalman_state *k, const fix_q32_t before[6]) {
-    const struct kalman_cov *cv = kalman_cov_of_c(k);
+    const struct kalman_cov *cv = &k->cov;
     const fix_q32_t *q = k->cfg.process_noise_mm2;
     uint64_t q_min = UINT64_MAX;
     for (unsigned i = 0; i < KALMAN_STATES; ++i) {
@@ -539,7 +540,7 @@ static bool settled(const struct kalman_state *k, const fix_q32_t before[6]) {
 
 uint8_t kalman_track_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENSORS],
                          uint8_t valid_mask, bool gate, uint8_t *rejected) {
-    struct kalman_cov *cv = kalman_cov_of(k);
+    struct kalman_cov *cv = &k->cov;
     if (cv->steady && valid_mask == ANGLES_ALL_SENSORS && steady_row(k, range_mm, gate)) {
         cv->predict_pending = false;
         *rejected = 0;
@@ -570,7 +571,7 @@ uint8_t kalman_track_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_
 
 void kalman_track_covariance(const struct kalman_state *k,
                              fix_q32_t p[KALMAN_STATES][KALMAN_STATES]) {
-    (void)memcpy(p, kalman_cov_of_c(k)->p, sizeof kalman_cov_of_c(k)->p);
+    (void)memcpy(p, k->cov.p, sizeof k->cov.p);
 }
 
 /* --- process noise and R from the data (process_noise_auto) -----------------------------
@@ -623,7 +624,7 @@ static int32_t adapt_bound(int64_t v) {
 
 /* The end of a block of full rows: samples of q from the difference to the block before. */
 static void adapt_block(struct kalman_state *k) {
-    struct kalman_cov *cv = kalman_cov_of(k);
+    struct kalman_cov *cv = &k->cov;
     const fix_q32_t *r = k->r;
     int32_t d[KALMAN_STATES];
     bool usable = cv->blk_prev_valid;
@@ -657,7 +658,7 @@ static void adapt_block(struct kalman_state *k) {
 
 bool kalman_track_adapt(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENSORS],
                         uint8_t valid_mask) {
-    struct kalman_cov *cv = kalman_cov_of(k);
+    struct kalman_cov *cv = &k->cov;
     const uint8_t both = (uint8_t)(valid_mask & cv->last_valid);
     if (both != 0u && cv->n_d < UINT16_MAX) {
         cv->n_d++;

@@ -104,8 +104,8 @@ enum attitude_error {
     ATTITUDE_ERR_ESTIMATORS = -4,           /* estimators empty, with unknown bits or not built */
     ATTITUDE_ERR_TOLERANCE = -5,            /* consensus_tolerance_udeg outside [1, 10000000] */
     ATTITUDE_ERR_PAPER_ITERATIONS = -6,     /* paper_max_iterations is 0 */
-    ATTITUDE_ERR_KALMAN_PROCESS_NOISE = -7, /* kalman_process_noise_um2 above 2^32, or not 0
-                                               (or auto) without KALMAN_TRACKING_BUILT */
+    ATTITUDE_ERR_KALMAN_PROCESS_NOISE = -7, /* a process noise the filter refuses
+                                               (kalman_config_check) */
     ATTITUDE_ERR_KALMAN_MEASUREMENT_NOISE = -8, /* a kalman_initial_noise_um2 below the
                                                    1/12 mm² of 1 mm rounding */
     ATTITUDE_ERR_KALMAN_WARMUP = -9,            /* kalman_warmup_rows outside 1..8 */
