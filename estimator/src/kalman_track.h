@@ -1,7 +1,7 @@
 /*
  * The Kalman filter's update (kalman_track.c), private to estimator/src: what kalman.c
- * (init, gate, warm-up, lock-out, noise tracking, estimate) calls, and the constants and
- * helpers the two share.
+ * (init, warm-up, lock-out, noise tracking, estimate) calls, and the constants and helpers
+ * the two share. Calls point down only: kalman.c -> kalman_track.c -> kalman_gate.c.
  * Nothing outside estimator/src includes this header but the filter's own white-box tests.
  */
 #ifndef ESTIMATOR_KALMAN_TRACK_H
@@ -49,11 +49,6 @@ FIX_INLINE int32_t shr_to_s32(int64_t v, unsigned sh) {
     return (int32_t)r; /* two's complement bits: in range by the precondition */
 }
 
-/* --- kalman.c --- */
-
-/* The innovation gate: e² > max(k²·s, floor²), e in Q32 mm, s in Q32 mm². */
-bool kalman_gated_out(const struct kalman_state *k, fix_q32_t e, fix_q32_t s);
-
 /* --- the update (kalman_track.c) --- */
 
 /* The diffuse prior. */
@@ -69,10 +64,5 @@ uint8_t kalman_track_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_
                          uint8_t valid_mask, bool gate, uint8_t *rejected);
 void kalman_track_covariance(const struct kalman_state *k,
                              fix_q32_t p[KALMAN_STATES][KALMAN_STATES]);
-
-/* process_noise_auto: one row's samples of Q and R before its prediction (valid_mask: the
- * readings to use); true when it set a new R (the caller then updates what depends on R). */
-bool kalman_track_adapt(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENSORS],
-                        uint8_t valid_mask);
 
 #endif /* ESTIMATOR_KALMAN_TRACK_H */
