@@ -3,6 +3,7 @@
 #include <string.h>
 
 #include "kalman_gate.h"
+#include "kalman_static.h"
 #include "kalman_track.h"
 
 /* Rows of Eq. 5 with the slopes scaled by a: A [1, −1, 0], B [1, 0, 1], C [1, 1, 0],
@@ -13,6 +14,8 @@ static void diffuse_covariance(struct kalman_state *k) {
     cv->bvalid = false;
     cv->steady = false;
     cv->predict_pending = false;
+    cv->still = false;
+    cv->still_broken = false;
     (void)memset(cv->p, 0, sizeof cv->p);
     for (unsigned i = 0; i < KALMAN_STATES; ++i) {
         cv->p[i][i] = KALMAN_P0_MM2_Q32;
@@ -475,6 +478,10 @@ void kalman_track_reset(struct kalman_state *k) {
 
 void kalman_track_r_changed(struct kalman_state *k) {
     k->cov.steady = false; /* the fixed point moved */
+    if (k->cov.still) {
+        kalman_static_leave(k); /* P of the old R */
+    }
+    k->cov.still_broken = true; /* the rows so far were weighed with the old R */
 }
 
 /* --- the steady state -------------------------------------------------------------------
@@ -547,6 +554,14 @@ uint8_t kalman_track_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_
         *rejected = 0;
         return ANGLES_ALL_SENSORS;
     }
+    if (cv->still) {
+        if (valid_mask == ANGLES_ALL_SENSORS && kalman_static_row(k, range_mm, gate)) {
+            cv->predict_pending = false; /* Q = 0: nothing to add */
+            *rejected = 0;
+            return ANGLES_ALL_SENSORS;
+        }
+        kalman_static_leave(k); /* this row in full, from P */
+    }
     cv->steady = false;
     const fix_q32_t before[6] = {cv->p[0][0], cv->p[0][1], cv->p[0][2],
                                  cv->p[1][1], cv->p[1][2], cv->p[2][2]};
@@ -566,11 +581,22 @@ uint8_t kalman_track_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_
         cv->steady = by_block == ANGLES_ALL_SENSORS && used == ANGLES_ALL_SENSORS &&
                      k->numeric_restarts == restarts && (q[0] | q[1] | q[2]) != 0 &&
                      settled(k, before);
+        if (k->process_noise || cv->still_broken) {
+            /* Q > 0 (or auto), or P no longer M⁻¹/c: no static run */
+        } else if (used == ANGLES_ALL_SENSORS && k->numeric_restarts == restarts) {
+            kalman_static_try(k);
+        } else {
+            cv->still_broken = true; /* part of a row: the information is not a multiple of M */
+        }
     }
     return used;
 }
 
 void kalman_track_covariance(const struct kalman_state *k,
                              fix_q32_t p[KALMAN_STATES][KALMAN_STATES]) {
-    (void)memcpy(p, k->cov.p, sizeof k->cov.p);
+    if (k->cov.still) {
+        kalman_static_covariance(k, p);
+    } else {
+        (void)memcpy(p, k->cov.p, sizeof k->cov.p);
+    }
 }

@@ -18,12 +18,13 @@
  * for the gain k actually used (rounded to Q30), so rounding the gain only
  * costs second-order error; once P is well scaled, the updates run on 32-bit mantissas
  * of P with the exact decreases applied to P once per row (the block update,
- * kalman_track.c), and with Q > 0 and R constant, once P has settled, a row is
- * x += k e alone (the steady state). Where the paper is unsafe: Alg. 2's
- * P_post = P_pre − K C P_pre loses symmetry and definiteness in finite
- * precision. Every row also checks positive definiteness (positive
- * diagonal, P_ij² < P_ii P_jj); a failure restarts the filter and is counted,
- * never hidden.
+ * kalman_track.c); with Q > 0 and R constant, once P has settled, a row is
+ * x += k e alone (the steady state); with Q = 0, while every row since the start had four
+ * accepted readings with the same R, P is M⁻¹/c (M = Σ h hᵀ/R) and a row is its own
+ * least-squares correction over c + 1 (the static run, kalman_static.c). Where the paper
+ * is unsafe: Alg. 2's P_post = P_pre − K C P_pre loses symmetry and definiteness in finite
+ * precision. Every row also checks positive definiteness (positive diagonal,
+ * P_ij² < P_ii P_jj); a failure restarts the filter and is counted, never hidden.
  *
  * Robustness the paper does not address:
  * - Measurement noise follows each sensor: R_k starts at the configured value,
@@ -82,8 +83,8 @@ struct kalman_config {
 
 /* The covariance and what makes its updates cheap (kalman_track.c): P, and the block
  * update's form of P (mantissas P ≈ bm · 2^be, packed upper triangle, while bvalid, taken
- * from p brows rows ago); each update's gain for the steady state; what process_noise_auto
- * learns from. */
+ * from p brows rows ago); each update's gain for the steady state (Q > 0); the static
+ * run (Q = 0); what process_noise_auto learns from. */
 struct kalman_cov {
     fix_q32_t p[KALMAN_STATES][KALMAN_STATES];
     int32_t be;
@@ -106,6 +107,15 @@ struct kalman_cov {
     bool bvalid;
     bool steady;          /* the gains above are at the fixed point: kalman_track_row */
     bool predict_pending; /* kalman_track_predict() done, P += Q not yet applied */
+    /* the static run (Q = 0, kalman_static.c): while `still`, P = M⁻¹/(u − 1), not in p */
+    bool still;
+    bool still_broken;   /* a row since the start was not four accepted readings (or R
+                            changed): P is no longer M⁻¹/c */
+    int32_t run_kappa;   /* x̄'s weight of e_A + e_C, Q31 */
+    int32_t run_wp[2];   /* per slope α, β: the weight of e_p (C, B), Q31 */
+    int32_t run_wm[2];   /* ... and of e_m (A, D), Q31 */
+    int64_t run_u;       /* c + 1 of the next row, Q32 */
+    int64_t run_minv[6]; /* M⁻¹ of the run's R, packed upper triangle, Q32 mm² */
 };
 
 struct kalman_state {
