@@ -23,8 +23,7 @@
  * innovations, nine 32x32 products, one reciprocal of c + 1. */
 
 #define STATIC_TOL_SHIFT 19u /* (M⁻¹_ii + M⁻¹_jj) / 2^19: 2^-18 of their mean */
-#define STATIC_U_MAX     ((int64_t)1 << 61) /* c + 1 below 2^29 rows (Q32) */
-#define STATIC_ONE       ((int64_t)1 << 32) /* one row in Q32 */
+#define STATIC_U_MAX     ((int64_t)1 << 61) /* c + 1 below 2^29 rows (Q32; one row is FIX_Q32_ONE) */
 
 /* packed upper triangle 00 01 02 11 12 22 */
 static const uint8_t row_of[6] = {0u, 0u, 0u, 1u, 1u, 2u};
@@ -50,15 +49,15 @@ void kalman_static_try(struct kalman_state *k) {
     if (cv->p[0][0] <= 0 || m[0] <= 0 || m[3] <= 0 || m[5] <= 0) {
         return;
     }
-    const int64_t c = fix_muldiv_s64(m[0], STATIC_ONE, cv->p[0][0], &ovf); /* Q32 */
-    if (ovf || c < STATIC_ONE || c >= STATIC_U_MAX - STATIC_ONE) {
+    const int64_t c = fix_muldiv_s64(m[0], FIX_Q32_ONE, cv->p[0][0], &ovf); /* Q32 */
+    if (ovf || c < FIX_Q32_ONE || c >= STATIC_U_MAX - FIX_Q32_ONE) {
         return;
     }
     const int64_t diag[3] = {m[0], m[3], m[5]};
     for (unsigned i = 0; i < 6u; ++i) {
         const unsigned a = row_of[i];
         const unsigned b = col_of[i];
-        const int64_t v = fix_muldiv_s64(cv->p[a][b], c, STATIC_ONE, &ovf);
+        const int64_t v = fix_muldiv_s64(cv->p[a][b], c, FIX_Q32_ONE, &ovf);
         const int64_t tol = (diag[a] >> STATIC_TOL_SHIFT) + (diag[b] >> STATIC_TOL_SHIFT);
         const int64_t d = v - m[i];
         if (ovf || d > tol || d < -tol) {
@@ -77,7 +76,7 @@ void kalman_static_try(struct kalman_state *k) {
     for (unsigned i = 0; i < 6u; ++i) {
         cv->run_minv[i] = m[i];
     }
-    cv->run_u = c + STATIC_ONE;
+    cv->run_u = c + FIX_Q32_ONE;
     cv->still = true;
     cv->still_broken = false;
     cv->bvalid = false; /* p is left behind; the block is taken afresh after the run */
@@ -95,7 +94,8 @@ FIX_INLINE bool innovation24(const struct kalman_state *k, unsigned s, uint16_t 
     }
     const int32_t v = shr_to_s32(e + 128, 8u); /* rounded to Q24 */
     *e24 = v;
-    return !gated || (uint64_t)((int64_t)v * v) <= k->gate_accept[s];
+    const int64_t v2 = (int64_t)v * v;
+    return !gated || (uint64_t)v2 <= k->gate_accept[s];
 }
 
 bool kalman_static_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENSORS], bool gate) {
@@ -127,22 +127,23 @@ bool kalman_static_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SE
     int32_t es;
     const uint32_t sm = fix_norm31_inline((uint64_t)cv->run_u, &es);
     const int64_t rm = fix_recip31_inline(sm);
-    const unsigned sh = (unsigned)(21 + es); /* u >= 2^33: es >= 3 */
+    const int32_t sh_signed = 21 + es; /* u >= 2^33: es >= 3 */
+    const unsigned sh = (unsigned)sh_signed;
     k->x[0] += fix_round_shr_s64((int64_t)dx * rm, sh);
     k->x[1] += fix_round_shr_s64((int64_t)da * rm, sh);
     k->x[2] += fix_round_shr_s64((int64_t)db * rm, sh);
-    cv->run_u += STATIC_ONE;
+    cv->run_u += FIX_Q32_ONE;
     return true;
 }
 
 void kalman_static_covariance(const struct kalman_state *k,
                               fix_q32_t p[KALMAN_STATES][KALMAN_STATES]) {
     const struct kalman_cov *cv = &k->cov;
-    const int64_t c = cv->run_u - STATIC_ONE; /* the rows so far */
+    const int64_t c = cv->run_u - FIX_Q32_ONE; /* the rows so far */
     for (unsigned i = 0; i < 6u; ++i) {
         const unsigned a = row_of[i];
         const unsigned b = col_of[i];
-        p[a][b] = fix_muldiv_s64(cv->run_minv[i], STATIC_ONE, c, NULL);
+        p[a][b] = fix_muldiv_s64(cv->run_minv[i], FIX_Q32_ONE, c, NULL);
         p[b][a] = p[a][b];
     }
 }
