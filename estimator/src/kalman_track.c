@@ -389,13 +389,7 @@ static uint8_t update_row(struct kalman_state *k, const uint16_t range_mm[ANGLES
                           uint8_t valid_mask, bool gate, uint8_t *rejected, bool *ovf, bool *proven,
                           uint8_t *by_block) {
     struct kalman_cov *cv = &k->cov;
-    struct pblock b;
-    b.dec[0] = 0;
-    b.dec[1] = 0;
-    b.dec[2] = 0;
-    b.dec[3] = 0;
-    b.dec[4] = 0;
-    b.dec[5] = 0;
+    struct pblock b = {{0, 0, 0, 0, 0, 0}};
     bool have = block_ready(k);
     bool dirty = false;
     uint8_t used = 0;
