@@ -4,7 +4,5 @@ set(TOF_BOARDS nucleo-l476rg)
 set(TOF_BOARD_DIRS nucleo-l476rg)
 # The flight image (cmake/TofOptions.cmake): the product's two estimators only (the paper's
 # rule and the plain mean are comparison baselines for host_sim, the QEMU replay and the
-# benchmarks), and the Kalman filter's tracking form only, which runs Q = 0 as well
-# (docs/benchmarks.md has the flash each choice costs).
+# benchmarks; docs/benchmarks.md has the flash each choice costs).
 set(TOF_ESTIMATORS_DEFAULT consensus kalman)
-set(TOF_KALMAN_FORMS_DEFAULT tracking)

@@ -71,7 +71,6 @@ int attitude_init(struct attitude_state *st, const struct attitude_config *cfg) 
     case KALMAN_OK:
         break;
     case KALMAN_ERR_PROCESS_NOISE:
-    case KALMAN_ERR_AUTO:
         return ATTITUDE_ERR_KALMAN_PROCESS_NOISE;
     case KALMAN_ERR_MEASUREMENT_NOISE:
         return ATTITUDE_ERR_KALMAN_MEASUREMENT_NOISE;

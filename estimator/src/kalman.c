@@ -1,30 +1,17 @@
-/* The Kalman filter of Eq. 5 / Alg. 2, its shared part (init, gate, warm-up, lock-out,
- * noise tracking, estimate): see estimator/kalman.h; the forms are kalman_track.c,
- * kalman_info.c and kalman_info_fast.c (kalman_form.h). */
+/* The Kalman filter of Eq. 5 / Alg. 2, its top (init, warm-up, lock-out, noise tracking,
+ * estimate): see estimator/kalman.h; the update is kalman_track.c, the gate kalman_gate.c,
+ * process_noise_auto kalman_adapt.c. */
 #include <string.h>
 
-#include "kalman_form.h"
-
-_Static_assert(KALMAN_TRACKING_BUILT != 0 || KALMAN_INFORMATION_BUILT != 0,
-               "the Kalman filter needs at least one form built (cmake/TofOptions.cmake)");
-
-/* The form this filter runs: the tracking form for Q > 0, the information form for Q = 0;
- * an image with only the tracking form built runs it for Q = 0 too (kalman.h). */
-static bool tracking(const struct kalman_state *k) {
-#if KALMAN_TRACKING_BUILT && KALMAN_INFORMATION_BUILT
-    return k->process_noise;
-#else
-    (void)k;
-    return KALMAN_TRACKING_BUILT != 0;
-#endif
-}
+#include "kalman_adapt.h"
+#include "kalman_gate.h"
+#include "kalman_track.h"
 
 static void r_changed(struct kalman_state *k);
 
 int kalman_config_check(const struct kalman_config *cfg) {
     for (unsigned i = 0; i < KALMAN_STATES; ++i) {
-        if (cfg->process_noise_mm2[i] < 0 || cfg->process_noise_mm2[i] > KALMAN_P0_MM2_Q32 ||
-            (KALMAN_TRACKING_BUILT == 0 && cfg->process_noise_mm2[i] != 0)) {
+        if (cfg->process_noise_mm2[i] < 0 || cfg->process_noise_mm2[i] > KALMAN_P0_MM2_Q32) {
             return KALMAN_ERR_PROCESS_NOISE;
         }
     }
@@ -40,9 +27,6 @@ int kalman_config_check(const struct kalman_config *cfg) {
     if (cfg->noise_shift > 8u) {
         return KALMAN_ERR_NOISE_SHIFT;
     }
-    if (cfg->process_noise_auto && KALMAN_TRACKING_BUILT == 0) {
-        return KALMAN_ERR_AUTO;
-    }
     return KALMAN_OK;
 }
 
@@ -53,8 +37,7 @@ int kalman_init(struct kalman_state *k, const struct kalman_config *cfg) {
     }
     (void)memset(k, 0, sizeof *k);
     k->cfg = *cfg;
-    const uint64_t q2 = (uint64_t)cfg->gate_sigmas_q8 * cfg->gate_sigmas_q8;
-    k->gate_s_max = q2 == 0u ? 0u : UINT64_MAX / q2;
+    kalman_gate_init(k);
     k->process_noise = cfg->process_noise_mm2[0] != 0 || cfg->process_noise_mm2[1] != 0 ||
                        cfg->process_noise_mm2[2] != 0 || cfg->process_noise_auto;
     for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
@@ -67,83 +50,16 @@ int kalman_init(struct kalman_state *k, const struct kalman_config *cfg) {
 
 void kalman_reset(struct kalman_state *k) {
     (void)memset(k->x, 0, sizeof k->x);
-    if (tracking(k)) {
-#if KALMAN_TRACKING_BUILT
-        kalman_track_reset(k);
-#endif
-    } else {
-#if KALMAN_INFORMATION_BUILT
-        kalman_info_reset(k);
-#endif
-    }
+    kalman_track_reset(k);
     k->started = false;
     k->warm_rows = 0;
     (void)memset(k->reject_run, 0, sizeof k->reject_run);
 }
 
-/* e² > max(k²·s, floor²) with e in Q32 mm and s in Q32 mm², exactly. */
-static bool outside_gate(const struct kalman_state *k, fix_q32_t e, fix_q32_t s) {
-    const fix_s128 e2 = fix_s128_mul(e, e); /* Q64 */
-    const int64_t g = k->cfg.gate_sigmas_q8;
-    /* k² s in Q64 = s · g² · 2^16 (g in Q8, s in Q32) */
-    const fix_s128 ks = fix_s128_shl(fix_s128_mul(s, g * g), 16u);
-    const int64_t fl = k->cfg.gate_floor_mm;
-    const fix_s128 fl2 = fix_s128_shl(fix_s128_from_s64(fl * fl), 64u);
-    return fix_s128_cmp(e2, ks) > 0 && fix_s128_cmp(e2, fl2) > 0;
-}
-
-/* Gate with 64-bit products when they cannot overflow (e in Q24, s·k² below 2^64):
- * e24² (Q48) against s·k² (Q32·Q16); else exactly in 128 bits. */
-bool kalman_gated_out(const struct kalman_state *k, fix_q32_t e, fix_q32_t s) {
-    if (e < ((int64_t)1 << 39) && e > -((int64_t)1 << 39) && (uint64_t)s <= k->gate_s_max) {
-        const int64_t e24 = fix_round_shr_s64(e, 8u);
-        const uint64_t m = (uint64_t)(e24 < 0 ? -e24 : e24);
-        const uint64_t q = k->cfg.gate_sigmas_q8;
-        return m * m > (uint64_t)s * (q * q) && m > ((uint64_t)k->cfg.gate_floor_mm << 24);
-    }
-    return outside_gate(k, e, s);
-}
-
-/* The gate's sure-accept threshold per sensor: |e24|² (Q48) below q²·R (Q32·Q16) or the
- * floor is inside the gate for any s >= R. */
-static void gate_refresh_accept(struct kalman_state *k) {
-    const uint64_t q2 = (uint64_t)k->cfg.gate_sigmas_q8 * k->cfg.gate_sigmas_q8;
-    const uint64_t fl = (uint64_t)k->cfg.gate_floor_mm;
-    for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
-        const uint64_t r = (uint64_t)k->r[s];
-        const uint64_t a = r > UINT64_MAX / (q2 + 1u) ? UINT64_MAX : r * q2;
-        const uint64_t f = fl >= 256u ? UINT64_MAX : (fl * fl) << 48; /* 2^64 from 256 mm */
-        k->gate_accept[s] = a > f ? a : f;
-    }
-}
-
 /* Everything that depends on R, after R changed. */
 static void r_changed(struct kalman_state *k) {
-    gate_refresh_accept(k);
-    if (tracking(k)) {
-#if KALMAN_TRACKING_BUILT
-        kalman_track_r_changed(k);
-#endif
-    } else {
-#if KALMAN_INFORMATION_BUILT
-        kalman_info_r_changed(k);
-#endif
-    }
-}
-
-/* One row of either form (no prediction): returns the sensors accepted. */
-static uint8_t update_any(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENSORS],
-                          uint8_t valid_mask, bool gate, uint8_t *rejected) {
-#if KALMAN_TRACKING_BUILT
-    if (tracking(k)) {
-        return kalman_track_row(k, range_mm, valid_mask, gate, rejected);
-    }
-#endif
-#if KALMAN_INFORMATION_BUILT
-    return kalman_info_row(k, range_mm, valid_mask, gate, rejected);
-#else
-    return 0u; /* unreachable: tracking() is true when only the tracking form is built */
-#endif
+    kalman_gate_refresh(k);
+    kalman_track_r_changed(k);
 }
 
 bool kalman_update(struct kalman_state *k, unsigned sensor, uint16_t range_mm, bool gate) {
@@ -153,30 +69,11 @@ bool kalman_update(struct kalman_state *k, unsigned sensor, uint16_t range_mm, b
     uint16_t range[ANGLES_SENSORS] = {0, 0, 0, 0};
     range[sensor] = range_mm;
     uint8_t rejected;
-    return update_any(k, range, (uint8_t)(1u << sensor), gate, &rejected) != 0u;
+    return kalman_track_row(k, range, (uint8_t)(1u << sensor), gate, &rejected) != 0u;
 }
 
 void kalman_covariance(const struct kalman_state *k, fix_q32_t p[KALMAN_STATES][KALMAN_STATES]) {
-    if (tracking(k)) {
-#if KALMAN_TRACKING_BUILT
-        kalman_track_covariance(k, p);
-#endif
-    } else {
-#if KALMAN_INFORMATION_BUILT
-        kalman_info_covariance(k, p);
-#endif
-    }
-}
-
-/* The prediction of a row (the tracking form; the information form has no Q). */
-static void predict(struct kalman_state *k) {
-#if KALMAN_TRACKING_BUILT
-    if (tracking(k)) {
-        kalman_track_predict(k);
-    }
-#else
-    (void)k;
-#endif
+    kalman_track_covariance(k, p);
 }
 
 /* The warm-up: per-sensor median of the buffered rows, gate, then updates. */
@@ -215,15 +112,10 @@ static void flush_warmup(struct kalman_state *k, struct kalman_rows *out) {
     k->x[0] = start_n > 0 ? fix_div_round_s64(start_sum * FIX_Q32_ONE, start_n) : 0;
     k->x[1] = 0;
     k->x[2] = 0;
-#if KALMAN_INFORMATION_BUILT
-    if (!tracking(k)) {
-        kalman_info_start(k);
-    }
-#endif
 
     out->count = k->warm_rows;
     for (unsigned r = 0; r < k->warm_rows; ++r) {
-        predict(k);
+        kalman_track_predict(k);
         uint8_t used = 0;
         uint8_t rejected = 0;
         for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
@@ -249,7 +141,7 @@ static void flush_warmup(struct kalman_state *k, struct kalman_rows *out) {
         }
         if (used != 0u) {
             uint8_t none;
-            (void)update_any(k, k->warm_range[r], used, false, &none);
+            (void)kalman_track_row(k, k->warm_range[r], used, false, &none);
         }
         out->used[r] = used;
         out->rejected[r] = rejected;
@@ -263,11 +155,9 @@ void kalman_push_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENS
                      uint8_t valid_in, struct kalman_rows *out) {
     out->count = 0;
     const uint8_t valid_mask = (uint8_t)(valid_in & ANGLES_ALL_SENSORS);
-#if KALMAN_TRACKING_BUILT
-    if (k->cfg.process_noise_auto && kalman_track_adapt(k, range_mm, valid_mask)) {
+    if (k->cfg.process_noise_auto && kalman_adapt_row(k, range_mm, valid_mask)) {
         r_changed(k);
     }
-#endif
     if (!k->started) {
         (void)memcpy(k->warm_range[k->warm_rows], range_mm, sizeof k->warm_range[0]);
         k->warm_valid[k->warm_rows] = valid_mask;
@@ -277,9 +167,9 @@ void kalman_push_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENS
         }
         return;
     }
-    predict(k);
+    kalman_track_predict(k);
     uint8_t rejected = 0;
-    const uint8_t used = update_any(k, range_mm, valid_mask, true, &rejected);
+    const uint8_t used = kalman_track_row(k, range_mm, valid_mask, true, &rejected);
     out->count = 1;
     out->used[0] = used;
     out->rejected[0] = rejected;

@@ -1,16 +1,21 @@
-/* The Kalman filter's tracking form (any Q, the covariance form): see estimator/kalman.h. */
+/* The Kalman filter's update, the covariance form for any Q (the one filter of every build):
+ * see estimator/kalman.h. */
 #include <string.h>
 
-#include "kalman_form.h"
+#include "kalman_gate.h"
+#include "kalman_static.h"
+#include "kalman_track.h"
 
 /* Rows of Eq. 5 with the slopes scaled by a: A [1, −1, 0], B [1, 0, 1], C [1, 1, 0],
  * D [1, 0, −1]: h = e0 + σ e_j (update_exact, block_update). */
 
 static void diffuse_covariance(struct kalman_state *k) {
-    struct kalman_cov *cv = kalman_cov_of(k);
+    struct kalman_cov *cv = &k->cov;
     cv->bvalid = false;
     cv->steady = false;
     cv->predict_pending = false;
+    cv->still = false;
+    cv->still_broken = false;
     (void)memset(cv->p, 0, sizeof cv->p);
     for (unsigned i = 0; i < KALMAN_STATES; ++i) {
         cv->p[i][i] = KALMAN_P0_MM2_Q32;
@@ -48,7 +53,7 @@ static bool covariance_healthy(const fix_q32_t p[KALMAN_STATES][KALMAN_STATES]) 
  * every entry from exact 128-bit products with one rounding. */
 static void joseph_update(struct kalman_state *k, const fix_q32_t g[KALMAN_STATES], fix_q32_t s,
                           fix_q32_t e, bool *ovf) {
-    struct kalman_cov *cv = kalman_cov_of(k);
+    struct kalman_cov *cv = &k->cov;
     fix_q30_t gain[KALMAN_STATES];
     for (unsigned i = 0; i < KALMAN_STATES; ++i) {
         gain[i] = fix_muldiv_s64(g[i], FIX_Q30_ONE, s, ovf);
@@ -83,7 +88,7 @@ static void joseph_update(struct kalman_state *k, const fix_q32_t g[KALMAN_STATE
  * no definiteness check. */
 static bool update_exact(struct kalman_state *k, unsigned sensor, fix_q32_t z_mm, bool gate,
                          bool *ovf) {
-    struct kalman_cov *cv = kalman_cov_of(k);
+    struct kalman_cov *cv = &k->cov;
     const unsigned j = kalman_h_index(sensor);
     const bool minus = kalman_h_minus(sensor);
     fix_q32_t g[KALMAN_STATES];
@@ -171,7 +176,7 @@ FIX_INLINE int32_t to_block(int64_t v, int32_t e) {
 
 /* The block of the current p (cv->bm, cv->be); false when P is not well scaled for it. */
 static bool block_from_p(struct kalman_state *k) {
-    struct kalman_cov *cv = kalman_cov_of(k);
+    struct kalman_cov *cv = &k->cov;
     cv->bvalid = false;
     const int64_t d0 = cv->p[0][0];
     const int64_t d1 = cv->p[1][1];
@@ -205,7 +210,7 @@ static bool block_from_p(struct kalman_state *k) {
 /* The block for the next row: kept while it is fresh and its largest diagonal still has
  * 26 bits, else taken afresh from p. */
 static bool block_ready(struct kalman_state *k) {
-    struct kalman_cov *cv = kalman_cov_of(k);
+    struct kalman_cov *cv = &k->cov;
     if (cv->bvalid && cv->brows < BLOCK_MAX_ROWS) {
         const int32_t *m = cv->bm;
         const int32_t top = m[0] > m[3] ? (m[0] > m[5] ? m[0] : m[5]) : (m[3] > m[5] ? m[3] : m[5]);
@@ -219,7 +224,7 @@ static bool block_ready(struct kalman_state *k) {
 /* True when the mantissas prove p positive definite (kalman.h's check) with a margin
  * for their drift from p; false means "not proven" (then p itself is checked). */
 static bool block_healthy(const struct kalman_state *k) {
-    const struct kalman_cov *cv = kalman_cov_of_c(k);
+    const struct kalman_cov *cv = &k->cov;
     const int32_t *m = cv->bm;
     const int32_t mg = BLOCK_CHECK_MARGIN;
     const int32_t d0 = m[0] - mg;
@@ -237,7 +242,7 @@ static void block_apply(struct kalman_state *k, struct pblock *b) {
     /* the packed upper triangle's row and column (a loop: cold code, half the bytes) */
     static const uint8_t row_of[6] = {0u, 0u, 0u, 1u, 1u, 2u};
     static const uint8_t col_of[6] = {0u, 1u, 2u, 1u, 2u, 2u};
-    struct kalman_cov *cv = kalman_cov_of(k);
+    struct kalman_cov *cv = &k->cov;
     const int32_t sh_signed = 31 - cv->be;
     const unsigned sh = (unsigned)sh_signed; /* in [1, 61] */
     for (unsigned i = 0; i < 6u; ++i) {
@@ -251,7 +256,7 @@ static void block_apply(struct kalman_state *k, struct pblock *b) {
 
 /* The decrease t = g_i k_j of one entry: exactly into dec, rounded into the mantissa. */
 FIX_INLINE void block_sub(struct kalman_state *k, struct pblock *b, unsigned idx, int64_t t) {
-    struct kalman_cov *cv = kalman_cov_of(k);
+    struct kalman_cov *cv = &k->cov;
     b->dec[idx] += t;
     /* round(t / 2^31), |t| < 2^62: the floor is the two's complement bits (hi << 1) |
      * (lo >> 31), the rounding bit is bit 30 */
@@ -267,7 +272,7 @@ FIX_INLINE void block_sub(struct kalman_state *k, struct pblock *b, unsigned idx
  * conditions above fail (nothing changed). */
 static int block_update(struct kalman_state *k, struct pblock *b, unsigned sensor, fix_q32_t z_mm,
                         bool gate) {
-    struct kalman_cov *cv = kalman_cov_of(k);
+    struct kalman_cov *cv = &k->cov;
     int32_t *m = cv->bm;
     /* The int32 sums below rely on |m| <= max P_ii < 2^28, true of a block when it is
      * taken; a nearly singular P can lose it inside a row (the updates overshoot and a
@@ -383,14 +388,8 @@ static int block_update(struct kalman_state *k, struct pblock *b, unsigned senso
 static uint8_t update_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENSORS],
                           uint8_t valid_mask, bool gate, uint8_t *rejected, bool *ovf, bool *proven,
                           uint8_t *by_block) {
-    struct kalman_cov *cv = kalman_cov_of(k);
-    struct pblock b;
-    b.dec[0] = 0;
-    b.dec[1] = 0;
-    b.dec[2] = 0;
-    b.dec[3] = 0;
-    b.dec[4] = 0;
-    b.dec[5] = 0;
+    struct kalman_cov *cv = &k->cov;
+    struct pblock b = {{0, 0, 0, 0, 0, 0}};
     bool have = block_ready(k);
     bool dirty = false;
     uint8_t used = 0;
@@ -437,7 +436,7 @@ static uint8_t update_row(struct kalman_state *k, const uint16_t range_mm[ANGLES
 /* After a failed check or an overflow: forget the covariance, keep the state; counted,
  * never silent. */
 static void check_covariance(struct kalman_state *k, bool ovf, bool proven) {
-    struct kalman_cov *cv = kalman_cov_of(k);
+    struct kalman_cov *cv = &k->cov;
     if (ovf || (!proven && !covariance_healthy(cv->p))) {
         diffuse_covariance(k);
         k->numeric_restarts++;
@@ -447,7 +446,7 @@ static void check_covariance(struct kalman_state *k, bool ovf, bool proven) {
 
 /* P += Q, each diagonal bounded. */
 static void add_process_noise(struct kalman_state *k) {
-    struct kalman_cov *cv = kalman_cov_of(k);
+    struct kalman_cov *cv = &k->cov;
     cv->bvalid = false; /* p changes outside the block */
     for (unsigned i = 0; i < KALMAN_STATES; ++i) {
         if (cv->p[i][i] < KALMAN_P_MAX_Q32) { /* a long outage saturates here, never overflows */
@@ -460,7 +459,7 @@ static void add_process_noise(struct kalman_state *k) {
 /* The prediction is applied by the row that follows it (kalman_track_row): a steady row
  * leaves P at its fixed point, so it needs none. */
 void kalman_track_predict(struct kalman_state *k) {
-    struct kalman_cov *cv = kalman_cov_of(k);
+    struct kalman_cov *cv = &k->cov;
     if (cv->predict_pending) {
         add_process_noise(k); /* the previous one, whose row had no reading */
     }
@@ -472,7 +471,11 @@ void kalman_track_reset(struct kalman_state *k) {
 }
 
 void kalman_track_r_changed(struct kalman_state *k) {
-    kalman_cov_of(k)->steady = false; /* the fixed point moved */
+    k->cov.steady = false; /* the fixed point moved */
+    if (k->cov.still) {
+        kalman_static_leave(k); /* P of the old R */
+    }
+    k->cov.still_broken = true; /* the rows so far were weighed with the old R */
 }
 
 /* --- the steady state -------------------------------------------------------------------
@@ -488,7 +491,7 @@ void kalman_track_r_changed(struct kalman_state *k) {
 /* One steady row, all four readings; false (x unchanged) when one may be gated out or
  * is 128 mm or more from its prediction. */
 static bool steady_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENSORS], bool gate) {
-    const struct kalman_cov *cv = kalman_cov_of_c(k);
+    const struct kalman_cov *cv = &k->cov;
     const fix_q32_t x0 = k->x[0];
     const fix_q32_t x1 = k->x[1];
     const fix_q32_t x2 = k->x[2];
@@ -520,7 +523,7 @@ static bool steady_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SE
  * of P: the kept gains are within that of the fixed point's, costing the estimate's
  * variance only that squared. */
 static bool settled(const struct kalman_state *k, const fix_q32_t before[6]) {
-    const struct kalman_cov *cv = kalman_cov_of_c(k);
+    const struct kalman_cov *cv = &k->cov;
     const fix_q32_t *q = k->cfg.process_noise_mm2;
     uint64_t q_min = UINT64_MAX;
     for (unsigned i = 0; i < KALMAN_STATES; ++i) {
@@ -539,11 +542,19 @@ static bool settled(const struct kalman_state *k, const fix_q32_t before[6]) {
 
 uint8_t kalman_track_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENSORS],
                          uint8_t valid_mask, bool gate, uint8_t *rejected) {
-    struct kalman_cov *cv = kalman_cov_of(k);
+    struct kalman_cov *cv = &k->cov;
     if (cv->steady && valid_mask == ANGLES_ALL_SENSORS && steady_row(k, range_mm, gate)) {
         cv->predict_pending = false;
         *rejected = 0;
         return ANGLES_ALL_SENSORS;
+    }
+    if (cv->still) {
+        if (valid_mask == ANGLES_ALL_SENSORS && kalman_static_row(k, range_mm, gate)) {
+            cv->predict_pending = false; /* Q = 0: nothing to add */
+            *rejected = 0;
+            return ANGLES_ALL_SENSORS;
+        }
+        kalman_static_leave(k); /* this row in full, from P */
     }
     cv->steady = false;
     const fix_q32_t before[6] = {cv->p[0][0], cv->p[0][1], cv->p[0][2],
@@ -564,140 +575,22 @@ uint8_t kalman_track_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_
         cv->steady = by_block == ANGLES_ALL_SENSORS && used == ANGLES_ALL_SENSORS &&
                      k->numeric_restarts == restarts && (q[0] | q[1] | q[2]) != 0 &&
                      settled(k, before);
+        if (k->process_noise || cv->still_broken) {
+            /* Q > 0 (or auto), or P no longer M⁻¹/c: no static run */
+        } else if (used == ANGLES_ALL_SENSORS && k->numeric_restarts == restarts) {
+            kalman_static_try(k);
+        } else {
+            cv->still_broken = true; /* part of a row: the information is not a multiple of M */
+        }
     }
     return used;
 }
 
 void kalman_track_covariance(const struct kalman_state *k,
                              fix_q32_t p[KALMAN_STATES][KALMAN_STATES]) {
-    (void)memcpy(p, kalman_cov_of_c(k)->p, sizeof kalman_cov_of_c(k)->p);
-}
-
-/* --- process noise and R from the data (process_noise_auto) -----------------------------
- * What each state does over time is read off the readings themselves, not the filter's
- * innovations (whose variance hides a small q under R: the slow-motion case needs ~10^7
- * rows that way). Per row with all four readings, the transformed sums
- *     y_x̄ = z_A + z_B + z_C + z_D = 4 x̄ + noise,  y_α = z_C − z_A = 2 θ_α + noise,
- *     y_β = z_B − z_D = 2 θ_β + noise
- * are summed over blocks of B = KALMAN_ADAPT_BLOCK rows. For a random walk of intensity
- * q_y per row plus white noise of variance w_y per row, the difference D of two
- * consecutive block sums has E[D²] = q_y · B(2B² + 1)/3 + 2B · w_y (the Allan variance of
- * the block means, times B²: each increment of the walk enters D with weight
- * min(t, 2B − t)). With w_x̄ = ΣR, w_α = R_A + R_C, w_β = R_B + R_D and q_y = 16 q_x̄,
- * 4 q_t, 4 q_t, one block gives a sample of q_x̄ and of q_t (both slopes share it, as
- * --process-noise QD,QT does); their running means set Q at each block's end (Q at least
- * 0, a sample bounded to ±64 mm² per row, a block difference of 2^15 mm or more, a jump,
- * not used).
- * R comes from what the motion barely touches: the difference d of a sensor's consecutive
- * readings has E[d²] = 2R + hQhᵀ = 2R + Q_x̄ + Q_t (h has entries ±1), so
- * R = (E[d²] − Q_x̄ − Q_t)/2, at least 1/12 mm² (a difference of 128 mm or more, a jump,
- * not used). Running means: gain 1/2^⌊log2 n⌋ over the first samples, then 2^-6 per
- * block for q (about 2,000 rows) and 2^-9 per row for R. Cost: about 20 instructions a
- * row and a few 64-bit divisions a block. */
-#define KALMAN_ADAPT_BLOCK   32u
-#define KALMAN_ADAPT_Q_SHIFT 6u
-#define KALMAN_ADAPT_R_SHIFT 9u
-/* B(2B² + 1)/3 for B = 32 */
-#define KALMAN_ADAPT_Q_WEIGHT 21856
-
-/* mean += (v − mean) · gain, the gain from the samples so far (|v|, |mean| < 2^30) */
-static void adapt_mean(int32_t *mean, int32_t v, uint16_t n, unsigned max_shift) {
-    const unsigned g = fix_bitlen_u64(n) - 1u; /* n >= 1 */
-    const unsigned sh = g < max_shift ? g : max_shift;
-    const int64_t step = (int64_t)v - *mean;
-    /* rounded: a floor would bias the mean by half a unit times 2^shift */
-    *mean += (int32_t)(sh == 0u ? step : fix_round_shr_s64(step, sh));
-}
-
-/* One block's sample of q_y in Q16 mm² per row: (D² − 2B w)/(B(2B² + 1)/3), w in Q32. */
-static int64_t adapt_q_sample(int32_t d, int64_t w_q32) {
-    const int64_t d2 = ((int64_t)d * d) << 16; /* |d| < 2^15: below 2^46 */
-    const int64_t noise = (int64_t)(2u * KALMAN_ADAPT_BLOCK) * (w_q32 >> 16);
-    return (d2 - noise) / KALMAN_ADAPT_Q_WEIGHT;
-}
-
-static int32_t adapt_bound(int64_t v) {
-    const int64_t lim = (int64_t)1 << 30; /* 64 mm² in Q24 */
-    return (int32_t)(v > lim ? lim : (v < -lim ? -lim : v));
-}
-
-/* The end of a block of full rows: samples of q from the difference to the block before. */
-static void adapt_block(struct kalman_state *k) {
-    struct kalman_cov *cv = kalman_cov_of(k);
-    const fix_q32_t *r = k->r;
-    int32_t d[KALMAN_STATES];
-    bool usable = cv->blk_prev_valid;
-    for (unsigned j = 0; j < KALMAN_STATES; ++j) {
-        d[j] = cv->blk_sum[j] - cv->blk_prev[j];
-        usable = usable && d[j] < 32768 && d[j] > -32768;
-        cv->blk_prev[j] = cv->blk_sum[j];
-        cv->blk_sum[j] = 0;
+    if (k->cov.still) {
+        kalman_static_covariance(k, p);
+    } else {
+        (void)memcpy(p, k->cov.p, sizeof k->cov.p);
     }
-    cv->blk_prev_valid = true;
-    cv->blk_rows = 0;
-    if (!usable) {
-        return;
-    }
-    const int64_t w[KALMAN_STATES] = {r[0] + r[1] + r[2] + r[3], r[ANGLES_A] + r[ANGLES_C],
-                                      r[ANGLES_B] + r[ANGLES_D]};
-    int64_t qy[KALMAN_STATES];
-    for (unsigned j = 0; j < KALMAN_STATES; ++j) {
-        qy[j] = adapt_q_sample(d[j], w[j]);
-    }
-    cv->n_q = cv->n_q < UINT16_MAX ? (uint16_t)(cv->n_q + 1u) : UINT16_MAX;
-    /* Q16 of q_y to Q24 of the state: x̄ q_y/16, slopes q_y/4 (their mean) */
-    adapt_mean(&cv->mean_q[0], adapt_bound(qy[0] * 16), cv->n_q, KALMAN_ADAPT_Q_SHIFT);
-    adapt_mean(&cv->mean_q[1], adapt_bound((qy[1] + qy[2]) * 32), cv->n_q, KALMAN_ADAPT_Q_SHIFT);
-    fix_q32_t *q = k->cfg.process_noise_mm2;
-    q[0] = cv->mean_q[0] > 0 ? (int64_t)cv->mean_q[0] << 8 : 0;
-    q[1] = cv->mean_q[1] > 0 ? (int64_t)cv->mean_q[1] << 8 : 0;
-    q[2] = q[1];
-    cv->steady = false; /* the fixed point moved */
-}
-
-bool kalman_track_adapt(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENSORS],
-                        uint8_t valid_mask) {
-    struct kalman_cov *cv = kalman_cov_of(k);
-    const uint8_t both = (uint8_t)(valid_mask & cv->last_valid);
-    if (both != 0u && cv->n_d < UINT16_MAX) {
-        cv->n_d++;
-    }
-    for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
-        const int32_t d = (int32_t)range_mm[s] - (int32_t)cv->last_mm[s];
-        if ((both & (1u << s)) != 0u && d < 128 && d > -128) {
-            adapt_mean(&cv->mean_d[s], (d * d) << 16, cv->n_d, KALMAN_ADAPT_R_SHIFT);
-        }
-        cv->last_mm[s] = range_mm[s];
-    }
-    cv->last_valid = valid_mask;
-    if (valid_mask != ANGLES_ALL_SENSORS) {
-        /* a block is consecutive full rows: start again */
-        cv->blk_rows = 0;
-        cv->blk_prev_valid = false;
-        for (unsigned j = 0; j < KALMAN_STATES; ++j) {
-            cv->blk_sum[j] = 0;
-        }
-        return false;
-    }
-    const int32_t za = range_mm[ANGLES_A];
-    const int32_t zb = range_mm[ANGLES_B];
-    const int32_t zc = range_mm[ANGLES_C];
-    const int32_t zd = range_mm[ANGLES_D];
-    cv->blk_sum[0] += za + zb + zc + zd; /* 32 rows: below 2^23 */
-    cv->blk_sum[1] += zc - za;
-    cv->blk_sum[2] += zb - zd;
-    if (++cv->blk_rows < KALMAN_ADAPT_BLOCK) {
-        return false;
-    }
-    adapt_block(k);
-    const fix_q32_t *q = k->cfg.process_noise_mm2;
-    bool r_set = false;
-    for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
-        if (cv->mean_d[s] > 0) {
-            const int64_t v = (((int64_t)cv->mean_d[s] << 16) - q[0] - q[1]) / 2;
-            k->r[s] = v < KALMAN_R_MIN_Q32 ? KALMAN_R_MIN_Q32 : v; /* below 2^13 mm² */
-            r_set = true;
-        }
-    }
-    return r_set;
 }

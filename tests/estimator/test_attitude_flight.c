@@ -3,9 +3,9 @@
  * kalman, cmake/toolchain/board-nucleo-l476rg.cmake; this test compiles attitude.c with
  * that definition): the default selects exactly the built estimators, a configuration
  * selecting one that is not built is refused, and the built ones estimate a tilted
- * plate as in the full build while the others read "disabled". Its Kalman filter has only
- * the tracking form (KALMAN_TRACKING_BUILT = 1, KALMAN_INFORMATION_BUILT = 0): it runs
- * Q = 0 and a process noise alike, and with Q > 0 follows a plate that moves.
+ * plate as in the full build while the others read "disabled". Its Kalman filter (the one
+ * filter of every build) runs Q = 0 and a process noise alike, and with Q > 0 follows a
+ * plate that moves.
  */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -22,8 +22,6 @@
     (ATTITUDE_EST_BIT(ATTITUDE_EST_CONSENSUS) | ATTITUDE_EST_BIT(ATTITUDE_EST_KALMAN))
 
 _Static_assert(ATTITUDE_EST_BUILT == FLIGHT_SET, "compiled with the flight estimator set");
-_Static_assert(KALMAN_TRACKING_BUILT == 1 && KALMAN_INFORMATION_BUILT == 0,
-               "compiled with the tracking form only");
 
 static struct attitude_state st;
 static struct attitude_output out;

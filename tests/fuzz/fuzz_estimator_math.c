@@ -579,7 +579,7 @@ static void check_kalman(struct fuzz_input *in) {
     cfg.noise_shift = fuzz_u8(in);
     if ((style & 1u) != 0u) { /* guided: a valid configuration */
         for (unsigned i = 0; i < KALMAN_STATES; ++i) {
-            /* half of them Q = 0: the information form */
+            /* half of them Q = 0, the paper's static protocol */
             cfg.process_noise_mm2[i] = (style & 2u) != 0u
                                            ? 0
                                            : (int64_t)((uint64_t)cfg.process_noise_mm2[i] %

@@ -34,7 +34,7 @@ _Static_assert(SLOTS_OF(struct tof_app_health, errors_by_code) == TOF_ERROR_SLOT
 _Static_assert(HAL_ERR_LAST < 0 && HAL_ERR_LAST >= HAL_ERR_BLOCK_END, "hal codes in -1..-31");
 _Static_assert(HAL_ERR_BLOCK_END == WINDOW_BLOCK_FIRST + 1, "the blocks meet, none overlap");
 
-/* Each estimator code inside its own block (KALMAN_ERR_AUTO is left out: it is going away). */
+/* Each estimator code inside its own block. */
 _Static_assert(IN_BLOCK(WINDOW_ERR_ARM, WINDOW_BLOCK_FIRST, WINDOW_BLOCK_END) &&
                    IN_BLOCK(WINDOW_ERR_LENGTH, WINDOW_BLOCK_FIRST, WINDOW_BLOCK_END),
                "window_error in -32..-47");

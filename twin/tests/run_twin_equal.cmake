@@ -8,6 +8,10 @@ if(NOT EXISTS "${ELF}")
   message(FATAL_ERROR "twin test: ${ELF} missing: build the m4 preset first "
                       "(cmake --preset m4 && cmake --build --preset m4)")
 endif()
+if(NOT EXISTS "${HOST_SIM}")
+  message(FATAL_ERROR "twin test: ${HOST_SIM} missing: build the host-release preset first "
+                      "(cmake --preset host-release && cmake --build --preset host-release)")
+endif()
 file(MAKE_DIRECTORY ${OUT})
 execute_process(COMMAND ${HOST_SIM} replay ${TRACE} --estimator ${EST} --out ${OUT}/host_sim.csv
                 RESULT_VARIABLE rc OUTPUT_QUIET)

@@ -77,8 +77,8 @@ enum attitude_error {
     ATTITUDE_ERR_ESTIMATORS = -67,           /* estimators empty, with unknown bits or not built */
     ATTITUDE_ERR_TOLERANCE = -68,            /* consensus_tolerance_udeg outside [1, 10000000] */
     ATTITUDE_ERR_PAPER_ITERATIONS = -69,     /* paper_max_iterations is 0 */
-    ATTITUDE_ERR_KALMAN_PROCESS_NOISE = -70, /* kalman_process_noise_um2 above 2^32, or not 0
-                                                (or auto) without KALMAN_TRACKING_BUILT */
+    ATTITUDE_ERR_KALMAN_PROCESS_NOISE = -70, /* a process noise the filter refuses
+                                                (kalman_config_check) */
     ATTITUDE_ERR_KALMAN_MEASUREMENT_NOISE = -71, /* a kalman_initial_noise_um2 below the
                                                     1/12 mm² of 1 mm rounding */
     ATTITUDE_ERR_KALMAN_WARMUP = -72,            /* kalman_warmup_rows outside 1..8 */

@@ -8,34 +8,23 @@
  * mm². Identity dynamics with a configurable process noise Q (diagonal; 0 for
  * the static-window protocol of the paper).
  *
- * Two forms of the same filter, chosen by Q:
- *
- * Q = 0 (the default, the paper's static-window protocol): the information form.
- * Without process noise Alg. 2 is recursive least squares, and its information
- * matrix Y = P⁻¹ = y0·I + Σ h hᵀ/R never couples a·tan α with a·tan β (no row has
- * both): the filter is, per sensor, the sum of the weights 1/R of its accepted
- * readings and of their weighted deviations, two additions per reading. x and P
- * follow in closed form (Schur complement on x̄, kalman.c) after each row, every
- * divisor a sum of positive terms: P is positive definite by construction, no
- * check or restart is needed. Each row's readings are gated against the state
- * of the rows before it (not against each other). While every row since the
- * start accepted all four readings with the same R (a uniform run, the common
- * case), x comes from the run's four means with coefficients fixed for the run
- * (the fast solve; the whole row about 560 instructions on a Cortex-M4).
- *
- * Q > 0: the covariance form. Each row is four scalar updates, one per valid
- * reading (R is diagonal, so no matrix inverse: Alg. 2's [C P Cᵀ + R]⁻¹ becomes
- * a division by a scalar s), skipping flagged sensors. The covariance update is
- * the Joseph form
+ * One filter for any Q, the covariance form, the same code in every build. Each row is
+ * four scalar updates, one per valid reading (R is diagonal, so no matrix inverse: Alg.
+ * 2's [C P Cᵀ + R]⁻¹ becomes a division by a scalar s), skipping flagged sensors. The
+ * covariance update is the Joseph form
  *     P' = (I − k hᵀ) P (I − k hᵀ)ᵀ + k R kᵀ = P − k gᵀ − g kᵀ + s k kᵀ,
  * g = P h, s = hᵀg + R, evaluated with exact 128-bit products and one rounding
  * per entry, upper triangle mirrored: symmetric by construction, and correct
  * for the gain k actually used (rounded to Q30), so rounding the gain only
- * costs second-order error. Where the paper is unsafe: Alg. 2's
- * P_post = P_pre − K C P_pre loses symmetry and definiteness in finite
- * precision. Every row also checks positive definiteness (positive
- * diagonal, P_ij² < P_ii P_jj); a failure restarts the filter and is counted,
- * never hidden.
+ * costs second-order error; once P is well scaled, the updates run on 32-bit mantissas
+ * of P with the exact decreases applied to P once per row (the block update,
+ * kalman_track.c); with Q > 0 and R constant, once P has settled, a row is
+ * x += k e alone (the steady state); with Q = 0, while every row since the start had four
+ * accepted readings with the same R, P is M⁻¹/c (M = Σ h hᵀ/R) and a row is its own
+ * least-squares correction over c + 1 (the static run, kalman_static.c). Where the paper
+ * is unsafe: Alg. 2's P_post = P_pre − K C P_pre loses symmetry and definiteness in finite
+ * precision. Every row also checks positive definiteness (positive diagonal,
+ * P_ij² < P_ii P_jj); a failure restarts the filter and is counted, never hidden.
  *
  * Robustness the paper does not address:
  * - Measurement noise follows each sensor: R_k starts at the configured value,
@@ -73,30 +62,14 @@
 /* Diffuse prior: σ = 4096 mm on each state (P0 = 2^24 mm²). */
 #define KALMAN_P0_MM2_Q32 ((int64_t)1 << 56)
 
-/* The forms an image contains (cmake/TofOptions.cmake, TOF_KALMAN_FORMS; both by default):
- * the tracking (covariance) form runs any Q, and Q = 0 too when it is the only one built;
- * the information form runs Q = 0, and an image with only it refuses a non-zero Q. */
-#ifndef KALMAN_TRACKING_BUILT
-#define KALMAN_TRACKING_BUILT 1
-#endif
-#ifndef KALMAN_INFORMATION_BUILT
-#define KALMAN_INFORMATION_BUILT 1
-#endif
-
-/* Words of storage for the form's private state (estimator/src/kalman_form.h lays it out
- * and checks at compile time that it fits). */
-#define KALMAN_FORM_WORDS 27u /* the tracking form, the larger */
-
 /* Errors of the Kalman filter's configuration, in its block -48..-63 of the one error
  * convention (docs/errors.md). */
 enum kalman_error {
     KALMAN_OK = 0,
-    KALMAN_ERR_PROCESS_NOISE = -48,     /* a Q entry negative or above P0, or non-zero
-                                           without KALMAN_TRACKING_BUILT */
+    KALMAN_ERR_PROCESS_NOISE = -48,     /* a Q entry negative or above P0 */
     KALMAN_ERR_MEASUREMENT_NOISE = -49, /* an initial R not in [1/12 mm², 2^20 mm²] */
     KALMAN_ERR_WARMUP = -50,            /* warmup_rows outside 1..KALMAN_WARMUP_MAX */
     KALMAN_ERR_NOISE_SHIFT = -51,       /* noise_shift above 8 */
-    KALMAN_ERR_AUTO = -52,              /* process_noise_auto without KALMAN_TRACKING_BUILT */
 };
 
 struct kalman_config {
@@ -106,8 +79,45 @@ struct kalman_config {
     uint16_t gate_floor_mm;  /* never reject |e| <= this */
     uint8_t warmup_rows;     /* rows buffered at each (re)start */
     uint8_t noise_shift;     /* R tracking gain 2^-shift (0: replace each window) */
-    bool process_noise_auto; /* Q and R learned from the data (kalman_form.h, "auto"): Q
+    bool process_noise_auto; /* Q and R learned from the data (kalman_track.c, "auto"): Q
                                 starts at process_noise_mm2, R at initial_noise_mm2 */
+};
+
+/* The covariance and what makes its updates cheap (kalman_track.c): P, and the block
+ * update's form of P (mantissas P ≈ bm · 2^be, packed upper triangle, while bvalid, taken
+ * from p brows rows ago); each update's gain for the steady state (Q > 0); the static
+ * run (Q = 0); what process_noise_auto learns from. */
+struct kalman_cov {
+    fix_q32_t p[KALMAN_STATES][KALMAN_STATES];
+    int32_t be;
+    int32_t bm[6];
+    int32_t gain[ANGLES_SENSORS][KALMAN_STATES]; /* each update's gain, Q31 (steady state) */
+    /* process_noise_auto (kalman_track.c): running means of the samples of q_x̄ and q_t
+     * (Q24 mm² per row) and of each sensor's squared consecutive difference (Q16 mm²); the
+     * block sums of y_x̄, y_α, y_β (this block's and the one before) */
+    int32_t mean_q[2];
+    int32_t mean_d[ANGLES_SENSORS];
+    int32_t blk_sum[KALMAN_STATES];
+    int32_t blk_prev[KALMAN_STATES];
+    uint16_t last_mm[ANGLES_SENSORS]; /* the previous row's readings (last_valid) */
+    uint16_t n_q;                     /* blocks sampled so far (saturating) */
+    uint16_t n_d;                     /* rows sampled so far (saturating) */
+    uint8_t last_valid;
+    uint8_t blk_rows;
+    bool blk_prev_valid;
+    uint8_t brows;
+    bool bvalid;
+    bool steady;          /* the gains above are at the fixed point: kalman_track_row */
+    bool predict_pending; /* kalman_track_predict() done, P += Q not yet applied */
+    /* the static run (Q = 0, kalman_static.c): while `still`, P = M⁻¹/(u − 1), not in p */
+    bool still;
+    bool still_broken;   /* a row since the start was not four accepted readings (or R
+                            changed): P is no longer M⁻¹/c */
+    int32_t run_kappa;   /* x̄'s weight of e_A + e_C, Q31 */
+    int32_t run_wp[2];   /* per slope α, β: the weight of e_p (C, B), Q31 */
+    int32_t run_wm[2];   /* ... and of e_m (A, D), Q31 */
+    int64_t run_u;       /* c + 1 of the next row, Q32 */
+    int64_t run_minv[6]; /* M⁻¹ of the run's R, packed upper triangle, Q32 mm² */
 };
 
 struct kalman_state {
@@ -122,13 +132,12 @@ struct kalman_state {
     uint8_t reject_run[ANGLES_SENSORS]; /* consecutive gated-out readings per sensor */
     uint32_t restarts; /* lock-outs, definiteness failures, and the facade's restart on a wrong R
                           guess */
-    uint32_t numeric_restarts;            /* definiteness failures alone (covariance form) */
+    uint32_t numeric_restarts;            /* definiteness failures alone */
     uint64_t gate_s_max;                  /* s up to which s·k² fits 64 bits (fast gate) */
     uint64_t gate_accept[ANGLES_SENSORS]; /* e24² below this: inside the gate for any s >= R */
-    bool process_noise;                   /* some Q entry is non-zero: the tracking form */
-    struct {                              /* the running form's state (kalman_form.h) */
-        uint64_t words[KALMAN_FORM_WORDS];
-    } form;
+    bool process_noise;                   /* some Q entry is non-zero, or auto: the filter
+                                             tracks (no restart at a window's start) */
+    struct kalman_cov cov;
 };
 
 /* Outcome of one kalman_push_row(): the rows it processed, oldest first (a
@@ -165,9 +174,7 @@ void kalman_reset(struct kalman_state *k);
  * or with process_noise_auto the one learned so far. */
 void kalman_process_noise(const struct kalman_state *k, fix_q32_t q[KALMAN_STATES]);
 
-/* One row. Covariance form: predict (P += Q), then one scalar update per valid
- * reading, A..D. Information form: every valid reading gated against the state
- * before the row, the accepted ones added, one solve.
+/* One row: predict (P += Q), then one scalar update per valid reading, A..D.
  * valid_mask: sensors present with status 0. Reports what was processed. */
 void kalman_push_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENSORS],
                      uint8_t valid_mask, struct kalman_rows *out);
@@ -181,7 +188,7 @@ void kalman_flush(struct kalman_state *k, struct kalman_rows *out);
  * started the filter (kalman_push_row, kalman_flush): the reading is not used. */
 bool kalman_update(struct kalman_state *k, unsigned sensor, uint16_t range_mm, bool gate);
 
-/* The covariance of the state (Q32 mm²), either form. */
+/* The covariance of the state (Q32 mm²). */
 void kalman_covariance(const struct kalman_state *k, fix_q32_t p[KALMAN_STATES][KALMAN_STATES]);
 
 /* Feeds the gated sample variance (Q32 mm²) of `count` readings of a sensor in
