@@ -20,8 +20,7 @@ const char *attitude_error_message(int err) {
     case ATTITUDE_ERR_PAPER_ITERATIONS:
         return "paper_max_iterations is 0";
     case ATTITUDE_ERR_KALMAN_PROCESS_NOISE:
-        return "kalman_process_noise_um2 too large, or not 0 in an image built without the "
-               "tracking form";
+        return "kalman_process_noise_um2 too large";
     case ATTITUDE_ERR_KALMAN_MEASUREMENT_NOISE:
         return "kalman_initial_noise_um2 below 83334 (1/12 mm², the 1 mm rounding)";
     case ATTITUDE_ERR_KALMAN_WARMUP:
