@@ -268,26 +268,10 @@ FIX_INLINE void block_sub(struct kalman_state *k, struct pblock *b, unsigned idx
     cv->bm[idx] = (int32_t)mantissa;
 }
 
-/* One scalar update on the block: 1 accepted, 0 gated out, BLOCK_NOT_POSSIBLE when the
- * conditions above fail (nothing changed). */
-static int block_update(struct kalman_state *k, struct pblock *b, unsigned sensor, fix_q32_t z_mm,
-                        bool gate) {
-    struct kalman_cov *cv = &k->cov;
-    int32_t *m = cv->bm;
-    /* The int32 sums below rely on |m| <= max P_ii < 2^28, true of a block when it is
-     * taken; a nearly singular P can lose it inside a row (the updates overshoot and a
-     * diagonal turns negative: found by tests/fuzz). Such a row goes on exactly, and the
-     * definiteness check at its end sees what happened. Each m + 2^28 is below 2^29
-     * exactly when its bits from 29 up are clear, so one test of their OR checks all six
-     * (a sixth of a row's cost as a loop of compares). */
-    const uint32_t bias = (uint32_t)1 << BLOCK_TOP_BITS;
-    const uint32_t any_high = ((uint32_t)m[0] + bias) | ((uint32_t)m[1] + bias) |
-                              ((uint32_t)m[2] + bias) | ((uint32_t)m[3] + bias) |
-                              ((uint32_t)m[4] + bias) | ((uint32_t)m[5] + bias);
-    if ((any_high >> (BLOCK_TOP_BITS + 1)) != 0u) {
-        return BLOCK_NOT_POSSIBLE;
-    }
-    int32_t g[KALMAN_STATES]; /* |g_i| <= 2 max P_ii < 2^29 */
+/* g = P h and hᵀPh of sensor's row h (Eq. 5: A [1, −1, 0], B [1, 0, 1], C [1, 1, 0],
+ * D [1, 0, −1]) on the block's mantissas m, and the prediction h x. */
+FIX_INLINE int32_t block_ph(const struct kalman_state *k, const int32_t *m, unsigned sensor,
+                            int32_t g[KALMAN_STATES], fix_q32_t *pred_out) {
     int32_t hph;
     fix_q32_t pred;
     switch (sensor) {
@@ -320,6 +304,68 @@ static int block_update(struct kalman_state *k, struct pblock *b, unsigned senso
         pred = k->x[0] - k->x[2];
         break;
     }
+    *pred_out = pred;
+    return hph;
+}
+
+/* The accepted update itself: gains g / s_b in Q31 (kept for the steady state), x += k e,
+ * P −= g kᵀ on the block. Returns 1, or BLOCK_NOT_POSSIBLE (nothing changed) when s_b is
+ * outside the range the normalisation covers. */
+FIX_INLINE int block_accept(struct kalman_state *k, struct pblock *b, unsigned sensor,
+                            const int32_t g[KALMAN_STATES], int64_t s_b, int32_t e24) {
+    struct kalman_cov *cv = &k->cov;
+    /* s_b = sm · 2^es, sm in [2^30, 2^31); rm ≈ 2^61 / sm (relative error < 2^-28) */
+    int32_t es;
+    const uint32_t sm = fix_norm31_inline((uint64_t)s_b, &es);
+    if (es < -9 || es > 31) {
+        return BLOCK_NOT_POSSIBLE; /* unreachable: 2^21 <= s_b < 2^62 */
+    }
+    const int32_t rm = fix_recip31_inline(sm);
+    /* gains in Q31: k = g · 2^31 / s_b = g · rm / 2^(30 + es), |k| < 1 */
+    const int32_t gain_shift_signed = 30 + es;
+    const unsigned gain_shift = (unsigned)gain_shift_signed; /* in [20, 61] */
+    const int32_t k0 = shr_to_s32((int64_t)g[0] * rm, gain_shift);
+    const int32_t k1 = shr_to_s32((int64_t)g[1] * rm, gain_shift);
+    const int32_t k2 = shr_to_s32((int64_t)g[2] * rm, gain_shift);
+    cv->gain[sensor][0] = k0; /* for the steady state (kalman_track_row) */
+    cv->gain[sensor][1] = k1;
+    cv->gain[sensor][2] = k2;
+    /* x += k e: Q31 x Q24 = Q55 -> Q32 */
+    k->x[0] += fix_round_shr_s64((int64_t)k0 * e24, 23u);
+    k->x[1] += fix_round_shr_s64((int64_t)k1 * e24, 23u);
+    k->x[2] += fix_round_shr_s64((int64_t)k2 * e24, 23u);
+    /* P −= g kᵀ: exactly into dec, rounded to the block unit for the row's next update */
+    block_sub(k, b, 0u, (int64_t)g[0] * k0);
+    block_sub(k, b, 1u, (int64_t)g[0] * k1);
+    block_sub(k, b, 2u, (int64_t)g[0] * k2);
+    block_sub(k, b, 3u, (int64_t)g[1] * k1);
+    block_sub(k, b, 4u, (int64_t)g[1] * k2);
+    block_sub(k, b, 5u, (int64_t)g[2] * k2);
+    return 1;
+}
+
+/* One scalar update on the block: 1 accepted, 0 gated out, BLOCK_NOT_POSSIBLE when the
+ * conditions above fail (nothing changed). */
+static int block_update(struct kalman_state *k, struct pblock *b, unsigned sensor, fix_q32_t z_mm,
+                        bool gate) {
+    struct kalman_cov *cv = &k->cov;
+    int32_t *m = cv->bm;
+    /* The int32 sums below rely on |m| <= max P_ii < 2^28, true of a block when it is
+     * taken; a nearly singular P can lose it inside a row (the updates overshoot and a
+     * diagonal turns negative: found by tests/fuzz). Such a row goes on exactly, and the
+     * definiteness check at its end sees what happened. Each m + 2^28 is below 2^29
+     * exactly when its bits from 29 up are clear, so one test of their OR checks all six
+     * (a sixth of a row's cost as a loop of compares). */
+    const uint32_t bias = (uint32_t)1 << BLOCK_TOP_BITS;
+    const uint32_t any_high = ((uint32_t)m[0] + bias) | ((uint32_t)m[1] + bias) |
+                              ((uint32_t)m[2] + bias) | ((uint32_t)m[3] + bias) |
+                              ((uint32_t)m[4] + bias) | ((uint32_t)m[5] + bias);
+    if ((any_high >> (BLOCK_TOP_BITS + 1)) != 0u) {
+        return BLOCK_NOT_POSSIBLE;
+    }
+    int32_t g[KALMAN_STATES]; /* |g_i| <= 2 max P_ii < 2^29 */
+    fix_q32_t pred;
+    const int32_t hph = block_ph(k, m, sensor, g, &pred);
     const fix_q32_t e = z_mm - pred;
     /* e in [−2^39, 2^39) (128 mm) exactly when its high word is in [−128, 127]; then e24
      * below fits int32 and |k e24| < 2^62 */
@@ -352,34 +398,7 @@ static int block_update(struct kalman_state *k, struct pblock *b, unsigned senso
             return 0;
         }
     }
-    /* s_b = sm · 2^es, sm in [2^30, 2^31); rm ≈ 2^61 / sm (relative error < 2^-28) */
-    int32_t es;
-    const uint32_t sm = fix_norm31_inline((uint64_t)s_b, &es);
-    if (es < -9 || es > 31) {
-        return BLOCK_NOT_POSSIBLE; /* unreachable: 2^21 <= s_b < 2^62 */
-    }
-    const int32_t rm = fix_recip31_inline(sm);
-    /* gains in Q31: k = g · 2^31 / s_b = g · rm / 2^(30 + es), |k| < 1 */
-    const int32_t gain_shift_signed = 30 + es;
-    const unsigned gain_shift = (unsigned)gain_shift_signed; /* in [20, 61] */
-    const int32_t k0 = shr_to_s32((int64_t)g[0] * rm, gain_shift);
-    const int32_t k1 = shr_to_s32((int64_t)g[1] * rm, gain_shift);
-    const int32_t k2 = shr_to_s32((int64_t)g[2] * rm, gain_shift);
-    cv->gain[sensor][0] = k0; /* for the steady state (kalman_track_row) */
-    cv->gain[sensor][1] = k1;
-    cv->gain[sensor][2] = k2;
-    /* x += k e: Q31 x Q24 = Q55 -> Q32 */
-    k->x[0] += fix_round_shr_s64((int64_t)k0 * e24, 23u);
-    k->x[1] += fix_round_shr_s64((int64_t)k1 * e24, 23u);
-    k->x[2] += fix_round_shr_s64((int64_t)k2 * e24, 23u);
-    /* P −= g kᵀ: exactly into dec, rounded to the block unit for the row's next update */
-    block_sub(k, b, 0u, (int64_t)g[0] * k0);
-    block_sub(k, b, 1u, (int64_t)g[0] * k1);
-    block_sub(k, b, 2u, (int64_t)g[0] * k2);
-    block_sub(k, b, 3u, (int64_t)g[1] * k1);
-    block_sub(k, b, 4u, (int64_t)g[1] * k2);
-    block_sub(k, b, 5u, (int64_t)g[2] * k2);
-    return 1;
+    return block_accept(k, b, sensor, g, s_b, e24);
 }
 
 /* The valid readings of one row, A..D: block updates while they apply, exact ones
@@ -478,72 +497,10 @@ void kalman_track_r_changed(struct kalman_state *k) {
     k->cov.still_broken = true; /* the rows so far were weighed with the old R */
 }
 
-/* --- the steady state -------------------------------------------------------------------
- * With Q > 0 and R constant, P converges to the fixed point of the Riccati recursion, and
- * with it the four scalar updates' gains: once a row with all four readings (every one a
- * block update, none gated out) leaves P settled (below), its gains are kept and the following rows
- * with all four readings are x += k_s e_s alone, A..D, P left at that fixed point (tests/reference:
- * the ratio to the optimal filter is unchanged to three decimals). Anything else ends it: a reading
- * missing, one outside the gate's sure-accept bound (the row then runs in full, gated
- * exactly), an R or Q change, a reset. */
-#define STEADY_TOL_SHIFT 8u
-
-/* One steady row, all four readings; false (x unchanged) when one may be gated out or
- * is 128 mm or more from its prediction. */
-static bool steady_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENSORS], bool gate) {
-    const struct kalman_cov *cv = &k->cov;
-    const fix_q32_t x0 = k->x[0];
-    const fix_q32_t x1 = k->x[1];
-    const fix_q32_t x2 = k->x[2];
-    const bool gated = gate && k->cfg.gate_sigmas_q8 != 0u;
-    for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
-        const unsigned j = kalman_h_index(s);
-        const fix_q32_t pred = kalman_h_minus(s) ? k->x[0] - k->x[j] : k->x[0] + k->x[j];
-        const fix_q32_t e = ((fix_q32_t)range_mm[s] << FIX_Q32_SHIFT) - pred;
-        const uint32_t e_hi = (uint32_t)((uint64_t)e >> 32) + 128u;
-        const int32_t e24 = shr_to_s32(e + 128, 8u);
-        const int64_t e24_sq = (int64_t)e24 * e24;
-        if (e_hi > 255u || (gated && (uint64_t)e24_sq > k->gate_accept[s])) {
-            k->x[0] = x0;
-            k->x[1] = x1;
-            k->x[2] = x2;
-            return false;
-        }
-        for (unsigned i = 0; i < KALMAN_STATES; ++i) {
-            k->x[i] += fix_round_shr_s64((int64_t)cv->gain[s][i] * e24, 23u);
-        }
-    }
-    return true;
-}
-
-/* P settled: every entry moved by at most 2^-STEADY_TOL_SHIFT of the smallest non-zero Q
- * since the row before (`before`, packed upper triangle). Near the fixed point a row
- * moves P by about Q/P of its remaining distance (the recursion contracts by 1 − Q/P per
- * row, P ≈ √(QR) in the scalar case), so the distance left is below 2^-STEADY_TOL_SHIFT
- * of P: the kept gains are within that of the fixed point's, costing the estimate's
- * variance only that squared. */
-static bool settled(const struct kalman_state *k, const fix_q32_t before[6]) {
-    const struct kalman_cov *cv = &k->cov;
-    const fix_q32_t *q = k->cfg.process_noise_mm2;
-    uint64_t q_min = UINT64_MAX;
-    for (unsigned i = 0; i < KALMAN_STATES; ++i) {
-        q_min = q[i] != 0 && (uint64_t)q[i] < q_min ? (uint64_t)q[i] : q_min;
-    }
-    const uint64_t tol = q_min >> STEADY_TOL_SHIFT;
-    const fix_q32_t now[6] = {cv->p[0][0], cv->p[0][1], cv->p[0][2],
-                              cv->p[1][1], cv->p[1][2], cv->p[2][2]};
-    for (unsigned i = 0; i < 6u; ++i) {
-        if (fix_abs_u64(now[i] - before[i]) > tol) {
-            return false;
-        }
-    }
-    return true;
-}
-
 uint8_t kalman_track_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENSORS],
                          uint8_t valid_mask, bool gate, uint8_t *rejected) {
     struct kalman_cov *cv = &k->cov;
-    if (cv->steady && valid_mask == ANGLES_ALL_SENSORS && steady_row(k, range_mm, gate)) {
+    if (cv->steady && valid_mask == ANGLES_ALL_SENSORS && kalman_steady_row(k, range_mm, gate)) {
         cv->predict_pending = false;
         *rejected = 0;
         return ANGLES_ALL_SENSORS;
@@ -574,7 +531,7 @@ uint8_t kalman_track_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_
         const fix_q32_t *q = k->cfg.process_noise_mm2;
         cv->steady = by_block == ANGLES_ALL_SENSORS && used == ANGLES_ALL_SENSORS &&
                      k->numeric_restarts == restarts && (q[0] | q[1] | q[2]) != 0 &&
-                     settled(k, before);
+                     kalman_steady_settled(k, before);
         if (k->process_noise || cv->still_broken) {
             /* Q > 0 (or auto), or P no longer M⁻¹/c: no static run */
         } else if (used == ANGLES_ALL_SENSORS && k->numeric_restarts == restarts) {

@@ -65,4 +65,12 @@ uint8_t kalman_track_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_
 void kalman_track_covariance(const struct kalman_state *k,
                              fix_q32_t p[KALMAN_STATES][KALMAN_STATES]);
 
+/* --- the steady state (kalman_steady.c) --- */
+
+/* One steady row, all four readings, x += k_s e_s with the kept gains; false (x unchanged)
+ * when a reading may be gated out or is 128 mm or more from its prediction. */
+bool kalman_steady_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENSORS], bool gate);
+/* P settled since `before` (packed upper triangle of the row before): its gains may be kept. */
+bool kalman_steady_settled(const struct kalman_state *k, const fix_q32_t before[6]);
+
 #endif /* ESTIMATOR_KALMAN_TRACK_H */
