@@ -34,6 +34,9 @@ const char *vl53_config_check(const struct vl53_config *cfg) {
     if (vl53_timing_check(&cfg->timing) != HAL_OK) {
         return "timing";
     }
+    if (!vl53_offsets_valid(&cfg->offsets)) {
+        return "offsets";
+    }
     return NULL;
 }
 
@@ -56,6 +59,7 @@ int vl53_attach(struct vl53_dev *dev, const struct vl53_config *cfg) {
     dev->boot_state = 0u;
     dev->vhv_running = false;
     dev->vhv_start_us = dev->power_up_us;
+    dev->offset_mismatch_reg = 0u;
     return HAL_OK;
 }
 

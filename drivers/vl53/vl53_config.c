@@ -242,6 +242,12 @@ int vl53_configure_begin(struct vl53_dev *dev) {
         err = vl53_call_write(&c, dev->address, VL53_REG_DEFAULT_CONFIG_FIRST, block, sizeof block);
     }
     if (err == HAL_OK) {
+        /* The offsets the part's NVM loaded, replaced by the recorded state (vl53_offset.c):
+         * after the block, as the ULD's SetOffset follows SensorInit, and before the VHV
+         * range, so every range this boot makes already has them. */
+        err = vl53_write_offsets(&c);
+    }
+    if (err == HAL_OK) {
         /* A part that kept power across an MCU reset may hold a result nobody cleared; its
          * data ready would end the VHV wait at once and the stop would cut the VHV range
          * short. Clear before the start, as the Linux driver's vl53l1x_start_ranging does

@@ -1,9 +1,9 @@
 /*
  * Private to the VL53 driver's files: one call's time budget and its register transfers
- * (vl53_regio.c), and small helpers on the device's state. The files above it
- * (vl53_boot.c, vl53_config.c, vl53_result.c) call down into these, never into each other
- * except through the public vl53.h (vl53_boot.c and vl53_result.c use the timing facts of
- * vl53_config.c).
+ * (vl53_regio.c), the offset registers (vl53_offset.c, over vl53_regio.c), and small
+ * helpers on the device's state. The files above them (vl53_boot.c, vl53_config.c,
+ * vl53_result.c) call down into these, never into each other except through the public
+ * vl53.h (vl53_boot.c and vl53_result.c use the timing facts of vl53_config.c).
  */
 #ifndef VL53_INTERNAL_H
 #define VL53_INTERNAL_H
@@ -67,6 +67,15 @@ int vl53_call_write_byte(const struct call *c, uint16_t reg, uint8_t value);
 
 /* Data ready from GPIO__TIO_HV_STATUS for interrupt polarity `polarity`. */
 int vl53_read_data_ready(const struct call *c, enum vl53_polarity polarity, bool *ready);
+
+/* The offsets a config may carry: the part-to-part field's 13 bits hold them (vl53_offset.c). */
+bool vl53_offsets_valid(const struct vl53_offsets *offsets);
+
+/* Write dev->cfg->offsets to 0x1E..0x23 in one transfer and read them back (vl53_offset.c):
+ * HAL_OK, the bus's error, HAL_ERR_DEVICE if the part holds another value (two read-backs
+ * alike, the model ID right) or else HAL_ERR_CORRUPT; dev->offset_mismatch_reg names the
+ * register on either. */
+int vl53_write_offsets(const struct call *c);
 
 /* The part is (or will be after a reset) stopped: no ranging, no VHV range, no stream. */
 void vl53_forget_ranging(struct vl53_dev *dev);

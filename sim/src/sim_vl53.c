@@ -27,6 +27,12 @@ static void reset_registers(struct sim_vl53 *dev) {
     }
     put_be16_at(dev->regs, M_MODEL_ID, dev->cfg.model_id);
     put_be16_at(dev->regs, M_OSC_CALIBRATE, dev->cfg.osc_calibrate);
+    /* The offsets from the part's NVM, as its firmware copies them at boot ([NVM]). */
+    const uint16_t p2p = (uint16_t)dev->cfg.nvm_part_to_part_qmm;
+    put_be16_at(dev->regs, M_PART_TO_PART_OFFSET, p2p);
+    dev->regs[M_PART_TO_PART_OFFSET] &= M_PART_TO_PART_HI_MASK;
+    put_be16_at(dev->regs, M_INNER_OFFSET, (uint16_t)dev->cfg.nvm_inner_offset_mm);
+    put_be16_at(dev->regs, M_OUTER_OFFSET, (uint16_t)dev->cfg.nvm_outer_offset_mm);
 }
 
 static void power_up(struct sim_vl53 *dev) {
@@ -97,7 +103,13 @@ static void write_register(struct sim_vl53 *dev, uint16_t reg, uint8_t value,
         dev->stats.readonly_writes++;
         return;
     }
+    if (reg >= M_PART_TO_PART_OFFSET && reg <= M_OFFSET_LAST && dev->cfg.ignores_offset_writes) {
+        return; /* the defect: ACKed, kept what NVM loaded */
+    }
     switch (reg) {
+    case M_PART_TO_PART_OFFSET:
+        dev->regs[reg] = (uint8_t)(value & M_PART_TO_PART_HI_MASK); /* bits 15:13 not kept */
+        break;
     case M_VHV_LOOP_BOUND:
     case M_VHV_INIT:
         dev->regs[reg] = value;

@@ -40,6 +40,23 @@ static uint8_t raw_for_status(uint8_t uld_status) {
     return uld_status < sizeof raw_of ? raw_of[uld_status] : 0xFFu;
 }
 
+/* The range the part reports for the source's `distance_mm`: plus 0x1E / 4 mm ([OFS]),
+ * rounded half up and kept in 0..8189, when it is a range at all (not 0, not a no-target
+ * code at or above 8190). */
+static uint16_t with_offset(const struct sim_vl53 *dev, uint16_t distance_mm) {
+    if (distance_mm == 0u || distance_mm >= M_NO_TARGET_MM) {
+        return distance_mm;
+    }
+    const uint16_t field = be16_at(dev->regs, M_PART_TO_PART_OFFSET) & 0x1FFFu;
+    const int32_t qmm = (field & 0x1000u) != 0u ? (int32_t)field - 0x2000 : (int32_t)field;
+    const int32_t quarters = (int32_t)distance_mm * 4 + qmm + 2; /* + 2: round half up */
+    if (quarters < 0) {
+        return 0u; /* a target closer than the offset: clipped at the window */
+    }
+    const int32_t reported = quarters / 4;
+    return (uint16_t)(reported < (int32_t)M_NO_TARGET_MM ? reported : (int32_t)M_NO_TARGET_MM - 1);
+}
+
 static struct sim_range constant_range(void) {
     struct sim_range r = {100u, 0u, true};
     return r;
@@ -72,7 +89,7 @@ static void publish(struct sim_vl53 *dev, const struct sim_range *range, uint32_
         raw = M_RAW_NO_VHV; /* the VHV step not done: "no VHV value found" (assumption) */
         dev->stats.no_vhv_results++;
     } else {
-        /* the source's status */
+        distance_mm = with_offset(dev, distance_mm); /* the source's status, the part's range */
     }
     /* Signal rate falls with the square of distance: 1 MCPS (128 in 9.7) at 1 m. A model
      * choice so the field moves plausibly, not a physical calibration. */

@@ -14,6 +14,16 @@
  *   [REG] ST full API register map vl53l1_register_map.h: register names and bit fields.
  *   [API] ST full API core: stream count wraps 0xFF -> 0x80.
  *   [FR]  field report quoted in issue 14: the first range after ST's block takes 103 ms.
+ *   [NVM] ST full API: vl53l1_register_map.h puts 0x1E, 0x20, 0x22 in the group
+ *         "customer_nvm_managed", and vl53l1_api_core.c (VL53L1_read_p2p_data) reads that
+ *         group as "G02 registers containing data copied from NVM" once the part has booted;
+ *         ST's NVM map (vl53l1_nvm_map.h) holds factory and customer copies of the offsets.
+ *   [OFS] [ULD] VL53L1X_CalibrateOffset: zero 0x1E/0x20/0x22, average the ranges, offset =
+ *         target - average, write offset x 4 to 0x1E: the part reports its range plus
+ *         0x1E / 4. [REG]: 0x1E bits 12:0 signed, fixed point 11.2; 0x20/0x22 signed mm for
+ *         the MM1/MM2 steps (0x81 bits 5/6, vl53l1_register_settings.h), which ST's block
+ *         leaves off (0x81 = 0x9B); the full API then copies outer x 4 into 0x1E
+ *         (vl53l1_api_core.c, "MM1/MM2 disabled").
  */
 #ifndef SIM_VL53_REGS_H
 #define SIM_VL53_REGS_H
@@ -24,6 +34,14 @@
 #define M_VHV_INIT        0x000Bu /* VHV_CONFIG__INIT [REG] */
 #define M_VHV_BOUND_TWO   0x09u   /* [ULD] SensorInit: "two bounds VHV" */
 #define M_VHV_INIT_PREV   0x00u   /* [ULD] SensorInit: "start VHV from the previous temperature" */
+
+/* The part's range offsets, loaded from NVM at power-up [NVM], applied as [OFS] says. */
+#define M_PART_TO_PART_OFFSET  0x001Eu /* 13-bit signed quarter mm, bits 12:0 [REG] */
+#define M_PART_TO_PART_HI_MASK 0x1Fu   /* bits 12:8 in the high byte; 15:13 read as 0 */
+#define M_INNER_OFFSET         0x0020u /* 16-bit signed mm [REG] */
+#define M_OUTER_OFFSET         0x0022u /* 16-bit signed mm [REG] */
+#define M_OFFSET_LAST          0x0023u
+#define M_NO_TARGET_MM         8190u /* a distance code, not a range: no offset applied */
 
 /* The block [ULD] writes after boot, and the three of its registers that make the part
  * range at all: sequence config (bit 7 range enable [REG]), firmware enable (bit 0 [REG]),

@@ -6,9 +6,10 @@
  * block with range status and stream count, GPIO1 output with polarity), fed by a
  * struct sim_range_source. It ranges only once configured as ST's bring-up does it:
  * the default-configuration block 0x2D..0x87, the VHV step, a valid mode/budget
- * encoding (see sim_vl53_refusal). Integer only, no heap; built for Cortex-M as well.
- * Its register facts are its own (src/sim_vl53_regs.h, with sources), not the driver's;
- * which behaviours ST documents and which are the model's assumptions: docs/driver.md.
+ * encoding (see sim_vl53_refusal). Its offset registers 0x1E/0x20/0x22 come from a per-part
+ * NVM at power-up and shift the reported range as ST says. Integer only, no heap; built for
+ * Cortex-M as well. Its register facts are its own (src/sim_vl53_regs.h, with sources), not the
+ * driver's; which behaviours ST documents and which are the model's assumptions: docs/driver.md.
  */
 #ifndef SIM_VL53_H
 #define SIM_VL53_H
@@ -46,6 +47,14 @@ struct sim_vl53_config {
     uint16_t ambient_raw;        /* AMBIENT_COUNT_RATE_MCPS_SD0, 9.7 format (0: 64) */
     enum sim_vl53_index_mode index_mode;
     uint32_t index_period_us; /* for SIM_VL53_INDEX_BY_TIME */
+    /* What the part's NVM loads into its offset registers at every power-up (0 each: the
+     * source's distances come out unchanged until something writes them). The range the
+     * part reports is the source's distance plus 0x1E / 4 mm, rounded (src/sim_vl53_regs.h
+     * [OFS]); 0x20 / 0x22 only serve the MM1/MM2 steps the model does not run. */
+    int16_t nvm_part_to_part_qmm; /* 0x001E, quarter mm, -4096..4095 (13 bits kept) */
+    int16_t nvm_inner_offset_mm;  /* 0x0020 */
+    int16_t nvm_outer_offset_mm;  /* 0x0022 */
+    bool ignores_offset_writes;   /* defect: writes to 0x1E..0x23 are ACKed but change nothing */
 };
 
 /* A result the model wrote to its result block (for checks from outside). */

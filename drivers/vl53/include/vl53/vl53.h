@@ -112,6 +112,18 @@ struct vl53_timing {
     uint32_t inter_measurement_ms; /* budget_ms + VL53_IMP_MARGIN_MS .. VL53_IMP_MAX_MS */
 };
 
+/*
+ * The state the driver writes to the part's own offset registers at every bring-up
+ * (vl53_configure_begin), whatever the part's NVM loaded there: the same readings on every
+ * boot. All zero (the product's choice, docs/driver.md "The parts' offset registers"): the
+ * part reports its range uncorrected and the head calibration (HEAD.cal) owns the offset.
+ */
+struct vl53_offsets {
+    int16_t part_to_part_qmm; /* 0x001E, quarter mm (11.2): -4096..4095 = -1024..+1023.75 mm */
+    int16_t inner_mm;         /* 0x0020, mm (MM1/MM2 steps, off in ST's block) */
+    int16_t outer_mm;         /* 0x0022, mm */
+};
+
 /* Per-sensor constant configuration. Fields documented "0: default" take the VL53_DEFAULT_*. */
 struct vl53_config {
     struct hal_i2c i2c;
@@ -135,6 +147,8 @@ struct vl53_config {
     /* NULL: ST's default configuration (vl53_default_config.h), always written at init.
      * Otherwise 91 bytes written instead (an integrator's override, e.g. a newer ST table). */
     const uint8_t *vendor_default_config;
+    /* Written to 0x1E/0x20/0x22 at every bring-up and read back; zero-initialised: all 0. */
+    struct vl53_offsets offsets;
 };
 
 /* One measurement as read from the result block. */
@@ -170,6 +184,7 @@ struct vl53_dev {
     uint8_t boot_state; /* FIRMWARE__SYSTEM_STATUS when vl53_wait_boot() saw it booted */
     bool vhv_running;   /* vl53_configure_begin() started the VHV range */
     uint32_t vhv_start_us;
+    uint16_t offset_mismatch_reg; /* see vl53_offset_mismatch_register() */
 };
 
 /*
@@ -210,15 +225,22 @@ int vl53_identify(struct vl53_dev *dev, uint16_t *model_id);
  */
 int vl53_set_address(struct vl53_dev *dev, uint8_t new_address);
 
+/* The offset register (0x001E, 0x0020 or 0x0022) whose read-back differed from what the
+ * last vl53_configure_begin() wrote, or 0 if none did. */
+uint16_t vl53_offset_mismatch_register(const struct vl53_dev *dev);
+
 /* True if the last successful vl53_wait_boot() read a boot state other than 0x01: the part
  * had been running before (it kept power across an MCU reset). */
 bool vl53_warm_boot(const struct vl53_dev *dev);
 
 /*
  * First half of ST's bring-up (docs/driver.md): stop, write the 91-byte default
- * configuration (pads per cfg->pads_at_avdd) and start the VHV range, which runs at the
- * block's own timing (~100 ms). Returns at once (call_budget_us); other sensors can be
- * brought up meanwhile. Finish with vl53_configure_finish().
+ * configuration (pads per cfg->pads_at_avdd), write cfg->offsets to 0x1E..0x23 and read them
+ * back, and start the VHV range, which runs at the block's own timing (~100 ms). Returns at
+ * once (call_budget_us); other sensors can be brought up meanwhile. Finish with
+ * vl53_configure_finish(). An offset register that reads back otherwise, twice alike with
+ * the model ID read right between, is HAL_ERR_DEVICE (the part does not take the value;
+ * vl53_offset_mismatch_register() names it); otherwise a mismatch is HAL_ERR_CORRUPT.
  */
 int vl53_configure_begin(struct vl53_dev *dev);
 

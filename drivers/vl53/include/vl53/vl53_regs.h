@@ -15,6 +15,11 @@
  *         (VCSEL continuity, VCSEL watchdog, no VHV value, multi-clip) are
  *         VL53L1_RANGESTATUS_HARDWARE_FAIL; 9 with stream count 0 is RANGE_VALID_NO_WRAP_CHECK.
  *   [I4]  issue 4 of this project, which lists the register facts it relies on.
+ *   [P2P] ST full API vl53l1_register_map.h on 0x001E/0x0020/0x0022 (group
+ *         "customer_nvm_managed": registers the part's firmware fills from its NVM at boot,
+ *         vl53l1_api_core.c VL53L1_read_p2p_data: "G02 registers containing data copied from
+ *         NVM"); [ULD] VL53L1X_SetOffset / GetOffset / CalibrateOffset (0x1E = offset x 4,
+ *         inner and outer zeroed); vl53l1_register_settings.h (0x81 bits 5, 6 = MM1, MM2).
  *   [I14] issue 14: boot state 0x02/0x03 seen at 0x00E5 on a part that kept power across an
  *         MCU reset; the block's first range measured at 103 ms (a field report).
  */
@@ -40,6 +45,21 @@
 /* IDENTIFICATION__MODEL_ID (16-bit read): 0xEACC on a VL53L1X ([ULD] GetSensorId, [I4]). */
 #define VL53_REG_IDENTIFICATION_MODEL_ID 0x010Fu
 #define VL53_MODEL_ID_VL53L1X            0xEACCu
+
+/* --- the part's own range offsets ([P2P]) -------------------------------------
+ * ALGO__PART_TO_PART_RANGE_OFFSET_MM: bits 12:0, signed, fixed point 11.2 (0.25 mm steps);
+ * [ULD] SetOffset writes offset_mm x 4 here, CalibrateOffset computes that offset as target
+ * minus the mean range measured with all three zeroed, so the part reports its range plus
+ * this value. MM_CONFIG__INNER_OFFSET_MM / __OUTER_OFFSET_MM: 16-bit signed mm, used by the
+ * MM1/MM2 steps (0x81 bits 5, 6), which ST's default block leaves off; [ULD] SetOffset zeroes
+ * both. All three are loaded from the part's NVM at boot, six consecutive bytes. */
+#define VL53_REG_ALGO_PART_TO_PART_RANGE_OFFSET_MM 0x001Eu
+#define VL53_REG_MM_CONFIG_INNER_OFFSET_MM         0x0020u
+#define VL53_REG_MM_CONFIG_OUTER_OFFSET_MM         0x0022u
+#define VL53_OFFSET_REGS_LEN                       6u
+#define VL53_PART_TO_PART_MASK                     0x1FFFu
+#define VL53_PART_TO_PART_MIN_QMM                  (-4096)
+#define VL53_PART_TO_PART_MAX_QMM                  4095
 
 /* --- the vendor default-configuration block -------------------------------- */
 /* [ULD] SensorInit writes its 91-byte default configuration to 0x2D..0x87. */
