@@ -40,9 +40,9 @@ int fixture_named(const char *name, struct fixture_config *c) {
         c->beta_deg[s] = attitudes_deg[s % 8u][1];
     }
     c->shuffle = true;
-    /* 20 × 700 readings at 20 ms: 4.7 min at the stations, offsets to about 0.048 mm
-     * (1 sd) at σ = 2 mm (docs/calibration.md). */
-    c->readings_per_station = 700u;
+    /* 20 × 750 readings at 20 ms: 5 min at the stations, offsets stated to 0.049 mm
+     * (1 sd) on average at σ = 2 mm (docs/calibration.md, "How long"). */
+    c->readings_per_station = 750u;
     c->move_rows = 25u;
     c->sigma_mm = 2.0;
     c->offset_range_mm = 20.0; /* VL53L1X datasheet: up to ±20 mm before offset calibration */
