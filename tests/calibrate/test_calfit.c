@@ -214,6 +214,8 @@ static void test_errors(void **state) {
     expect_error(&d, "no row carries truth");
     struct scene_row row = {.has_alpha = true, .has_beta = true, .present = {1, 1, 1, 1}};
     assert_int_equal(calfit_add_row(&d, &row, 4u), 0);
+    assert_int_equal(d.rows_partial_truth, 1);
+    assert_int_equal(d.rows_no_truth, 0);
     expect_error(&d, "no row carries all of alpha_deg, beta_deg and distance_mm");
     calfit_free(&d);
 

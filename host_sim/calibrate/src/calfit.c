@@ -115,7 +115,12 @@ int calfit_add_row(struct calfit_data *d, const struct scene_row *row, uint32_t 
     const bool all = row->has_alpha && row->has_beta && row->has_distance;
     const bool some = row->has_alpha || row->has_beta || row->has_distance;
     if (some && !all) {
+        /* Not a station's row (its true distances are not known) and not the fixture
+         * moving either: counted on its own, and it ends the open station. */
+        d->rows++;
         d->rows_partial_truth++;
+        d->open = false;
+        return 0;
     }
     return calfit_add(d, all, row->alpha_deg, row->beta_deg, row->distance_mm, raw, valid,
                       row->t_ms, line);

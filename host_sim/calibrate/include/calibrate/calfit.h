@@ -103,7 +103,8 @@ int calfit_add(struct calfit_data *d, bool has_truth, double alpha_deg, double b
                const bool valid[CALFIT_SENSORS], uint32_t t_ms, uint32_t line);
 
 /* calfit_add for a trace row: truth when alpha, beta and distance are all present (a row
- * with some but not all is counted in rows_partial_truth and not used). */
+ * with some but not all is counted in rows_partial_truth, not in rows_no_truth, and not
+ * used; it ends the open station as a row without truth does). */
 int calfit_add_row(struct calfit_data *d, const struct scene_row *row, uint32_t line);
 
 /*
