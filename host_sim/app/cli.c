@@ -6,6 +6,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "calibrate.h"
+#include "calibrate/fixture.h"
 #include "vl53/vl53.h"
 
 const char *const cli_estimator_names[] = {"consensus", "consensus-paper", "kalman", "mean", NULL};
@@ -156,10 +158,15 @@ bool cli_print_help(const char *cmd, const char *const *scenario_names, FILE *f)
         fputs(replay_help, f);
     } else if (strcmp(cmd, "campaign") == 0) {
         fputs(campaign_help, f);
+    } else if (strcmp(cmd, "calibrate") == 0) {
+        fputs(calibrate_help, f);
     } else if (strcmp(cmd, "scenario") == 0) {
         fputs(scenario_help, f);
         for (size_t i = 0; scenario_names != NULL && scenario_names[i] != NULL; ++i) {
             fprintf(f, " %s", scenario_names[i]);
+        }
+        for (size_t i = 0; fixture_names[i] != NULL; ++i) {
+            fprintf(f, " %s", fixture_names[i]); /* docs/calibration.md */
         }
         fputc('\n', f);
     } else {

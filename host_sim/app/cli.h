@@ -6,6 +6,7 @@
  *                             [--faults SPEC] [--seed S] [--i2c-log BUS.csv]
  *                             [--process-noise QD,QT | --process-noise auto]
  *   host_sim scenario NAME [--seed S] --trace-out TRACE.csv
+ *   host_sim calibrate CAL_TRACE.csv --out HEAD.cal [--report CAL.json]   (calibrate.h)
  *   host_sim camera ...      (synthetic ToF camera + pose pipeline; see docs/pose.md)
  */
 #ifndef HOST_SIM_CLI_H

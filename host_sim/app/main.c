@@ -8,6 +8,8 @@
 #include <string.h>
 
 #include "camera/camera_cmd.h"
+#include "calibrate.h"
+#include "calibrate/fixture.h"
 #include "campaign.h"
 #include "cli.h"
 #include "replay.h"
@@ -22,6 +24,7 @@ static void usage(FILE *f) {
           "                  [--faults-until ROW] [--i2c-log BUS.csv]\n"
           "                  [--process-noise QD,QT|auto] [--quiet]\n"
           "  host_sim scenario NAME [--seed S] --trace-out TRACE.csv\n"
+          "  host_sim calibrate CAL_TRACE.csv --out HEAD.cal [--report CAL.json]\n"
           "  host_sim camera --frames K --range-mm R ... (see docs/pose.md)\n"
           "  host_sim campaign [--trace T.csv] [--seed S] [--markdown FILE.md]\n"
           "  host_sim SUBCOMMAND --help   (each subcommand's options)\n"
@@ -32,6 +35,9 @@ static void usage(FILE *f) {
     for (size_t i = 0; scene_scenario_names[i] != NULL; ++i) {
         fprintf(f, " %s", scene_scenario_names[i]);
     }
+    for (size_t i = 0; fixture_names[i] != NULL; ++i) {
+        fprintf(f, " %s", fixture_names[i]);
+    }
     fputc('\n', f);
 }
 
@@ -41,6 +47,14 @@ static int scenario_main(int argc, char **argv) {
         return 2;
     }
     char err[512];
+    struct fixture_config fixture;
+    if (fixture_named(args.name, &fixture) == 0) { /* a calibration fixture (calibrate.h) */
+        if (fixture_write(args.name, args.seed, args.trace_out, err, sizeof err) != 0) {
+            fprintf(stderr, "host_sim scenario: %s\n", err);
+            return 1;
+        }
+        return 0;
+    }
     if (scene_write_scenario(args.name, args.seed, args.trace_out, err, sizeof err) != 0) {
         fprintf(stderr, "host_sim scenario: %s\n", err);
         return 1;
@@ -71,6 +85,9 @@ int main(int argc, char **argv) {
     }
     if (strcmp(cmd, "campaign") == 0) {
         return campaign_main(argc - 1, argv + 1);
+    }
+    if (strcmp(cmd, "calibrate") == 0) {
+        return calibrate_main(argc - 1, argv + 1);
     }
     if (strcmp(cmd, "camera") == 0) {
         return host_sim_camera_main(argc - 1, argv + 1);

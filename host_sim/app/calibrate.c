@@ -1,0 +1,241 @@
+/* host_sim calibrate: a fixture trace's stations in, HEAD.cal out (calibrate.h). */
+#include "calibrate.h"
+
+#include <errno.h>
+#include <stdbool.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "calibrate/calfit.h"
+#include "calibrate/head_cal.h"
+#include "scene/trace.h"
+
+const char calibrate_help[] =
+    "usage: host_sim calibrate CAL_TRACE.csv --out HEAD.cal [--report CAL.json]\n"
+    "Fits each sensor's offset and gain (raw = gain * true + offset) from a fixture trace's\n"
+    "stations: runs of rows with the same truth alpha_deg, beta_deg, distance_mm (rows\n"
+    "without truth, the fixture moving, and readings whose status is not 0 are not used),\n"
+    "with their sd from the stations' noise and scatter (docs/calibration.md). With one\n"
+    "fixture distance only the gains are not determined: offsets only, no gain written.\n"
+    "options:\n"
+    "  --out HEAD.cal       the head-calibration file (DESIGN.md section 6a); required\n"
+    "  --report CAL.json    the fit per sensor and the residuals per station\n"
+    "  --help, -h           this text\n"
+    "exit status: 0 written, 1 bad input or a trace it cannot fit, 2 bad command line\n";
+
+struct calibrate_args {
+    const char *trace, *out, *report;
+};
+
+static int usage(const char *what, const char *value) {
+    if (value != NULL) {
+        fprintf(stderr, "host_sim calibrate: %s: '%s'\n", what, value);
+    } else {
+        fprintf(stderr, "host_sim calibrate: %s\n", what);
+    }
+    fprintf(stderr, "run 'host_sim calibrate --help' for usage\n");
+    return -1;
+}
+
+static int parse(int argc, char **argv, struct calibrate_args *a) {
+    memset(a, 0, sizeof *a);
+    for (int i = 1; i < argc; ++i) {
+        const char *arg = argv[i];
+        const char **dest = NULL;
+        if (strcmp(arg, "--out") == 0) {
+            dest = &a->out;
+        } else if (strcmp(arg, "--report") == 0) {
+            dest = &a->report;
+        } else if (arg[0] == '-' && arg[1] != '\0') {
+            return usage("unknown option", arg);
+        } else if (a->trace == NULL) {
+            a->trace = arg;
+            continue;
+        } else {
+            return usage("more than one trace given", arg);
+        }
+        if (i + 1 >= argc) {
+            return usage("option needs a value", arg);
+        }
+        *dest = argv[++i];
+    }
+    if (a->trace == NULL) {
+        return usage("missing CAL_TRACE.csv", NULL);
+    }
+    if (a->out == NULL) {
+        return usage("missing --out HEAD.cal", NULL);
+    }
+    return 0;
+}
+
+/* Every row of the trace into d. 0, or -1 with "file:line:col: what" in err. */
+static int read_trace(const char *path, struct calfit_data *d, char *err, size_t errlen) {
+    FILE *f = fopen(path, "rb");
+    if (f == NULL) {
+        snprintf(err, errlen, "%s: cannot open: %s", path, strerror(errno));
+        return -1;
+    }
+    struct trace_reader *r = malloc(sizeof *r);
+    int rc = r != NULL ? trace_reader_open(r, f, path) : -1;
+    if (r == NULL) {
+        snprintf(err, errlen, "%s: out of memory", path);
+    } else if (rc != 0) {
+        snprintf(err, errlen, "%s", trace_reader_error(r));
+    } else {
+        /* Whole millimetres, as VL53 parts report and trace v1 stores them. */
+        calfit_init(d, r->meta.arm_mm, 1.0);
+        for (;;) {
+            struct scene_row row;
+            const int got = trace_reader_next(r, &row);
+            if (got == 1) {
+                break;
+            }
+            if (got < 0) {
+                snprintf(err, errlen, "%s", trace_reader_error(r));
+                rc = -1;
+                break;
+            }
+            if (calfit_add_row(d, &row, (uint32_t)r->last_row_line) != 0) {
+                snprintf(err, errlen, "%s: out of memory", path);
+                rc = -1;
+                break;
+            }
+        }
+    }
+    free(r);
+    fclose(f);
+    return rc;
+}
+
+/* "key=v1,v2,v3,v4", each value with `decimals` decimals. */
+static void four(char *buf, size_t len, const char *key, int decimals, const double v[4]) {
+    int n = snprintf(buf, len, "%s=", key);
+    for (unsigned k = 0; k < 4u && n > 0 && (size_t)n < len; ++k) {
+        n += snprintf(buf + n, len - (size_t)n, "%.*f", decimals, v[k]);
+        if (k < 3u && (size_t)n < len) {
+            n += snprintf(buf + n, len - (size_t)n, ",");
+        }
+    }
+}
+
+static int write_cal(const char *path, const char *trace, const struct calfit_data *d,
+                     const struct calfit_result *res) {
+    struct head_cal cal = {.has_gain = res->gains};
+    double noise[4], tau[4], ratio[4], rms[4], corr[4], readings[4];
+    for (unsigned k = 0; k < 4u; ++k) {
+        const struct calfit_sensor *s = &res->sensor[k];
+        cal.offset_mm[k] = s->offset_mm;
+        cal.offset_sd_mm[k] = s->offset_sd_mm;
+        cal.gain[k] = s->gain;
+        cal.gain_sd[k] = s->gain_sd;
+        noise[k] = s->noise_sd_mm;
+        tau[k] = s->tau;
+        ratio[k] = s->chi2_red;
+        rms[k] = s->residual_rms_mm;
+        corr[k] = s->corr;
+        readings[k] = (double)s->readings;
+    }
+    char kv[12][HEAD_CAL_VALUE_MAX + HEAD_CAL_KEY_MAX];
+    const char *extra[13];
+    unsigned n = 0;
+    snprintf(kv[n++], sizeof kv[0], "fit=%s", res->gains ? "offsets+gains" : "offsets");
+    snprintf(kv[n++], sizeof kv[0], "arm_mm=%.6g", d->arm_mm);
+    snprintf(kv[n++], sizeof kv[0], "stations=%zu", d->n_stations);
+    four(kv[n++], sizeof kv[0], "readings", 0, readings);
+    snprintf(kv[n++], sizeof kv[0], "distance_range_mm=%.3f,%.3f", d->distance_min_mm,
+             d->distance_max_mm);
+    if (!res->gains) {
+        snprintf(kv[n++], sizeof kv[0], "cal_distance_mm=%.3f", d->distance_min_mm);
+    } else {
+        four(kv[n++], sizeof kv[0], "offset_gain_corr", 4, corr);
+    }
+    four(kv[n++], sizeof kv[0], "noise_sd_mm", 4, noise);
+    four(kv[n++], sizeof kv[0], "noise_tau", 2, tau);
+    four(kv[n++], sizeof kv[0], "scatter_ratio", 3, ratio);
+    four(kv[n++], sizeof kv[0], "residual_rms_mm", 4, rms);
+    const char *base = strrchr(trace, '/');
+    base = base != NULL ? base + 1 : trace;
+    snprintf(kv[n++], sizeof kv[0], "source=%.100s", base);
+    for (unsigned i = 0; i < n; ++i) {
+        extra[i] = kv[i];
+    }
+    extra[n] = NULL;
+    FILE *f = fopen(path, "wb");
+    if (f == NULL) {
+        fprintf(stderr, "host_sim calibrate: %s: cannot open for writing: %s\n", path,
+                strerror(errno));
+        return -1;
+    }
+    int rc = head_cal_write(f, &cal, extra);
+    if (fclose(f) != 0 || rc != 0) {
+        fprintf(stderr, "host_sim calibrate: %s: write error\n", path);
+        remove(path);
+        return -1;
+    }
+    return 0;
+}
+
+static void summary(const char *trace, const struct calfit_data *d,
+                    const struct calfit_result *res) {
+    fprintf(stderr,
+            "host_sim calibrate: %s: %zu stations from %llu rows; not used: %llu rows without "
+            "truth (moving), %llu with partial truth, readings not valid A %llu B %llu C %llu "
+            "D %llu (in %llu rows)\n",
+            trace, d->n_stations, (unsigned long long)d->rows, (unsigned long long)d->rows_no_truth,
+            (unsigned long long)d->rows_partial_truth, (unsigned long long)d->invalid[0],
+            (unsigned long long)d->invalid[1], (unsigned long long)d->invalid[2],
+            (unsigned long long)d->invalid[3], (unsigned long long)d->rows_with_invalid);
+    if (!res->gains) {
+        fprintf(stderr,
+                "host_sim calibrate: every station at one distance (%.3f mm): gains not "
+                "determined; offsets fitted with gain 1, no gain written (the gain stays at its "
+                "stated prior)\n",
+                d->distance_min_mm);
+    }
+    for (unsigned k = 0; k < 4u; ++k) {
+        const struct calfit_sensor *s = &res->sensor[k];
+        fprintf(stderr,
+                "  %c: offset %.4f +- %.4f mm, gain %.6f +- %.6f, noise %.3f mm (tau %.1f%s), "
+                "scatter ratio %.2f over %u dof\n",
+                'A' + k, s->offset_mm, s->offset_sd_mm, s->gain, s->gain_sd, s->noise_sd_mm, s->tau,
+                s->tau_settled ? "" : ", not settled", s->chi2_red, s->dof);
+    }
+}
+
+int calibrate_main(int argc, char **argv) {
+    struct calibrate_args a;
+    if (parse(argc, argv, &a) != 0) {
+        return 2;
+    }
+    struct calfit_data d;
+    memset(&d, 0, sizeof d);
+    char err[1024];
+    if (read_trace(a.trace, &d, err, sizeof err) != 0) {
+        fprintf(stderr, "host_sim calibrate: %s\n", err);
+        calfit_free(&d);
+        return 1;
+    }
+    struct calfit_result res;
+    int rc = 0;
+    if (calfit_run(&d, &res, err, sizeof err) != 0) {
+        fprintf(stderr, "host_sim calibrate: %s: %s\n", a.trace, err);
+        rc = 1;
+    }
+    if (rc == 0) {
+        summary(a.trace, &d, &res);
+        rc = write_cal(a.out, a.trace, &d, &res) == 0 ? 0 : 1;
+    }
+    if (rc == 0 && a.report != NULL) {
+        FILE *f = fopen(a.report, "wb");
+        int wrc = f != NULL ? calibrate_write_report(f, a.trace, &d, &res) : -1;
+        if (f != NULL && fclose(f) != 0) {
+            wrc = -1;
+        }
+        if (wrc != 0) {
+            fprintf(stderr, "host_sim calibrate: %s: cannot write the report\n", a.report);
+            rc = 1;
+        }
+    }
+    calfit_free(&d);
+    return rc;
+}
