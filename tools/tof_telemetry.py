@@ -35,7 +35,7 @@ HEADER_SIZE = 5
 CRC_SIZE = 2
 FRAME_OVERHEAD = HEADER_SIZE + CRC_SIZE
 MAX_PAYLOAD = 192
-PROTOCOL_VERSION = 2
+PROTOCOL_VERSION = 3
 
 ACCEPT_COMMANDS = 1
 ACCEPT_TELEMETRY = 2
@@ -58,7 +58,7 @@ T_SET_PROCESS_NOISE = 0x87
 TYPES = {
     T_ESTIMATE: ("estimate", ACCEPT_TELEMETRY, 47),
     T_RAW_SAMPLE: ("raw", ACCEPT_TELEMETRY, 17),
-    T_HEALTH: ("health", ACCEPT_TELEMETRY, 144),
+    T_HEALTH: ("health", ACCEPT_TELEMETRY, 148),
     T_ACK: ("ack", ACCEPT_TELEMETRY, 4),
     T_STATUS: ("status", ACCEPT_TELEMETRY, 16),
     T_SET_WINDOW: ("set-window", ACCEPT_COMMANDS, 3),
@@ -273,7 +273,7 @@ def _raw(p):
                    "present": mask}
 
 
-HEALTH_FORMAT = "<I4B16I7I4I7I"
+HEALTH_FORMAT = "<I4B16I7I4I7II"
 
 
 def _health(p):
@@ -288,6 +288,7 @@ def _health(p):
         msg[name] = value
     for name, value in zip(COUNTER_NAMES, f[32:39]):
         msg["rx_" + name] = value
+    msg["uart_overruns"] = f[39]  # protocol 3: received bytes the UART lost
     valid = all(s < len(HEALTH_STATES) for s in msg["state"])
     return valid, msg
 
@@ -439,7 +440,8 @@ def format_message(ftype, seq, m):
             parts.append("%s=%s" % (key, ",".join(str(v) for v in m[key])))
         for key in ["bus_addr_nack", "bus_data_nack", "bus_busy", "bus_timeout", "bus_stuck",
                     "bus_other", "bus_recoveries", "watchdog_resets", "loop_overruns",
-                    "loop_max_us", "tx_dropped"] + ["rx_" + c for c in COUNTER_NAMES]:
+                    "loop_max_us", "tx_dropped"] + ["rx_" + c for c in COUNTER_NAMES] + [
+                        "uart_overruns"]:
             parts.append("%s=%d" % (key, m[key]))
         return head + " ".join(parts)
     if ftype == T_ACK:
