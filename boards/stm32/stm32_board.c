@@ -57,7 +57,7 @@ static void log_uart_init(uint32_t core_hz) {
     log_usart = (struct stm32_usart){
         .base = d->usart_base,
         .brr = (core_hz + STM32_BOARD_LOG_BAUD / 2u) / STM32_BOARD_LOG_BAUD,
-        .spin_max = 20000u, /* one byte is 87 us = 1390 cycles at 16 MHz: >> the polls */
+        .spin_max = 20000u,    /* one byte is 87 us = 1390 cycles at 16 MHz: >> the polls */
         .irq = BOARD_UART_IRQ, /* from the build: the vector table has the same entry */
     };
     stm32_gpio_set_af(d->usart_port, d->usart_tx_pin, d->usart_af);

@@ -1,25 +1,26 @@
-/* Interrupt-driven transmit and receive on an STM32 USARTv2 through ring buffers (stm32_usart.h). */
+/* Interrupt-driven transmit and receive on an STM32 USARTv2 through ring buffers. */
 #include "stm32_usart.h"
 
 #include <stdbool.h>
 
 /* USARTv2 register offsets and bits (RM0351 §40.8 / RM0444 §33.8). */
-#define USART_CR1        0x00u
-#define USART_BRR        0x0Cu
-#define USART_ISR        0x1Cu
-#define USART_ICR        0x20u
-#define USART_RDR        0x24u
-#define USART_TDR        0x28u
-#define USART_CR1_UE     (1u << 0)
-#define USART_CR1_RE     (1u << 2)
-#define USART_CR1_TE     (1u << 3)
-#define USART_CR1_RXNEIE (1u << 5) /* interrupt on RXNE, and on ORE (RM0351 §40.7 Table 253) */
-#define USART_CR1_TXEIE  (1u << 7) /* interrupt on TXE */
-#define USART_ISR_ORE    (1u << 3) /* overrun error; cleared by ICR.ORECF (same bit) */
-#define USART_ISR_RXNE   (1u << 5) /* RXNE (L4) / RXFNE (G0, FIFO disabled: same meaning) */
-#define USART_ISR_TC     (1u << 6) /* transmission complete: the last stop bit has gone */
-#define USART_ISR_TXE    (1u << 7) /* TXE (L4) / TXFNF (G0, FIFO disabled: same meaning) */
-#define NVIC_ISER        0xE000E100u /* set-enable registers, 32 IRQs each (ARMv7-M B3.4.4) */
+#define USART_CR1    0x00u
+#define USART_BRR    0x0Cu
+#define USART_ISR    0x1Cu
+#define USART_ICR    0x20u
+#define USART_RDR    0x24u
+#define USART_TDR    0x28u
+#define USART_CR1_UE (1u << 0)
+#define USART_CR1_RE (1u << 2)
+#define USART_CR1_TE (1u << 3)
+#define USART_CR1_RXNEIE                                                                           \
+    (1u << 5) /* interrupt on RXNE, and on ORE (RM0351 §40.7 "USART interrupts") */
+#define USART_CR1_TXEIE (1u << 7)   /* interrupt on TXE */
+#define USART_ISR_ORE   (1u << 3)   /* overrun error; cleared by ICR.ORECF (same bit) */
+#define USART_ISR_RXNE  (1u << 5)   /* RXNE (L4) / RXFNE (G0, FIFO disabled: same meaning) */
+#define USART_ISR_TC    (1u << 6)   /* transmission complete: the last stop bit has gone */
+#define USART_ISR_TXE   (1u << 7)   /* TXE (L4) / TXFNF (G0, FIFO disabled: same meaning) */
+#define NVIC_ISER       0xE000E100u /* set-enable registers, 32 IRQs each (ARMv7-M B3.4.4) */
 
 /* PRIMASK around a read-modify-write of CR1 that the IRQ handler also changes (TXEIE). */
 static inline uint32_t irq_save(void) {

@@ -66,12 +66,12 @@ struct run {
      * options' window, mode and estimator, then a status request), back to back at the line
      * rate, and with --late-command a status request halfway through the trace. */
     struct host_command cmds[TOF_TWIN_COMMANDS];
-    unsigned ncmds;      /* queued or sent */
-    unsigned nsent;      /* of them sent */
-    unsigned next_ack;   /* the command whose answer comes next if they come in order */
-    uint8_t next_seq;    /* sequence number of the next command */
-    bool mid_sent;       /* the status request halfway through the trace */
-    uint64_t now_ps;     /* when the byte being decoded ended */
+    unsigned ncmds;    /* queued or sent */
+    unsigned nsent;    /* of them sent */
+    unsigned next_ack; /* the command whose answer comes next if they come in order */
+    uint8_t next_seq;  /* sequence number of the next command */
+    bool mid_sent;     /* the status request halfway through the trace */
+    uint64_t now_ps;   /* when the byte being decoded ended */
     uint32_t commands_sent, commands_acked, commands_out_of_order, commands_unmatched;
     uint64_t ack_latency_max_ps; /* last byte of a command to the end of its answer */
     uint32_t status_confirmed, status_mismatch; /* status replies: the options' settings? */

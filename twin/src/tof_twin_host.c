@@ -26,8 +26,8 @@ static void send_queued(struct run *r) {
     unsigned len = 0, first = r->nsent;
     unsigned end_at[TOF_TWIN_COMMANDS];
     for (unsigned k = first; k < r->ncmds; ++k) {
-        const int n = tlm_encode_command(r->cmds[k].seq, &r->cmds[k].cmd, &bytes[len],
-                                         sizeof bytes - len);
+        const int n =
+            tlm_encode_command(r->cmds[k].seq, &r->cmds[k].cmd, &bytes[len], sizeof bytes - len);
         if (n <= 0) {
             fprintf(stderr, "tof_twin: internal: command 0x%02x not encoded\n",
                     r->cmds[k].cmd.type);

@@ -24,12 +24,12 @@
 /* The CR1 bits the model implements (§40.8.1); any other is a configuration it does not
  * model (word length, parity, oversampling by 8, other interrupts...). */
 #define CR1_MODELLED (CR1_UE | CR1_RE | CR1_TE | CR1_RXNEIE | CR1_TCIE | CR1_TXEIE)
-#define ISR_ORE   (1u << 3)
-#define ISR_RXNE  (1u << 5)
-#define ISR_TC    (1u << 6)
-#define ISR_TXE   (1u << 7)
-#define ISR_TEACK (1u << 21)
-#define ISR_REACK (1u << 22)
+#define ISR_ORE      (1u << 3)
+#define ISR_RXNE     (1u << 5)
+#define ISR_TC       (1u << 6)
+#define ISR_TXE      (1u << 7)
+#define ISR_TEACK    (1u << 21)
+#define ISR_REACK    (1u << 22)
 
 /* One 8N1 frame (start, 8 data, stop: 10 bits) at baud = f_CK / USARTDIV, oversampling by
  * 16 (RM0351 §40.5.4 "Baud rate generation"). */
@@ -42,7 +42,7 @@ static uint64_t frame_ps(const struct twin *t) {
  * port), bytes back to back at the line rate: 10 bits, 86.806 us a byte. */
 #define HOST_FRAME_PS (10u * 1000000000000ull / TWIN_HOST_BAUD)
 
-/* The interrupt line to the NVIC (RM0351 §40.7 Table 253 "USART interrupt requests"): TXE
+/* The interrupt line to the NVIC (RM0351 §40.7 "USART interrupts"): TXE
  * with TXEIE, TC with TCIE, RXNE or ORE with RXNEIE; nothing while UE = 0. */
 static bool line(const struct twin_usart *u) {
     if ((u->cr1 & CR1_UE) == 0u) {
