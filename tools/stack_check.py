@@ -291,7 +291,8 @@ def main():
     ap.add_argument("--name", default="image")
     a = ap.parse_args()
     entries = a.entry or ["Reset_Handler"]
-    handlers = a.handler or ["HardFault_Handler", "Default_Handler", "SysTick_Handler"]
+    handlers = a.handler or ["HardFault_Handler", "Default_Handler", "SysTick_Handler",
+                            "Uart_IRQHandler"]
     frames, calls, errors, sources = load(a.root, a.match)
     if not frames:
         print(f"stack_check: no .ci call-graph files under {a.root} matching {a.match}",

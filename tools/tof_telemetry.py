@@ -12,6 +12,12 @@ CSV), counts malformed frames, and optionally plots the estimates.
                                                   +-2 sd bands, redrawn as frames arrive)
     tof_telemetry.py --write-commands cmds.bin --send CMD [--send CMD]...
 
+--send sends its commands one at a time, in order: each waits for its ack or
+nack (matched by the protocol's sequence number), a lost one is sent again with
+the same sequence number (the firmware answers a repeat without applying it
+twice), and a nack or no answer stops the tool with status 1 and a message that
+names it (docs/telemetry.md, "Commands from a host").
+
 Commands for --send: "set-window N [tumbling|sliding]", "estimator NAME"
 (consensus, consensus-paper, kalman, mean), "start", "stop", "status",
 "raw on|off", "process-noise QD,QT|auto" (the Kalman filter's random-walk
@@ -35,7 +41,7 @@ HEADER_SIZE = 5
 CRC_SIZE = 2
 FRAME_OVERHEAD = HEADER_SIZE + CRC_SIZE
 MAX_PAYLOAD = 192
-PROTOCOL_VERSION = 2
+PROTOCOL_VERSION = 3
 
 ACCEPT_COMMANDS = 1
 ACCEPT_TELEMETRY = 2
@@ -58,7 +64,7 @@ T_SET_PROCESS_NOISE = 0x87
 TYPES = {
     T_ESTIMATE: ("estimate", ACCEPT_TELEMETRY, 47),
     T_RAW_SAMPLE: ("raw", ACCEPT_TELEMETRY, 17),
-    T_HEALTH: ("health", ACCEPT_TELEMETRY, 144),
+    T_HEALTH: ("health", ACCEPT_TELEMETRY, 148),
     T_ACK: ("ack", ACCEPT_TELEMETRY, 4),
     T_STATUS: ("status", ACCEPT_TELEMETRY, 16),
     T_SET_WINDOW: ("set-window", ACCEPT_COMMANDS, 3),
@@ -273,7 +279,7 @@ def _raw(p):
                    "present": mask}
 
 
-HEALTH_FORMAT = "<I4B16I7I4I7I"
+HEALTH_FORMAT = "<I4B16I7I4I7II"
 
 
 def _health(p):
@@ -288,6 +294,7 @@ def _health(p):
         msg[name] = value
     for name, value in zip(COUNTER_NAMES, f[32:39]):
         msg["rx_" + name] = value
+    msg["uart_overruns"] = f[39]  # protocol 3: received bytes the UART lost
     valid = all(s < len(HEALTH_STATES) for s in msg["state"])
     return valid, msg
 
@@ -439,7 +446,8 @@ def format_message(ftype, seq, m):
             parts.append("%s=%s" % (key, ",".join(str(v) for v in m[key])))
         for key in ["bus_addr_nack", "bus_data_nack", "bus_busy", "bus_timeout", "bus_stuck",
                     "bus_other", "bus_recoveries", "watchdog_resets", "loop_overruns",
-                    "loop_max_us", "tx_dropped"] + ["rx_" + c for c in COUNTER_NAMES]:
+                    "loop_max_us", "tx_dropped"] + ["rx_" + c for c in COUNTER_NAMES] + [
+                        "uart_overruns"]:
             parts.append("%s=%d" % (key, m[key]))
         return head + " ".join(parts)
     if ftype == T_ACK:
@@ -547,6 +555,68 @@ def command_payload(text):
         return T_SET_PROCESS_NOISE, struct.pack("<IIB", values[0], values[1], 0)
     raise ProtocolError("unknown command '%s' (set-window, estimator, start, stop, status, raw, "
                         "process-noise)" % verb)
+
+
+# The firmware's own codes behind a nack (the ack's `error`): estimator/attitude.h's
+# enum attitude_error (docs/errors.md: -64..-79); tools/tests checks them against the header.
+ATTITUDE_ERRORS = {
+    -64: "ATTITUDE_ERR_ARM", -65: "ATTITUDE_ERR_WINDOW", -66: "ATTITUDE_ERR_MODE",
+    -67: "ATTITUDE_ERR_ESTIMATORS", -68: "ATTITUDE_ERR_TOLERANCE",
+    -69: "ATTITUDE_ERR_PAPER_ITERATIONS", -70: "ATTITUDE_ERR_KALMAN_PROCESS_NOISE",
+    -71: "ATTITUDE_ERR_KALMAN_MEASUREMENT_NOISE", -72: "ATTITUDE_ERR_KALMAN_WARMUP",
+    -73: "ATTITUDE_ERR_KALMAN_NOISE_SHIFT", -74: "ATTITUDE_ERR_NULL",
+    -75: "ATTITUDE_ERR_INTEGRITY", -76: "ATTITUDE_ERR_BUFFER",
+}
+
+# An answer comes within 50 ms of a command's last byte (the firmware drains its receiver
+# once per main-loop iteration, at least once per 20 ms sample period); a USB serial
+# adapter adds a few ms each way. 0.25 s is five times that; four tries ride out a lost
+# frame or two.
+ACK_TIMEOUT_S = 0.25
+COMMAND_TRIES = 4
+
+
+class CommandFailed(Exception):
+    """A command was refused (nack) or never answered."""
+
+
+def nack_text(m):
+    name = RESULTS[m["result"]] if m["result"] < len(RESULTS) else "result %d" % m["result"]
+    text = "nack %s" % name
+    if m["error"] != 0:
+        text += ", error %d %s" % (m["error"], ATTITUDE_ERRORS.get(m["error"], "(unknown code)"))
+    return text
+
+
+def send_command(port, text, seq, on_event, timeout=ACK_TIMEOUT_S, tries=COMMAND_TRIES,
+                 clock=time.monotonic, decoder=None):
+    """Send command `text` with sequence `seq` on `port` (write/read of a pyserial port) and
+    wait for its answer; every decoded event also goes to on_event(event, counters). A
+    missing answer is retried with the very same frame, so the firmware answers the repeat
+    without applying the command twice. Returns (ack fields, tries used); raises
+    CommandFailed naming the nack (result and error) or the timeout."""
+    ftype, payload = command_payload(text)
+    frame = encode_frame(ftype, seq, payload)
+    decoder = decoder if decoder is not None else Decoder(ACCEPT_ALL)
+    for attempt in range(1, tries + 1):
+        port.write(frame)
+        deadline = clock() + timeout
+        while clock() < deadline:
+            data = port.read(256)
+            answer = None
+            for event in decoder.feed(data) if data else []:
+                on_event(event, decoder.counters)  # every event of the chunk, answer or not
+                if event[0] != "frame" or event[1] != T_ACK or answer is not None:
+                    continue
+                valid, m = PARSERS[T_ACK](event[3])
+                if valid and m["echo_seq"] == seq and m["command"] == ftype:
+                    answer = m
+            if answer is not None and answer["result"] != R_OK:
+                raise CommandFailed("'%s' (seq %d): %s" % (text, seq, nack_text(answer)))
+            if answer is not None:
+                return answer, attempt
+    raise CommandFailed("'%s' (seq %d): no answer within %.2f s, %d tries: timeout"
+                        % (text, seq, timeout, tries))
 
 
 def encode_commands(texts, first_seq=0):
@@ -802,7 +872,12 @@ def main(argv=None):
     ap.add_argument("--baud", type=int, default=115200, help="serial baud rate (115200)")
     ap.add_argument("--duration", type=float, help="seconds to read from --port (default: until Ctrl-C)")
     ap.add_argument("--send", action="append", default=[], metavar="CMD",
-                    help='command to send first, e.g. "set-window 50 sliding" (repeatable)')
+                    help='command to send first, e.g. "set-window 50 sliding" (repeatable; '
+                         'each waits for its ack, exit status 1 on a nack or timeout)')
+    ap.add_argument("--first-seq", type=int, metavar="N",
+                    help="sequence number of the first --send command, 0..255 (default: "
+                         "from the clock, so a new run's command is never taken for a "
+                         "repeat of the last one)")
     ap.add_argument("--csv", action="store_true", help="CSV instead of one line per message")
     ap.add_argument("--type", choices=["estimate", "raw"], default="estimate",
                     help="message type written as CSV (estimate)")
@@ -856,8 +931,16 @@ def main(argv=None):
             except serial.SerialException as e:
                 ap.exit(1, "tof_telemetry: %s: %s\n" % (args.port, e))
             with port:
-                if commands:
-                    port.write(commands)
+                if args.send:
+                    seq = (args.first_seq if args.first_seq is not None
+                           else int(time.time() * 1000)) & 0xFF
+                    for text in args.send:
+                        try:
+                            send_command(port, text, seq, printer.handle, decoder=decoder)
+                        except CommandFailed as e:
+                            sys.stdout.flush()
+                            ap.exit(1, "tof_telemetry: --send %s\n" % e)
+                        seq = (seq + 1) & 0xFF
                 try:
                     run_stream(serial_chunks(port, args.duration), decoder, printer,
                                idle_flush=True, live=live)

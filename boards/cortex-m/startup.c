@@ -26,6 +26,10 @@ void UsageFault_Handler(void) __attribute__((weak, alias("Default_Handler")));
 void SVC_Handler(void) __attribute__((weak, alias("Default_Handler")));
 void PendSV_Handler(void) __attribute__((weak, alias("Default_Handler")));
 void SysTick_Handler(void) __attribute__((weak, alias("Default_Handler")));
+#if defined(BOARD_UART_IRQ)
+/* The board's telemetry UART interrupt (BOARD_UART_IRQ: its NVIC number, from the build). */
+void Uart_IRQHandler(void) __attribute__((weak, alias("Default_Handler")));
+#endif
 
 typedef void (*vector_fn)(void);
 
@@ -56,7 +60,13 @@ __attribute__((section(".vectors"),
     0,
     PendSV_Handler,
     SysTick_Handler,
+#if defined(BOARD_UART_IRQ)
+    [16 ... 16 + BOARD_UART_IRQ - 1] = Default_Handler,
+    [16 + BOARD_UART_IRQ] = Uart_IRQHandler,
+    [16 + BOARD_UART_IRQ + 1 ... 16 + BOARD_IRQ_COUNT - 1] = Default_Handler,
+#else
     [16 ... 16 + BOARD_IRQ_COUNT - 1] = Default_Handler,
+#endif
 };
 
 void Reset_Handler(void) {

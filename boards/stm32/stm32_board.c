@@ -20,6 +20,7 @@
 #define IWDG_UPDATE_BUDGET_US 10000u
 
 void SysTick_Handler(void);
+void Uart_IRQHandler(void);
 
 static struct stm32_systick_time board_time;
 static const struct hal_time board_time_handle = {&stm32_systick_time_ops, &board_time};
@@ -33,6 +34,11 @@ static const struct hal_log_ops log_ops = {.write = stm32_usart_log_write};
 
 void SysTick_Handler(void) {
     stm32_systick_time_tick(&board_time);
+}
+
+/* USART2's interrupt (the board's vector table entry, boards/cortex-m/startup.c). */
+void Uart_IRQHandler(void) {
+    stm32_usart_irq(&log_usart);
 }
 
 bool stm32_board_poll_bits(uintptr_t addr, uint32_t mask, uint32_t want, uint32_t polls) {
@@ -51,7 +57,8 @@ static void log_uart_init(uint32_t core_hz) {
     log_usart = (struct stm32_usart){
         .base = d->usart_base,
         .brr = (core_hz + STM32_BOARD_LOG_BAUD / 2u) / STM32_BOARD_LOG_BAUD,
-        .spin_max = 20000u, /* one byte is 87 us = 1390 cycles at 16 MHz: >> the polls */
+        .spin_max = 20000u,    /* one byte is 87 us = 1390 cycles at 16 MHz: >> the polls */
+        .irq = BOARD_UART_IRQ, /* from the build: the vector table has the same entry */
     };
     stm32_gpio_set_af(d->usart_port, d->usart_tx_pin, d->usart_af);
     stm32_gpio_set_af(d->usart_port, d->usart_rx_pin, d->usart_af);
@@ -133,7 +140,7 @@ void board_hal_fault_write(const char *text, size_t len) {
         stm32_board_peripheral_clocks_init();
         log_uart_init(stm32_board_sysclk_hz());
     }
-    stm32_usart_log_write(&log_usart, text, len); /* direct: no function pointer */
+    stm32_usart_fault_write(&log_usart, text, len); /* direct: no function pointer */
 }
 
 struct hal_serial board_hal_serial(void) {

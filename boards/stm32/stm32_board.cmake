@@ -1,12 +1,16 @@
-# tof_stm32_board(BOARD CORE IRQS OPENOCD_CFG [NO_FLOAT]): the firmware image of an STM32
+# tof_stm32_board(BOARD CORE IRQS OPENOCD_CFG LD UART_IRQ n [NO_FLOAT]): the firmware image of an STM32
 # NUCLEO board (the shared startup, STM32 drivers and board HAL, the board's own
 # board_desc.c and linker script <part>.ld in its folder) and its `flash` target
-# (openocd over the board's ST-LINK).
+# (openocd over the board's ST-LINK). UART_IRQ: the NVIC number of the telemetry USART's
+# interrupt, whose vector the shared startup points at Uart_IRQHandler (stm32_board.c).
 #
 # TEST_VARIANTS v...: also firmware-<board>-<v>.elf, the same image built with TWIN_TEST_<V>
 # defined (test builds for the twin, twin/tests); the flight image is never changed by them.
 function(tof_stm32_board board core irqs openocd_cfg ld)
-  cmake_parse_arguments(ARG "NO_FLOAT" "" "TEST_VARIANTS" ${ARGN})
+  cmake_parse_arguments(ARG "NO_FLOAT" "UART_IRQ" "TEST_VARIANTS" ${ARGN})
+  if(NOT DEFINED ARG_UART_IRQ)
+    message(FATAL_ERROR "tof_stm32_board(${board}): UART_IRQ missing")
+  endif()
   set(no_float "")
   if(ARG_NO_FLOAT)
     set(no_float NO_FLOAT)
@@ -26,7 +30,8 @@ function(tof_stm32_board board core irqs openocd_cfg ld)
               ${stm32}/stm32_main.c ${CMAKE_CURRENT_SOURCE_DIR}/board_desc.c
       DEPS firmware)
     target_include_directories(${name} PRIVATE ${PROJECT_SOURCE_DIR}/boards/cortex-m ${stm32})
-    target_compile_definitions(${name} PRIVATE BOARD_IRQ_COUNT=${irqs} BOARD_NAME="${board}")
+    target_compile_definitions(${name} PRIVATE BOARD_IRQ_COUNT=${irqs} BOARD_NAME="${board}"
+                                                  BOARD_UART_IRQ=${ARG_UART_IRQ})
     if(variant)
       string(TOUPPER ${variant} def)
       target_compile_definitions(${name} PRIVATE TWIN_TEST_${def}=1)

@@ -94,6 +94,9 @@ static void send_health(struct tof_link *link) {
     msg.loop_overruns = h.overruns;
     msg.loop_max_us = h.max_iteration_us;
     msg.tx_dropped = link->tx_dropped;
+    if (link->serial.ops->rx_lost != NULL) {
+        msg.uart_overruns = link->serial.ops->rx_lost(link->serial.ctx);
+    }
     msg.link = link->decoder.counters;
     uint8_t frame[TLM_FRAME_MAX];
     send(link, frame, tlm_encode_health(link->seq, &msg, frame, sizeof frame));
@@ -105,8 +108,10 @@ static void on_estimate(void *ctx, const struct tof_estimate_record *record) {
         return;
     }
     send_estimates(link, record);
-    if (link->health_polls == 0u) {
+    if (link->health_polls == 0u && (!link->health_sent || record->t_us >= link->health_due_us)) {
         link->health_polls = 2u; /* not postponed by later estimates (sliding mode) */
+        link->health_sent = true;
+        link->health_due_us = record->t_us + TOF_LINK_HEALTH_PERIOD_US;
     }
 }
 
@@ -201,8 +206,27 @@ static uint8_t apply(struct tof_link *link, const struct tlm_command *cmd, int *
     }
 }
 
+/* A retry of the command answered last (the same bytes: sequence, type and payload)? Then
+ * answer it as before without applying it again: its answer was lost, not the command. */
+static bool answer_retry(struct tof_link *link, const struct tlm_frame *frame) {
+    if (!link->last_valid || frame->seq != link->last_seq || frame->type != link->last_type ||
+        frame->length != link->last_length ||
+        memcmp(frame->payload, link->last_payload, frame->length) != 0) {
+        return false;
+    }
+    ++link->commands_repeated;
+    answer(link, frame->seq, frame->type, link->last_result, link->last_error);
+    if (link->last_result == TLM_RESULT_OK && frame->type == TLM_TYPE_STATUS_REQUEST) {
+        tof_link_send_status(link);
+    }
+    return true;
+}
+
 static void on_frame(void *ctx, const struct tlm_frame *frame) {
     struct tof_link *link = ctx;
+    if (answer_retry(link, frame)) {
+        return;
+    }
     struct tlm_command cmd;
     uint8_t result = (uint8_t)tlm_parse_command(frame, &cmd, &link->decoder.counters);
     int error = 0;
@@ -215,6 +239,13 @@ static void on_frame(void *ctx, const struct tlm_frame *frame) {
         }
     }
     answer(link, frame->seq, frame->type, result, error);
+    link->last_valid = frame->length <= TOF_LINK_COMMAND_MAX;
+    link->last_seq = frame->seq;
+    link->last_type = frame->type;
+    link->last_length = frame->length <= TOF_LINK_COMMAND_MAX ? frame->length : 0u;
+    memcpy(link->last_payload, frame->payload, link->last_length);
+    link->last_result = result;
+    link->last_error = (int8_t)error;
     if (result == TLM_RESULT_OK && frame->type == TLM_TYPE_STATUS_REQUEST) {
         tof_link_send_status(link);
     }
@@ -240,9 +271,14 @@ void tof_link_poll(struct tof_link *link) {
         return;
     }
     uint8_t buf[TOF_LINK_RX_PER_POLL];
-    const size_t n = link->serial.ops->read(link->serial.ctx, buf, sizeof buf);
     const struct tlm_frame_sink sink = {.on_frame = on_frame, .on_reject = on_reject, .ctx = link};
-    tlm_decoder_feed(&link->decoder, buf, n, &sink);
+    for (unsigned chunk = 0; chunk < TOF_LINK_RX_CHUNKS; ++chunk) {
+        const size_t n = link->serial.ops->read(link->serial.ctx, buf, sizeof buf);
+        if (n == 0u) {
+            break;
+        }
+        tlm_decoder_feed(&link->decoder, buf, n, &sink);
+    }
     if (link->health_polls != 0u && --link->health_polls == 0u) {
         send_health(link);
     }

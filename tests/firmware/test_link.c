@@ -23,6 +23,7 @@ struct fake_serial {
     size_t rx_len, rx_pos;
     uint8_t tx[BUF];
     size_t tx_len;
+    uint32_t rx_lost; /* what the port says its receiver lost */
 };
 
 static size_t serial_write(void *ctx, const uint8_t *data, size_t len) {
@@ -42,7 +43,13 @@ static size_t serial_read(void *ctx, uint8_t *buf, size_t max) {
     return n;
 }
 
-static const struct hal_serial_ops serial_ops = {.write = serial_write, .read = serial_read};
+static uint32_t serial_rx_lost(void *ctx) {
+    const struct fake_serial *s = ctx;
+    return s->rx_lost;
+}
+
+static const struct hal_serial_ops serial_ops = {
+    .write = serial_write, .read = serial_read, .rx_lost = serial_rx_lost};
 
 static struct {
     struct sim_rig rig;
@@ -219,6 +226,45 @@ static void test_commands_are_applied_and_acknowledged(void **state) {
     /* windows of 10 samples: at least two in 600 ms */
     assert_true(t.estimates >= 2u * 4u);
     assert_int_equal(t.app.estimator.cfg.window, 10);
+}
+
+/* A host that lost an answer sends the same frame again (same sequence, type, payload): it
+ * is answered again but applied once; the same payload under a new sequence number, or
+ * another type under the same one, is a new command (docs/telemetry.md, "Retries"). */
+static void test_a_retried_command_is_answered_but_applied_once(void **state) {
+    (void)state;
+    struct tlm_command cmd = {.type = TLM_TYPE_SET_WINDOW};
+    cmd.u.set_window.window_n = 10;
+    cmd.u.set_window.mode = TLM_WINDOW_TUMBLING;
+    push_command(&cmd, 5);
+    push_command(&cmd, 5); /* the retry */
+    run_ms(60);
+    assert_int_equal(t.link.commands_ok, 1);
+    assert_int_equal(t.link.commands_repeated, 1);
+    push_command(&cmd, 6); /* a new command with the same payload */
+    const struct tlm_command stop = {.type = TLM_TYPE_STOP};
+    push_command(&stop, 6); /* another type, the same sequence */
+    run_ms(60);
+    decode_output();
+    assert_int_equal(t.acks, 4);
+    assert_int_equal(t.link.commands_ok, 3);
+    assert_int_equal(t.link.commands_repeated, 1);
+}
+
+/* Short windows send health at most once a second (TOF_LINK_HEALTH_PERIOD_US), not one
+ * 155-byte frame per window; the frame carries the port's lost received bytes. */
+static void test_health_is_rate_limited_and_counts_uart_overruns(void **state) {
+    (void)state;
+    t.serial.rx_lost = 3;
+    struct tlm_command cmd = {.type = TLM_TYPE_SET_WINDOW};
+    cmd.u.set_window.window_n = 2;
+    cmd.u.set_window.mode = TLM_WINDOW_TUMBLING;
+    push_command(&cmd, 1);
+    run_ms(2500); /* ~55 windows of 40 ms after bring-up */
+    decode_output();
+    assert_true(t.estimates >= 50u * 4u);
+    assert_true(t.health >= 2u && t.health <= 3u);
+    assert_int_equal(t.last_health.uart_overruns, 3);
 }
 
 /* The flight image runs consensus and kalman only (ATTITUDE_EST_BUILT): making a
@@ -537,6 +583,8 @@ int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup(test_default_windows_report_a_parallel_plate, setup),
         cmocka_unit_test_setup(test_commands_are_applied_and_acknowledged, setup),
+        cmocka_unit_test_setup(test_a_retried_command_is_answered_but_applied_once, setup),
+        cmocka_unit_test_setup(test_health_is_rate_limited_and_counts_uart_overruns, setup),
         cmocka_unit_test_setup(test_selecting_an_estimator_that_does_not_run_is_refused, setup),
         cmocka_unit_test_setup(test_primary_is_an_estimator_that_runs, setup_kalman_only),
         cmocka_unit_test_setup(test_stop_silences_estimates_and_raw_stream_sends_samples, setup),

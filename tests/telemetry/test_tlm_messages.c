@@ -73,6 +73,7 @@ static struct tlm_health sample_health(void) {
                                       .truncated = 3005,
                                       .out_of_range = 3006,
                                       .discarded_bytes = 3007};
+    h.uart_overruns = 4001;
     return h;
 }
 
@@ -134,10 +135,10 @@ static void test_every_type_has_its_documented_length(void **state) {
     const struct tlm_status status = sample_status();
     assert_int_equal(tlm_encode_estimate(0, &est, out, sizeof out), 47 + 7);
     assert_int_equal(tlm_encode_raw_sample(0, &raw, out, sizeof out), 17 + 7);
-    assert_int_equal(tlm_encode_health(0, &health, out, sizeof out), 144 + 7);
+    assert_int_equal(tlm_encode_health(0, &health, out, sizeof out), 148 + 7);
     assert_int_equal(tlm_encode_ack(0, &ack, out, sizeof out), 4 + 7);
     assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 16 + 7);
-    assert_int_equal(tlm_type_payload_length(TLM_TYPE_HEALTH, TLM_ACCEPT_TELEMETRY), 144);
+    assert_int_equal(tlm_type_payload_length(TLM_TYPE_HEALTH, TLM_ACCEPT_TELEMETRY), 148);
     assert_int_equal(tlm_type_payload_length(TLM_TYPE_HEALTH, TLM_ACCEPT_COMMANDS), -1);
     assert_int_equal(tlm_type_payload_length(TLM_TYPE_SET_WINDOW, TLM_ACCEPT_ALL), 3);
     assert_int_equal(tlm_type_payload_length(0x00, TLM_ACCEPT_ALL), -1);
@@ -254,7 +255,7 @@ static void test_health_round_trips(void **state) {
     const struct tlm_health health = sample_health();
     uint8_t out[TLM_FRAME_MAX];
     const int n = tlm_encode_health(8, &health, out, sizeof out);
-    assert_int_equal(n, 151);
+    assert_int_equal(n, 155);
     struct recorder rec;
     const struct tlm_frame frame = decode_one(&rec, out, (size_t)n, TLM_ACCEPT_TELEMETRY);
     struct tlm_telemetry msg;
@@ -496,7 +497,7 @@ static void test_raw_health_ack_status_validation(void **state) {
     assert_int_equal(tlm_parse_telemetry(&frame, &msg, NULL), TLM_RESULT_OUT_OF_RANGE);
 
     health = sample_health();
-    assert_int_equal(tlm_encode_health(0, &health, out, sizeof out), 151);
+    assert_int_equal(tlm_encode_health(0, &health, out, sizeof out), 155);
     out[5 + 4 + 3] = 4; /* sensor D state */
     frame = raw_frame(TLM_TYPE_HEALTH, &out[5], TLM_LEN_HEALTH);
     assert_int_equal(tlm_parse_telemetry(&frame, &msg, NULL), TLM_RESULT_OUT_OF_RANGE);

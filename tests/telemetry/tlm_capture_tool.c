@@ -218,6 +218,7 @@ static void build(struct builder *b) {
                                        .truncated = 15,
                                        .out_of_range = 16,
                                        .discarded_bytes = 17};
+    h->uart_overruns = 18;
     add_telemetry(b, &health);
 
     struct tlm_telemetry ack;

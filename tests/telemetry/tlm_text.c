@@ -157,6 +157,7 @@ void tlm_text_telemetry(FILE *out, uint8_t seq, const struct tlm_telemetry *msg)
                 h->bus.other, h->bus.recoveries, h->watchdog_resets, h->loop_overruns,
                 h->loop_max_us, h->tx_dropped);
         print_rx_counters(out, "rx_", &h->link);
+        fprintf(out, " uart_overruns=%" PRIu32, h->uart_overruns);
         break;
     }
     case TLM_TYPE_ACK: {

@@ -219,6 +219,137 @@ class FormatTest(unittest.TestCase):
             self.assertTrue(lines[2].startswith("# frames_ok=2 bad_crc=0"))
 
 
+class FakeFirmwarePort:
+    """A serial port with the firmware's command handling behind it (firmware/src/link.c):
+    each whole command frame is applied unless it repeats the last one answered (same
+    sequence, type and payload), and answered; `lose_answers` answers are dropped on the
+    way back, `answer` says what to answer (result, error)."""
+
+    def __init__(self, lose_answers=0, answer=(0, 0), silent=False):
+        self.decoder = t.Decoder(t.ACCEPT_COMMANDS)
+        self.lose_answers = lose_answers
+        self.answer = answer
+        self.silent = silent
+        self.applied = []
+        self.writes = []
+        self.last = None
+        self.out = b""
+
+    def write(self, data):
+        self.writes.append(bytes(data))
+        for event in self.decoder.feed(data):
+            self.assertion = event[0] == "frame"
+            _, ftype, seq, payload = event
+            if (seq, ftype, payload) != self.last:
+                self.applied.append((ftype, payload))
+                self.last = (seq, ftype, payload)
+            if self.silent:
+                continue
+            if self.lose_answers > 0:
+                self.lose_answers -= 1
+                continue
+            self.out += t.encode_frame(t.T_ACK, 7, bytes([seq, ftype, self.answer[0],
+                                                         self.answer[1] & 0xFF]))
+        return len(data)
+
+    def read(self, n):
+        data, self.out = self.out[:n], self.out[n:]
+        if not data:
+            time.sleep(0.001)  # a port's read timeout
+        return data
+
+
+class SendCommandTest(unittest.TestCase):
+    """--send: one command, its answer matched by sequence number, a lost one retried."""
+
+    def setUp(self):
+        self.events = []
+
+    def send(self, port, text="set-window 50 sliding", seq=200):
+        return t.send_command(port, text, seq, lambda e, c: self.events.append(e),
+                              timeout=0.05, tries=4)
+
+    def test_an_ack_ends_the_wait(self):
+        port = FakeFirmwarePort()
+        m, tries = self.send(port)
+        self.assertEqual((m["echo_seq"], m["command"], m["result"], tries),
+                         (200, t.T_SET_WINDOW, 0, 1))
+        self.assertEqual(len(port.applied), 1)
+
+    def test_a_lost_ack_is_retried_with_the_same_frame_and_applied_once(self):
+        port = FakeFirmwarePort(lose_answers=2)
+        m, tries = self.send(port)
+        self.assertEqual((m["result"], tries), (0, 3))
+        self.assertEqual(len(port.writes), 3)
+        self.assertEqual(set(port.writes), {t.encode_commands(["set-window 50 sliding"], 200)})
+        self.assertEqual(port.applied, [(t.T_SET_WINDOW, bytes([50, 0, 1]))])
+
+    def test_a_nack_is_named_with_its_error(self):
+        port = FakeFirmwarePort(answer=(4, -67))  # state, ATTITUDE_ERR_ESTIMATORS
+        with self.assertRaises(t.CommandFailed) as ctx:
+            self.send(port, "estimator mean", seq=3)
+        self.assertEqual(str(ctx.exception), "'estimator mean' (seq 3): nack state, error -67 "
+                                             "ATTITUDE_ERR_ESTIMATORS")
+        self.assertEqual(len(port.writes), 1)  # a nack is an answer: not retried
+
+    def test_no_answer_is_a_timeout_after_every_try(self):
+        port = FakeFirmwarePort(silent=True)
+        with self.assertRaises(t.CommandFailed) as ctx:
+            self.send(port, "start", seq=9)
+        self.assertIn("'start' (seq 9): no answer within 0.05 s, 4 tries: timeout",
+                      str(ctx.exception))
+        self.assertEqual(len(port.writes), 4)
+        self.assertEqual(len(port.applied), 1)  # the retries were the same command
+
+    def test_an_answer_to_another_command_is_not_taken(self):
+        port = FakeFirmwarePort(silent=True)
+        port.out = t.encode_frame(t.T_ACK, 1, bytes([199, t.T_SET_WINDOW, 0, 0]))
+        with self.assertRaises(t.CommandFailed):
+            self.send(port)
+
+    def test_error_names_match_the_header(self):
+        header = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..",
+                              "estimator", "include", "estimator", "attitude.h")
+        import re
+        with open(header) as f:
+            found = dict((int(v), k) for k, v in
+                         re.findall(r"(ATTITUDE_ERR_[A-Z_]+) = (-\d+)", f.read()))
+        self.assertEqual(found, t.ATTITUDE_ERRORS)
+
+    def test_the_tool_exits_1_naming_a_nack(self):
+        try:
+            import serial  # noqa: F401
+        except ImportError:
+            self.fail("python3-serial missing: run tools/setup.sh and use /usr/bin/python3")
+        master, slave = os.openpty()
+        script = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..",
+                              "tof_telemetry.py")
+        proc = subprocess.Popen(
+            [sys.executable, script, "--port", os.ttyname(slave), "--duration", "1.0",
+             "--first-seq", "5", "--send", "estimator mean"],
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+        try:
+            expected = t.encode_commands(["estimator mean"], first_seq=5)
+            received = b""
+            deadline = time.monotonic() + 5
+            while len(received) < len(expected) and time.monotonic() < deadline:
+                ready, _, _ = select.select([master], [], [], 0.1)
+                if ready:
+                    received += os.read(master, 1024)
+            self.assertEqual(received, expected)
+            os.write(master, t.encode_frame(t.T_ACK, 0, bytes([5, t.T_SELECT_ESTIMATOR, 4,
+                                                               (-67) & 0xFF])))
+            out, err = proc.communicate(timeout=10)
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+            os.close(master)
+            os.close(slave)
+        self.assertEqual(proc.returncode, 1)
+        self.assertIn("'estimator mean' (seq 5): nack state, error -67 ATTITUDE_ERR_ESTIMATORS",
+                      err.decode())
+
+
 class SerialPortTest(unittest.TestCase):
     """--port on a pseudo-terminal: commands go out, frames come in, idle flush works."""
 
@@ -232,20 +363,23 @@ class SerialPortTest(unittest.TestCase):
                               "tof_telemetry.py")
         proc = subprocess.Popen(
             [sys.executable, script, "--port", os.ttyname(slave), "--duration", "2.0",
-             "--send", "set-window 50 sliding", "--send", "start"],
+             "--first-seq", "0", "--send", "set-window 50 sliding", "--send", "start"],
             stdout=subprocess.PIPE, stderr=subprocess.PIPE)
         try:
-            expected_cmds = t.encode_commands(["set-window 50 sliding", "start"])
-            received = b""
-            deadline = time.monotonic() + 5
-            while len(received) < len(expected_cmds) and time.monotonic() < deadline:
-                ready, _, _ = select.select([master], [], [], 0.1)
-                if ready:
-                    received += os.read(master, 1024)
-            self.assertEqual(received, expected_cmds)
-            # Answer: two acks, then a partial frame and silence (idle flush -> truncated).
-            os.write(master, t.encode_frame(t.T_ACK, 0, bytes([0, t.T_SET_WINDOW, 0, 0]))
-                     + t.encode_frame(t.T_ACK, 1, bytes([1, t.T_START, 0, 0])) + ACK_SEQ9[:6])
+            # One command at a time: the second goes out once the first is answered.
+            for seq, text, ftype in ((0, "set-window 50 sliding", t.T_SET_WINDOW),
+                                     (1, "start", t.T_START)):
+                expected = t.encode_commands([text], first_seq=seq)
+                received = b""
+                deadline = time.monotonic() + 5
+                while len(received) < len(expected) and time.monotonic() < deadline:
+                    ready, _, _ = select.select([master], [], [], 0.1)
+                    if ready:
+                        received += os.read(master, 1024)
+                self.assertEqual(received, expected)
+                os.write(master, t.encode_frame(t.T_ACK, seq, bytes([seq, ftype, 0, 0])))
+            # Then a partial frame and silence (idle flush -> truncated).
+            os.write(master, ACK_SEQ9[:6])
             out, err = proc.communicate(timeout=10)
         finally:
             if proc.poll() is None:
@@ -342,7 +476,8 @@ class LiveTest(unittest.TestCase):
             env = dict(os.environ, MPLBACKEND="Agg")
             proc = subprocess.Popen(
                 [sys.executable, script, "--port", os.ttyname(slave), "--duration", "3.0",
-                 "--live", "--plot", png, "--send", "status"], stdout=subprocess.PIPE,
+                 "--live", "--plot", png, "--first-seq", "0", "--send", "status"],
+                stdout=subprocess.PIPE,
                 stderr=subprocess.PIPE, env=env)
             try:
                 # the status request shows the port is open (opening it drops older input)
@@ -354,6 +489,7 @@ class LiveTest(unittest.TestCase):
                     if ready:
                         received += os.read(master, 1024)
                 self.assertEqual(received, expected)
+                os.write(master, t.encode_frame(t.T_ACK, 0, bytes([0, t.T_STATUS_REQUEST, 0, 0])))
                 data = live_capture(6)
                 for i in range(0, len(data), 64):  # frames arrive over time
                     os.write(master, data[i:i + 64])

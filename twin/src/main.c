@@ -123,6 +123,7 @@ static void wire(struct run *r, uint32_t period_ms, const struct sim_fault_confi
     r->t.usart.tx_ctx = r;
     tlm_decoder_init(&r->dec, tlm_message_types(TLM_ACCEPT_TELEMETRY));
     r->status_resets = UINT32_MAX;
+    r->next_seq = 0x40u;
     twin_reset(&r->t, true);
 }
 
@@ -170,13 +171,13 @@ static int judge(const struct run *r, bool finished, double max_s) {
     if (r->w.source_error != 0) {
         rc = 1;
     }
-    if (r->command_needed && r->acks_ok == 0u) {
-        fprintf(stderr, "tof_twin: %u tries, %llu receiver overruns, %llu bytes received\n",
-                r->command_tries, (unsigned long long)r->t.usart.overruns,
-                (unsigned long long)r->t.usart.bytes_rx);
-        fprintf(stderr, "tof_twin: the firmware never acknowledged the set-window command "
-                        "(--window/--mode other than the flight default 100 tumbling): its rows "
-                        "are not those of the options asked for\n");
+    if (r->commands_acked != r->commands_sent || r->status_mismatch != 0u) {
+        fprintf(stderr,
+                "tof_twin: %u commands sent, %u acknowledged, %u refused, %u status replies "
+                "with other settings; %llu receiver overruns, %llu bytes received: the rows "
+                "are not those of the options asked for\n",
+                r->commands_sent, r->commands_acked, r->acks_bad, r->status_mismatch,
+                (unsigned long long)r->t.usart.overruns, (unsigned long long)r->t.usart.bytes_rx);
         rc = 1;
     }
     return rc;

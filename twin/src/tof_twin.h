@@ -23,6 +23,16 @@
 #define FLIGHT_ARM_UM    30000
 #define FLIGHT_PERIOD_MS 20u
 
+#define TOF_TWIN_COMMANDS 8u
+
+/* One command the host sends and its answer. */
+struct host_command {
+    struct tlm_command cmd;
+    uint8_t seq;
+    uint64_t last_byte_ps; /* its last stop bit ends then */
+    bool answered;
+};
+
 struct args {
     const char *elf, *trace, *out, *uart_out, *i2c_log, *coverage, *report, *faults;
     const char *estimator;
@@ -51,11 +61,21 @@ struct run {
     uint64_t estimates, other_estimates, written, ok_rows;
     uint64_t unflagged_wrong;
     uint64_t faults_text, banners;
-    uint32_t acks_bad, acks_ok;
-    bool command_sent, command_needed;
-    struct tlm_command command;
-    uint64_t command_at_us;
-    unsigned command_tries;
+    uint32_t acks_bad;
+    /* Commands, as a host sends them (tof_twin_host.c): the boot's configuration burst (the
+     * options' window, mode and estimator, then a status request), back to back at the line
+     * rate, and with --late-command a status request halfway through the trace. */
+    struct host_command cmds[TOF_TWIN_COMMANDS];
+    unsigned ncmds;    /* queued or sent */
+    unsigned nsent;    /* of them sent */
+    unsigned next_ack; /* the command whose answer comes next if they come in order */
+    uint8_t next_seq;  /* sequence number of the next command */
+    bool mid_sent;     /* the status request halfway through the trace */
+    uint64_t now_ps;   /* when the byte being decoded ended */
+    uint32_t commands_sent, commands_acked, commands_out_of_order, commands_unmatched;
+    uint64_t ack_latency_max_ps; /* last byte of a command to the end of its answer */
+    uint32_t status_confirmed, status_mismatch; /* status replies: the options' settings? */
+    uint64_t rows_missing;                      /* rows whose why names missing:X */
     char line[128];
     size_t line_len;
     char last_fault[128];
@@ -76,7 +96,7 @@ int tof_twin_parse_args(int argc, char **argv, struct args *a);
 void tof_twin_on_uart_byte(void *ctx, uint8_t byte, uint64_t now_ps);
 
 /* The host's timers between emulation slices (struct twin host_poll, ctx: struct run): the
- * set-window command, sent again until acknowledged. */
+ * commands due, sent back to back at the line rate. */
 void tof_twin_host_poll(void *ctx);
 
 /* ---- tof_twin_report.c ---- */

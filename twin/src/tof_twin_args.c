@@ -92,10 +92,10 @@ static int check_settings(const struct args *a) {
         return -1;
     }
     /* The flight image boots with window 100, tumbling (tof_app_default_config); another
-     * window or mode is a set-window command, which it reads only about 0.3 s after boot
-     * (USART2 once per 20 ms slot), so its windows no longer start at trace row 0 and the
-     * rows cannot equal host_sim's; in sliding mode its blocking telemetry also trips the
-     * watchdog (docs/boards.md). Refused unless asked for (the coverage run's command path). */
+     * window or mode is a set-window command after the boot status frame, applied some
+     * 0.3 s after boot, so its windows no longer start at trace row 0 and the rows cannot
+     * equal host_sim's (docs/boards.md). Refused unless asked for (the command tests and
+     * the coverage run's command path). */
     if ((a->window != FLIGHT_WINDOW || a->sliding) && !a->late_command) {
         fprintf(stderr,
                 "tof_twin: --window %u --mode %s: the flight image starts with window %u, "

@@ -1,6 +1,7 @@
 /* tof_twin's host end of USART2: the capture file, the firmware's text lines, its telemetry
  * frames decoded into EST.csv rows (firmware/est_csv, the rows host_sim writes) with host_sim's
- * accuracy check, and the set-window command a host sends until it is acknowledged. */
+ * accuracy check, and the commands a host sends, back to back at the line rate, with their
+ * answers matched by sequence number. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -10,12 +11,72 @@
 #include "scene/crb.h"
 #include "tof_twin.h"
 
-static void send_command(struct run *r, const struct tlm_command *cmd) {
-    uint8_t frame[TLM_FRAME_MAX];
-    const int n = tlm_encode_command(0x40u, cmd, frame, sizeof frame);
-    if (n <= 0 || !twin_usart_send_to_mcu(&r->t, frame, (unsigned)n)) {
-        fprintf(stderr, "tof_twin: internal: command not encoded or receive queue full\n");
+/* Queue `cmd` to go out with the next burst (tof_twin_host_poll). */
+static void queue_command(struct run *r, const struct tlm_command *cmd) {
+    if (r->ncmds >= TOF_TWIN_COMMANDS) {
+        fprintf(stderr, "tof_twin: internal: more than %u commands\n", TOF_TWIN_COMMANDS);
         exit(1);
+    }
+    r->cmds[r->ncmds++] = (struct host_command){.cmd = *cmd, .seq = r->next_seq++};
+}
+
+/* Every queued command in one write, back to back at the line rate. */
+static void send_queued(struct run *r) {
+    uint8_t bytes[TOF_TWIN_COMMANDS * TLM_FRAME_MAX];
+    unsigned len = 0, first = r->nsent;
+    unsigned end_at[TOF_TWIN_COMMANDS];
+    for (unsigned k = first; k < r->ncmds; ++k) {
+        const int n =
+            tlm_encode_command(r->cmds[k].seq, &r->cmds[k].cmd, &bytes[len], sizeof bytes - len);
+        if (n <= 0) {
+            fprintf(stderr, "tof_twin: internal: command 0x%02x not encoded\n",
+                    r->cmds[k].cmd.type);
+            exit(1);
+        }
+        len += (unsigned)n;
+        end_at[k] = len;
+    }
+    const uint64_t last = twin_usart_send_to_mcu(&r->t, bytes, len);
+    if (last == 0u) {
+        fprintf(stderr, "tof_twin: internal: the receive queue is full\n");
+        exit(1);
+    }
+    /* Byte i of the write ends (len - 1 - i) byte times before the last one. */
+    const uint64_t byte_ps = 10u * 1000000000000ull / TWIN_HOST_BAUD;
+    for (unsigned k = first; k < r->ncmds; ++k) {
+        r->cmds[k].last_byte_ps = last - (uint64_t)(len - end_at[k]) * byte_ps;
+        ++r->commands_sent;
+    }
+    r->nsent = r->ncmds;
+}
+
+/* An answer (ack or nack) to one of the commands sent: matched by its sequence number. */
+static void on_answer(struct run *r, const struct tlm_ack *ack) {
+    unsigned k = r->nsent;
+    for (unsigned i = 0; i < r->nsent; ++i) {
+        if (!r->cmds[i].answered && r->cmds[i].seq == ack->echo_seq &&
+            r->cmds[i].cmd.type == ack->command) {
+            k = i;
+            break;
+        }
+    }
+    if (k == r->nsent) {
+        ++r->commands_unmatched;
+        return;
+    }
+    if (k != r->next_ack) {
+        ++r->commands_out_of_order;
+    }
+    r->next_ack = k + 1u;
+    r->cmds[k].answered = true;
+    const uint64_t lat = r->now_ps - r->cmds[k].last_byte_ps;
+    r->ack_latency_max_ps = lat > r->ack_latency_max_ps ? lat : r->ack_latency_max_ps;
+    if (ack->result == 0u) {
+        ++r->commands_acked;
+    } else {
+        ++r->acks_bad;
+        fprintf(stderr, "tof_twin: the firmware refused command 0x%02x (result %u, error %d)\n",
+                ack->command, ack->result, ack->error);
     }
 }
 
@@ -78,6 +139,11 @@ static void on_estimate(struct run *r, const struct tlm_estimate *m) {
     e.beta_sd_udeg = e.beta_valid ? m->beta_sd_udeg : 0;
     e.distance_sd_um = e.distance_valid ? m->distance_sd_um : 0;
     e.why = (attitude_why_t)m->why;
+    const attitude_why_t missing = ATTITUDE_WHY_MISSING(0) | ATTITUDE_WHY_MISSING(1) |
+                                   ATTITUDE_WHY_MISSING(2) | ATTITUDE_WHY_MISSING(3);
+    if ((e.why & missing) != 0u) {
+        ++r->rows_missing; /* a reading lost: the sensor's data came too late or not at all */
+    }
     char line[TOF_EST_CSV_ROW_MAX];
     struct tof_text txt;
     tof_text_init(&txt, line, sizeof line);
@@ -125,6 +191,31 @@ static void start_boot(struct run *r, const struct tlm_status *st) {
     twin_world_start_boot(&r->w, r->t.scs.syst_enabled_ps / 1000000u + slot0_fw_us);
 }
 
+/* After a boot's status frame: the commands that bring the firmware to the options' window,
+ * mode and (with --late-command) primary estimator, then a status request to confirm them,
+ * all back to back. */
+static void queue_configuration(struct run *r, const struct tlm_status *st) {
+    bool any = false;
+    if (st->window_n != r->a.window || (st->mode == TLM_WINDOW_SLIDING) != r->a.sliding) {
+        const struct tlm_command cmd = {
+            .type = TLM_TYPE_SET_WINDOW,
+            .u.set_window = {.window_n = (uint16_t)r->a.window,
+                             .mode = r->a.sliding ? TLM_WINDOW_SLIDING : TLM_WINDOW_TUMBLING}};
+        queue_command(r, &cmd);
+        any = true;
+    }
+    if (r->a.late_command && st->estimator != (uint8_t)r->primary) {
+        const struct tlm_command cmd = {.type = TLM_TYPE_SELECT_ESTIMATOR,
+                                        .u.estimator = (uint8_t)r->primary};
+        queue_command(r, &cmd);
+        any = true;
+    }
+    if (any) {
+        const struct tlm_command cmd = {.type = TLM_TYPE_STATUS_REQUEST};
+        queue_command(r, &cmd);
+    }
+}
+
 static void on_frame(void *ctx, const struct tlm_frame *frame) {
     struct run *r = ctx;
     struct tlm_telemetry msg;
@@ -133,36 +224,23 @@ static void on_frame(void *ctx, const struct tlm_frame *frame) {
     }
     switch (msg.type) {
     case TLM_TYPE_STATUS: {
+        const struct tlm_status *st = &msg.u.status;
         if (r->t.stats.resets == r->status_resets) {
-            break; /* a status frame of the same boot (asked for): the slots are known */
+            /* A status request's answer: are the settings the options' now? */
+            const bool same = st->window_n == r->a.window &&
+                              (st->mode == TLM_WINDOW_SLIDING) == r->a.sliding &&
+                              (!r->a.late_command || st->estimator == (uint8_t)r->primary);
+            ++*(same ? &r->status_confirmed : &r->status_mismatch);
+            break;
         }
         r->status_resets = r->t.stats.resets;
         ++r->boots;
-        start_boot(r, &msg.u.status);
-        r->command_sent = false;
-        if (!r->command_sent && (msg.u.status.window_n != r->a.window ||
-                                 (msg.u.status.mode == TLM_WINDOW_SLIDING) != r->a.sliding)) {
-            const struct tlm_command cmd = {
-                .type = TLM_TYPE_SET_WINDOW,
-                .u.set_window = {.window_n = (uint16_t)r->a.window,
-                                 .mode = r->a.sliding ? TLM_WINDOW_SLIDING : TLM_WINDOW_TUMBLING}};
-            r->command = cmd;
-            r->command_needed = true;
-            r->command_tries = 0;
-            r->command_at_us = 0;
-            r->acks_ok = 0;
-        }
-        r->command_sent = true;
+        start_boot(r, st);
+        queue_configuration(r, st);
         break;
     }
     case TLM_TYPE_ACK:
-        if (msg.u.ack.result == 0u) {
-            ++r->acks_ok;
-        } else {
-            ++r->acks_bad;
-            fprintf(stderr, "tof_twin: the firmware refused command 0x%02x (result %u)\n",
-                    msg.u.ack.command, msg.u.ack.result);
-        }
+        on_answer(r, &msg.u.ack);
         break;
     case TLM_TYPE_ESTIMATE:
         on_estimate(r, &msg.u.estimate);
@@ -176,24 +254,17 @@ static void on_frame(void *ctx, const struct tlm_frame *frame) {
     }
 }
 
-/* The firmware reads USART2 once per main-loop iteration: a command byte arriving during a
- * long iteration overruns the receiver and the frame is lost. Like a real host, send it
- * again until it is acknowledged (every COMMAND_RETRY_US, at most COMMAND_TRIES times). */
-#define COMMAND_RETRY_US 400000u
-#define COMMAND_TRIES    10u
-
 void tof_twin_host_poll(void *ctx) {
     struct run *r = ctx;
-    if (!r->command_needed || r->acks_ok > 0u || r->command_tries >= COMMAND_TRIES) {
-        return;
+    if (r->a.late_command && !r->mid_sent && r->w.origin_set && r->nsent == r->ncmds &&
+        twin_now_us(&r->t) >= r->w.origin_us + (uint64_t)r->row_count / 2u * r->w.period_us) {
+        /* A command halfway through the trace, in whatever mode it runs by then. */
+        const struct tlm_command cmd = {.type = TLM_TYPE_STATUS_REQUEST};
+        queue_command(r, &cmd);
+        r->mid_sent = true;
     }
-    const uint64_t now = twin_now_us(&r->t);
-    if (r->command_tries == 0u || now - r->command_at_us >= COMMAND_RETRY_US) {
-        if (r->t.usart.rx_count == 0u) {
-            send_command(r, &r->command);
-            r->command_tries++;
-            r->command_at_us = now;
-        }
+    if (r->nsent < r->ncmds) {
+        send_queued(r);
     }
 }
 
@@ -204,7 +275,7 @@ static void on_reject(void *ctx, const struct tlm_reject *reject) {
 
 void tof_twin_on_uart_byte(void *ctx, uint8_t byte, uint64_t now_ps) {
     struct run *r = ctx;
-    (void)now_ps;
+    r->now_ps = now_ps;
     if (r->uart != NULL) {
         fputc(byte, r->uart);
     }

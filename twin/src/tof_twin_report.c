@@ -59,7 +59,10 @@ int tof_twin_write_report(const struct run *r, bool finished, double host_s) {
             " \"i2c_transfers\": %" PRIu64 ", \"spurious_berr\": %u, \"bus_recoveries\": %u,"
             " \"commands_refused\": %u,\n"
             " \"health_frames\": %" PRIu64 ", \"loop_overruns\": %u, \"loop_max_us\": %u,"
-            " \"tx_dropped\": %u, \"uart_overruns\": %" PRIu64 "}\n",
+            " \"tx_dropped\": %u, \"uart_overruns\": %" PRIu64 ", \"fw_uart_overruns\": %u,\n"
+            " \"commands_sent\": %u, \"commands_acked\": %u, \"commands_out_of_order\": %u,"
+            " \"commands_unmatched\": %u, \"ack_latency_max_us\": %" PRIu64 ",\n"
+            " \"status_confirmed\": %u, \"rows_missing\": %" PRIu64 ", \"irqs\": %" PRIu64 "}\n",
             finished ? "true" : "false", finished ? "" : r->t.stop_msg,
             (double)twin_now_ps(&r->t) / 1e12, host_s, r->t.stats.instructions,
             host_s > 0 ? minsn / host_s : 0.0, r->t.stats.warps, r->t.stats.mmio_reads,
@@ -69,7 +72,9 @@ int tof_twin_write_report(const struct run *r, bool finished, double host_s) {
             r->faults_text, r->last_fault, r->t.stats.exceptions[15], r->w.transfers,
             r->t.i2c.berr_injected, r->w.rig.bus.stats.recoveries, r->acks_bad, r->health_frames,
             r->health.loop_overruns, r->health.loop_max_us, r->health.tx_dropped,
-            r->t.usart.overruns);
+            r->t.usart.overruns, r->health.uart_overruns, r->commands_sent, r->commands_acked,
+            r->commands_out_of_order, r->commands_unmatched, r->ack_latency_max_ps / 1000000u,
+            r->status_confirmed, r->rows_missing, r->t.stats.irqs);
     fclose(f);
     return 0;
 }

@@ -53,6 +53,7 @@ struct twin_stats {
     uint64_t warps, warped_cycles; /* poll loops skipped (twin_warp_to) */
     uint32_t resets, watchdog_resets, software_resets;
     uint32_t exceptions[16]; /* entries per system exception number */
+    uint64_t irqs;           /* entries of external interrupts (USART2) */
     uint32_t hardfaults;
     uint32_t emu_restarts;
 };
@@ -143,7 +144,8 @@ static inline uint64_t twin_now_us(const struct twin *t) {
 uint64_t twin_ps_to_cycles(const struct twin *t, uint64_t ps);
 
 /* The core cycle count of the next event the core must stop at: SysTick's next wrap, the
- * watchdog's expiry or the run limit, whichever comes first. */
+ * watchdog's expiry, a USART byte that raises its interrupt or the run limit, whichever comes
+ * first. */
 uint64_t twin_earliest_event(struct twin *t);
 
 /* A poll of a register whose next change is at `ps`: move time there at once (as if the

@@ -34,6 +34,12 @@ uint64_t twin_earliest_event(struct twin *t) {
         const uint64_t wc = t->cycles + (w > now ? twin_ps_to_cycles(t, w - now) : 0u);
         e = wc < e ? wc : e;
     }
+    const uint64_t u = twin_usart_next_event_ps(t);
+    if (u != UINT64_MAX) {
+        const uint64_t now = twin_now_ps(t);
+        const uint64_t uc = t->cycles + (u > now ? twin_ps_to_cycles(t, u - now) : 0u);
+        e = uc < e ? uc : e;
+    }
     if (t->limit_ps != 0u) {
         const uint64_t now = twin_now_ps(t);
         const uint64_t lc =

@@ -319,7 +319,11 @@ static bool exception_entry(struct twin *t, unsigned exc, uint32_t ret_pc) {
     uc_reg_write(t->uc, UC_ARM_REG_XPSR, &handler_xpsr);
     uint32_t pc = handler & ~1u;
     uc_reg_write(t->uc, UC_ARM_REG_PC, &pc);
-    t->stats.exceptions[exc & 15u]++;
+    if (exc < 16u) {
+        t->stats.exceptions[exc]++;
+    } else {
+        t->stats.irqs++;
+    }
     if (t->trace_mmio) {
         fprintf(t->log, "exc entry %u ret 0x%08x sp 0x%08x nactive %u t %llu\n", exc, ret_pc, sp,
                 t->nactive, (unsigned long long)twin_now_us(t));
@@ -380,8 +384,19 @@ static void take_fault(struct twin *t, uint32_t pc, const char *what) {
     }
 }
 
+/* The external interrupt pending at the NVIC, as an exception number (0: none). The twin
+ * models one source, USART2 (IRQ 38): its line, level-sensitive, with its ISER bit set. */
+static unsigned external_pending(const struct twin *t) {
+    const uint32_t bit = 1u << (TWIN_USART2_IRQ % 32u);
+    if ((t->scs.nvic_iser[TWIN_USART2_IRQ / 32u] & bit) != 0u && twin_usart_irq(t)) {
+        return 16u + TWIN_USART2_IRQ;
+    }
+    return 0u;
+}
+
 static void deliver_pending(struct twin *t) {
-    if (t->scs.pending == 0u) {
+    const unsigned ext = external_pending(t);
+    if (t->scs.pending == 0u && ext == 0u) {
         t->irq_wait = false;
         return;
     }
@@ -394,16 +409,23 @@ static void deliver_pending(struct twin *t) {
         return;
     }
     t->irq_wait = false;
-    for (unsigned exc = 2; exc < 16u; ++exc) {
-        if ((t->scs.pending & (1u << exc)) != 0u) {
-            t->scs.pending &= ~(1u << exc);
-            uint32_t pc = 0;
-            uc_reg_read(t->uc, UC_ARM_REG_PC, &pc);
-            if (!exception_entry(t, exc, pc)) {
-                twin_stop(t, TWIN_STOP_LOCKUP, "exception %u entry failed", exc);
-            }
-            return;
+    /* Every priority is the reset value 0: the lowest exception number goes first
+     * (B1.5.4), so a system exception before the external interrupt. */
+    unsigned exc = ext;
+    for (unsigned e = 2; e < 16u; ++e) {
+        if ((t->scs.pending & (1u << e)) != 0u) {
+            t->scs.pending &= ~(1u << e);
+            exc = e;
+            break;
         }
+    }
+    if (exc == 0u) {
+        return;
+    }
+    uint32_t pc = 0;
+    uc_reg_read(t->uc, UC_ARM_REG_PC, &pc);
+    if (!exception_entry(t, exc, pc)) {
+        twin_stop(t, TWIN_STOP_LOCKUP, "exception %u entry failed", exc);
     }
 }
 
@@ -436,6 +458,7 @@ void twin_run(struct twin *t) {
             system_reset(t);
         }
         twin_systick_update(t);
+        twin_usart_update(t);
         if (t->host_poll != NULL) {
             t->host_poll(t->host_ctx);
         }

@@ -86,16 +86,25 @@ struct twin_usart {
     uint64_t shift_done_ps;      /* when it has been sent */
     uint8_t rxq[TWIN_USART_RXQ]; /* bytes the host is sending (commands) */
     unsigned rx_head, rx_count;
-    uint64_t rx_next_ps; /* the next byte's stop bit ends then */
+    uint64_t rx_next_ps; /* the next byte's stop bit ends then (the host sends at 115200 Bd) */
     void (*on_tx)(void *ctx, uint8_t byte, uint64_t now_ps);
     void *tx_ctx;
     uint64_t bytes_tx, bytes_rx, overruns;
 };
+#define TWIN_USART2_IRQ 38u     /* NVIC position (RM0351 Table 58) */
+#define TWIN_HOST_BAUD  115200u /* the host's end of the line */
 void twin_usart_reset(struct twin *t);
 uint32_t twin_usart_read(struct twin *t, uint32_t off);
 void twin_usart_write(struct twin *t, uint32_t off, uint32_t v);
-/* Queue bytes for the firmware's receiver; false if the queue is full. */
-bool twin_usart_send_to_mcu(struct twin *t, const uint8_t *data, unsigned len);
+/* Bring the USART up to now: bytes sent, bytes received (RXNE, or ORE if RDR is full). */
+void twin_usart_update(struct twin *t);
+/* Is the USART's interrupt line to the NVIC asserted (a flag with its enable)? */
+bool twin_usart_irq(const struct twin *t);
+/* When the line may next rise by itself (a byte sent or received, ps), UINT64_MAX: never. */
+uint64_t twin_usart_next_event_ps(const struct twin *t);
+/* Queue bytes for the firmware's receiver, sent back to back at TWIN_HOST_BAUD after what is
+ * queued already: the time the last one's stop bit ends (ps), or 0 if the queue is full. */
+uint64_t twin_usart_send_to_mcu(struct twin *t, const uint8_t *data, unsigned len);
 
 /* ---- IWDG (RM0351 §32) ---- */
 struct twin_iwdg {

@@ -1,5 +1,6 @@
-/* USART2 of the twin (RM0351 §40): 8N1 transmitter into the host's telemetry decoder and a
- * receiver fed with the host's commands, both paced by BRR at PCLK1 = SYSCLK. */
+/* USART2 of the twin (RM0351 §40): 8N1 transmitter into the host's telemetry decoder (paced by
+ * BRR at PCLK1 = SYSCLK) and a receiver fed with the host's commands at the host's 115200 Bd,
+ * with the RXNE/ORE, TXE and TC interrupts to the NVIC (IRQ 38). */
 #include "twin.h"
 
 #define USART_CR1  0x00u
@@ -14,15 +15,21 @@
 #define USART_RDR  0x24u
 #define USART_TDR  0x28u
 
-#define CR1_UE    (1u << 0)
-#define CR1_RE    (1u << 2)
-#define CR1_TE    (1u << 3)
-#define ISR_ORE   (1u << 3)
-#define ISR_RXNE  (1u << 5)
-#define ISR_TC    (1u << 6)
-#define ISR_TXE   (1u << 7)
-#define ISR_TEACK (1u << 21)
-#define ISR_REACK (1u << 22)
+#define CR1_UE     (1u << 0)
+#define CR1_RE     (1u << 2)
+#define CR1_TE     (1u << 3)
+#define CR1_RXNEIE (1u << 5)
+#define CR1_TCIE   (1u << 6)
+#define CR1_TXEIE  (1u << 7)
+/* The CR1 bits the model implements (§40.8.1); any other is a configuration it does not
+ * model (word length, parity, oversampling by 8, other interrupts...). */
+#define CR1_MODELLED (CR1_UE | CR1_RE | CR1_TE | CR1_RXNEIE | CR1_TCIE | CR1_TXEIE)
+#define ISR_ORE      (1u << 3)
+#define ISR_RXNE     (1u << 5)
+#define ISR_TC       (1u << 6)
+#define ISR_TXE      (1u << 7)
+#define ISR_TEACK    (1u << 21)
+#define ISR_REACK    (1u << 22)
 
 /* One 8N1 frame (start, 8 data, stop: 10 bits) at baud = f_CK / USARTDIV, oversampling by
  * 16 (RM0351 §40.5.4 "Baud rate generation"). */
@@ -31,20 +38,24 @@ static uint64_t frame_ps(const struct twin *t) {
     return 10u * (uint64_t)brr * (1000000000000ull / t->sysclk_hz);
 }
 
-/* The firmware reads its receiver once per main-loop iteration (tof_link_poll), and an idle
- * iteration lasts a whole 20 ms slot (measured in the twin), so bytes sent back to back at
- * 115200 Bd overrun it (ORE, the command lost). The twin's host side therefore sends one
- * byte per RX_GAP_PS, longer than a slot, as a sender to this firmware must. */
-#define RX_GAP_PS (25000ull * 1000000ull)
+/* The host's own transmitter: 115200 Bd 8N1 exactly (a PC's UART or the ST-LINK's virtual COM
+ * port), bytes back to back at the line rate: 10 bits, 86.806 us a byte. */
+#define HOST_FRAME_PS (10u * 1000000000000ull / TWIN_HOST_BAUD)
 
-static uint64_t rx_gap_ps(const struct twin *t) {
-    const uint64_t f = frame_ps(t);
-    return f > RX_GAP_PS ? f : RX_GAP_PS;
+/* The interrupt line to the NVIC (RM0351 §40.7 "USART interrupts"): TXE
+ * with TXEIE, TC with TCIE, RXNE or ORE with RXNEIE; nothing while UE = 0. */
+static bool line(const struct twin_usart *u) {
+    if ((u->cr1 & CR1_UE) == 0u) {
+        return false;
+    }
+    return ((u->cr1 & CR1_TXEIE) != 0u && (u->isr & ISR_TXE) != 0u) ||
+           ((u->cr1 & CR1_TCIE) != 0u && (u->isr & ISR_TC) != 0u) ||
+           ((u->cr1 & CR1_RXNEIE) != 0u && (u->isr & (ISR_RXNE | ISR_ORE)) != 0u);
 }
 
-static void update(struct twin *t) {
+/* The transmitter up to `now`: the shift register's byte to the host, TDR's into it. */
+static void update_tx(struct twin *t, uint64_t now) {
     struct twin_usart *u = &t->usart;
-    const uint64_t now = twin_svc_now_ps(&t->svc);
     if (u->shift_busy && now >= u->shift_done_ps) {
         u->shift_busy = false;
         if (u->on_tx != NULL) {
@@ -61,10 +72,19 @@ static void update(struct twin *t) {
             u->isr |= ISR_TC;
         }
     }
+}
+
+void twin_usart_update(struct twin *t) {
+    struct twin_usart *u = &t->usart;
+    const uint64_t now = twin_svc_now_ps(&t->svc);
+    const bool before = line(u);
+    update_tx(t, now);
     const bool rx_on = (u->cr1 & (CR1_UE | CR1_RE)) == (CR1_UE | CR1_RE);
     while (rx_on && u->rx_count > 0u && now >= u->rx_next_ps) {
         if ((u->isr & ISR_RXNE) != 0u) {
-            u->isr |= ISR_ORE; /* §40.5.3 "Overrun error": the new byte is lost */
+            /* §40.5.3 "Overrun error": a byte arrives with RXNE set; RDR keeps the old one,
+             * the new one is lost; ORE stays set until ICR.ORECF. */
+            u->isr |= ISR_ORE;
             u->overruns++;
         } else {
             u->rdr = u->rxq[u->rx_head];
@@ -73,8 +93,27 @@ static void update(struct twin *t) {
         u->rx_head = (u->rx_head + 1u) % TWIN_USART_RXQ;
         u->rx_count--;
         u->bytes_rx++;
-        u->rx_next_ps += rx_gap_ps(t);
+        u->rx_next_ps += HOST_FRAME_PS;
     }
+    if (!before && line(u)) {
+        twin_svc_kick(&t->svc); /* the NVIC sees the line at the next block */
+    }
+}
+
+bool twin_usart_irq(const struct twin *t) {
+    return line(&t->usart);
+}
+
+uint64_t twin_usart_next_event_ps(const struct twin *t) {
+    const struct twin_usart *u = &t->usart;
+    uint64_t e = UINT64_MAX;
+    if (u->shift_busy && (u->cr1 & (CR1_TXEIE | CR1_TCIE)) != 0u) {
+        e = u->shift_done_ps; /* TXE (TDR moves on) or TC then */
+    }
+    if (u->rx_count > 0u && (u->cr1 & CR1_RXNEIE) != 0u && u->rx_next_ps < e) {
+        e = u->rx_next_ps; /* RXNE or ORE then */
+    }
+    return e;
 }
 
 void twin_usart_reset(struct twin *t) {
@@ -90,24 +129,24 @@ void twin_usart_reset(struct twin *t) {
     u->overruns = ovr;
 }
 
-bool twin_usart_send_to_mcu(struct twin *t, const uint8_t *data, unsigned len) {
+uint64_t twin_usart_send_to_mcu(struct twin *t, const uint8_t *data, unsigned len) {
     struct twin_usart *u = &t->usart;
-    if (u->rx_count + len > TWIN_USART_RXQ) {
-        return false;
+    if (u->rx_count + len > TWIN_USART_RXQ || len == 0u) {
+        return 0u;
     }
     if (u->rx_count == 0u) {
-        u->rx_next_ps = twin_svc_now_ps(&t->svc) + rx_gap_ps(t);
+        u->rx_next_ps = twin_svc_now_ps(&t->svc) + HOST_FRAME_PS;
     }
     for (unsigned k = 0; k < len; ++k) {
         u->rxq[(u->rx_head + u->rx_count) % TWIN_USART_RXQ] = data[k];
         u->rx_count++;
     }
-    return true;
+    return u->rx_next_ps + (uint64_t)(u->rx_count - 1u) * HOST_FRAME_PS;
 }
 
 uint32_t twin_usart_read(struct twin *t, uint32_t off) {
     struct twin_usart *u = &t->usart;
-    update(t);
+    twin_usart_update(t);
     switch (off) {
     case USART_CR1:
         return u->cr1;
@@ -131,7 +170,7 @@ uint32_t twin_usart_read(struct twin *t, uint32_t off) {
         if ((v & ISR_TXE) == 0u && u->shift_busy) {
             twin_svc_warp_to(&t->svc,
                              u->shift_done_ps); /* a TXE poll: skip to the end of the frame */
-            update(t);
+            twin_usart_update(t);
             v = (v & ~(ISR_TXE | ISR_TC)) | (u->isr & (ISR_TXE | ISR_TC | ISR_RXNE));
         }
         return v;
@@ -150,12 +189,22 @@ uint32_t twin_usart_read(struct twin *t, uint32_t off) {
     }
 }
 
+/* A write of CR1: only the bits the model implements. */
+static void cr1_write(struct twin *t, uint32_t v) {
+    if ((v & ~CR1_MODELLED) != 0u) {
+        twin_svc_violation(&t->svc, "USART2_CR1", v,
+                           "a CR1 bit the twin does not model (RM0351 §40.8.1): 8N1, "
+                           "oversampling by 16, RXNE/TXE/TC interrupts only");
+    }
+    t->usart.cr1 = v;
+}
+
 void twin_usart_write(struct twin *t, uint32_t off, uint32_t v) {
     struct twin_usart *u = &t->usart;
-    update(t);
+    twin_usart_update(t);
     switch (off) {
     case USART_CR1:
-        u->cr1 = v;
+        cr1_write(t, v);
         break;
     case USART_CR2:
     case USART_CR3:
@@ -217,4 +266,7 @@ void twin_usart_write(struct twin *t, uint32_t off, uint32_t v) {
                            "reserved USART offset (RM0351 §40.8.12)");
         break;
     }
+    /* A write that raises the line (an enable set) or starts a byte whose end raises it:
+     * stop at the next block so the core takes the interrupt, and sees the new event. */
+    twin_svc_kick(&t->svc);
 }

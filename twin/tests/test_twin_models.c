@@ -143,6 +143,62 @@ static void test_clock_switch_waits_for_ready(void) {
     CHECK(T.sysclk_hz == TWIN_HSI16_HZ);
 }
 
+#define USART_CR1 (TWIN_USART2_BASE + 0x00u)
+#define USART_BRR (TWIN_USART2_BASE + 0x0Cu)
+#define USART_ISR (TWIN_USART2_BASE + 0x1Cu)
+#define USART_ICR (TWIN_USART2_BASE + 0x20u)
+#define USART_RDR (TWIN_USART2_BASE + 0x24u)
+#define USART_TDR (TWIN_USART2_BASE + 0x28u)
+#define NVIC_ISER 0xE000E100u
+
+/* Let `us` microseconds of core time pass (at the reset clock) and bring USART2 up to it. */
+static void usart_after_us(uint32_t us) {
+    T.cycles += (uint64_t)us * (T.sysclk_hz / 1000000u);
+    twin_usart_update(&T);
+}
+
+/* RM0351 §40.5.3, §40.7: the host's bytes arrive at 115200 Bd (86.8 us each); RXNE with
+ * RXNEIE raises the line; a byte arriving with RXNE still set is lost and sets ORE, which
+ * keeps the line up (RXNEIE) until ICR.ORECF; TXE with TXEIE raises it too. */
+static void test_usart_interrupts_and_overrun(void) {
+    fresh(true);
+    w32(RCC_APB1ENR1, 1u << 17); /* USART2EN */
+    w32(USART_BRR, 35u);         /* 4 MHz / 115200 */
+    w32(USART_CR1, 0x2Du);       /* UE | RE | TE | RXNEIE */
+    CHECK(!twin_usart_irq(&T));
+    const uint64_t t0 = twin_now_ps(&T);
+    const uint64_t last = twin_usart_send_to_mcu(&T, (const uint8_t *)"ab", 2u);
+    CHECK(last == t0 + 2u * 86805555u); /* back to back at the line rate */
+    CHECK(twin_usart_next_event_ps(&T) == t0 + 86805555u);
+    usart_after_us(90u);
+    CHECK((r32(USART_ISR) & (1u << 5)) != 0u); /* RXNE */
+    CHECK(twin_usart_irq(&T));
+    usart_after_us(90u);                       /* 'b' arrives, RDR still full */
+    CHECK((r32(USART_ISR) & (1u << 3)) != 0u); /* ORE */
+    CHECK(T.usart.overruns == 1u);
+    CHECK(r32(USART_RDR) == 'a'); /* the old byte kept, RXNE cleared by the read */
+    CHECK((r32(USART_ISR) & (1u << 5)) == 0u);
+    CHECK(twin_usart_irq(&T)); /* ORE with RXNEIE */
+    w32(USART_ICR, 1u << 3);
+    CHECK(!twin_usart_irq(&T));
+    w32(USART_CR1, 0xADu); /* + TXEIE: TXE is set, the line rises */
+    CHECK(twin_usart_irq(&T));
+    w32(USART_TDR, 'x'); /* into the shift register: TXE stays set */
+    w32(USART_TDR, 'y'); /* TDR full: TXE clear, the line down until 'x' has gone */
+    CHECK(!twin_usart_irq(&T));
+    CHECK(twin_usart_next_event_ps(&T) != UINT64_MAX);
+    usart_after_us(90u);
+    CHECK(twin_usart_irq(&T));
+    CHECK(T.stop == TWIN_RUNNING);
+    w32(NVIC_ISER + 4u, 1u << 6); /* IRQ 38, USART2: modelled */
+    CHECK(T.stop == TWIN_RUNNING);
+    w32(USART_CR1, 0x102Du); /* M0: a 9-bit word, not modelled */
+    CHECK(T.stop == TWIN_STOP_VIOLATION);
+    fresh(true);
+    w32(NVIC_ISER, 1u); /* IRQ 0: no model behind it */
+    CHECK(T.stop == TWIN_STOP_VIOLATION);
+}
+
 static void test_reserved_address_is_a_violation(void) {
     fresh(true);
     (void)r32(0x40010000u); /* SYSCFG: not modelled */
@@ -160,6 +216,7 @@ int main(void) {
     test_systick_counts_cycles();
     test_clock_switch_waits_for_ready();
     test_reserved_address_is_a_violation();
+    test_usart_interrupts_and_overrun();
     twin_free(&T);
     if (failures != 0) {
         fprintf(stderr, "%d checks failed\n", failures);

@@ -20,8 +20,19 @@
 #include "hal/hal_serial.h"
 #include "telemetry/tlm_frame.h"
 
-/* Received bytes handled per poll: bounds the time tof_link_poll() takes. */
+/* Received bytes handled per poll: read TOF_LINK_RX_PER_POLL at a time (a buffer on the
+ * stack), at most TOF_LINK_RX_CHUNKS times: bounds the time tof_link_poll() takes, and
+ * drains a board's whole receive buffer (256 bytes, boards/stm32/stm32_usart.h) in one poll. */
 #define TOF_LINK_RX_PER_POLL 64u
+#define TOF_LINK_RX_CHUNKS   8u
+
+/* The largest command payload (set-process-noise, docs/telemetry.md). */
+#define TOF_LINK_COMMAND_MAX 9u
+
+/* Health frames at most once per TOF_LINK_HEALTH_PERIOD_US (after the first window's
+ * estimates at the earliest): a window shorter than that sends none of its own, so the
+ * 155-byte frame costs at most 155 B/s of the link (docs/telemetry.md, "Link budget"). */
+#define TOF_LINK_HEALTH_PERIOD_US 1000000u
 
 struct tof_link {
     struct tof_app *app; /* set by tof_link_bind(), once the app exists; used only
@@ -34,6 +45,15 @@ struct tof_link {
     uint32_t commands_ok;      /* commands applied */
     uint32_t commands_refused; /* valid commands refused in the current state */
     uint8_t health_polls;      /* polls until the last window's health frame is sent (0: none) */
+    bool health_sent;          /* a health frame is due at health_due_us (else: at the next) */
+    uint64_t health_due_us;    /* no health frame before this estimate time */
+    /* The last command answered, to answer a retry (the same sequence, type and payload: the
+     * same bytes) again without applying it twice (docs/telemetry.md, "Retries"). */
+    bool last_valid;
+    uint8_t last_seq, last_type, last_result, last_length;
+    int8_t last_error;
+    uint8_t last_payload[TOF_LINK_COMMAND_MAX];
+    uint32_t commands_repeated; /* retries answered without being applied again */
 };
 
 /* Start a link over `serial`. */
@@ -49,11 +69,10 @@ void tof_link_poll(struct tof_link *link);
 /* Send a status frame (also the answer to a status request). */
 void tof_link_send_status(struct tof_link *link);
 
-/* Output ops sending estimates, raw samples and a health frame per window (ctx: the link).
- * The health frame goes out at the second tof_link_poll() after the window's estimates, i.e.
- * after the next main-loop iteration: the window's own iteration already carries the
- * estimation and its estimate frames, and the 151-byte frame (13 ms at 115200 Bd, the
- * transmit blocks) on top of them made it outlast a 20 ms slot (the twin, docs/boards.md). */
+/* Output ops sending estimates, raw samples and a health frame per window, at most one per
+ * TOF_LINK_HEALTH_PERIOD_US (ctx: the link). The health frame goes out at the second
+ * tof_link_poll() after the window's estimates, i.e. after the next main-loop iteration,
+ * so the window's own iteration does not carry it too. */
 extern const struct tof_output_ops tof_link_output_ops;
 
 /* tof_app_main() service ops (ctx: the link): start binds it and sends a status frame,

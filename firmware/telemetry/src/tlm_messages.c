@@ -354,6 +354,7 @@ int tlm_encode_health(uint8_t seq, const struct tlm_health *msg, uint8_t *out, s
     put_u32(&w, msg->loop_max_us);
     put_u32(&w, msg->tx_dropped);
     put_rx_counters(&w, &msg->link);
+    put_u32(&w, msg->uart_overruns);
     return finish_frame(TLM_TYPE_HEALTH, seq, out, w.at, cap);
 }
 
@@ -380,6 +381,7 @@ static enum tlm_result parse_health(struct reader *r, struct tlm_health *m) {
     m->loop_max_us = get_u32(r);
     m->tx_dropped = get_u32(r);
     get_rx_counters(r, &m->link);
+    m->uart_overruns = get_u32(r);
     return health_is_valid(m) ? TLM_RESULT_OK : TLM_RESULT_OUT_OF_RANGE;
 }
 

@@ -13,6 +13,9 @@ struct hal_serial_ops {
     size_t (*write)(void *ctx, const uint8_t *data, size_t len);
     /* Copy up to `max` received bytes into `buf`; returns how many (0: none pending). */
     size_t (*read)(void *ctx, uint8_t *buf, size_t max);
+    /* Received bytes lost so far (a receiver overrun, a full receive buffer), cumulative;
+     * NULL: the port counts none. */
+    uint32_t (*rx_lost)(void *ctx);
 };
 
 struct hal_serial {

@@ -25,7 +25,7 @@
 #define TLM_HEADER_SIZE    5u    /* sync0, sync1, length, type, sequence */
 #define TLM_CRC_SIZE       2u
 #define TLM_FRAME_OVERHEAD (TLM_HEADER_SIZE + TLM_CRC_SIZE)
-/* Largest payload: the health message (144 bytes) plus room to grow. */
+/* Largest payload: the health message (148 bytes) plus room to grow. */
 #define TLM_MAX_PAYLOAD 192u
 #define TLM_FRAME_MAX   (TLM_FRAME_OVERHEAD + TLM_MAX_PAYLOAD)
 

@@ -19,7 +19,8 @@
 /* Version of this protocol, reported in the status message. */
 /* 2: the estimate carries its standard deviations and why set (replacing the reason
  * byte), and nacks the firmware's error code. */
-#define TLM_PROTOCOL_VERSION 2u
+/* 3: the health message ends with uart_overruns (148 bytes). */
+#define TLM_PROTOCOL_VERSION 3u
 
 /* Frame types. Commands have the top bit set, so direction shows in a dump. */
 enum tlm_type {
@@ -40,7 +41,7 @@ enum tlm_type {
 /* Fixed payload length of each type, in bytes. */
 #define TLM_LEN_ESTIMATE          47u
 #define TLM_LEN_RAW_SAMPLE        17u
-#define TLM_LEN_HEALTH            144u
+#define TLM_LEN_HEALTH            148u
 #define TLM_LEN_ACK               4u
 #define TLM_LEN_STATUS            16u
 #define TLM_LEN_SET_WINDOW        3u
@@ -153,6 +154,8 @@ struct tlm_health {
     uint32_t loop_max_us;        /* longest main-loop iteration seen */
     uint32_t tx_dropped;         /* telemetry frames not sent (UART buffer full) */
     struct tlm_rx_counters link; /* the firmware's command decoder */
+    uint32_t uart_overruns;      /* received bytes the UART lost: receiver overruns (ORE) and
+                                    bytes that found the receive buffer full */
 };
 
 /* Answer to a command (TLM_TYPE_ACK): result 0 is an ack, anything else a nack. */
