@@ -22,6 +22,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "bench_steps.h"
 #include "estimator/attitude.h"
 #include "scene/crb.h"
 #include "scene/geometry.h"
@@ -578,15 +579,17 @@ static int run_scenario(const struct scenario *sc, uint64_t first_seed, unsigned
 }
 
 static void usage(FILE *to) {
-    fprintf(to, "usage: bench_estimator [--seeds S] [--first-seed F]\n"
+    fprintf(to, "usage: bench_estimator [--seeds S] [--first-seed F] [--steps]\n"
                 "  runs every scenario S times (default 20) from seed F (default 1) and prints\n"
                 "  the tables of docs/estimator-benchmark.md; exit status 0, 1 on a missing\n"
-                "  real-noise log, 2 on a bad argument\n");
+                "  real-noise log, 2 on a bad argument; --steps: only the step-detection\n"
+                "  delays (issue 24)\n");
 }
 
 int main(int argc, char **argv) {
     unsigned seeds = 20;
     uint64_t first_seed = 1;
+    bool steps = false;
     for (int i = 1; i < argc; ++i) {
         char *end = NULL;
         if (strcmp(argv[i], "--help") == 0 || strcmp(argv[i], "-h") == 0) {
@@ -607,11 +610,16 @@ int main(int argc, char **argv) {
                 fprintf(stderr, "bench_estimator: --first-seed: '%s' is not a number\n", argv[i]);
                 return 2;
             }
+        } else if (strcmp(argv[i], "--steps") == 0) {
+            steps = true;
         } else {
             fprintf(stderr, "bench_estimator: unknown argument '%s'\n", argv[i]);
             usage(stderr);
             return 2;
         }
+    }
+    if (steps) {
+        return bench_steps(seeds, first_seed);
     }
     static struct scene_real_noise real;
     char path[1200], err[512];

@@ -3,12 +3,13 @@
  * configurations, then arbitrary ranges, statuses and present flags.
  *
  * Input: one mode byte, a configuration (raw: every field straight from the
- * input, valid or not; guided: every field mapped into its valid range), then
- * row commands until the input ends (explicit rows, noisy tilted-plate blocks
- * with flagged and missing readings and spikes, repeats, gaps). With bit 7 of the
- * mode byte set, rows are fed to two states that start from different garbage,
- * and every output of both must agree field by field (no dependence on
- * uninitialised state).
+ * input, valid or not; guided: every field mapped into its valid range, Q = 0 or
+ * Q > 0 by its shift byte), then row commands until the input ends (explicit rows,
+ * noisy tilted-plate blocks with flagged and missing readings and spikes, repeats,
+ * gaps). Mode byte: bit 0 raw, bit 1 the Kalman filter's process_noise_auto (Q and R
+ * learnt from the rows, issue 24), bit 7 twins: rows are fed to two states that start
+ * from different garbage, and every output of both must agree field by field (no
+ * dependence on uninitialised state).
  *
  * Properties checked (FUZZ_CHECK aborts with the condition):
  *   - attitude_init accepts exactly the configurations the header calls valid,
@@ -516,6 +517,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
     } else {
         config_guided(&in, &h.cfg);
     }
+    /* a bool from a bit: any other byte value would be undefined as a bool */
+    h.cfg.kalman_process_noise_auto = (mode & 2u) != 0u;
     const bool valid = config_valid(&h.cfg);
     /* The twin state (different starting garbage) on half the inputs: it doubles the cost. */
     h.twins = (mode & 0x80u) != 0u ? 2u : 1u;

@@ -14,8 +14,9 @@
  * s128 shifts and rounding on magnitudes below 2^126; angles with valid arms;
  * consensus_product with per-sensor means of 16-bit readings (0..65535 mm),
  * any non-negative variance and count >= 1; consensus_paper with means within
- * ±90° (means of angles) and any covariances; Kalman readings of 0..65535 mm (both forms:
- * Q = 0 and Q > 0) and any variance for noise tracking.
+ * ±90° (means of angles) and any covariances; Kalman readings of 0..65535 mm (Q = 0,
+ * Q > 0 and process_noise_auto: bit 2 of the configuration's style byte) and any variance
+ * for noise tracking.
  *
  * Long run: docs/reliability.md, "Fuzzing".
  */
@@ -577,7 +578,8 @@ static void check_kalman(struct fuzz_input *in) {
     cfg.gate_floor_mm = fuzz_u16(in);
     cfg.warmup_rows = fuzz_u8(in);
     cfg.noise_shift = fuzz_u8(in);
-    if ((style & 1u) != 0u) { /* guided: a valid configuration */
+    cfg.process_noise_auto = (style & 4u) != 0u; /* Q and R learnt from the rows (issue 24) */
+    if ((style & 1u) != 0u) {                    /* guided: a valid configuration */
         for (unsigned i = 0; i < KALMAN_STATES; ++i) {
             /* half of them Q = 0, the paper's static protocol */
             cfg.process_noise_mm2[i] = (style & 2u) != 0u

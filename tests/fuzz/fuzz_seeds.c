@@ -93,27 +93,31 @@ struct att_cfg {
     unsigned gate_q8;
     unsigned floor_mm;
     unsigned warmup;
-    bool twins; /* also run the twin state and compare */
+    bool twins;       /* also run the twin state and compare */
+    bool auto_q;      /* the Kalman filter's process_noise_auto (mode bit 1) */
+    unsigned q_u16;   /* Q of each state, um^2 before the shift (0: Q = 0) */
+    unsigned q_shift; /* ... shifted left by this (0..16) */
 };
 
-static const struct att_cfg att_default = {30000u, 100u, false, 15u, 1280u, 3u, 5u, true};
+static const struct att_cfg att_default = {30000u, 100u, false, 15u, 1280u, 3u,
+                                           5u,     true, false, 0u,  0u};
 
 /* The guided configuration of fuzz_attitude.c, field by field (fuzz_range_u32 takes
  * lo + v % span: each v below is the wanted value minus lo). */
 static void att_guided(struct buf *b, const struct att_cfg *c) {
-    put_u8(b, c->twins ? 0x80u : 0u); /* guided */
-    put_u32(b, c->arm_um - 1000u);    /* arm: 4 bytes (span >= 2^16) */
-    put_u8(b, c->window - 2u);        /* window 2..256: 1 byte */
-    put_u8(b, c->sliding ? 1u : 0u);  /* mode */
-    put_u8(b, c->estimators - 1u);    /* estimators 1..15 */
-    put_u32(b, 1000u - 1u);           /* tolerance 1000 udeg */
-    put_u16(b, 200u - 1u);            /* paper iterations */
-    put_u16(b, 512u);                 /* paper consistency 2 sigma */
-    put_u16(b, c->gate_q8);           /* MAD gate */
-    put_u8(b, c->floor_mm);           /* gate floor */
-    put_u8(b, 0);                     /* Q shift */
+    put_u8(b, (c->twins ? 0x80u : 0u) | (c->auto_q ? 2u : 0u)); /* guided */
+    put_u32(b, c->arm_um - 1000u);                              /* arm: 4 bytes (span >= 2^16) */
+    put_u8(b, c->window - 2u);                                  /* window 2..256: 1 byte */
+    put_u8(b, c->sliding ? 1u : 0u);                            /* mode */
+    put_u8(b, c->estimators - 1u);                              /* estimators 1..15 */
+    put_u32(b, 1000u - 1u);                                     /* tolerance 1000 udeg */
+    put_u16(b, 200u - 1u);                                      /* paper iterations */
+    put_u16(b, 512u);                                           /* paper consistency 2 sigma */
+    put_u16(b, c->gate_q8);                                     /* MAD gate */
+    put_u8(b, c->floor_mm);                                     /* gate floor */
+    put_u8(b, c->q_shift);                                      /* Q shift */
     for (unsigned i = 0; i < 3u; ++i) {
-        put_u16(b, 0); /* Q = 0 */
+        put_u16(b, c->q_u16); /* Q (0: the static filter) */
     }
     for (unsigned k = 0; k < 4u; ++k) {
         put_u32(b, 4000000u); /* R = (2 mm)^2 */
@@ -213,6 +217,40 @@ static void attitude_seeds(void) {
     att_guided(&seed, &c);
     att_plate(&seed, 40u, 200u, 10, -10, 4u, 0x01u, 0x08u, 7u);
     write_seed("fuzz_attitude", "kalman_warmup", &seed);
+
+    seed.len = 0; /* issue 24: `auto` on a plate that tilts block by block, tumbling */
+    c = att_default;
+    c.window = 20u;
+    c.estimators = 5u; /* the flight set: consensus and Kalman */
+    c.auto_q = true;
+    att_guided(&seed, &c);
+    for (int step = 0; step < 6; ++step) {
+        att_plate(&seed, 20u, 600u + 3u * (unsigned)step, -10 + 4 * step, 6 - 2 * step, 3u, 0u, 0u,
+                  9u + (unsigned)step);
+    }
+    write_seed("fuzz_attitude", "auto_tumbling_tilt", &seed);
+
+    seed.len = 0; /* `auto`, sliding, over flagged, missing and spiky readings and a gap */
+    c = att_default;
+    c.window = 16u;
+    c.sliding = true;
+    c.auto_q = true;
+    c.twins = false;
+    att_guided(&seed, &c);
+    att_plate(&seed, 40u, 350u, 4, -4, 5u, 0x21u, 0x02u, 15u);
+    att_gap(&seed, 0x8u, 10u);
+    att_plate(&seed, 40u, 360u, 12, -2, 5u, 0x21u, 0x02u, 16u);
+    write_seed("fuzz_attitude", "auto_sliding_faults", &seed);
+
+    seed.len = 0; /* a fixed Q > 0 (1000 um^2 << 4 per row) on a tilting plate */
+    c = att_default;
+    c.window = 25u;
+    c.q_u16 = 1000u;
+    c.q_shift = 4u;
+    att_guided(&seed, &c);
+    att_plate(&seed, 50u, 450u, -6, 2, 2u, 0u, 0u, 17u);
+    att_plate(&seed, 50u, 452u, 6, -2, 2u, 0u, 0u, 18u);
+    write_seed("fuzz_attitude", "fixed_q_tilt", &seed);
 
     seed.len = 0; /* a raw configuration that is valid */
     put_u8(&seed, 1u);
@@ -373,6 +411,39 @@ static void math_seeds(void) {
     put_u8(&seed, 0x85u); /* estimate, then reset */
     put_u32(&seed, 30000u - 1000u);
     write_seed("fuzz_estimator_math", "kalman", &seed);
+
+    seed.len = 0; /* Kalman with process_noise_auto (style bit 2): a plate tilting row by row */
+    put_u8(&seed, 5u);
+    put_u8(&seed, 5u); /* guided, auto */
+    for (unsigned i = 0; i < 3u; ++i) {
+        put_u64(&seed, 0u); /* Q = 0 to start from */
+        put_u8(&seed, 0u);
+    }
+    for (unsigned k = 0; k < 4u; ++k) {
+        put_u64(&seed, (uint64_t)4u << 32);
+        put_u8(&seed, 0u);
+    }
+    put_u16(&seed, 1280u);
+    put_u16(&seed, 3u);
+    put_u8(&seed, 4u); /* warm-up 5 */
+    put_u8(&seed, 2u);
+    for (unsigned r = 0; r < 56u; ++r) { /* α ramps: x_C − x_A grows 1 mm every 4 rows */
+        put_u8(&seed, 0u);
+        put_u16(&seed, 480u - r / 8u + (r * 7u) % 3u);
+        put_u16(&seed, 505u + (r * 5u) % 3u);
+        put_u16(&seed, 520u + r / 8u - (r * 3u) % 2u);
+        put_u16(&seed, 495u + (r * 11u) % 3u);
+        put_u8(&seed, r == 30u ? 0x07u : 0x0Fu);
+    }
+    put_u8(&seed, 2u); /* flush */
+    put_u8(&seed, 4u); /* track noise: ignored with auto */
+    put_u8(&seed, 0u);
+    put_u64(&seed, (uint64_t)9u << 32);
+    put_u8(&seed, 0u);
+    put_u16(&seed, 100u);
+    put_u8(&seed, 0x05u); /* estimate */
+    put_u32(&seed, 30000u - 1000u);
+    write_seed("fuzz_estimator_math", "kalman_auto", &seed);
 }
 
 /* --- fuzz_vl53: a scripted device model ------------------------------------------------------- */

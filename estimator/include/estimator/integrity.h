@@ -34,6 +34,13 @@
  * small to be called motion must not leave more than 3σ of lag out of the sd. */
 #define INTEGRITY_MOTION_ALLOW_Q8 (3u * 256u)
 
+/* The learnt drift is said (`drift`) only beyond this many of its own white-noise sd
+ * (k·256). A mean of a few χ²₁ samples is skewed, and at N = 10 the window gate makes the
+ * windows under-predict their noise, so k = 5 (not a Gaussian 3): white noise alone is
+ * `drift` after one block in 0.5 % of runs, over the first 16 blocks in 0.1 % of windows,
+ * then 0.02 % (0.17 % at N = 10): docs/estimator-design.md "Integrity". */
+#define INTEGRITY_DRIFT_SIGNIFICANCE_Q8 (5u * 256u)
+
 /* The three axes of an estimate, as y = a·tan α, y = a·tan β and x̄. */
 enum integrity_axis { INTEGRITY_ALPHA = 0, INTEGRITY_BETA = 1, INTEGRITY_DISTANCE = 2 };
 #define INTEGRITY_AXES 3u
@@ -44,7 +51,7 @@ struct integrity_config {
     uint16_t parity_sigmas_q8;    /* parity threshold k·256 */
     uint16_t motion_sigmas_q8;    /* motion threshold k·256 */
     uint16_t offset_stability_um; /* prior per-sensor offset 1σ (not learnable) */
-    uint16_t drift_flag_um;       /* learnt drift 1σ above this: `drift` */
+    uint16_t drift_flag_um;       /* learnt drift 1σ above this (and significant): `drift` */
     uint8_t drift_shift;          /* learning gain 2^-shift per block, after a start-up mean */
 };
 
@@ -55,9 +62,10 @@ struct integrity_config {
  * the sliding windows until the next block). */
 struct integrity_state {
     fix_q32_t
-        drift_mm2;   /* per-sensor drift variance, Q32 mm² (an unbiased mean: may dip below 0) */
-    uint16_t blocks; /* blocks learnt, saturating at 2^drift_shift */
-    uint8_t block_used[3];                      /* the previous three blocks' sensor sets */
+        drift_mm2; /* per-sensor drift variance, Q32 mm² (an unbiased mean: may dip below 0) */
+    fix_q32_t drift_var_mm4; /* its variance from white noise alone, Q32 mm⁴ (`drift` test) */
+    uint16_t blocks;         /* blocks learnt, saturating at 2^drift_shift */
+    uint8_t block_used[3];   /* the previous three blocks' sensor sets */
     fix_q32_t block_mean_mm[3][ANGLES_SENSORS]; /* ... and their sensor means, newest first */
     fix_q32_t steady_lag2_mm2[INTEGRITY_AXES];  /* learnt lag² per axis, Q32 mm², held
                                                    until the next block */
