@@ -24,10 +24,15 @@
  * block for q (about 2,000 rows) and 2^-9 per row for R. Cost: about 20 instructions a
  * row and a few 64-bit divisions a block. */
 #define KALMAN_ADAPT_BLOCK   32u
+#define KALMAN_ADAPT_FAN     4u /* sub-blocks per block above level 0 */
 #define KALMAN_ADAPT_Q_SHIFT 6u
 #define KALMAN_ADAPT_R_SHIFT 9u
-/* B(2B² + 1)/3 for B = 32 */
-#define KALMAN_ADAPT_Q_WEIGHT 21856
+/* A level above 0 is used once it has this many samples (one sample of a long block is
+ * a χ²₁ draw: a quarter of them are below a tenth of their mean). */
+#define KALMAN_ADAPT_MIN_N 8u
+
+/* B(2B² + 1)/48 for B = 32·4^l (exact: B is even, 2B² + 1 a multiple of 3) */
+static const int64_t adapt_weight16[KALMAN_ADAPT_LEVELS] = {1366, 87384, 5592416, 357913984};
 
 /* mean += (v − mean) · gain, the gain from the samples so far (|v|, |mean| < 2^30) */
 static void adapt_mean(int32_t *mean, int32_t v, uint16_t n, unsigned max_shift) {
@@ -38,11 +43,17 @@ static void adapt_mean(int32_t *mean, int32_t v, uint16_t n, unsigned max_shift)
     *mean += (int32_t)(sh == 0u ? step : fix_round_shr_s64(step, sh));
 }
 
-/* One block's sample of q_y in Q16 mm² per row: (D² − 2B w)/(B(2B² + 1)/3), w in Q32. */
-static int64_t adapt_q_sample(int32_t d, int64_t w_q32) {
-    const int64_t d2 = ((int64_t)d * d) << 16; /* |d| < 2^15: below 2^46 */
-    const int64_t noise = (int64_t)(2u * KALMAN_ADAPT_BLOCK) * (w_q32 >> 16);
-    return (d2 - noise) / KALMAN_ADAPT_Q_WEIGHT;
+/* The white-noise part of E[D²]/(B(2B² + 1)/3) at level l: 2B·w/(B(2B² + 1)/3), Q32 mm²
+ * per row (w in Q32, below 2^54). */
+static int64_t adapt_noise(unsigned l, int64_t w_q32) {
+    const int64_t two_b = (int64_t)(2u * KALMAN_ADAPT_BLOCK) << (2u * l);
+    return (w_q32 >> 4) * two_b / adapt_weight16[l];
+}
+
+/* One block's sample of q_y in Q16 mm² per row: (D² − 2B w)/(B(2B² + 1)/3). */
+static int64_t adapt_q_sample(unsigned l, int32_t d, int64_t w_q32) {
+    const int64_t d2 = ((int64_t)d * d) << 12; /* |d| < 2^(15+2l): below 2^54 */
+    return d2 / adapt_weight16[l] - (adapt_noise(l, w_q32) >> 16);
 }
 
 static int32_t adapt_bound(int64_t v) {
@@ -50,36 +61,102 @@ static int32_t adapt_bound(int64_t v) {
     return (int32_t)(v > lim ? lim : (v < -lim ? -lim : v));
 }
 
-/* The end of a block of full rows: samples of q from the difference to the block before. */
-static void adapt_block(struct kalman_state *k) {
-    struct kalman_cov *cv = &k->cov;
-    const fix_q32_t *r = k->r;
+/* The end of a block of level l: samples of q from the difference to the block before. */
+static void adapt_block(struct kalman_cov *cv, unsigned l, const int64_t w[KALMAN_STATES]) {
     int32_t d[KALMAN_STATES];
-    bool usable = cv->blk_prev_valid;
+    bool usable = (cv->blk_prev_valid & (1u << l)) != 0u;
+    const int32_t lim = (int32_t)1 << (15u + 2u * l); /* 1 024 mm a row: a jump */
     for (unsigned j = 0; j < KALMAN_STATES; ++j) {
-        d[j] = cv->blk_sum[j] - cv->blk_prev[j];
-        usable = usable && d[j] < 32768 && d[j] > -32768;
-        cv->blk_prev[j] = cv->blk_sum[j];
-        cv->blk_sum[j] = 0;
+        d[j] = cv->blk_sum[l][j] - cv->blk_prev[l][j];
+        usable = usable && d[j] < lim && d[j] > -lim;
+        cv->blk_prev[l][j] = cv->blk_sum[l][j];
+        cv->blk_sum[l][j] = 0;
     }
-    cv->blk_prev_valid = true;
-    cv->blk_rows = 0;
+    cv->blk_prev_valid |= (uint8_t)(1u << l);
+    cv->blk_sub[l] = 0;
     if (!usable) {
         return;
     }
-    const int64_t w[KALMAN_STATES] = {r[0] + r[1] + r[2] + r[3], r[ANGLES_A] + r[ANGLES_C],
-                                      r[ANGLES_B] + r[ANGLES_D]};
     int64_t qy[KALMAN_STATES];
     for (unsigned j = 0; j < KALMAN_STATES; ++j) {
-        qy[j] = adapt_q_sample(d[j], w[j]);
+        qy[j] = adapt_q_sample(l, d[j], w[j]);
     }
-    cv->n_q = cv->n_q < UINT16_MAX ? (uint16_t)(cv->n_q + 1u) : UINT16_MAX;
+    uint16_t *n = &cv->n_q[l];
+    *n = *n < UINT16_MAX ? (uint16_t)(*n + 1u) : UINT16_MAX;
     /* Q16 of q_y to Q24 of the state: x̄ q_y/16, slopes q_y/4 (their mean) */
-    adapt_mean(&cv->mean_q[0], adapt_bound(qy[0] * 16), cv->n_q, KALMAN_ADAPT_Q_SHIFT);
-    adapt_mean(&cv->mean_q[1], adapt_bound((qy[1] + qy[2]) * 32), cv->n_q, KALMAN_ADAPT_Q_SHIFT);
+    adapt_mean(&cv->mean_q[l][0], adapt_bound(qy[0] * 16), *n, KALMAN_ADAPT_Q_SHIFT);
+    adapt_mean(&cv->mean_q[l][1], adapt_bound((qy[1] + qy[2]) * 32), *n, KALMAN_ADAPT_Q_SHIFT);
+}
+
+/* Q of state group g (0 x̄, 1 slopes) from the level whose mean has the least variance,
+ * ∝ (q + noise_l)²/n_l (a sample's sd is its mean E[D²]/weight, q + noise_l), with q the
+ * current value: long blocks for slow motion, short ones (more samples) for fast. */
+static int64_t adapt_choose(const struct kalman_cov *cv, unsigned g, int64_t q_now,
+                            const int64_t w[KALMAN_STATES]) {
+    uint64_t s[KALMAN_ADAPT_LEVELS];
+    uint64_t top = 1;
+    for (unsigned l = 0; l < KALMAN_ADAPT_LEVELS; ++l) {
+        /* the noise in the state's units: x̄ q_y/16, each slope q_y/4 (the mean of two) */
+        const int64_t nz =
+            g == 0u ? adapt_noise(l, w[0]) / 16 : (adapt_noise(l, w[1]) + adapt_noise(l, w[2])) / 8;
+        s[l] = (uint64_t)(q_now > 0 ? q_now : 0) + (uint64_t)nz + 1u;
+        top = s[l] > top ? s[l] : top;
+    }
+    const unsigned bl = fix_bitlen_u64(top);
+    const unsigned sh = bl > 27u ? bl - 27u : 0u; /* s below 2^27 */
+    uint64_t wt[KALMAN_ADAPT_LEVELS];
+    uint64_t wmax = 0;
+    for (unsigned l = 0; l < KALMAN_ADAPT_LEVELS; ++l) {
+        const uint64_t cap = 2u << KALMAN_ADAPT_Q_SHIFT; /* the running mean's memory */
+        const uint64_t n = cv->n_q[l] < cap ? cv->n_q[l] : cap;
+        const uint64_t sl = (s[l] >> sh) | 1u;
+        wt[l] = (n == 0u || (l > 0u && n < KALMAN_ADAPT_MIN_N)) ? 0u : (n << 52) / (sl * sl);
+        wmax = wt[l] > wmax ? wt[l] : wmax;
+    }
+    const unsigned wb = fix_bitlen_u64(wmax);
+    const unsigned ws = wb > 30u ? wb - 30u : 0u; /* weights below 2^30: sums below 2^62 */
+    int64_t num = 0;
+    int64_t den = 0;
+    for (unsigned l = 0; l < KALMAN_ADAPT_LEVELS; ++l) {
+        const int64_t wl = (int64_t)(wt[l] >> ws);
+        num += wl * cv->mean_q[l][g];
+        den += wl;
+    }
+    const int64_t m = den > 0 ? num / den : 0;
+    return m > 0 ? m << 8 : 0;
+}
+
+/* A full row into the block sums of every level; the blocks that end are sampled and Q
+ * set. */
+static void adapt_sums(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENSORS]) {
+    struct kalman_cov *cv = &k->cov;
+    const int32_t za = range_mm[ANGLES_A];
+    const int32_t zb = range_mm[ANGLES_B];
+    const int32_t zc = range_mm[ANGLES_C];
+    const int32_t zd = range_mm[ANGLES_D];
+    cv->blk_sum[0][0] += za + zb + zc + zd; /* 2 048 rows: below 2^29 */
+    cv->blk_sum[0][1] += zc - za;
+    cv->blk_sum[0][2] += zb - zd;
+    if (++cv->blk_sub[0] < KALMAN_ADAPT_BLOCK) {
+        return;
+    }
+    const fix_q32_t *r = k->r;
+    const int64_t w[KALMAN_STATES] = {r[0] + r[1] + r[2] + r[3], r[ANGLES_A] + r[ANGLES_C],
+                                      r[ANGLES_B] + r[ANGLES_D]};
+    for (unsigned l = 0; l < KALMAN_ADAPT_LEVELS; ++l) {
+        if (l + 1u < KALMAN_ADAPT_LEVELS) {
+            for (unsigned j = 0; j < KALMAN_STATES; ++j) {
+                cv->blk_sum[l + 1u][j] += cv->blk_sum[l][j];
+            }
+        }
+        adapt_block(cv, l, w);
+        if (l + 1u == KALMAN_ADAPT_LEVELS || ++cv->blk_sub[l + 1u] < KALMAN_ADAPT_FAN) {
+            break;
+        }
+    }
     fix_q32_t *q = k->cfg.process_noise_mm2;
-    q[0] = cv->mean_q[0] > 0 ? (int64_t)cv->mean_q[0] << 8 : 0;
-    q[1] = cv->mean_q[1] > 0 ? (int64_t)cv->mean_q[1] << 8 : 0;
+    q[0] = adapt_choose(cv, 0, q[0], w);
+    q[1] = adapt_choose(cv, 1, q[1], w);
     q[2] = q[1];
     cv->steady = false; /* the fixed point moved */
 }
@@ -101,24 +178,19 @@ bool kalman_adapt_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SEN
     cv->last_valid = valid_mask;
     if (valid_mask != ANGLES_ALL_SENSORS) {
         /* a block is consecutive full rows: start again */
-        cv->blk_rows = 0;
-        cv->blk_prev_valid = false;
-        for (unsigned j = 0; j < KALMAN_STATES; ++j) {
-            cv->blk_sum[j] = 0;
+        cv->blk_prev_valid = 0;
+        for (unsigned l = 0; l < KALMAN_ADAPT_LEVELS; ++l) {
+            cv->blk_sub[l] = 0;
+            for (unsigned j = 0; j < KALMAN_STATES; ++j) {
+                cv->blk_sum[l][j] = 0;
+            }
         }
         return false;
     }
-    const int32_t za = range_mm[ANGLES_A];
-    const int32_t zb = range_mm[ANGLES_B];
-    const int32_t zc = range_mm[ANGLES_C];
-    const int32_t zd = range_mm[ANGLES_D];
-    cv->blk_sum[0] += za + zb + zc + zd; /* 32 rows: below 2^23 */
-    cv->blk_sum[1] += zc - za;
-    cv->blk_sum[2] += zb - zd;
-    if (++cv->blk_rows < KALMAN_ADAPT_BLOCK) {
+    adapt_sums(k, range_mm);
+    if (cv->blk_sub[0] != 0u) {
         return false;
     }
-    adapt_block(k);
     const fix_q32_t *q = k->cfg.process_noise_mm2;
     bool r_set = false;
     for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
