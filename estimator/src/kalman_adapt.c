@@ -8,21 +8,30 @@
  * rows that way). Per row with all four readings, the transformed sums
  *     y_x̄ = z_A + z_B + z_C + z_D = 4 x̄ + noise,  y_α = z_C − z_A = 2 θ_α + noise,
  *     y_β = z_B − z_D = 2 θ_β + noise
- * are summed over blocks of B = KALMAN_ADAPT_BLOCK rows. For a random walk of intensity
- * q_y per row plus white noise of variance w_y per row, the difference D of two
- * consecutive block sums has E[D²] = q_y · B(2B² + 1)/3 + 2B · w_y (the Allan variance of
- * the block means, times B²: each increment of the walk enters D with weight
- * min(t, 2B − t)). With w_x̄ = ΣR, w_α = R_A + R_C, w_β = R_B + R_D and q_y = 16 q_x̄,
- * 4 q_t, 4 q_t, one block gives a sample of q_x̄ and of q_t (both slopes share it, as
- * --process-noise QD,QT does); their running means set Q at each block's end (Q at least
- * 0, a sample bounded to ±64 mm² per row, a block difference of 2^15 mm or more, a jump,
- * not used).
+ * are summed over blocks of B rows. For a random walk of intensity q_y per row plus white
+ * noise of variance w_y per row, the difference D of two consecutive block sums has
+ * E[D²] = q_y · B(2B² + 1)/3 + 2B · w_y (the Allan variance of the block means, times B²:
+ * each increment of the walk enters D with weight min(t, 2B − t)). With w_x̄ = ΣR,
+ * w_α = R_A + R_C, w_β = R_B + R_D and q_y = 16 q_x̄, 4 q_t, 4 q_t, one block gives a
+ * sample of q_x̄ and of q_t (both slopes share it, as --process-noise QD,QT does).
+ * Which B: a sample's sd is about its mean, q + 3w/B² per row, so a short block drowns a
+ * slow walk in noise (q_t 0.01 mm²/s at σ 7 mm: noise 20 x q at B = 32) and the best B is
+ * about √(3w/q) (600 rows there), while fast motion wants short blocks (more samples).
+ * So four lengths run at once, B = 32, 128, 512, 2 048 rows (a cascade: each level's sum
+ * is four of the level below), each with its running mean (gain 1/2^⌊log2 n⌋, then 2^-6
+ * a block: memory 64 blocks, i.e. it grows with B); Q is their inverse-variance mean,
+ * weights n_l/(q + noise_l)² with q the current value (a level above 0 from 8 samples:
+ * one long block is a χ²₁ draw), and at least a quarter of that mean's own sd (a q learnt
+ * as 0 freezes the filter: the costliest miss). Set at each 32-row block's end. A sample
+ * is bounded to ±64 mm² per row; a block difference of 1 024 mm a row or more, a jump,
+ * not used; a row without all four readings restarts every level.
  * R comes from what the motion barely touches: the difference d of a sensor's consecutive
  * readings has E[d²] = 2R + hQhᵀ = 2R + Q_x̄ + Q_t (h has entries ±1), so
  * R = (E[d²] − Q_x̄ − Q_t)/2, at least 1/12 mm² (a difference of 128 mm or more, a jump,
- * not used). Running means: gain 1/2^⌊log2 n⌋ over the first samples, then 2^-6 per
- * block for q (about 2,000 rows) and 2^-9 per row for R. Cost: about 20 instructions a
- * row and a few 64-bit divisions a block. */
+ * not used); running mean, gain 2^-9 per row after the first samples. Cost: about 25
+ * instructions a row; every 32 rows (and rarer for longer blocks) three 64-bit divisions per
+ * level that ends, and the mean's ~20 (levels' noise and weights, one square root).
+ * Memory: 4 levels x (2 x 3 sums + 2 means) words. */
 #define KALMAN_ADAPT_BLOCK   32u
 #define KALMAN_ADAPT_FAN     4u /* sub-blocks per block above level 0 */
 #define KALMAN_ADAPT_Q_SHIFT 6u
@@ -88,9 +97,10 @@ static void adapt_block(struct kalman_cov *cv, unsigned l, const int64_t w[KALMA
     adapt_mean(&cv->mean_q[l][1], adapt_bound((qy[1] + qy[2]) * 32), *n, KALMAN_ADAPT_Q_SHIFT);
 }
 
-/* Q of state group g (0 x̄, 1 slopes) from the level whose mean has the least variance,
- * ∝ (q + noise_l)²/n_l (a sample's sd is its mean E[D²]/weight, q + noise_l), with q the
- * current value: long blocks for slow motion, short ones (more samples) for fast. */
+/* Q of state group g (0 x̄, 1 slopes), Q32 mm² per row: the levels' means weighted by
+ * n_l/(q + noise_l)² (a sample's sd is about its mean E[D²]/weight, q + noise_l), q the
+ * current value: long blocks weigh most for slow motion, short ones (more samples) for
+ * fast. */
 static int64_t adapt_choose(const struct kalman_cov *cv, unsigned g, int64_t q_now,
                             const int64_t w[KALMAN_STATES]) {
     uint64_t s[KALMAN_ADAPT_LEVELS];
@@ -122,8 +132,15 @@ static int64_t adapt_choose(const struct kalman_cov *cv, unsigned g, int64_t q_n
         num += wl * cv->mean_q[l][g];
         den += wl;
     }
-    const int64_t m = den > 0 ? num / den : 0;
-    return m > 0 ? m << 8 : 0;
+    if (den <= 0) {
+        return 0;
+    }
+    /* at least the sd of the mean, sqrt(2/Σ n_l/s_l²): a q learnt as 0 would freeze the
+     * filter, the worst miss (its cost grows with |log q̂/q|) */
+    const int64_t m = (num / den) << 8;
+    const uint64_t v = ((uint64_t)1 << (61u - ws)) / (uint64_t)den; /* ws ≤ 29 */
+    const int64_t sd = ((int64_t)fix_isqrt_u64(v) << sh) >> 6;
+    return m > sd ? m : sd;
 }
 
 /* A full row into the block sums of every level; the blocks that end are sampled and Q
