@@ -102,13 +102,14 @@ static void adapt_block(struct kalman_cov *cv, unsigned l, const int64_t w[KALMA
  * current value: long blocks weigh most for slow motion, short ones (more samples) for
  * fast. */
 static int64_t adapt_choose(const struct kalman_cov *cv, unsigned g, int64_t q_now,
-                            const int64_t w[KALMAN_STATES]) {
+                            const int64_t nz0[KALMAN_STATES]) {
     uint64_t s[KALMAN_ADAPT_LEVELS];
     uint64_t top = 1;
     for (unsigned l = 0; l < KALMAN_ADAPT_LEVELS; ++l) {
-        /* the noise in the state's units: x̄ q_y/16, each slope q_y/4 (the mean of two) */
-        const int64_t nz =
-            g == 0u ? adapt_noise(l, w[0]) / 16 : (adapt_noise(l, w[1]) + adapt_noise(l, w[2])) / 8;
+        /* the noise in the state's units (x̄ q_y/16, each slope q_y/4, the mean of two);
+         * level l's is level 0's / 16^l to 0.1 % ((2B² + 1) grows 16-fold a level): shifts,
+         * no division */
+        const int64_t nz = (g == 0u ? nz0[0] / 16 : (nz0[1] + nz0[2]) / 8) >> (4u * l);
         s[l] = (uint64_t)(q_now > 0 ? q_now : 0) + (uint64_t)nz + 1u;
         top = s[l] > top ? s[l] : top;
     }
@@ -135,12 +136,21 @@ static int64_t adapt_choose(const struct kalman_cov *cv, unsigned g, int64_t q_n
     if (den <= 0) {
         return 0;
     }
-    /* at least the sd of the mean, sqrt(2/Σ n_l/s_l²): a q learnt as 0 would freeze the
-     * filter, the worst miss (its cost grows with |log q̂/q|) */
-    const int64_t m = (num / den) << 8;
+    /* at least a quarter of the mean's sd, sqrt(2/Σ n_l/s_l²)/4: a q learnt as 0 would
+     * freeze the filter, the worst miss (its cost grows with |log q̂/q|) */
+    const int64_t mean = num / den;
+    const int64_t m = mean > 0 ? mean << 8 : 0;
     const uint64_t v = ((uint64_t)1 << (61u - ws)) / (uint64_t)den; /* ws ≤ 29 */
     const int64_t sd = ((int64_t)fix_isqrt_u64(v) << sh) >> 6;
     return m > sd ? m : sd;
+}
+
+/* A learnt value moved enough to be worth a new fixed point: by more than a quarter (a q
+ * or R off by 25 % changes the filter's RMS error by about 0.3 %), while each change ends
+ * the steady state (kalman_steady.c) and its cheap rows. */
+static bool adapt_moved(int64_t now, int64_t next) {
+    const int64_t d = next > now ? next - now : now - next;
+    return d > (now >> 2) || (now == 0) != (next == 0);
 }
 
 /* A full row into the block sums of every level; the blocks that end are sampled and Q
@@ -172,10 +182,16 @@ static void adapt_sums(struct kalman_state *k, const uint16_t range_mm[ANGLES_SE
         }
     }
     fix_q32_t *q = k->cfg.process_noise_mm2;
-    q[0] = adapt_choose(cv, 0, q[0], w);
-    q[1] = adapt_choose(cv, 1, q[1], w);
-    q[2] = q[1];
-    cv->steady = false; /* the fixed point moved */
+    const int64_t nz0[KALMAN_STATES] = {adapt_noise(0, w[0]), adapt_noise(0, w[1]),
+                                        adapt_noise(0, w[2])};
+    const int64_t qx = adapt_choose(cv, 0, q[0], nz0);
+    const int64_t qt = adapt_choose(cv, 1, q[1], nz0);
+    if (adapt_moved(q[0], qx) || adapt_moved(q[1], qt)) {
+        q[0] = qx;
+        q[1] = qt;
+        q[2] = qt;
+        cv->steady = false; /* the fixed point moved */
+    }
 }
 
 bool kalman_adapt_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENSORS],
@@ -213,8 +229,11 @@ bool kalman_adapt_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SEN
     for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
         if (cv->mean_d[s] > 0) {
             const int64_t v = (((int64_t)cv->mean_d[s] << 16) - q[0] - q[1]) / 2;
-            k->r[s] = v < KALMAN_R_MIN_Q32 ? KALMAN_R_MIN_Q32 : v; /* below 2^13 mm² */
-            r_set = true;
+            const int64_t r = v < KALMAN_R_MIN_Q32 ? KALMAN_R_MIN_Q32 : v; /* below 2^13 mm² */
+            if (adapt_moved(k->r[s], r)) {
+                k->r[s] = r;
+                r_set = true;
+            }
         }
     }
     return r_set;
