@@ -8,26 +8,40 @@
  * rows that way). Per row with all four readings, the transformed sums
  *     y_x̄ = z_A + z_B + z_C + z_D = 4 x̄ + noise,  y_α = z_C − z_A = 2 θ_α + noise,
  *     y_β = z_B − z_D = 2 θ_β + noise
- * are summed over blocks of B = KALMAN_ADAPT_BLOCK rows. For a random walk of intensity
- * q_y per row plus white noise of variance w_y per row, the difference D of two
- * consecutive block sums has E[D²] = q_y · B(2B² + 1)/3 + 2B · w_y (the Allan variance of
- * the block means, times B²: each increment of the walk enters D with weight
- * min(t, 2B − t)). With w_x̄ = ΣR, w_α = R_A + R_C, w_β = R_B + R_D and q_y = 16 q_x̄,
- * 4 q_t, 4 q_t, one block gives a sample of q_x̄ and of q_t (both slopes share it, as
- * --process-noise QD,QT does); their running means set Q at each block's end (Q at least
- * 0, a sample bounded to ±64 mm² per row, a block difference of 2^15 mm or more, a jump,
- * not used).
+ * are summed over blocks of B rows. For a random walk of intensity q_y per row plus white
+ * noise of variance w_y per row, the difference D of two consecutive block sums has
+ * E[D²] = q_y · B(2B² + 1)/3 + 2B · w_y (the Allan variance of the block means, times B²:
+ * each increment of the walk enters D with weight min(t, 2B − t)). With w_x̄ = ΣR,
+ * w_α = R_A + R_C, w_β = R_B + R_D and q_y = 16 q_x̄, 4 q_t, 4 q_t, one block gives a
+ * sample of q_x̄ and of q_t (both slopes share it, as --process-noise QD,QT does).
+ * Which B: a sample's sd is about its mean, q + 3w/B² per row, so a short block drowns a
+ * slow walk in noise (q_t 0.01 mm²/s at σ 7 mm: noise 20 x q at B = 32) and the best B is
+ * about √(3w/q) (600 rows there), while fast motion wants short blocks (more samples).
+ * So four lengths run at once, B = 32, 128, 512, 2 048 rows (a cascade: each level's sum
+ * is four of the level below), each with its running mean (gain 1/2^⌊log2 n⌋, then 2^-6
+ * a block: memory 64 blocks, i.e. it grows with B); Q is their inverse-variance mean,
+ * weights n_l/(q + noise_l)² with q the current value (a level above 0 from 8 samples:
+ * one long block is a χ²₁ draw), and at least a quarter of that mean's own sd (a q learnt
+ * as 0 freezes the filter: the costliest miss). Set at each 32-row block's end. A sample
+ * is bounded to ±64 mm² per row; a block difference of 1 024 mm a row or more, a jump,
+ * not used; a row without all four readings restarts every level.
  * R comes from what the motion barely touches: the difference d of a sensor's consecutive
  * readings has E[d²] = 2R + hQhᵀ = 2R + Q_x̄ + Q_t (h has entries ±1), so
  * R = (E[d²] − Q_x̄ − Q_t)/2, at least 1/12 mm² (a difference of 128 mm or more, a jump,
- * not used). Running means: gain 1/2^⌊log2 n⌋ over the first samples, then 2^-6 per
- * block for q (about 2,000 rows) and 2^-9 per row for R. Cost: about 20 instructions a
- * row and a few 64-bit divisions a block. */
+ * not used); running mean, gain 2^-9 per row after the first samples. Cost: about 25
+ * instructions a row; every 32 rows (and rarer for longer blocks) three 64-bit divisions per
+ * level that ends, and the mean's ~20 (levels' noise and weights, one square root).
+ * Memory: 4 levels x (2 x 3 sums + 2 means) words. */
 #define KALMAN_ADAPT_BLOCK   32u
+#define KALMAN_ADAPT_FAN     4u /* sub-blocks per block above level 0 */
 #define KALMAN_ADAPT_Q_SHIFT 6u
 #define KALMAN_ADAPT_R_SHIFT 9u
-/* B(2B² + 1)/3 for B = 32 */
-#define KALMAN_ADAPT_Q_WEIGHT 21856
+/* A level above 0 is used once it has this many samples (one sample of a long block is
+ * a χ²₁ draw: a quarter of them are below a tenth of their mean). */
+#define KALMAN_ADAPT_MIN_N 8u
+
+/* B(2B² + 1)/48 for B = 32·4^l (exact: B is even, 2B² + 1 a multiple of 3) */
+static const int64_t adapt_weight16[KALMAN_ADAPT_LEVELS] = {1366, 87384, 5592416, 357913984};
 
 /* mean += (v − mean) · gain, the gain from the samples so far (|v|, |mean| < 2^30) */
 static void adapt_mean(int32_t *mean, int32_t v, uint16_t n, unsigned max_shift) {
@@ -38,11 +52,17 @@ static void adapt_mean(int32_t *mean, int32_t v, uint16_t n, unsigned max_shift)
     *mean += (int32_t)(sh == 0u ? step : fix_round_shr_s64(step, sh));
 }
 
-/* One block's sample of q_y in Q16 mm² per row: (D² − 2B w)/(B(2B² + 1)/3), w in Q32. */
-static int64_t adapt_q_sample(int32_t d, int64_t w_q32) {
-    const int64_t d2 = ((int64_t)d * d) << 16; /* |d| < 2^15: below 2^46 */
-    const int64_t noise = (int64_t)(2u * KALMAN_ADAPT_BLOCK) * (w_q32 >> 16);
-    return (d2 - noise) / KALMAN_ADAPT_Q_WEIGHT;
+/* The white-noise part of E[D²]/(B(2B² + 1)/3) at level l: 2B·w/(B(2B² + 1)/3), Q32 mm²
+ * per row (w in Q32, below 2^54). */
+static int64_t adapt_noise(unsigned l, int64_t w_q32) {
+    const int64_t two_b = (int64_t)(2u * KALMAN_ADAPT_BLOCK) << (2u * l);
+    return (w_q32 >> 4) * two_b / adapt_weight16[l];
+}
+
+/* One block's sample of q_y in Q16 mm² per row: (D² − 2B w)/(B(2B² + 1)/3). */
+static int64_t adapt_q_sample(unsigned l, int32_t d, int64_t w_q32) {
+    const int64_t d2 = ((int64_t)d * d) << 12; /* |d| < 2^(15+2l): below 2^54 */
+    return d2 / adapt_weight16[l] - (adapt_noise(l, w_q32) >> 16);
 }
 
 static int32_t adapt_bound(int64_t v) {
@@ -50,38 +70,128 @@ static int32_t adapt_bound(int64_t v) {
     return (int32_t)(v > lim ? lim : (v < -lim ? -lim : v));
 }
 
-/* The end of a block of full rows: samples of q from the difference to the block before. */
-static void adapt_block(struct kalman_state *k) {
-    struct kalman_cov *cv = &k->cov;
-    const fix_q32_t *r = k->r;
+/* The end of a block of level l: samples of q from the difference to the block before. */
+static void adapt_block(struct kalman_cov *cv, unsigned l, const int64_t w[KALMAN_STATES]) {
     int32_t d[KALMAN_STATES];
-    bool usable = cv->blk_prev_valid;
+    bool usable = (cv->blk_prev_valid & (1u << l)) != 0u;
+    const int32_t lim = (int32_t)1 << (15u + 2u * l); /* 1 024 mm a row: a jump */
     for (unsigned j = 0; j < KALMAN_STATES; ++j) {
-        d[j] = cv->blk_sum[j] - cv->blk_prev[j];
-        usable = usable && d[j] < 32768 && d[j] > -32768;
-        cv->blk_prev[j] = cv->blk_sum[j];
-        cv->blk_sum[j] = 0;
+        d[j] = cv->blk_sum[l][j] - cv->blk_prev[l][j];
+        usable = usable && d[j] < lim && d[j] > -lim;
+        cv->blk_prev[l][j] = cv->blk_sum[l][j];
+        cv->blk_sum[l][j] = 0;
     }
-    cv->blk_prev_valid = true;
-    cv->blk_rows = 0;
+    cv->blk_prev_valid |= (uint8_t)(1u << l);
+    cv->blk_sub[l] = 0;
     if (!usable) {
         return;
     }
-    const int64_t w[KALMAN_STATES] = {r[0] + r[1] + r[2] + r[3], r[ANGLES_A] + r[ANGLES_C],
-                                      r[ANGLES_B] + r[ANGLES_D]};
     int64_t qy[KALMAN_STATES];
     for (unsigned j = 0; j < KALMAN_STATES; ++j) {
-        qy[j] = adapt_q_sample(d[j], w[j]);
+        qy[j] = adapt_q_sample(l, d[j], w[j]);
     }
-    cv->n_q = cv->n_q < UINT16_MAX ? (uint16_t)(cv->n_q + 1u) : UINT16_MAX;
+    uint16_t *n = &cv->n_q[l];
+    *n = *n < UINT16_MAX ? (uint16_t)(*n + 1u) : UINT16_MAX;
     /* Q16 of q_y to Q24 of the state: x̄ q_y/16, slopes q_y/4 (their mean) */
-    adapt_mean(&cv->mean_q[0], adapt_bound(qy[0] * 16), cv->n_q, KALMAN_ADAPT_Q_SHIFT);
-    adapt_mean(&cv->mean_q[1], adapt_bound((qy[1] + qy[2]) * 32), cv->n_q, KALMAN_ADAPT_Q_SHIFT);
+    adapt_mean(&cv->mean_q[l][0], adapt_bound(qy[0] * 16), *n, KALMAN_ADAPT_Q_SHIFT);
+    adapt_mean(&cv->mean_q[l][1], adapt_bound((qy[1] + qy[2]) * 32), *n, KALMAN_ADAPT_Q_SHIFT);
+}
+
+/* Q of state group g (0 x̄, 1 slopes), Q32 mm² per row: the levels' means weighted by
+ * n_l/(q + noise_l)² (a sample's sd is about its mean E[D²]/weight, q + noise_l), q the
+ * current value: long blocks weigh most for slow motion, short ones (more samples) for
+ * fast. */
+static int64_t adapt_choose(const struct kalman_cov *cv, unsigned g, int64_t q_now,
+                            const int64_t nz0[KALMAN_STATES]) {
+    uint64_t s[KALMAN_ADAPT_LEVELS];
+    uint64_t top = 1;
+    for (unsigned l = 0; l < KALMAN_ADAPT_LEVELS; ++l) {
+        /* the noise in the state's units (x̄ q_y/16, each slope q_y/4, the mean of two);
+         * level l's is level 0's / 16^l to 0.1 % ((2B² + 1) grows 16-fold a level): shifts,
+         * no division */
+        const int64_t nz = (g == 0u ? nz0[0] / 16 : (nz0[1] + nz0[2]) / 8) >> (4u * l);
+        s[l] = (uint64_t)(q_now > 0 ? q_now : 0) + (uint64_t)nz + 1u;
+        top = s[l] > top ? s[l] : top;
+    }
+    const unsigned bl = fix_bitlen_u64(top);
+    const unsigned sh = bl > 27u ? bl - 27u : 0u; /* s below 2^27 */
+    uint64_t wt[KALMAN_ADAPT_LEVELS];
+    uint64_t wmax = 0;
+    for (unsigned l = 0; l < KALMAN_ADAPT_LEVELS; ++l) {
+        const uint64_t cap = 2u << KALMAN_ADAPT_Q_SHIFT; /* the running mean's memory */
+        const uint64_t n = cv->n_q[l] < cap ? cv->n_q[l] : cap;
+        const uint64_t sl = (s[l] >> sh) | 1u;
+        wt[l] = (n == 0u || (l > 0u && n < KALMAN_ADAPT_MIN_N)) ? 0u : (n << 52) / (sl * sl);
+        wmax = wt[l] > wmax ? wt[l] : wmax;
+    }
+    const unsigned wb = fix_bitlen_u64(wmax);
+    const unsigned ws = wb > 30u ? wb - 30u : 0u; /* weights below 2^30: sums below 2^62 */
+    int64_t num = 0;
+    int64_t den = 0;
+    for (unsigned l = 0; l < KALMAN_ADAPT_LEVELS; ++l) {
+        const int64_t wl = (int64_t)(wt[l] >> ws);
+        num += wl * cv->mean_q[l][g];
+        den += wl;
+    }
+    if (den <= 0) {
+        return 0;
+    }
+    /* at least a quarter of the mean's sd, sqrt(2/Σ n_l/s_l²)/4: a q learnt as 0 would
+     * freeze the filter, the worst miss (its cost grows with |log q̂/q|) */
+    const int64_t mean = num / den;
+    const int64_t m = mean > 0 ? mean << 8 : 0;
+    const uint64_t v = ((uint64_t)1 << (61u - ws)) / (uint64_t)den; /* ws ≤ 29 */
+    const int64_t sd = ((int64_t)fix_isqrt_u64(v) << sh) >> 6;
+    return m > sd ? m : sd;
+}
+
+/* A learnt value moved enough to be worth a new fixed point: by more than a quarter (a q
+ * or R off by 25 % changes the filter's RMS error by about 0.3 %), while each change ends
+ * the steady state (kalman_steady.c) and its cheap rows. */
+static bool adapt_moved(int64_t now, int64_t next) {
+    const int64_t d = next > now ? next - now : now - next;
+    return d > (now >> 2) || (now == 0) != (next == 0);
+}
+
+/* A full row into the block sums of every level; the blocks that end are sampled and Q
+ * set. */
+static void adapt_sums(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENSORS]) {
+    struct kalman_cov *cv = &k->cov;
+    const int32_t za = range_mm[ANGLES_A];
+    const int32_t zb = range_mm[ANGLES_B];
+    const int32_t zc = range_mm[ANGLES_C];
+    const int32_t zd = range_mm[ANGLES_D];
+    cv->blk_sum[0][0] += za + zb + zc + zd; /* 2 048 rows: below 2^29 */
+    cv->blk_sum[0][1] += zc - za;
+    cv->blk_sum[0][2] += zb - zd;
+    if (++cv->blk_sub[0] < KALMAN_ADAPT_BLOCK) {
+        return;
+    }
+    const fix_q32_t *r = k->r;
+    const int64_t w[KALMAN_STATES] = {r[0] + r[1] + r[2] + r[3], r[ANGLES_A] + r[ANGLES_C],
+                                      r[ANGLES_B] + r[ANGLES_D]};
+    for (unsigned l = 0; l < KALMAN_ADAPT_LEVELS; ++l) {
+        if (l + 1u < KALMAN_ADAPT_LEVELS) {
+            for (unsigned j = 0; j < KALMAN_STATES; ++j) {
+                cv->blk_sum[l + 1u][j] += cv->blk_sum[l][j];
+            }
+        }
+        adapt_block(cv, l, w);
+        if (l + 1u == KALMAN_ADAPT_LEVELS || ++cv->blk_sub[l + 1u] < KALMAN_ADAPT_FAN) {
+            break;
+        }
+    }
     fix_q32_t *q = k->cfg.process_noise_mm2;
-    q[0] = cv->mean_q[0] > 0 ? (int64_t)cv->mean_q[0] << 8 : 0;
-    q[1] = cv->mean_q[1] > 0 ? (int64_t)cv->mean_q[1] << 8 : 0;
-    q[2] = q[1];
-    cv->steady = false; /* the fixed point moved */
+    const int64_t nz0[KALMAN_STATES] = {adapt_noise(0, w[0]), adapt_noise(0, w[1]),
+                                        adapt_noise(0, w[2])};
+    const int64_t qx = adapt_choose(cv, 0, q[0], nz0);
+    const int64_t qt = adapt_choose(cv, 1, q[1], nz0);
+    if (adapt_moved(q[0], qx) || adapt_moved(q[1], qt)) {
+        q[0] = qx;
+        q[1] = qt;
+        q[2] = qt;
+        cv->steady = false; /* the fixed point moved */
+    }
 }
 
 bool kalman_adapt_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENSORS],
@@ -101,31 +211,29 @@ bool kalman_adapt_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SEN
     cv->last_valid = valid_mask;
     if (valid_mask != ANGLES_ALL_SENSORS) {
         /* a block is consecutive full rows: start again */
-        cv->blk_rows = 0;
-        cv->blk_prev_valid = false;
-        for (unsigned j = 0; j < KALMAN_STATES; ++j) {
-            cv->blk_sum[j] = 0;
+        cv->blk_prev_valid = 0;
+        for (unsigned l = 0; l < KALMAN_ADAPT_LEVELS; ++l) {
+            cv->blk_sub[l] = 0;
+            for (unsigned j = 0; j < KALMAN_STATES; ++j) {
+                cv->blk_sum[l][j] = 0;
+            }
         }
         return false;
     }
-    const int32_t za = range_mm[ANGLES_A];
-    const int32_t zb = range_mm[ANGLES_B];
-    const int32_t zc = range_mm[ANGLES_C];
-    const int32_t zd = range_mm[ANGLES_D];
-    cv->blk_sum[0] += za + zb + zc + zd; /* 32 rows: below 2^23 */
-    cv->blk_sum[1] += zc - za;
-    cv->blk_sum[2] += zb - zd;
-    if (++cv->blk_rows < KALMAN_ADAPT_BLOCK) {
+    adapt_sums(k, range_mm);
+    if (cv->blk_sub[0] != 0u) {
         return false;
     }
-    adapt_block(k);
     const fix_q32_t *q = k->cfg.process_noise_mm2;
     bool r_set = false;
     for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
         if (cv->mean_d[s] > 0) {
             const int64_t v = (((int64_t)cv->mean_d[s] << 16) - q[0] - q[1]) / 2;
-            k->r[s] = v < KALMAN_R_MIN_Q32 ? KALMAN_R_MIN_Q32 : v; /* below 2^13 mm² */
-            r_set = true;
+            const int64_t r = v < KALMAN_R_MIN_Q32 ? KALMAN_R_MIN_Q32 : v; /* below 2^13 mm² */
+            if (adapt_moved(k->r[s], r)) {
+                k->r[s] = r;
+                r_set = true;
+            }
         }
     }
     return r_set;

@@ -11,6 +11,9 @@
  *   kalman_track  the same row with process noise (the tracking form, Q = 0.01 mm² per
  *              row on every state), one filter over the whole workload as sliding
  *              windows run it (no restart; the warm-up rows excluded)
+ *   kalman_auto  (fixed only) kalman_track's row with `--process-noise auto` (Q and R
+ *              learnt from the readings, kalman_adapt.c: the block sums of every row and,
+ *              every 32 rows, the samples and the levels' mean, averaged in)
  *   sample_track  (fixed only) `sample` with the facade's Kalman filter tracking (the
  *              same Q, tumbling windows: with Q > 0 the filter is not restarted at a
  *              window's start, and R follows each window's statistics)
@@ -39,6 +42,7 @@
 static struct attitude_state est;
 static struct kalman_state kal;
 static struct kalman_state kal_track;
+static struct kalman_state kal_auto;
 static struct attitude_state est_track;
 static struct flt_window fwin;
 static struct flt_kalman fkal;
@@ -112,17 +116,20 @@ static void bench_fixed(const char *cpu) {
     tcfg.process_noise_mm2[0] = BENCH_Q_Q32;
     tcfg.process_noise_mm2[1] = BENCH_Q_Q32;
     tcfg.process_noise_mm2[2] = BENCH_Q_Q32;
+    struct kalman_config acfg = kcfg;
+    acfg.process_noise_auto = true;
     struct attitude_config track_cfg = cfg;
     for (unsigned i = 0; i < KALMAN_STATES; ++i) {
         track_cfg.kalman_process_noise_um2[i] = BENCH_Q_UM2;
     }
     if (kalman_init(&kal, &kcfg) != KALMAN_OK || kalman_init(&kal_track, &tcfg) != KALMAN_OK ||
+        kalman_init(&kal_auto, &acfg) != KALMAN_OK ||
         attitude_init(&est_track, &track_cfg) != ATTITUDE_ERR_NONE) {
         semihost_write_stdout("bench: kalman_init failed\n", 26);
         semihost_exit(1);
     }
     uint64_t sample_total = 0, window_total = 0, consensus_total = 0, kalman_total = 0;
-    uint64_t track_total = 0, sample_track_total = 0;
+    uint64_t track_total = 0, sample_track_total = 0, auto_total = 0;
     uint32_t samples = 0, windows = 0, kalman_rows = 0, track_rows = 0, track_samples = 0;
     const uint8_t status[4] = {0, 0, 0, 0};
     const bool present[4] = {true, true, true, true};
@@ -161,6 +168,12 @@ static void bench_fixed(const char *cpu) {
                 track_total += measured(k2, k3);
                 ++track_rows;
             }
+            const uint32_t k4 = insn_counter_ticks();
+            kalman_push_row(&kal_auto, range, 0x0Fu, &rows);
+            const uint32_t k5 = insn_counter_ticks();
+            if (w > 0u || i >= kcfg.warmup_rows) {
+                auto_total += measured(k4, k5);
+            }
             const uint32_t s0 = insn_counter_ticks();
             const bool track_ready = attitude_push_sample(&est_track, range, status, present, &out);
             const uint32_t s1 = insn_counter_ticks();
@@ -191,6 +204,7 @@ static void bench_fixed(const char *cpu) {
     report(cpu, "fixed", "consensus", consensus_total, BENCH_WINDOWS);
     report(cpu, "fixed", "kalman", kalman_total, kalman_rows);
     report(cpu, "fixed", "kalman_track", track_total, track_rows);
+    report(cpu, "fixed", "kalman_auto", auto_total, track_rows);
     report(cpu, "fixed", "sample_track", sample_track_total, track_samples);
     report(cpu, "fixed", "window", window_total, windows);
 }

@@ -27,6 +27,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <random>
+#include <string>
 #include <vector>
 
 #include <Eigen/Dense>
@@ -56,10 +57,10 @@ constexpr double kPi = 3.14159265358979323846;
 
 struct Scenario {
     const char *name;
-    double qd, qt;         /* mm²/s: the random walk of x̄ and of a·tan α, a·tan β */
-    double qt_after;       /* q_t from the middle on (the q-change scenario), else = qt */
+    double qd, qt;   /* mm²/s: the random walk of x̄ and of a·tan α, a·tan β */
+    double qt_after; /* q_t from the middle on (the q-change scenario), else = qt */
     std::array<double, 4> sigma;
-    bool approach;         /* x̄ from 300 to 60 mm at constant speed */
+    bool approach; /* x̄ from 300 to 60 mm at constant speed */
 };
 
 const Scenario kScenarios[] = {
@@ -205,8 +206,9 @@ void test_reading_for_reading(void **state) {
 
 void test_at_the_optimum(void **state) {
     (void)state;
-    print_message("| scenario | RMS α optimal (°) | α true q | α auto | RMS β optimal (°) | β true q "
-                  "| β auto | auto q_x̄, q_t at the end (mm²/s) |\n");
+    print_message(
+        "| scenario | RMS α optimal (°) | α true q | α auto | RMS β optimal (°) | β true q "
+        "| β auto | auto q_x̄, q_t at the end (mm²/s) |\n");
     print_message("| --- | ---: | ---: | ---: | ---: | ---: | ---: | --- |\n");
     for (const Scenario &sc : kScenarios) {
         double worst_true = 0, worst_auto = 0;
@@ -246,7 +248,8 @@ void test_auto_converges_after_a_q_change(void **state) {
     for (int axis = 1; axis <= 2; ++axis) {
         /* from 1000 rows after the change (20 s; the averages' memory is 512 rows) */
         const int from = kRows / 2 + 1000;
-        const double ratio = rms_angle(fa.x, t, axis, from, kRows) / rms_angle(opt, t, axis, from, kRows);
+        const double ratio =
+            rms_angle(fa.x, t, axis, from, kRows) / rms_angle(opt, t, axis, from, kRows);
         print_message("q change: axis %d auto/optimal %.3f after the change; learned q_t %.3g "
                       "(true %.3g)\n",
                       axis, ratio, fa.q_end[1], kChange.qt_after);
@@ -256,13 +259,141 @@ void test_auto_converges_after_a_q_change(void **state) {
     assert_true(fa.q_end[1] > kChange.qt_after / 2 && fa.q_end[1] < kChange.qt_after * 2);
 }
 
+/* The sweep (issue 24): q_t over two decades, q_x̄ over two, σ 1 to 7 mm, plus one sensor
+ * three times noisier and the approach; auto/optimal and true-q/optimal per scenario, the
+ * mean over seeds [from, to] of each axis' ratio. Seeds 1-5 tuned the learning; 6-15 are
+ * held out. Returns the worst auto ratio (α or β, mean over the seeds). */
+std::vector<Scenario> sweep_scenarios(bool full) {
+    static const double qts_full[] = {0.01, 0.03, 0.1, 0.3, 1.0};
+    static const double qts_short[] = {0.01, 0.1, 1.0};
+    static const double qds[] = {0.5, 5.0, 50.0};
+    static const double sigmas_full[] = {1.0, 3.0, 7.0};
+    static const double sigmas_short[] = {1.0, 7.0};
+    std::vector<Scenario> out;
+    for (double qt : full ? std::vector<double>(qts_full, qts_full + 5)
+                          : std::vector<double>(qts_short, qts_short + 3)) {
+        for (double qd : qds) {
+            for (double sg : full ? std::vector<double>(sigmas_full, sigmas_full + 3)
+                                  : std::vector<double>(sigmas_short, sigmas_short + 2)) {
+                out.push_back({"walk", qd, qt, qt, {sg, sg, sg, sg}, false});
+            }
+        }
+        out.push_back({"C 3x noisier", 2.0, qt, qt, {2.0, 2.0, 6.0, 2.0}, false});
+        out.push_back({"approach", 4.0, qt, qt, {3.0, 3.0, 3.0, 3.0}, true});
+    }
+    return out;
+}
+
+double sweep(const std::vector<Scenario> &scs, uint64_t from, uint64_t to, double *worst_true) {
+    print_message("seeds %llu-%llu; ratios RMS/RMS(optimal), mean over the seeds (worst seed)\n",
+                  (unsigned long long)from, (unsigned long long)to);
+    print_message(
+        "| scenario | q_x̄ | q_t | σ (mm) | RMS α opt (°) | α true q | α auto | β true q | "
+        "β auto | auto q_x̄, q_t at the end |\n");
+    print_message("| --- | ---: | ---: | --- | ---: | ---: | ---: | ---: | ---: | --- |\n");
+    double worst_auto = 0;
+    *worst_true = 0;
+    for (const Scenario &sc : scs) {
+        const double n = (double)(to - from + 1);
+        double opt_a = 0, rt[2] = {0, 0}, ra[2] = {0, 0}, wa = 0, qx = 0, qt = 0;
+        for (uint64_t seed = from; seed <= to; ++seed) {
+            const Trace t = make_trace(sc, seed * 7919u + 11u);
+            const auto opt = optimal(sc, t);
+            const Fixed ft = run_fixed(sc, t, false);
+            const Fixed fa = run_fixed(sc, t, true);
+            qx += fa.q_end[0] / n;
+            qt += fa.q_end[1] / n;
+            for (int axis = 1; axis <= 2; ++axis) {
+                const double o = rms_angle(opt, t, axis, kBurn, kRows);
+                if (axis == 1) {
+                    opt_a += o / n;
+                }
+                rt[axis - 1] += rms_angle(ft.x, t, axis, kBurn, kRows) / o / n;
+                const double a = rms_angle(fa.x, t, axis, kBurn, kRows) / o;
+                ra[axis - 1] += a / n;
+                wa = std::fmax(wa, a);
+            }
+        }
+        char sig[64];
+        std::snprintf(sig, sizeof sig, "%.3g/%.3g/%.3g/%.3g", sc.sigma[0], sc.sigma[1], sc.sigma[2],
+                      sc.sigma[3]);
+        print_message(
+            "| %s | %g | %g | %s | %.4f | %.3f | %.3f | %.3f | %.3f (%.2f) | %.3g, %.3g |\n",
+            sc.name, sc.qd, sc.qt, sig, opt_a, rt[0], ra[0], rt[1], ra[1], wa, qx, qt);
+        worst_auto = std::fmax(worst_auto, std::fmax(ra[0], ra[1]));
+        *worst_true = std::fmax(*worst_true, std::fmax(rt[0], rt[1]));
+    }
+    print_message("worst mean ratio: true q %.3f, auto %.3f\n", *worst_true, worst_auto);
+    return worst_auto;
+}
+
+/* The held-out sweep as a test (seeds 6-15, never used in tuning): q_t over two decades,
+ * q_x̄ over two, σ 1 and 7 mm, one sensor 3x noisier, the approach. The bound met there
+ * (docs/estimator-benchmark.md): 1.10 but where slow tilt meets σ ≥ 3 mm on some sensor
+ * (q_t ≤ 0.03 mm²/s): 1.35 there. With the true q: 1.05. */
+void test_auto_sweep_held_out(void **state) {
+    (void)state;
+    std::vector<Scenario> scs;
+    for (const Scenario &sc : sweep_scenarios(false)) {
+        if (sc.qd != 5.0) {
+            scs.push_back(sc);
+        }
+    }
+    for (const Scenario &sc : scs) {
+        double wt = 0;
+        const double wa = sweep({sc}, 6, 15, &wt);
+        const double sigma_max =
+            std::fmax(std::fmax(sc.sigma[0], sc.sigma[1]), std::fmax(sc.sigma[2], sc.sigma[3]));
+        const double bound = sc.qt <= 0.03 && sigma_max >= 3.0 ? 1.35 : 1.10;
+        assert_true(wt <= 1.05);
+        assert_true(wa <= bound);
+    }
+}
+
+/* A step in q halfway, up and down two decades (q_t 0.01 <-> 1 mm²/s, σ 3 mm), scored from
+ * 1 000 rows after the step: auto follows a rise within 1.10; a fall it follows at the pace
+ * of its memory (level 0's mean forgets 2^-6 a block of 32 rows: 2 000 rows), so 1 000 rows
+ * after a hundredfold fall its q is still high: 2.04 measured (2.02 before issue 24). */
+void test_auto_follows_a_step(void **state) {
+    (void)state;
+    const Scenario up = {"q_t 0.01 -> 1", 2.0, 0.01, 1.0, {3.0, 3.0, 3.0, 3.0}, false};
+    const Scenario down = {"q_t 1 -> 0.01", 2.0, 1.0, 0.01, {3.0, 3.0, 3.0, 3.0}, false};
+    for (const Scenario &sc : {up, down}) {
+        const double bound = sc.qt_after > sc.qt ? 1.10 : 2.3;
+        double worst = 0, mean = 0;
+        for (uint64_t seed = 6; seed <= 15; ++seed) {
+            const Trace t = make_trace(sc, seed * 7919u + 11u);
+            const auto opt = optimal(sc, t);
+            const Fixed fa = run_fixed(sc, t, true);
+            const int from = kRows / 2 + 1000;
+            for (int axis = 1; axis <= 2; ++axis) {
+                const double r =
+                    rms_angle(fa.x, t, axis, from, kRows) / rms_angle(opt, t, axis, from, kRows);
+                worst = std::fmax(worst, r);
+                mean += r / 20;
+            }
+        }
+        print_message("%s: auto/optimal after the step %.3f (worst seed %.3f)\n", sc.name, mean,
+                      worst);
+        assert_true(mean <= bound);
+    }
+}
+
 } // namespace
 
-int main(void) {
+int main(int argc, char **argv) {
+    if (argc == 4 && std::string(argv[1]) == "--sweep") {
+        /* the measurement (not a test): ref_tracking --sweep FIRST_SEED LAST_SEED */
+        double wt = 0;
+        sweep(sweep_scenarios(true), std::stoull(argv[2]), std::stoull(argv[3]), &wt);
+        return 0;
+    }
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_reading_for_reading),
         cmocka_unit_test(test_at_the_optimum),
         cmocka_unit_test(test_auto_converges_after_a_q_change),
+        cmocka_unit_test(test_auto_sweep_held_out),
+        cmocka_unit_test(test_auto_follows_a_step),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -53,7 +53,9 @@
 #include "estimator/angles.h"
 #include "estimator/fixmath.h"
 
-#define KALMAN_STATES       3u
+#define KALMAN_STATES 3u
+/* process_noise_auto: block lengths 32, 128, 512, 2048 rows (kalman_adapt.c) */
+#define KALMAN_ADAPT_LEVELS 4u
 #define KALMAN_WARMUP_MAX   8u
 #define KALMAN_LOCKOUT_ROWS 4u
 /* Smallest R: 1/12 mm² (Q32, rounded down), the variance of rounding to whole mm; a sensor
@@ -92,19 +94,20 @@ struct kalman_cov {
     int32_t be;
     int32_t bm[6];
     int32_t gain[ANGLES_SENSORS][KALMAN_STATES]; /* each update's gain, Q31 (steady state) */
-    /* process_noise_auto (kalman_track.c): running means of the samples of q_x̄ and q_t
-     * (Q24 mm² per row) and of each sensor's squared consecutive difference (Q16 mm²); the
-     * block sums of y_x̄, y_α, y_β (this block's and the one before) */
-    int32_t mean_q[2];
+    /* process_noise_auto (kalman_adapt.c): per block length 32·4^l rows, running means
+     * of the samples of q_x̄ and q_t (Q24 mm² per row), the block sums of y_x̄, y_α, y_β
+     * (this block's and the one before); each sensor's squared consecutive difference
+     * (Q16 mm²) */
+    int32_t mean_q[KALMAN_ADAPT_LEVELS][2];
     int32_t mean_d[ANGLES_SENSORS];
-    int32_t blk_sum[KALMAN_STATES];
-    int32_t blk_prev[KALMAN_STATES];
-    uint16_t last_mm[ANGLES_SENSORS]; /* the previous row's readings (last_valid) */
-    uint16_t n_q;                     /* blocks sampled so far (saturating) */
-    uint16_t n_d;                     /* rows sampled so far (saturating) */
+    int32_t blk_sum[KALMAN_ADAPT_LEVELS][KALMAN_STATES];
+    int32_t blk_prev[KALMAN_ADAPT_LEVELS][KALMAN_STATES];
+    uint16_t last_mm[ANGLES_SENSORS];     /* the previous row's readings (last_valid) */
+    uint16_t n_q[KALMAN_ADAPT_LEVELS];    /* blocks sampled so far (saturating) */
+    uint16_t n_d;                         /* rows sampled so far (saturating) */
+    uint8_t blk_sub[KALMAN_ADAPT_LEVELS]; /* rows (level 0) or sub-blocks in this block */
     uint8_t last_valid;
-    uint8_t blk_rows;
-    bool blk_prev_valid;
+    uint8_t blk_prev_valid; /* bit l: level l has the block before */
     uint8_t brows;
     bool bvalid;
     bool steady;          /* the gains above are at the fixed point: kalman_track_row */
