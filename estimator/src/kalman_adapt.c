@@ -118,11 +118,19 @@ static int64_t adapt_choose(const struct kalman_cov *cv, unsigned g, int64_t q_n
     uint64_t wt[KALMAN_ADAPT_LEVELS];
     uint64_t wmax = 0;
     for (unsigned l = 0; l < KALMAN_ADAPT_LEVELS; ++l) {
-        const uint64_t cap = 2u << KALMAN_ADAPT_Q_SHIFT; /* the running mean's memory */
-        const uint64_t n = cv->n_q[l] < cap ? cv->n_q[l] : cap;
+        /* the running mean's memory caps the samples a level counts; a level above the
+         * first counts from KALMAN_ADAPT_MIN_N samples (one long block is a noisy draw) */
+        const unsigned cap = 2u << KALMAN_ADAPT_Q_SHIFT;
+        const unsigned n = cv->n_q[l] < cap ? (unsigned)cv->n_q[l] : cap;
+        const unsigned n_min = l > 0u ? KALMAN_ADAPT_MIN_N : 1u;
         const uint64_t sl = (s[l] >> sh) | 1u;
-        wt[l] = (n == 0u || (l > 0u && n < KALMAN_ADAPT_MIN_N)) ? 0u : (n << 52) / (sl * sl);
-        wmax = wt[l] > wmax ? wt[l] : wmax;
+        wt[l] = 0u;
+        if (n >= n_min) {
+            wt[l] = ((uint64_t)n << 52) / (sl * sl);
+        }
+        if (wt[l] > wmax) {
+            wmax = wt[l];
+        }
     }
     const unsigned wb = fix_bitlen_u64(wmax);
     const unsigned ws = wb > 30u ? wb - 30u : 0u; /* weights below 2^30: sums below 2^62 */
