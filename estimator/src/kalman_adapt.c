@@ -122,7 +122,10 @@ static int64_t adapt_choose(const struct kalman_cov *cv, unsigned g, int64_t q_n
          * first counts from KALMAN_ADAPT_MIN_N samples (one long block is a noisy draw) */
         const unsigned cap = 2u << KALMAN_ADAPT_Q_SHIFT;
         const unsigned n = cv->n_q[l] < cap ? (unsigned)cv->n_q[l] : cap;
-        const unsigned n_min = l > 0u ? KALMAN_ADAPT_MIN_N : 1u;
+        unsigned n_min = 1u;
+        if (l > 0u) {
+            n_min = KALMAN_ADAPT_MIN_N;
+        }
         const uint64_t sl = (s[l] >> sh) | 1u;
         wt[l] = 0u;
         if (n >= n_min) {
@@ -137,7 +140,8 @@ static int64_t adapt_choose(const struct kalman_cov *cv, unsigned g, int64_t q_n
     int64_t num = 0;
     int64_t den = 0;
     for (unsigned l = 0; l < KALMAN_ADAPT_LEVELS; ++l) {
-        const int64_t wl = (int64_t)(wt[l] >> ws);
+        const uint64_t w_shifted = wt[l] >> ws;
+        const int64_t wl = (int64_t)w_shifted;
         num += wl * cv->mean_q[l][g];
         den += wl;
     }
