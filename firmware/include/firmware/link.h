@@ -17,6 +17,8 @@
 #include <stdint.h>
 
 #include "firmware/app.h"
+#include "firmware/record.h"
+#include "firmware/settings.h"
 #include "hal/hal_serial.h"
 #include "telemetry/tlm_frame.h"
 
@@ -34,10 +36,17 @@ struct tof_link {
     uint32_t commands_ok;      /* commands applied */
     uint32_t commands_refused; /* valid commands refused in the current state */
     uint8_t health_polls;      /* polls until the last window's health frame is sent (0: none) */
+    struct tof_record_store *records; /* where `save` keeps the settings (NULL: nowhere) */
+    struct tof_settings process_noise; /* the last accepted set-process-noise, for `save` */
+    uint8_t record_state;             /* enum tof_record_state found at start, in status */
 };
 
 /* Start a link over `serial`. */
 void tof_link_init(struct tof_link *link, struct hal_serial serial);
+
+/* Keep the settings in `store` (initialised with tof_record_init()): the service's start
+ * applies the saved ones (firmware/settings.h), `save` writes them. Call before the start. */
+void tof_link_set_records(struct tof_link *link, struct tof_record_store *store);
 
 /* Attach the application the commands act on (after tof_app_init). */
 void tof_link_bind(struct tof_link *link, struct tof_app *app);
@@ -56,8 +65,8 @@ void tof_link_send_status(struct tof_link *link);
  * transmit blocks) on top of them made it outlast a 20 ms slot (the twin, docs/boards.md). */
 extern const struct tof_output_ops tof_link_output_ops;
 
-/* tof_app_main() service ops (ctx: the link): start binds it and sends a status frame,
- * poll is tof_link_poll(). */
+/* tof_app_main() service ops (ctx: the link): start binds it, applies the saved settings
+ * (tof_settings_boot()) and sends a status frame, poll is tof_link_poll(). */
 extern const struct tof_app_service_ops tof_link_service_ops;
 
 #endif /* FIRMWARE_LINK_H */
