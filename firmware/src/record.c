@@ -1,4 +1,5 @@
-/* A record kept in two copies on two pages, written so a power cut never loses it (firmware/record.h). */
+/* A record kept in two copies on two pages, written so a power cut never loses it
+ * (firmware/record.h). */
 #include "firmware/record.h"
 
 #include <stddef.h>

@@ -1,4 +1,5 @@
-/* The user's settings: captured from the application, kept in the record's settings section, applied at boot (firmware/settings.h). */
+/* The user's settings: captured from the application, kept in the record's settings section,
+ * applied at boot (firmware/settings.h). */
 #include "firmware/settings.h"
 
 #include <stddef.h>
@@ -9,7 +10,8 @@
 #include "telemetry/tlm_messages.h"
 
 /* The status frame carries enum tof_record_state as it is (link.c). */
-_Static_assert(TOF_RECORD_NONE == (int)TLM_RECORD_NONE && TOF_RECORD_LOADED == (int)TLM_RECORD_LOADED &&
+_Static_assert(TOF_RECORD_NONE == (int)TLM_RECORD_NONE &&
+                   TOF_RECORD_LOADED == (int)TLM_RECORD_LOADED &&
                    TOF_RECORD_CORRUPT == (int)TLM_RECORD_CORRUPT &&
                    TOF_RECORD_VERSION == (int)TLM_RECORD_VERSION &&
                    TOF_RECORD_REJECTED == (int)TLM_RECORD_REJECTED &&
@@ -52,8 +54,8 @@ void tof_settings_capture(const struct tof_app *app, const struct tof_settings *
 int tof_settings_apply(struct tof_app *app, const struct tof_settings *s) {
     int rc = tof_app_set_window(app, s->window, s->sliding);
     if (rc == 0 && s->process_noise_set) {
-        rc = tof_app_set_process_noise(app, s->qd_um2_per_s, s->qt_um2_per_s,
-                                       s->process_noise_auto);
+        rc =
+            tof_app_set_process_noise(app, s->qd_um2_per_s, s->qt_um2_per_s, s->process_noise_auto);
     }
     if (rc == 0) {
         rc = tof_app_set_primary(app, (enum attitude_estimator)s->primary);

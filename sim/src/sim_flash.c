@@ -1,4 +1,5 @@
-/* The simulated record storage with STM32L4 flash rules and power-cut injection (sim/sim_flash.h). */
+/* The simulated record storage with STM32L4 flash rules and power-cut injection (sim/sim_flash.h).
+ */
 #include "sim/sim_flash.h"
 
 #include <stddef.h>

@@ -36,9 +36,9 @@ struct tof_link {
     uint32_t commands_ok;      /* commands applied */
     uint32_t commands_refused; /* valid commands refused in the current state */
     uint8_t health_polls;      /* polls until the last window's health frame is sent (0: none) */
-    struct tof_record_store *records; /* where `save` keeps the settings (NULL: nowhere) */
+    struct tof_record_store *records;  /* where `save` keeps the settings (NULL: nowhere) */
     struct tof_settings process_noise; /* the last accepted set-process-noise, for `save` */
-    uint8_t record_state;             /* enum tof_record_state found at start, in status */
+    uint8_t record_state;              /* enum tof_record_state found at start, in status */
 };
 
 /* Start a link over `serial`. */

@@ -34,9 +34,9 @@ struct sim_flash {
     uint8_t ecc_bad[SIM_FLASH_PAGES_MAX][SIM_FLASH_DWORDS_MAX / 8u];
     /* power cut: operations (erases + double-word programs) applied before it */
     uint32_t cut_after;
-    bool torn;     /* the operation the cut falls in is half done, not left out */
-    uint32_t ops;  /* erases + double-word programs attempted since init */
-    bool powered;  /* false once the cut happened: nothing more is applied */
+    bool torn;    /* the operation the cut falls in is half done, not left out */
+    uint32_t ops; /* erases + double-word programs attempted since init */
+    bool powered; /* false once the cut happened: nothing more is applied */
     uint32_t erases, programs, refusals;
 };
 
