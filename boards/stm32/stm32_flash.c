@@ -8,8 +8,11 @@
 #include "stm32_flash_regs.h"
 #include "stm32_reg.h"
 
-/* ECC double errors the NMI handler took (stm32_flash_nmi): a read compares the count. */
+/* ECC double errors the NMI handler took (stm32_flash_nmi): a read compares the count. And
+ * those a read found in ECCR before its NMI was taken (an NMI is taken after the load that
+ * raised it, maybe after the driver's ECCR read): the NMI that follows is theirs. */
 static volatile uint32_t ecc_nmis;
+static volatile uint32_t ecc_seen_by_read, ecc_nmis_owed_taken;
 
 int stm32_flash_init(struct stm32_flash *flash, const struct stm32_flash_config *cfg) {
     if (flash == NULL || cfg == NULL || cfg->pages == 0u ||
@@ -156,6 +159,9 @@ static int flash_read(void *ctx, uint16_t page, uint32_t offset, uint8_t *out, s
     const uint32_t eccr = stm32_reg_read(cfg->regs + STM32_FLASH_ECCR);
     if ((eccr & STM32_FLASH_ECCR_ECCD) != 0u || ecc_nmis != nmis_before) {
         stm32_reg_write(cfg->regs + STM32_FLASH_ECCR, STM32_FLASH_ECCR_ECCD);
+        if ((eccr & STM32_FLASH_ECCR_ECCD) != 0u) {
+            ecc_seen_by_read = ecc_seen_by_read + 1u;
+        }
         ++flash->ecc_errors;
         return HAL_ERR_CORRUPT;
     }
@@ -163,12 +169,16 @@ static int flash_read(void *ctx, uint16_t page, uint32_t offset, uint8_t *out, s
 }
 
 bool stm32_flash_nmi(uintptr_t regs) {
-    if ((stm32_reg_read(regs + STM32_FLASH_ECCR) & STM32_FLASH_ECCR_ECCD) == 0u) {
-        return false;
+    if ((stm32_reg_read(regs + STM32_FLASH_ECCR) & STM32_FLASH_ECCR_ECCD) != 0u) {
+        stm32_reg_write(regs + STM32_FLASH_ECCR, STM32_FLASH_ECCR_ECCD);
+        ecc_nmis = ecc_nmis + 1u;
+        return true;
     }
-    stm32_reg_write(regs + STM32_FLASH_ECCR, STM32_FLASH_ECCR_ECCD);
-    ecc_nmis = ecc_nmis + 1u;
-    return true;
+    if (ecc_nmis_owed_taken != ecc_seen_by_read) { /* a read already reported this one */
+        ecc_nmis_owed_taken = ecc_nmis_owed_taken + 1u;
+        return true;
+    }
+    return false;
 }
 
 const struct hal_records_ops stm32_flash_ops = {

@@ -147,7 +147,9 @@ static void test_ecc_double_error_is_reported_on_read(void **state) {
     /* the NMI a read of it raises on the part: the handler clears ECCD, the read reports */
     fake_flash.regs[STM32_FLASH_ECCR / 4u] |= STM32_FLASH_ECCR_ECCD;
     assert_true(stm32_flash_nmi(fake_flash_regs()));
-    assert_false(stm32_flash_nmi(fake_flash_regs()));
+    /* the read above found ECCD before its NMI ran: that NMI is taken as the flash's too */
+    assert_true(stm32_flash_nmi(fake_flash_regs()));
+    assert_false(stm32_flash_nmi(fake_flash_regs())); /* anything else is not */
 }
 
 static void test_record_store_on_the_driver(void **state) {
