@@ -30,7 +30,10 @@ struct args {
     bool sliding;
     uint64_t seed;
     bool strict, hsi_fail;
-    bool late_command; /* --late-command: accept a window/mode the rows cannot match */
+    bool late_command;  /* --late-command: accept a window/mode the rows cannot match */
+    bool save;          /* --save: send `save` once the settings are in force */
+    uint32_t flash_cut; /* --flash-cut N: power cut at the Nth flash erase/double-word */
+    const char *flash_in, *flash_out; /* --flash-in/--flash-out: the record pages, 4 KB */
     uint32_t spurious_berr_ppm;
     double max_sim_s;
 };
@@ -59,7 +62,9 @@ struct run {
     char line[128];
     size_t line_len;
     char last_fault[128];
-    struct tlm_health health; /* the last health frame */
+    struct tlm_health health;      /* the last health frame */
+    struct tlm_status boot_status; /* the last boot's status frame (its saved settings) */
+    bool save_sent;
     uint64_t health_frames;
 };
 

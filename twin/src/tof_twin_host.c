@@ -1,6 +1,6 @@
 /* tof_twin's host end of USART2: the capture file, the firmware's text lines, its telemetry
  * frames decoded into EST.csv rows (firmware/est_csv, the rows host_sim writes) with host_sim's
- * accuracy check, and the set-window command a host sends until it is acknowledged. */
+ * accuracy check, the set-window command a host sends until it is acknowledged, and `save`. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -138,6 +138,7 @@ static void on_frame(void *ctx, const struct tlm_frame *frame) {
         }
         r->status_resets = r->t.stats.resets;
         ++r->boots;
+        r->boot_status = msg.u.status;
         start_boot(r, &msg.u.status);
         r->command_sent = false;
         if (!r->command_sent && (msg.u.status.window_n != r->a.window ||
@@ -184,6 +185,14 @@ static void on_frame(void *ctx, const struct tlm_frame *frame) {
 
 void tof_twin_host_poll(void *ctx) {
     struct run *r = ctx;
+    /* --save: once per run, when the settings asked for are in force (after the boot's
+     * status frame, and the set-window command's ack if one was needed) */
+    if (r->a.save && !r->save_sent && r->boots > 0u && (!r->command_needed || r->acks_ok > 0u) &&
+        r->t.usart.rx_count == 0u) {
+        const struct tlm_command save = {.type = TLM_TYPE_SAVE};
+        send_command(r, &save);
+        r->save_sent = true;
+    }
     if (!r->command_needed || r->acks_ok > 0u || r->command_tries >= COMMAND_TRIES) {
         return;
     }

@@ -59,7 +59,9 @@ int tof_twin_write_report(const struct run *r, bool finished, double host_s) {
             " \"i2c_transfers\": %" PRIu64 ", \"spurious_berr\": %u, \"bus_recoveries\": %u,"
             " \"commands_refused\": %u,\n"
             " \"health_frames\": %" PRIu64 ", \"loop_overruns\": %u, \"loop_max_us\": %u,"
-            " \"tx_dropped\": %u, \"uart_overruns\": %" PRIu64 "}\n",
+            " \"tx_dropped\": %u, \"uart_overruns\": %" PRIu64 ",\n"
+            " \"record_state\": %u, \"boot_window\": %u, \"boot_sliding\": %u,"
+            " \"flash_erases\": %u, \"flash_programs\": %u, \"flash_cuts\": %u}\n",
             finished ? "true" : "false", finished ? "" : r->t.stop_msg,
             (double)twin_now_ps(&r->t) / 1e12, host_s, r->t.stats.instructions,
             host_s > 0 ? minsn / host_s : 0.0, r->t.stats.warps, r->t.stats.mmio_reads,
@@ -69,7 +71,9 @@ int tof_twin_write_report(const struct run *r, bool finished, double host_s) {
             r->faults_text, r->last_fault, r->t.stats.exceptions[15], r->w.transfers,
             r->t.i2c.berr_injected, r->w.rig.bus.stats.recoveries, r->acks_bad, r->health_frames,
             r->health.loop_overruns, r->health.loop_max_us, r->health.tx_dropped,
-            r->t.usart.overruns);
+            r->t.usart.overruns, r->boot_status.record, r->boot_status.window_n,
+            r->boot_status.mode == TLM_WINDOW_SLIDING ? 1u : 0u, r->t.flash_pe.erases,
+            r->t.flash_pe.programs, r->t.flash_pe.cuts);
     fclose(f);
     return 0;
 }
