@@ -31,10 +31,8 @@ static const struct type_info type_table[] = {
 };
 
 #define TYPE_COUNT (sizeof type_table / sizeof type_table[0])
-
-_Static_assert(TLM_LEN_HEALTH <= TLM_MAX_PAYLOAD, "largest payload must fit a frame");
-_Static_assert(TLM_LEN_ESTIMATE <= TLM_MAX_PAYLOAD && TLM_LEN_STATUS <= TLM_MAX_PAYLOAD &&
-                   TLM_LEN_RAW_SAMPLE <= TLM_MAX_PAYLOAD,
+_Static_assert(TLM_LEN_HEALTH <= TLM_MAX_PAYLOAD && TLM_LEN_ESTIMATE <= TLM_MAX_PAYLOAD &&
+                   TLM_LEN_STATUS <= TLM_MAX_PAYLOAD && TLM_LEN_RAW_SAMPLE <= TLM_MAX_PAYLOAD,
                "every payload must fit a frame");
 _Static_assert(TLM_WINDOW_MAX <= UINT16_MAX, "window length travels as uint16");
 
