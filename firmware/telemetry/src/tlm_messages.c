@@ -29,11 +29,11 @@ static const struct type_info type_table[] = {
     {TLM_TYPE_SET_PROCESS_NOISE, TLM_ACCEPT_COMMANDS, TLM_LEN_SET_PROCESS_NOISE},
     {TLM_TYPE_SAVE, TLM_ACCEPT_COMMANDS, TLM_LEN_SAVE},
 };
-
 #define TYPE_COUNT (sizeof type_table / sizeof type_table[0])
-_Static_assert(TLM_LEN_HEALTH <= TLM_MAX_PAYLOAD && TLM_LEN_ESTIMATE <= TLM_MAX_PAYLOAD &&
-                   TLM_LEN_STATUS <= TLM_MAX_PAYLOAD && TLM_LEN_RAW_SAMPLE <= TLM_MAX_PAYLOAD,
-               "every payload must fit a frame");
+_Static_assert(TLM_LEN_HEALTH <= TLM_MAX_PAYLOAD, "largest payload must fit a frame");
+_Static_assert(TLM_LEN_ESTIMATE <= TLM_LEN_HEALTH && TLM_LEN_STATUS <= TLM_LEN_HEALTH &&
+                   TLM_LEN_RAW_SAMPLE <= TLM_LEN_ESTIMATE, /* 17 = 17: not one bound twice */
+               "every payload must fit a frame: the health payload is the largest");
 _Static_assert(TLM_WINDOW_MAX <= UINT16_MAX, "window length travels as uint16");
 
 static const struct type_info *find_type(uint8_t type, uint8_t accept) {
@@ -418,7 +418,7 @@ static bool window_is_valid(uint16_t window_n, uint8_t mode) {
 
 static bool status_is_valid(const struct tlm_status *m) {
     return window_is_valid(m->window_n, m->mode) && m->estimator <= TLM_ESTIMATOR_LAST &&
-           m->record <= TLM_RECORD_STATE_LAST;
+           m->record <= TLM_RECORD_STATE_LAST; /* enum tlm_record_state */
 }
 
 int tlm_encode_status(uint8_t seq, const struct tlm_status *msg, uint8_t *out, size_t cap) {
