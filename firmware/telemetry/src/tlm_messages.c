@@ -27,14 +27,13 @@ static const struct type_info type_table[] = {
     {TLM_TYPE_STATUS_REQUEST, TLM_ACCEPT_COMMANDS, TLM_LEN_STATUS_REQUEST},
     {TLM_TYPE_RAW_STREAM, TLM_ACCEPT_COMMANDS, TLM_LEN_RAW_STREAM},
     {TLM_TYPE_SET_PROCESS_NOISE, TLM_ACCEPT_COMMANDS, TLM_LEN_SET_PROCESS_NOISE},
+    {TLM_TYPE_SAVE, TLM_ACCEPT_COMMANDS, TLM_LEN_SAVE},
 };
-
 #define TYPE_COUNT (sizeof type_table / sizeof type_table[0])
-
 _Static_assert(TLM_LEN_HEALTH <= TLM_MAX_PAYLOAD, "largest payload must fit a frame");
-_Static_assert(TLM_LEN_ESTIMATE <= TLM_MAX_PAYLOAD && TLM_LEN_STATUS <= TLM_MAX_PAYLOAD &&
-                   TLM_LEN_RAW_SAMPLE <= TLM_MAX_PAYLOAD,
-               "every payload must fit a frame");
+_Static_assert(TLM_LEN_ESTIMATE <= TLM_LEN_HEALTH && TLM_LEN_STATUS <= TLM_LEN_HEALTH &&
+                   TLM_LEN_RAW_SAMPLE <= TLM_LEN_ESTIMATE, /* 17 = 17: not one bound twice */
+               "every payload must fit a frame: the health payload is the largest");
 _Static_assert(TLM_WINDOW_MAX <= UINT16_MAX, "window length travels as uint16");
 
 static const struct type_info *find_type(uint8_t type, uint8_t accept) {
@@ -420,7 +419,8 @@ static bool window_is_valid(uint16_t window_n, uint8_t mode) {
 }
 
 static bool status_is_valid(const struct tlm_status *m) {
-    return window_is_valid(m->window_n, m->mode) && m->estimator <= TLM_ESTIMATOR_LAST;
+    return window_is_valid(m->window_n, m->mode) && m->estimator <= TLM_ESTIMATOR_LAST &&
+           m->record <= TLM_RECORD_STATE_LAST; /* enum tlm_record_state */
 }
 
 int tlm_encode_status(uint8_t seq, const struct tlm_status *msg, uint8_t *out, size_t cap) {
@@ -439,6 +439,7 @@ int tlm_encode_status(uint8_t seq, const struct tlm_status *msg, uint8_t *out, s
     put_u8(&w, msg->running ? 1u : 0u);
     put_u8(&w, msg->raw_stream ? 1u : 0u);
     put_u16(&w, msg->period_ms);
+    put_u8(&w, msg->record);
     return finish_frame(TLM_TYPE_STATUS, seq, out, w.at, cap);
 }
 
@@ -461,6 +462,7 @@ static enum tlm_result parse_status(struct reader *r, struct tlm_status *m) {
     const bool running_ok = get_bool(r, &m->running);
     const bool raw_ok = get_bool(r, &m->raw_stream);
     m->period_ms = get_u16(r);
+    m->record = get_u8(r);
     if (protocol != TLM_PROTOCOL_VERSION || !running_ok || !raw_ok || !status_is_valid(m)) {
         return TLM_RESULT_OUT_OF_RANGE;
     }
@@ -510,7 +512,7 @@ int tlm_encode_command(uint8_t seq, const struct tlm_command *cmd, uint8_t *out,
         put_u32(&w, cmd->u.process_noise.qt_um2_per_s);
         put_u8(&w, cmd->u.process_noise.flags);
         break;
-    default: /* start, stop, status request: no payload */
+    default: /* start, stop, status request, save: no payload */
         break;
     }
     return finish_frame(cmd->type, seq, out, w.at, cap);
@@ -555,7 +557,7 @@ enum tlm_result tlm_parse_command(const struct tlm_frame *frame, struct tlm_comm
                 result = TLM_RESULT_OUT_OF_RANGE;
             }
             break;
-        default: /* start, stop, status request: the length check was all */
+        default: /* start, stop, status request, save: the length check was all */
             break;
         }
     }
