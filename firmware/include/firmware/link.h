@@ -55,7 +55,7 @@ struct tof_link {
     uint8_t last_seq, last_type, last_result, last_length;
     int8_t last_error;
     uint8_t last_payload[TOF_LINK_COMMAND_MAX];
-    uint32_t commands_repeated; /* retries answered without being applied again */
+    uint32_t commands_repeated;        /* retries answered without being applied again */
     struct tof_record_store *records;  /* where `save` keeps the settings (NULL: nowhere) */
     struct tof_settings process_noise; /* the last accepted set-process-noise, for `save` */
     uint8_t record_state;              /* enum tof_record_state found at start, in status */
