@@ -188,13 +188,14 @@ static int judge(const struct run *r, bool finished, double max_s) {
     if (r->w.source_error != 0) {
         rc = 1;
     }
-    if (r->commands_acked != r->commands_sent || r->status_mismatch != 0u) {
+    if (r->commands_acked + r->commands_lost != r->commands_sent || r->status_mismatch != 0u) {
         fprintf(stderr,
-                "tof_twin: %u commands sent, %u acknowledged, %u refused, %u status replies "
-                "with other settings; %llu receiver overruns, %llu bytes received: the rows "
-                "are not those of the options asked for\n",
-                r->commands_sent, r->commands_acked, r->acks_bad, r->status_mismatch,
-                (unsigned long long)r->t.usart.overruns, (unsigned long long)r->t.usart.bytes_rx);
+                "tof_twin: %u commands sent, %u acknowledged, %u lost to a reset, %u refused, "
+                "%u status replies with other settings; %llu receiver overruns, %llu bytes "
+                "received: the rows are not those of the options asked for\n",
+                r->commands_sent, r->commands_acked, r->commands_lost, r->acks_bad,
+                r->status_mismatch, (unsigned long long)r->t.usart.overruns,
+                (unsigned long long)r->t.usart.bytes_rx);
         rc = 1;
     }
     return rc;

@@ -77,6 +77,7 @@ struct run {
     bool mid_sent;     /* the status request halfway through the trace */
     uint64_t now_ps;   /* when the byte being decoded ended */
     uint32_t commands_sent, commands_acked, commands_out_of_order, commands_unmatched;
+    uint32_t commands_lost;      /* sent, unanswered when the MCU reset (a power cut in `save`) */
     uint64_t ack_latency_max_ps; /* last byte of a command to the end of its answer */
     uint32_t status_confirmed, status_mismatch; /* status replies: the options' settings? */
     uint64_t rows_missing;                      /* rows whose why names missing:X */

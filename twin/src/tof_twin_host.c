@@ -239,6 +239,7 @@ static void on_frame(void *ctx, const struct tlm_frame *frame) {
         /* What was sent before the reset and not answered is lost with it (a power cut during
          * `save`): no answer will come, the answers that come next are to this boot's. */
         for (unsigned k = 0; k < r->nsent; ++k) {
+            r->commands_lost += r->cmds[k].answered ? 0u : 1u;
             r->cmds[k].answered = true;
         }
         r->next_ack = r->ncmds;
