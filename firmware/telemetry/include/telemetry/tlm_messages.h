@@ -19,7 +19,8 @@
 /* Version of this protocol, reported in the status message. */
 /* 2: the estimate carries its standard deviations and why set (replacing the reason
  * byte), and nacks the firmware's error code. */
-/* 3: the health message ends with uart_overruns (148 bytes). */
+/* 3: the health message ends with uart_overruns (148 bytes), the status message with the
+ * record state (17 bytes), and the save command (0x88). */
 #define TLM_PROTOCOL_VERSION 3u
 
 /* Frame types. Commands have the top bit set, so direction shows in a dump. */
