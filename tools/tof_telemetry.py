@@ -21,7 +21,8 @@ names it (docs/telemetry.md, "Commands from a host").
 Commands for --send: "set-window N [tumbling|sliding]", "estimator NAME"
 (consensus, consensus-paper, kalman, mean), "start", "stop", "status",
 "raw on|off", "process-noise QD,QT|auto" (the Kalman filter's random-walk
-intensities in mm^2/s, up to 6 decimals, as host_sim's --process-noise).
+intensities in mm^2/s, up to 6 decimals, as host_sim's --process-noise), "save"
+(keep the settings in force across resets and power loss).
 
 Run it with /usr/bin/python3 (Debian's, with python3-serial and
 python3-matplotlib); the pyenv python3 on PATH has neither.
@@ -59,6 +60,7 @@ T_STOP = 0x84
 T_STATUS_REQUEST = 0x85
 T_RAW_STREAM = 0x86
 T_SET_PROCESS_NOISE = 0x87
+T_SAVE = 0x88
 
 # type -> (name, direction, payload length)
 TYPES = {
@@ -66,7 +68,7 @@ TYPES = {
     T_RAW_SAMPLE: ("raw", ACCEPT_TELEMETRY, 17),
     T_HEALTH: ("health", ACCEPT_TELEMETRY, 148),
     T_ACK: ("ack", ACCEPT_TELEMETRY, 4),
-    T_STATUS: ("status", ACCEPT_TELEMETRY, 16),
+    T_STATUS: ("status", ACCEPT_TELEMETRY, 17),
     T_SET_WINDOW: ("set-window", ACCEPT_COMMANDS, 3),
     T_SELECT_ESTIMATOR: ("select-estimator", ACCEPT_COMMANDS, 1),
     T_START: ("start", ACCEPT_COMMANDS, 0),
@@ -74,6 +76,7 @@ TYPES = {
     T_STATUS_REQUEST: ("status-request", ACCEPT_COMMANDS, 0),
     T_RAW_STREAM: ("raw-stream", ACCEPT_COMMANDS, 1),
     T_SET_PROCESS_NOISE: ("set-process-noise", ACCEPT_COMMANDS, 9),
+    T_SAVE: ("save", ACCEPT_COMMANDS, 0),
 }
 
 RESULTS = ["ok", "unknown-type", "bad-length", "out-of-range", "state"]
@@ -93,6 +96,9 @@ ATTITUDE_REASONS = [
     "paper-outside-hull", "paper-inconsistent"]
 HEALTH_STATES = ["healthy", "suspect", "lost", "recovering"]
 MODES = ["tumbling", "sliding"]
+# The status frame's record state: what the firmware found of its saved settings at boot
+# (firmware/record.h enum tof_record_state).
+RECORD_STATES = ["none", "loaded", "corrupt", "version", "rejected", "no-storage"]
 SENSORS = "ABCD"
 WINDOW_MIN, WINDOW_MAX = 2, 255
 PROCESS_NOISE_AUTO = 0x01  # set-process-noise flags; every other bit is out of range
@@ -311,12 +317,14 @@ def _ack(p):
 
 def _status(p):
     (major, minor, patch, protocol, uptime, window_n, mode, estimator, running, raw,
-     period) = struct.unpack("<BBBBIHBBBBH", p)
+     period, record) = struct.unpack("<BBBBIHBBBBHB", p)
     valid = (protocol == PROTOCOL_VERSION and WINDOW_MIN <= window_n <= WINDOW_MAX
-             and mode < len(MODES) and estimator < len(ESTIMATORS) and running <= 1 and raw <= 1)
+             and mode < len(MODES) and estimator < len(ESTIMATORS) and running <= 1 and raw <= 1
+             and record < len(RECORD_STATES))
     return valid, {"fw": (major, minor, patch), "protocol": protocol, "uptime_ms": uptime,
                    "window_n": window_n, "mode": mode, "estimator": estimator,
-                   "running": running, "raw_stream": raw, "period_ms": period}
+                   "running": running, "raw_stream": raw, "period_ms": period,
+                   "record": record}
 
 
 def _set_window(p):
@@ -347,7 +355,7 @@ PARSERS = {T_ESTIMATE: _estimate, T_RAW_SAMPLE: _raw, T_HEALTH: _health, T_ACK: 
            T_STATUS: _status, T_SET_WINDOW: _set_window,
            T_SELECT_ESTIMATOR: _select_estimator, T_START: _empty, T_STOP: _empty,
            T_STATUS_REQUEST: _empty, T_RAW_STREAM: _raw_stream,
-           T_SET_PROCESS_NOISE: _set_process_noise}
+           T_SET_PROCESS_NOISE: _set_process_noise, T_SAVE: _empty}
 
 
 def parse(ftype, payload):
@@ -457,11 +465,11 @@ def format_message(ftype, seq, m):
     if ftype == T_STATUS:
         return head + (
             "status fw=%d.%d.%d protocol=%d uptime_ms=%d window_n=%d mode=%s estimator=%s "
-            "running=%s raw_stream=%s period_ms=%d" % (
+            "running=%s raw_stream=%s period_ms=%d record=%s" % (
                 m["fw"][0], m["fw"][1], m["fw"][2], m["protocol"], m["uptime_ms"],
                 m["window_n"], MODES[m["mode"]], ESTIMATORS[m["estimator"]],
                 "yes" if m["running"] else "no", "yes" if m["raw_stream"] else "no",
-                m["period_ms"]))
+                m["period_ms"], RECORD_STATES[m["record"]]))
     if ftype == T_SET_WINDOW:
         return head + "set-window window_n=%d mode=%s" % (m["window_n"], MODES[m["mode"]])
     if ftype == T_SELECT_ESTIMATOR:
@@ -535,9 +543,10 @@ def command_payload(text):
             raise ProtocolError("'%s': estimator must be one of %s, got '%s'"
                                 % (text, ", ".join(ESTIMATORS), name))
         return T_SELECT_ESTIMATOR, bytes([ESTIMATORS.index(name)])
-    if verb in ("start", "stop", "status", "status-request"):
+    if verb in ("start", "stop", "status", "status-request", "save"):
         expect(0, 0, verb)
-        return {"start": T_START, "stop": T_STOP}.get(verb, T_STATUS_REQUEST), b""
+        plain = {"start": T_START, "stop": T_STOP, "save": T_SAVE}
+        return plain.get(verb, T_STATUS_REQUEST), b""
     if verb in ("raw", "raw-stream"):
         expect(1, 1, "raw on|off")
         if args[0].lower() not in ("on", "off"):
@@ -554,7 +563,7 @@ def command_payload(text):
                                 "most 6 places) or auto, got '%s'" % (text, args[0]))
         return T_SET_PROCESS_NOISE, struct.pack("<IIB", values[0], values[1], 0)
     raise ProtocolError("unknown command '%s' (set-window, estimator, start, stop, status, raw, "
-                        "process-noise)" % verb)
+                        "process-noise, save)" % verb)
 
 
 # The firmware's own codes behind a nack (the ack's `error`): estimator/attitude.h's

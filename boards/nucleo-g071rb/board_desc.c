@@ -78,3 +78,12 @@ void stm32_board_peripheral_clocks_init(void) {
                      G071_RCC_APBENR1_USART2EN | G071_RCC_APBENR1_I2C1EN | G071_RCC_APBENR1_DBGEN);
     (void)stm32_reg_read(G071_RCC_APBENR1); /* read back: the enables have taken effect */
 }
+
+/* No record storage on this board yet: the STM32G0's flash interface differs from the L4's in
+ * its page numbering and busy flags (RM0444 §3), and no driver for it has been written and
+ * tested. The firmware runs on defaults and refuses `save` (docs/boards.md "Records"). */
+struct hal_records stm32_board_records(struct hal_time time) {
+    (void)time;
+    const struct hal_records none = {.ops = NULL, .ctx = NULL, .geometry = {0}};
+    return none;
+}

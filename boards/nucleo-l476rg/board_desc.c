@@ -16,6 +16,8 @@
 #include "stm32_reg.h"
 #include "stm32l476_regs.h"
 #include "board_hal.h"
+#include "stm32_flash.h"
+#include "stm32_flash_regs.h"
 
 /* Numbered pins (board_hal.h): Arduino D2..D9 of UM1724 "Arduino connectors"
  * (same mapping in Zephyr boards/arm/nucleo_l476rg/arduino_r3_connector.dtsi).
@@ -80,4 +82,48 @@ void stm32_board_peripheral_clocks_init(void) {
     stm32_reg_modify(L476_RCC_CCIPR, L476_RCC_CCIPR_I2C1SEL_MASK, L476_RCC_CCIPR_I2C1SEL_HSI16);
     stm32_reg_modify(L476_RCC_APB1ENR1, 0u, L476_RCC_APB1ENR1_USART2EN | L476_RCC_APB1ENR1_I2C1EN);
     (void)stm32_reg_read(L476_RCC_APB1ENR1); /* read back: the enables have taken effect */
+}
+
+/* The record pages: the last 4 KB of the 1 MB flash, which the linker script keeps out of
+ * the FLASH region (stm32l476rg.ld, __records_start): bank 2 (0x0808 0000 up, RM0351
+ * §3.3.1 "Flash memory organization"), pages 254 and 255. The image runs from bank 1, so
+ * erasing them does not stall the core (§3.3.8 read-while-write). Busy bounds from the
+ * datasheet (DS10198 "Flash memory characteristics": page erase <= 24.47 ms, one
+ * double-word <= 90.76 us), with margin. */
+extern const uint8_t __records_start[];
+#define L476_FLASH_BASE  0x08000000u
+#define L476_BANK2_START 0x08080000u
+
+static struct stm32_flash_config records_config;
+static struct stm32_flash records_flash;
+
+struct hal_records stm32_board_records(struct hal_time time) {
+    const uintptr_t at = (uintptr_t)__records_start;
+    const uint32_t page = (uint32_t)(at - L476_FLASH_BASE) / STM32_FLASH_PAGE_SIZE;
+    records_config = (struct stm32_flash_config){
+        .regs = STM32L4_FLASH_REGS,
+        .memory = at,
+        .first_page = (uint16_t)(page % STM32_FLASH_BANK_PAGES),
+        .pages = 2u,
+        .bank2 = at >= L476_BANK2_START,
+        .erase_budget_us = 40000u,
+        .program_budget_us = 1000u,
+        .time = time,
+    };
+    if (stm32_flash_init(&records_flash, &records_config) != HAL_OK) {
+        const struct hal_records none = {.ops = NULL, .ctx = NULL, .geometry = {0}};
+        return none;
+    }
+    return stm32_flash_hal(&records_flash);
+}
+
+void NMI_Handler(void);
+void Default_Handler(void);
+
+/* A read of a torn double-word raises an NMI (ECC double error, RM0351 §3.3.2): the flash
+ * driver takes it and its read reports HAL_ERR_CORRUPT; any other NMI is a fault. */
+void NMI_Handler(void) {
+    if (!stm32_flash_nmi(STM32L4_FLASH_REGS)) {
+        Default_Handler();
+    }
 }

@@ -17,6 +17,7 @@
 #include "hal/hal_gpio.h"
 #include "hal/hal_i2c.h"
 #include "hal/hal_log.h"
+#include "hal/hal_records.h"
 #include "hal/hal_serial.h"
 #include "hal/hal_time.h"
 #include "hal/hal_watchdog.h"
@@ -43,6 +44,10 @@ struct hal_gpio board_hal_gpio(void);
 struct hal_time board_hal_time(void);
 struct hal_watchdog board_hal_watchdog(void);
 struct hal_log board_hal_log(void);
+
+/* Record storage: the pages the board's linker script reserves for records (ops NULL on a
+ * board without; docs/boards.md "Records"). */
+struct hal_records board_hal_records(void);
 
 /* Error counters of the I2C bus, for status telemetry. */
 const struct stm32_i2c_stats *board_hal_i2c_stats(void);

@@ -129,6 +129,10 @@ struct hal_log board_hal_log(void) {
     return log;
 }
 
+struct hal_records board_hal_records(void) {
+    return stm32_board_records(board_time_handle);
+}
+
 const struct stm32_i2c_stats *board_hal_i2c_stats(void) {
     return &board_i2c.stats;
 }

@@ -12,6 +12,8 @@
 #include <stdint.h>
 
 #include "stm32_gpio.h"
+#include "hal/hal_records.h"
+#include "hal/hal_time.h"
 #include "stm32_i2c.h"
 
 /* Both boards run from HSI16 at 16 MHz (docs/boards.md): one SysTick reload, USART
@@ -42,6 +44,10 @@ uint32_t stm32_board_sysclk_hz(void);
 
 /* Clock the GPIO ports, I2C1 (kernel clock HSI16), USART2 and the debug unit. */
 void stm32_board_peripheral_clocks_init(void);
+
+/* The board's record storage (its linker script reserves the pages), with `time` for the
+ * flash's bounded waits; ops NULL on a board that has none. Each board_desc.c defines it. */
+struct hal_records stm32_board_records(struct hal_time time);
 
 /* Poll `addr` until (value & mask) == want, at most `polls` reads; true if it did. */
 bool stm32_board_poll_bits(uintptr_t addr, uint32_t mask, uint32_t want, uint32_t polls);

@@ -11,12 +11,14 @@
 #include "board_hal.h"
 #include "firmware/app.h"
 #include "firmware/link.h"
+#include "firmware/record.h"
 #include "stm32_usart.h"
 
 /* State is static, so its size shows in the map file rather than on the stack. */
 static struct tof_app app;
 static struct tof_link link;
 static struct tof_platform platform;
+static struct tof_record_store records; /* the saved settings (firmware/settings.h) */
 
 #if defined(TWIN_TEST_HANG) || defined(TWIN_TEST_BAD_SEQUENCE) || defined(TWIN_TEST_STACK_OVERFLOW)
 #define TWIN_TEST 1
@@ -45,6 +47,9 @@ int main(void) {
     __asm__ volatile("1: push {r0}\n subs %0, %0, #1\n bne 1b" : "+r"(words)::"memory", "cc");
 #endif
     tof_link_init(&link, board_hal_serial());
+    if (tof_record_init(&records, board_hal_records(), 0u, 1u) == 0) {
+        tof_link_set_records(&link, &records); /* none: defaults, `save` refused */
+    }
     platform = (struct tof_platform){
         .board_name = BOARD_NAME,
         .i2c = board_hal_i2c(),

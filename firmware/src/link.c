@@ -145,6 +145,7 @@ void tof_link_send_status(struct tof_link *link) {
         .running = st.running,
         .raw_stream = st.raw_output,
         .period_ms = (uint16_t)(st.period_us / 1000u),
+        .record = link->record_state, /* enum tof_record_state == enum tlm_record_state */
     };
     uint8_t frame[TLM_FRAME_MAX];
     send(link, frame, tlm_encode_status(link->seq, &msg, frame, sizeof frame));
@@ -189,6 +190,13 @@ static uint8_t apply(struct tof_link *link, const struct tlm_command *cmd, int *
         *error = tof_app_set_process_noise(
             app, cmd->u.process_noise.qd_um2_per_s, cmd->u.process_noise.qt_um2_per_s,
             (cmd->u.process_noise.flags & TLM_PROCESS_NOISE_AUTO) != 0u);
+        if (*error == ATTITUDE_ERR_NONE) { /* kept for `save`: the app holds Q per row only */
+            link->process_noise = (struct tof_settings){
+                .process_noise_set = true,
+                .process_noise_auto = (cmd->u.process_noise.flags & TLM_PROCESS_NOISE_AUTO) != 0u,
+                .qd_um2_per_s = cmd->u.process_noise.qd_um2_per_s,
+                .qt_um2_per_s = cmd->u.process_noise.qt_um2_per_s};
+        }
         return estimator_result(*error);
     case TLM_TYPE_START:
         tof_app_set_running(app, true);
@@ -201,6 +209,12 @@ static uint8_t apply(struct tof_link *link, const struct tlm_command *cmd, int *
         return TLM_RESULT_OK;
     case TLM_TYPE_STATUS_REQUEST:
         return TLM_RESULT_OK; /* the status frame follows the ack */
+    case TLM_TYPE_SAVE: {
+        struct tof_settings now;
+        tof_settings_capture(app, &link->process_noise, &now);
+        *error = tof_settings_save(link->records, &now); /* a hal_err: storage's own */
+        return *error == HAL_OK ? TLM_RESULT_OK : TLM_RESULT_STATE;
+    }
     default:
         return TLM_RESULT_UNKNOWN_TYPE;
     }
@@ -259,7 +273,12 @@ static void on_reject(void *ctx, const struct tlm_reject *reject) {
 void tof_link_init(struct tof_link *link, struct hal_serial serial) {
     memset(link, 0, sizeof *link);
     link->serial = serial;
+    link->record_state = TOF_RECORD_NO_STORAGE;
     tlm_decoder_init(&link->decoder, tlm_message_types(TLM_ACCEPT_COMMANDS));
+}
+
+void tof_link_set_records(struct tof_link *link, struct tof_record_store *store) {
+    link->records = store;
 }
 
 void tof_link_bind(struct tof_link *link, struct tof_app *app) {
@@ -287,6 +306,8 @@ void tof_link_poll(struct tof_link *link) {
 static void service_start(void *ctx, struct tof_app *app) {
     struct tof_link *link = ctx;
     tof_link_bind(link, app);
+    /* the settings in force: their process noise is what `save` keeps until a command */
+    link->record_state = (uint8_t)tof_settings_boot(link->records, app, &link->process_noise);
     tof_link_send_status(link);
 }
 

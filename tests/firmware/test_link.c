@@ -1,6 +1,6 @@
 /*
  * The firmware on the simulated rig, driven over its telemetry link: commands in
- * (set window, select estimator, set process noise, status request, stop/start,
+ * (set window, select estimator, set process noise, status request, stop/start, save,
  * malformed frames),
  * estimates, health and acks out, decoded with the protocol's own decoder.
  */
@@ -13,6 +13,7 @@
 
 #include "firmware/link.h"
 #include "hal/hal_err.h"
+#include "sim/sim_flash.h"
 #include "sim/sim_rig.h"
 #include "telemetry/tlm_messages.h"
 
@@ -579,6 +580,105 @@ static void test_refused_process_noise_changes_nothing(void **state) {
     assert_int_equal(t.app.estimator.cfg.kalman_process_noise_um2[0], 60000u);
 }
 
+/* The record storage of the save tests: outside `t`, so it survives the "reboot" (setup). */
+static struct sim_flash saved_flash;
+static struct tof_record_store saved_store;
+
+/* Boot the link with the record storage, as tof_app_main() starts its service. */
+static void boot_with_records(void) {
+    sim_flash_power_on(&saved_flash);
+    assert_int_equal(tof_record_init(&saved_store, sim_flash_hal(&saved_flash), 0u, 1u), HAL_OK);
+    tof_link_set_records(&t.link, &saved_store);
+    tof_link_service_ops.start(&t.link, &t.app);
+    decode_output();
+    assert_int_equal(t.status, 1);
+    t.serial.tx_len = 0;
+    t.status = 0;
+}
+
+static void test_save_then_reset_brings_the_settings_back(void **state) {
+    (void)state;
+    assert_int_equal(sim_flash_init(&saved_flash, 2u, 2048u), HAL_OK);
+    boot_with_records();
+    assert_int_equal(t.last_status.record, TLM_RECORD_NONE);
+    struct tlm_command cmd = {.type = TLM_TYPE_SET_WINDOW};
+    cmd.u.set_window.window_n = 50u;
+    cmd.u.set_window.mode = TLM_WINDOW_SLIDING;
+    push_command(&cmd, 1);
+    cmd = (struct tlm_command){.type = TLM_TYPE_SELECT_ESTIMATOR, .u.estimator = 2u};
+    push_command(&cmd, 2);
+    cmd = (struct tlm_command){.type = TLM_TYPE_RAW_STREAM, .u.raw_enable = true};
+    push_command(&cmd, 3);
+    cmd = (struct tlm_command){.type = TLM_TYPE_SET_PROCESS_NOISE};
+    cmd.u.process_noise.qd_um2_per_s = 2000000u;
+    cmd.u.process_noise.qt_um2_per_s = 500000u;
+    push_command(&cmd, 4);
+    cmd = (struct tlm_command){.type = TLM_TYPE_SAVE};
+    push_command(&cmd, 5);
+    run_ms(100);
+    decode_output();
+    assert_int_equal(t.nacks, 0);
+    assert_int_equal(t.acks, 5);
+    assert_int_equal(t.last_ack_command, TLM_TYPE_SAVE);
+
+    setup(NULL); /* a reset: the compiled defaults, then the saved settings */
+    assert_int_equal(t.app.estimator.cfg.window, 100u);
+    boot_with_records();
+    assert_int_equal(t.last_status.record, TLM_RECORD_LOADED);
+    assert_int_equal(t.last_status.window_n, 50u);
+    assert_int_equal(t.last_status.mode, TLM_WINDOW_SLIDING);
+    assert_int_equal(t.last_status.estimator, 2u);
+    assert_true(t.last_status.raw_stream);
+    assert_true(t.last_status.running);
+    assert_int_equal(t.app.estimator.cfg.kalman_process_noise_um2[0], 40000u);
+    assert_int_equal(t.app.estimator.cfg.kalman_process_noise_um2[1], 10000u);
+
+    /* saved again after the reset: the process noise in force is kept, not forgotten */
+    cmd = (struct tlm_command){.type = TLM_TYPE_SAVE};
+    push_command(&cmd, 6);
+    run_ms(50);
+    setup(NULL);
+    boot_with_records();
+    assert_int_equal(t.last_status.record, TLM_RECORD_LOADED);
+    assert_int_equal(t.app.estimator.cfg.kalman_process_noise_um2[0], 40000u);
+
+    /* damaged (one payload bit): the defaults, and the status frame says why */
+    const uint16_t page = (uint16_t)(saved_flash.mem[0][0] != 0xFFu ? 0u : 1u);
+    sim_flash_poke(&saved_flash, page, 12u + 5u, 0x01u);
+    setup(NULL);
+    boot_with_records();
+    assert_int_equal(t.last_status.record, TLM_RECORD_CORRUPT);
+    assert_int_equal(t.last_status.window_n, 100u);
+    assert_int_equal(t.last_status.mode, TLM_WINDOW_TUMBLING);
+    assert_int_equal(t.app.estimator.cfg.kalman_process_noise_um2[0], 0u);
+}
+
+static void test_settings_the_image_refuses_fall_back_to_defaults(void **state) {
+    (void)state;
+    assert_int_equal(sim_flash_init(&saved_flash, 2u, 2048u), HAL_OK);
+    assert_int_equal(tof_record_init(&saved_store, sim_flash_hal(&saved_flash), 0u, 1u), HAL_OK);
+    const struct tof_settings s = {.window = 50u, .sliding = true, .primary = 3u, .running = true};
+    assert_int_equal(tof_settings_save(&saved_store, &s), HAL_OK);
+    t.app.estimator.cfg.estimators &= (uint8_t)~ATTITUDE_EST_BIT(ATTITUDE_EST_MEAN);
+    boot_with_records();
+    assert_int_equal(t.last_status.record, TLM_RECORD_REJECTED);
+    assert_int_equal(t.last_status.window_n, 100u); /* the window applied first is undone */
+    assert_int_equal(t.last_status.mode, TLM_WINDOW_TUMBLING);
+}
+
+static void test_save_without_storage_is_refused(void **state) {
+    (void)state;
+    tof_link_service_ops.start(&t.link, &t.app);
+    const struct tlm_command cmd = {.type = TLM_TYPE_SAVE};
+    push_command(&cmd, 1);
+    run_ms(50);
+    decode_output();
+    assert_int_equal(t.last_status.record, TLM_RECORD_NO_STORAGE);
+    assert_int_equal(t.nacks, 1);
+    assert_int_equal(t.last_nack_result, TLM_RESULT_STATE);
+    assert_int_equal(t.last_nack_error, HAL_ERR_STATE);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup(test_default_windows_report_a_parallel_plate, setup),
@@ -596,6 +696,9 @@ int main(void) {
                                setup_no_target),
         cmocka_unit_test_setup(test_set_process_noise_changes_the_filters_q, setup),
         cmocka_unit_test_setup(test_refused_process_noise_changes_nothing, setup),
+        cmocka_unit_test_setup(test_save_then_reset_brings_the_settings_back, setup),
+        cmocka_unit_test_setup(test_settings_the_image_refuses_fall_back_to_defaults, setup),
+        cmocka_unit_test_setup(test_save_without_storage_is_refused, setup),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

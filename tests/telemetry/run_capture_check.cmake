@@ -90,7 +90,7 @@ elseif(MODE STREQUAL "python_to_c")
   run(ignored ${PYTHON} ${SCRIPT} --write-commands ${WORK}/commands.bin
       --send "set-window 50 sliding" --send "set-window 2" --send "estimator consensus-paper"
       --send start --send stop --send status --send "raw on" --send "raw off"
-      --send "process-noise 0.5,0.010000" --send "process-noise auto")
+      --send "process-noise 0.5,0.010000" --send "process-noise auto" --send save)
   set(expected "seq=0 set-window window_n=50 mode=sliding
 seq=1 set-window window_n=2 mode=tumbling
 seq=2 select-estimator estimator=consensus-paper
@@ -101,7 +101,8 @@ seq=6 raw-stream enable=on
 seq=7 raw-stream enable=off
 seq=8 set-process-noise qd_mm2_per_s=0.500000 qt_mm2_per_s=0.010000 auto=no
 seq=9 set-process-noise qd_mm2_per_s=0.000000 qt_mm2_per_s=0.000000 auto=yes
-# frames_ok=10 bad_crc=0 bad_length=0 unknown_type=0 truncated=0 out_of_range=0 discarded_bytes=0
+seq=10 save
+# frames_ok=11 bad_crc=0 bad_length=0 unknown_type=0 truncated=0 out_of_range=0 discarded_bytes=0
 ")
   run(c_text ${TOOL} dump ${WORK}/commands.bin)
   expect_same(c_reads_python_commands "${expected}" "${c_text}")
@@ -109,7 +110,7 @@ seq=9 set-process-noise qd_mm2_per_s=0.000000 qt_mm2_per_s=0.000000 auto=yes
   expect_same(python_reads_python_commands "${expected}" "${python_text}")
   # Out-of-range commands are refused by the tool before anything is written.
   foreach(bad "set-window 1" "set-window 256" "set-window 10 diagonal" "estimator best" "raw maybe" "launch"
-          "process-noise 1" "process-noise 0.0000001,0" "process-noise 4294.967296,0")
+          "process-noise 1" "process-noise 0.0000001,0" "process-noise 4294.967296,0" "save now")
     execute_process(COMMAND ${PYTHON} ${SCRIPT} --write-commands ${WORK}/bad.bin --send "${bad}"
                     RESULT_VARIABLE bad_rc OUTPUT_VARIABLE bad_out ERROR_VARIABLE bad_err)
     if(bad_rc EQUAL 0 OR NOT bad_err MATCHES "--send")

@@ -87,7 +87,8 @@ static struct tlm_status sample_status(void) {
                                .estimator = TLM_ESTIMATOR_KALMAN,
                                .running = true,
                                .raw_stream = false,
-                               .period_ms = 20};
+                               .period_ms = 20,
+                               .record = TLM_RECORD_CORRUPT};
 }
 
 /* Decode exactly one accepted frame from `bytes` through a real decoder. */
@@ -137,14 +138,15 @@ static void test_every_type_has_its_documented_length(void **state) {
     assert_int_equal(tlm_encode_raw_sample(0, &raw, out, sizeof out), 17 + 7);
     assert_int_equal(tlm_encode_health(0, &health, out, sizeof out), 148 + 7);
     assert_int_equal(tlm_encode_ack(0, &ack, out, sizeof out), 4 + 7);
-    assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 16 + 7);
+    assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 17 + 7);
     assert_int_equal(tlm_type_payload_length(TLM_TYPE_HEALTH, TLM_ACCEPT_TELEMETRY), 148);
     assert_int_equal(tlm_type_payload_length(TLM_TYPE_HEALTH, TLM_ACCEPT_COMMANDS), -1);
     assert_int_equal(tlm_type_payload_length(TLM_TYPE_SET_WINDOW, TLM_ACCEPT_ALL), 3);
     assert_int_equal(tlm_type_payload_length(0x00, TLM_ACCEPT_ALL), -1);
     assert_int_equal(tlm_type_payload_length(TLM_TYPE_SET_PROCESS_NOISE, TLM_ACCEPT_COMMANDS), 9);
     assert_int_equal(tlm_type_payload_length(TLM_TYPE_SET_PROCESS_NOISE, TLM_ACCEPT_TELEMETRY), -1);
-    assert_int_equal(tlm_type_payload_length(0x88, TLM_ACCEPT_ALL), -1);
+    assert_int_equal(tlm_type_payload_length(TLM_TYPE_SAVE, TLM_ACCEPT_COMMANDS), 0);
+    assert_int_equal(tlm_type_payload_length(0x89, TLM_ACCEPT_ALL), -1);
     assert_true(tlm_type_is_command(TLM_TYPE_RAW_STREAM));
     assert_true(tlm_type_is_command(TLM_TYPE_SET_PROCESS_NOISE));
     assert_false(tlm_type_is_command(TLM_TYPE_ACK));
@@ -154,10 +156,10 @@ static void test_status_layout(void **state) {
     (void)state;
     const struct tlm_status status = sample_status();
     uint8_t out[TLM_FRAME_MAX];
-    assert_int_equal(tlm_encode_status(3, &status, out, sizeof out), 23);
+    assert_int_equal(tlm_encode_status(3, &status, out, sizeof out), 24);
     const uint8_t *p = &out[TLM_HEADER_SIZE];
     const uint8_t expected[] = {
-        0, 1, 2, TLM_PROTOCOL_VERSION, 0x40, 0xE2, 0x01, 0x00, 100, 0, 1, 2, 1, 0, 20, 0};
+        0, 1, 2, TLM_PROTOCOL_VERSION, 0x40, 0xE2, 0x01, 0x00, 100, 0, 1, 2, 1, 0, 20, 0, 2};
     assert_memory_equal(p, expected, sizeof expected);
 }
 
@@ -524,18 +526,18 @@ static void test_raw_health_ack_status_validation(void **state) {
     const struct tlm_ack ack_with_error = {.result = 0, .error = -1};
     assert_int_equal(tlm_encode_ack(0, &ack_with_error, out, sizeof out), HAL_ERR_INVALID);
 
-    const size_t status_bytes[] = {3, 10, 11, 12, 13};
-    const uint8_t status_bad[] = {TLM_PROTOCOL_VERSION + 1u, 2, 4, 2, 2}; /* protocol, mode,
-                                                                    estimator, bools */
-    for (size_t i = 0; i < 5; ++i) {
+    const size_t status_bytes[] = {3, 10, 11, 12, 13, 16};
+    const uint8_t status_bad[] = {TLM_PROTOCOL_VERSION + 1u, 2, 4, 2, 2, 6}; /* protocol, mode,
+                                                             estimator, bools, record state */
+    for (size_t i = 0; i < 6; ++i) {
         status = sample_status();
-        assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 23);
+        assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 24);
         out[5 + status_bytes[i]] = status_bad[i];
         frame = raw_frame(TLM_TYPE_STATUS, &out[5], TLM_LEN_STATUS);
         assert_int_equal(tlm_parse_telemetry(&frame, &msg, NULL), TLM_RESULT_OUT_OF_RANGE);
     }
     status = sample_status();
-    assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 23);
+    assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 24);
     out[5 + 8] = 1; /* window_n = 1 */
     frame = raw_frame(TLM_TYPE_STATUS, &out[5], TLM_LEN_STATUS);
     assert_int_equal(tlm_parse_telemetry(&frame, &msg, NULL), TLM_RESULT_OUT_OF_RANGE);
@@ -723,19 +725,19 @@ static void test_unknown_commands(void **state) {
     struct tlm_command cmd;
     struct tlm_rx_counters c;
     memset(&c, 0, sizeof c);
-    /* Every byte that is not one of the seven command types is an unknown command,
+    /* Every byte that is not one of the eight command types is an unknown command,
      * telemetry types included. */
     unsigned unknown = 0;
     for (unsigned type = 0; type <= 0xFF; ++type) {
         const enum tlm_result r = parse_bytes((uint8_t)type, NULL, 0, &cmd, NULL);
-        if (type >= TLM_TYPE_SET_WINDOW && type <= TLM_TYPE_SET_PROCESS_NOISE) {
+        if (type >= TLM_TYPE_SET_WINDOW && type <= TLM_TYPE_SAVE) {
             assert_int_not_equal(r, TLM_RESULT_UNKNOWN_TYPE);
         } else {
             assert_int_equal(r, TLM_RESULT_UNKNOWN_TYPE);
             unknown++;
         }
     }
-    assert_int_equal(unknown, 249);
+    assert_int_equal(unknown, 248);
     assert_int_equal(parse_bytes(TLM_TYPE_ESTIMATE, NULL, 0, &cmd, &c), TLM_RESULT_UNKNOWN_TYPE);
     assert_int_equal(c.unknown_type, 1);
 }

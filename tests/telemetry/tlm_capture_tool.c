@@ -131,7 +131,8 @@ static void build(struct builder *b) {
                                           .estimator = TLM_ESTIMATOR_CONSENSUS,
                                           .running = true,
                                           .raw_stream = true,
-                                          .period_ms = 20};
+                                          .period_ms = 20,
+                                          .record = TLM_RECORD_LOADED};
     add_telemetry(b, &status);
 
     /* Estimates of every estimator, signs and sizes across the range. */
@@ -301,7 +302,7 @@ static void build(struct builder *b) {
     cmd.type = TLM_TYPE_SELECT_ESTIMATOR;
     cmd.u.estimator = TLM_ESTIMATOR_CONSENSUS_PAPER;
     add_command(b, &cmd);
-    const uint8_t plain[] = {TLM_TYPE_START, TLM_TYPE_STOP, TLM_TYPE_STATUS_REQUEST};
+    const uint8_t plain[] = {TLM_TYPE_START, TLM_TYPE_STOP, TLM_TYPE_STATUS_REQUEST, TLM_TYPE_SAVE};
     for (size_t i = 0; i < sizeof plain; ++i) {
         memset(&cmd, 0, sizeof cmd);
         cmd.type = plain[i];

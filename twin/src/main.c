@@ -66,6 +66,22 @@ static int load_trace(struct run *r, uint32_t *period_ms) {
     return 0;
 }
 
+/* The record pages (TWIN_RECORDS_SIZE bytes) from or to `path`: what a reflash keeps between
+ * runs (--flash-in, --flash-out). 0, or -1 (message on stderr). */
+static int records_file(struct run *r, const char *path, bool write) {
+    uint8_t *mem = &r->t.flash[TWIN_RECORDS_BASE - TWIN_FLASH_BASE];
+    FILE *f = fopen(path, write ? "wb" : "rb");
+    const size_t n = f == NULL ? 0u
+                     : write   ? fwrite(mem, 1, TWIN_RECORDS_SIZE, f)
+                               : fread(mem, 1, TWIN_RECORDS_SIZE, f);
+    if (f == NULL || n != TWIN_RECORDS_SIZE || fclose(f) != 0) {
+        fprintf(stderr, "tof_twin: %s: %s\n", path,
+                f == NULL ? strerror(errno) : "not the 4096 bytes of the record pages");
+        return -1;
+    }
+    return 0;
+}
+
 /* The twin with the ELF in its flash. 0, or -1 (message on stderr). */
 static int load_firmware(struct run *r) {
     char err[512];
@@ -85,7 +101,7 @@ static int load_firmware(struct run *r) {
     }
     twin_load_flash(&r->t, image);
     free(image);
-    return 0;
+    return r->a.flash_in != NULL ? records_file(r, r->a.flash_in, false) : 0;
 }
 
 /* EST.csv with its header, the UART capture and the I2C log if asked for. 0, or -1. */
@@ -121,6 +137,7 @@ static void wire(struct run *r, uint32_t period_ms, const struct sim_fault_confi
     r->t.host_poll = tof_twin_host_poll;
     r->t.host_ctx = r;
     r->t.usart.tx_ctx = r;
+    r->t.flash_pe.cut_after = r->a.flash_cut;
     tlm_decoder_init(&r->dec, tlm_message_types(TLM_ACCEPT_TELEMETRY));
     r->status_resets = UINT32_MAX;
     r->next_seq = 0x40u;
@@ -171,13 +188,14 @@ static int judge(const struct run *r, bool finished, double max_s) {
     if (r->w.source_error != 0) {
         rc = 1;
     }
-    if (r->commands_acked != r->commands_sent || r->status_mismatch != 0u) {
+    if (r->commands_acked + r->commands_lost != r->commands_sent || r->status_mismatch != 0u) {
         fprintf(stderr,
-                "tof_twin: %u commands sent, %u acknowledged, %u refused, %u status replies "
-                "with other settings; %llu receiver overruns, %llu bytes received: the rows "
-                "are not those of the options asked for\n",
-                r->commands_sent, r->commands_acked, r->acks_bad, r->status_mismatch,
-                (unsigned long long)r->t.usart.overruns, (unsigned long long)r->t.usart.bytes_rx);
+                "tof_twin: %u commands sent, %u acknowledged, %u lost to a reset, %u refused, "
+                "%u status replies with other settings; %llu receiver overruns, %llu bytes "
+                "received: the rows are not those of the options asked for\n",
+                r->commands_sent, r->commands_acked, r->commands_lost, r->acks_bad,
+                r->status_mismatch, (unsigned long long)r->t.usart.overruns,
+                (unsigned long long)r->t.usart.bytes_rx);
         rc = 1;
     }
     return rc;
@@ -192,6 +210,9 @@ static int finish(struct run *r, bool finished, double max_s, double host_s) {
     }
     if (r->w.i2c_log != NULL) {
         fclose(r->w.i2c_log);
+    }
+    if (r->a.flash_out != NULL && records_file(r, r->a.flash_out, true) != 0) {
+        rc = 1;
     }
     if (r->a.coverage != NULL && tof_twin_write_coverage(r) != 0) {
         rc = 1;

@@ -23,7 +23,7 @@
 #define FLIGHT_ARM_UM    30000
 #define FLIGHT_PERIOD_MS 20u
 
-#define TOF_TWIN_COMMANDS 8u
+#define TOF_TWIN_COMMANDS 16u
 
 /* One command the host sends and its answer. */
 struct host_command {
@@ -40,7 +40,10 @@ struct args {
     bool sliding;
     uint64_t seed;
     bool strict, hsi_fail;
-    bool late_command; /* --late-command: accept a window/mode the rows cannot match */
+    bool late_command;  /* --late-command: accept a window/mode the rows cannot match */
+    bool save;          /* --save: send `save` once the settings are in force */
+    uint32_t flash_cut; /* --flash-cut N: power cut at the Nth flash erase/double-word */
+    const char *flash_in, *flash_out; /* --flash-in/--flash-out: the record pages, 4 KB */
     uint32_t spurious_berr_ppm;
     double max_sim_s;
 };
@@ -64,7 +67,8 @@ struct run {
     uint32_t acks_bad;
     /* Commands, as a host sends them (tof_twin_host.c): the boot's configuration burst (the
      * options' window, mode and estimator, then a status request), back to back at the line
-     * rate, and with --late-command a status request halfway through the trace. */
+     * rate (again after a reset if the boot's settings differ), with --save a `save` once that
+     * is acknowledged, and with --late-command a status request halfway through the trace. */
     struct host_command cmds[TOF_TWIN_COMMANDS];
     unsigned ncmds;    /* queued or sent */
     unsigned nsent;    /* of them sent */
@@ -73,13 +77,16 @@ struct run {
     bool mid_sent;     /* the status request halfway through the trace */
     uint64_t now_ps;   /* when the byte being decoded ended */
     uint32_t commands_sent, commands_acked, commands_out_of_order, commands_unmatched;
+    uint32_t commands_lost;      /* sent, unanswered when the MCU reset (a power cut in `save`) */
     uint64_t ack_latency_max_ps; /* last byte of a command to the end of its answer */
     uint32_t status_confirmed, status_mismatch; /* status replies: the options' settings? */
     uint64_t rows_missing;                      /* rows whose why names missing:X */
     char line[128];
     size_t line_len;
     char last_fault[128];
-    struct tlm_health health; /* the last health frame */
+    struct tlm_health health;      /* the last health frame */
+    struct tlm_status boot_status; /* the last boot's status frame (its saved settings) */
+    bool save_sent;
     uint64_t health_frames;
 };
 

@@ -1,5 +1,6 @@
 /* tof_twin's command line: the options of host_sim replay that the flight image can honour,
- * and the twin's own (--strict, --coverage, --hsi-fail, --spurious-berr, --max-sim-s). */
+ * and the twin's own (--strict, --coverage, --hsi-fail, --spurious-berr, --max-sim-s, and the
+ * record storage's --save, --flash-cut, --flash-in, --flash-out). */
 #include <errno.h>
 #include <stdlib.h>
 #include <string.h>
@@ -11,7 +12,8 @@ static void usage(FILE *f) {
           "                [--mode tumbling|sliding] [--faults SPEC] [--seed S] --out EST.csv\n"
           "                [--uart-out CAPTURE.bin] [--i2c-log BUS.csv] [--strict]\n"
           "                [--coverage FILE] [--report FILE.json] [--hsi-fail]\n"
-          "                [--spurious-berr PPM] [--max-sim-s S] [--late-command]\n",
+          "                [--spurious-berr PPM] [--max-sim-s S] [--late-command]\n"
+          "                [--save] [--flash-cut N] [--flash-in FILE] [--flash-out FILE]\n",
           f);
 }
 
@@ -72,6 +74,17 @@ static int value_option(const char *o, char **argv, int *i, struct args *a) {
             return -1;
         }
         a->spurious_berr_ppm = (uint32_t)v;
+    } else if (strcmp(o, "--flash-cut") == 0) {
+        if (!parse_u64(argv[++*i], 0, UINT32_MAX - 1u, &v)) {
+            fprintf(stderr, "tof_twin: --flash-cut '%s' is not a count of flash operations\n",
+                    argv[*i]);
+            return -1;
+        }
+        a->flash_cut = (uint32_t)v;
+    } else if (strcmp(o, "--flash-in") == 0) {
+        a->flash_in = argv[++*i];
+    } else if (strcmp(o, "--flash-out") == 0) {
+        a->flash_out = argv[++*i];
     } else if (strcmp(o, "--max-sim-s") == 0) {
         a->max_sim_s = strtod(argv[++*i], NULL);
         if (!(a->max_sim_s > 0.0)) {
@@ -113,7 +126,10 @@ static int check_settings(const struct args *a) {
 }
 
 int tof_twin_parse_args(int argc, char **argv, struct args *a) {
-    *a = (struct args){.estimator = "consensus", .window = FLIGHT_WINDOW, .max_sim_s = 0.0};
+    *a = (struct args){.estimator = "consensus",
+                       .window = FLIGHT_WINDOW,
+                       .max_sim_s = 0.0,
+                       .flash_cut = TWIN_FLASH_NO_CUT};
     int pos = 0;
     for (int i = 1; i < argc; ++i) {
         const char *o = argv[i];
@@ -127,6 +143,8 @@ int tof_twin_parse_args(int argc, char **argv, struct args *a) {
             a->hsi_fail = true;
         } else if (strcmp(o, "--late-command") == 0) {
             a->late_command = true;
+        } else if (strcmp(o, "--save") == 0) {
+            a->save = true;
         } else if (o[0] == '-' && o[1] == '-' && !has) {
             fprintf(stderr, "tof_twin: %s needs a value\n", o);
             return -1;

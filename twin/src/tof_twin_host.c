@@ -1,7 +1,7 @@
 /* tof_twin's host end of USART2: the capture file, the firmware's text lines, its telemetry
  * frames decoded into EST.csv rows (firmware/est_csv, the rows host_sim writes) with host_sim's
- * accuracy check, and the commands a host sends, back to back at the line rate, with their
- * answers matched by sequence number. */
+ * accuracy check, and the commands a host sends (the configuration, `save`), back to back at
+ * the line rate, with their answers matched by sequence number. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -235,6 +235,14 @@ static void on_frame(void *ctx, const struct tlm_frame *frame) {
         }
         r->status_resets = r->t.stats.resets;
         ++r->boots;
+        r->boot_status = *st;
+        /* What was sent before the reset and not answered is lost with it (a power cut during
+         * `save`): no answer will come, the answers that come next are to this boot's. */
+        for (unsigned k = 0; k < r->nsent; ++k) {
+            r->commands_lost += r->cmds[k].answered ? 0u : 1u;
+            r->cmds[k].answered = true;
+        }
+        r->next_ack = r->ncmds;
         start_boot(r, st);
         queue_configuration(r, st);
         break;
@@ -254,8 +262,25 @@ static void on_frame(void *ctx, const struct tlm_frame *frame) {
     }
 }
 
+/* Every command sent has its answer, ack or nack. */
+static bool all_answered(const struct run *r) {
+    for (unsigned k = 0; k < r->nsent; ++k) {
+        if (!r->cmds[k].answered) {
+            return false;
+        }
+    }
+    return true;
+}
+
 void tof_twin_host_poll(void *ctx) {
     struct run *r = ctx;
+    /* --save: once per run, when the settings asked for are in force (after the boot's
+     * status frame, and every command of its configuration acknowledged) */
+    if (r->a.save && !r->save_sent && r->boots > 0u && r->nsent == r->ncmds && all_answered(r)) {
+        const struct tlm_command save = {.type = TLM_TYPE_SAVE};
+        queue_command(r, &save);
+        r->save_sent = true;
+    }
     if (r->a.late_command && !r->mid_sent && r->w.origin_set && r->nsent == r->ncmds &&
         twin_now_us(&r->t) >= r->w.origin_us + (uint64_t)r->row_count / 2u * r->w.period_us) {
         /* A command halfway through the trace, in whatever mode it runs by then. */

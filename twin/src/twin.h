@@ -96,6 +96,7 @@ struct twin {
 
     struct twin_rcc rcc;
     struct twin_flash_if flash_if;
+    struct twin_flash flash_pe; /* program/erase of the record pages (twin_flash.c) */
     struct twin_gpio gpio[TWIN_GPIO_PORTS];
     struct twin_i2c i2c;
     struct twin_usart usart;

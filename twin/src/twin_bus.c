@@ -39,6 +39,9 @@ static bool word_access(struct twin *t, uint32_t addr, unsigned size, uint32_t v
 }
 
 uint32_t twin_bus_read(struct twin *t, uint32_t addr, unsigned size) {
+    if (in(addr, TWIN_RECORDS_BASE, TWIN_RECORDS_SIZE)) {
+        return twin_flash_mem_read(t, addr - TWIN_RECORDS_BASE, size); /* memory: any size */
+    }
     if (size != 4u && !in(addr, TWIN_GPIO_BASE, 0x400u * TWIN_GPIO_PORTS)) {
         word_access(t, addr, size, 0u);
     }
@@ -50,7 +53,7 @@ uint32_t twin_bus_read(struct twin *t, uint32_t addr, unsigned size) {
     if (in(a, TWIN_RCC_BASE, 0x400u)) {
         v = twin_rcc_read(t, a - TWIN_RCC_BASE);
     } else if (in(a, TWIN_FLASHIF_BASE, 0x400u)) {
-        v = twin_flash_if_read(t, a - TWIN_FLASHIF_BASE);
+        v = twin_flash_read(t, a - TWIN_FLASHIF_BASE);
     } else if (in(a, TWIN_GPIO_BASE, 0x400u * TWIN_GPIO_PORTS)) {
         const unsigned port = (a - TWIN_GPIO_BASE) / 0x400u;
         if (clocked(t, TWIN_GPIO_BASE + 0x400u * port, a, 0u, false)) {
@@ -80,6 +83,10 @@ uint32_t twin_bus_read(struct twin *t, uint32_t addr, unsigned size) {
 }
 
 void twin_bus_write(struct twin *t, uint32_t addr, unsigned size, uint32_t value) {
+    if (in(addr, TWIN_RECORDS_BASE, TWIN_RECORDS_SIZE)) {
+        twin_flash_mem_write(t, addr - TWIN_RECORDS_BASE, size, value); /* its own rules */
+        return;
+    }
     const bool gpio = in(addr, TWIN_GPIO_BASE, 0x400u * TWIN_GPIO_PORTS);
     t->scs_only_since_cvr = false;
     if (size != 4u && !gpio) {
@@ -99,7 +106,7 @@ void twin_bus_write(struct twin *t, uint32_t addr, unsigned size, uint32_t value
     if (in(a, TWIN_RCC_BASE, 0x400u)) {
         twin_rcc_write(t, a - TWIN_RCC_BASE, value);
     } else if (in(a, TWIN_FLASHIF_BASE, 0x400u)) {
-        twin_flash_if_write(t, a - TWIN_FLASHIF_BASE, value);
+        twin_flash_write(t, a - TWIN_FLASHIF_BASE, value);
     } else if (gpio) {
         const unsigned port = (a - TWIN_GPIO_BASE) / 0x400u;
         if (clocked(t, TWIN_GPIO_BASE + 0x400u * port, a, value, true)) {

@@ -23,7 +23,7 @@ struct region {
     struct twin *t;
     uint32_t base;
 };
-static struct region regions[3];
+static struct region regions[4];
 
 static uint64_t region_read(uc_engine *uc, uint64_t offset, unsigned size, void *user) {
     struct region *r = user;
@@ -140,6 +140,7 @@ int twin_init(struct twin *t, bool strict, FILE *log) {
         return -1;
     }
     memset(t->flash, 0xFF, TWIN_FLASH_SIZE); /* erased flash reads 0xFF */
+    t->flash_pe.cut_after = TWIN_FLASH_NO_CUT;
     uc_err err = uc_open(UC_ARCH_ARM, UC_MODE_THUMB | UC_MODE_MCLASS, &t->uc);
     if (err != UC_ERR_OK) {
         fprintf(log, "tof_twin: unicorn: %s\n", uc_strerror(err));
@@ -147,8 +148,9 @@ int twin_init(struct twin *t, bool strict, FILE *log) {
     }
     uc_ctl_set_cpu_model(t->uc, UC_CPU_ARM_CORTEX_M4);
     /* Flash at its address and at 0 (boot alias), read/execute only: a write is a fault. */
-    err = uc_mem_map_ptr(t->uc, TWIN_FLASH_BASE, TWIN_FLASH_SIZE, UC_PROT_READ | UC_PROT_EXEC,
-                         t->flash);
+    /* ... but the record pages at its end: I/O, so the flash model sees their programming. */
+    err = uc_mem_map_ptr(t->uc, TWIN_FLASH_BASE, TWIN_RECORDS_BASE - TWIN_FLASH_BASE,
+                         UC_PROT_READ | UC_PROT_EXEC, t->flash);
     if (err == UC_ERR_OK) {
         err = uc_mem_map_ptr(t->uc, 0x00000000u, TWIN_FLASH_SIZE, UC_PROT_READ | UC_PROT_EXEC,
                              t->flash);
@@ -162,9 +164,9 @@ int twin_init(struct twin *t, bool strict, FILE *log) {
     }
     /* Peripherals: APB1/APB2/AHB1 (0x40000000..0x4002FFFF), AHB2 GPIO (0x48000000..),
      * the private peripheral bus (0xE0000000..0xE00FFFFF). */
-    static const uint32_t bases[3] = {0x40000000u, 0x48000000u, 0xE0000000u};
-    static const uint32_t sizes[3] = {0x30000u, 0x2000u, 0x100000u};
-    for (unsigned i = 0; i < 3u && err == UC_ERR_OK; ++i) {
+    static const uint32_t bases[4] = {0x40000000u, 0x48000000u, 0xE0000000u, TWIN_RECORDS_BASE};
+    static const uint32_t sizes[4] = {0x30000u, 0x2000u, 0x100000u, TWIN_RECORDS_SIZE};
+    for (unsigned i = 0; i < 4u && err == UC_ERR_OK; ++i) {
         regions[i] = (struct region){t, bases[i]};
         err = uc_mmio_map(t->uc, bases[i], sizes[i], region_read, &regions[i], region_write,
                           &regions[i]);
@@ -213,6 +215,7 @@ void twin_reset(struct twin *t, bool power_on) {
     twin_set_sysclk(t, TWIN_MSI_HZ);
     twin_rcc_reset(t, power_on);
     t->flash_if.acr = 0x00000600u; /* RM0351 §3.7.1: DCEN | ICEN, LATENCY 0 */
+    twin_flash_reset(t);
     twin_gpio_reset(t);
     twin_i2c_reset(t);
     twin_usart_reset(t);

@@ -37,6 +37,36 @@ uint32_t twin_rcc_read(struct twin *t, uint32_t off);
 void twin_rcc_write(struct twin *t, uint32_t off, uint32_t v);
 uint32_t twin_flash_if_read(struct twin *t, uint32_t off);
 void twin_flash_if_write(struct twin *t, uint32_t off, uint32_t v);
+
+/* ---- FLASH program/erase interface (RM0351 §3.3.5-3.3.7, §3.7) and the record pages ---- */
+/* The record pages the flight image's linker script reserves (stm32l476rg.ld): bank 2,
+ * pages 254 and 255, the last 4 KB of the 1 MB flash. Only they may be erased or
+ * programmed; they are mapped as I/O so each access reaches the model. */
+#define TWIN_RECORDS_BASE 0x080FF000u
+#define TWIN_RECORDS_SIZE 0x1000u
+#define TWIN_RECORDS_PNB  254u
+#define TWIN_FLASH_NO_CUT UINT32_MAX
+struct twin_flash {
+    uint32_t sr, cr, eccr;
+    unsigned key_step;       /* 1: KEY1 written, KEY2 next */
+    bool locked_until_reset; /* a wrong key sequence (RM0351 §3.3.5) */
+    uint64_t busy_until_ps;  /* SR.BSY until then */
+    bool first_pending;      /* the first word of a double-word is written */
+    uint32_t first_word, first_off;
+    uint8_t ecc_bad[TWIN_RECORDS_SIZE / 8u / 8u]; /* torn double-words (bit per double-word) */
+    /* power cut: after `cut_after` erases + double-words the power goes (the operation it
+     * falls in half done) and the MCU reboots; TWIN_FLASH_NO_CUT: never */
+    uint32_t cut_after, ops;
+    uint32_t erases, programs, cuts;
+};
+/* Reset (CR locked, flags clear); the memory and the cut counters are kept: a reboot. */
+void twin_flash_reset(struct twin *t);
+uint32_t twin_flash_read(struct twin *t, uint32_t off);
+void twin_flash_write(struct twin *t, uint32_t off, uint32_t v);
+/* The record pages as memory: `off` from TWIN_RECORDS_BASE, `size` 1, 2 or 4 bytes. */
+uint32_t twin_flash_mem_read(struct twin *t, uint32_t off, unsigned size);
+void twin_flash_mem_write(struct twin *t, uint32_t off, unsigned size, uint32_t v);
+
 /* Is the bus clock of the peripheral at `base` enabled (RM0351 §6.4 xxxENR registers)? */
 bool twin_rcc_clock_on(const struct twin *t, uint32_t base);
 

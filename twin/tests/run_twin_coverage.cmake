@@ -1,5 +1,6 @@
 # Line coverage of boards/stm32/ by the flight ELF under the twin (goal >= 90 %): the demo
-# run, a fault run, spurious BERR, a command run (USART RX) and the clock-switch failure,
+# run, a fault run, spurious BERR, a command run (USART RX), saves (one cut by a power loss:
+# the flash's ECC path) and the clock-switch failure,
 # their executed addresses merged and mapped on the ELF's line table
 # (tools/twin_coverage.py names every line not executed).
 file(MAKE_DIRECTORY ${OUT})
@@ -8,6 +9,8 @@ set(runs
   "--strict --faults nack=0.01,reset=0.0005,stuck=0.0005 --seed 7"
   "--strict --spurious-berr 20000"
   "--strict --window 50 --mode sliding --late-command"
+  "--strict --window 50 --mode sliding --late-command --save --max-sim-s 3"
+  "--strict --window 60 --late-command --save --flash-cut 5 --max-sim-s 3"
   "--strict --hsi-fail --max-sim-s 0.3")
 set(files "")
 set(k 0)

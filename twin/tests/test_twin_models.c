@@ -208,6 +208,54 @@ static void test_reserved_address_is_a_violation(void) {
     CHECK(T.stop == TWIN_RUNNING);
 }
 
+#define FLASH_KEYR (TWIN_FLASHIF_BASE + 0x08u)
+#define FLASH_SR   (TWIN_FLASHIF_BASE + 0x10u)
+#define FLASH_CR   (TWIN_FLASHIF_BASE + 0x14u)
+#define FLASH_ECCR (TWIN_FLASHIF_BASE + 0x18u)
+
+static void unlock_flash(void) {
+    w32(FLASH_KEYR, 0x45670123u);
+    w32(FLASH_KEYR, 0xCDEF89ABu);
+}
+
+/* The record pages' flash interface (twin_flash.c), strict: what RM0351 §3.3 forbids. */
+static void test_flash_rules(void) {
+    fresh(true);
+    w32(FLASH_CR, 1u); /* PG while locked */
+    CHECK(T.stop == TWIN_STOP_VIOLATION && strstr(T.stop_msg, "locked") != NULL);
+    fresh(true);
+    w32(FLASH_KEYR, 0x12345678u);
+    CHECK(T.stop == TWIN_STOP_VIOLATION && strstr(T.stop_msg, "key") != NULL);
+    fresh(true);
+    w32(TWIN_RECORDS_BASE, 0u); /* a write without PG */
+    CHECK(T.stop == TWIN_STOP_VIOLATION && strstr(T.stop_msg, "PGSERR") != NULL);
+    fresh(true);
+    unlock_flash();
+    w32(FLASH_CR, (1u << 1) | (100u << 3) | (1u << 11) | (1u << 16)); /* erase bank 2 page 100 */
+    CHECK(T.stop == TWIN_STOP_VIOLATION && strstr(T.stop_msg, "record pages") != NULL);
+    fresh(true);
+    unlock_flash();
+    w32(FLASH_CR, 1u); /* PG */
+    w32(TWIN_RECORDS_BASE + 8u, 0x11223344u);
+    w32(TWIN_RECORDS_BASE + 12u, 0x55667788u);
+    CHECK(T.stop == TWIN_RUNNING && T.flash_pe.programs == 1u);
+    CHECK((r32(FLASH_SR) & (1u << 16)) != 0u); /* BSY, then (the poll warps) done */
+    CHECK(r32(TWIN_RECORDS_BASE + 12u) == 0x55667788u);
+    w32(TWIN_RECORDS_BASE + 8u, 0u); /* the same double-word again */
+    w32(TWIN_RECORDS_BASE + 12u, 0u);
+    CHECK(T.stop == TWIN_STOP_VIOLATION && strstr(T.stop_msg, "PROGERR") != NULL);
+    /* a power cut in a double-word: half of it, and an ECC double error when read */
+    fresh(true);
+    T.flash_pe.cut_after = 0u;
+    unlock_flash();
+    w32(FLASH_CR, 1u);
+    w32(TWIN_RECORDS_BASE + 16u, 0x11223344u);
+    w32(TWIN_RECORDS_BASE + 20u, 0x55667788u);
+    CHECK(T.reset_pending && T.flash_pe.cuts == 1u);
+    CHECK(r32(TWIN_RECORDS_BASE + 20u) == 0xFFFFFFFFu);
+    CHECK((r32(FLASH_ECCR) & (1u << 31)) != 0u && (T.scs.pending & (1u << 2)) != 0u);
+}
+
 int main(void) {
     test_unclocked_peripheral_is_a_violation();
     test_timingr_with_pe_set_is_a_violation();
@@ -217,6 +265,7 @@ int main(void) {
     test_clock_switch_waits_for_ready();
     test_reserved_address_is_a_violation();
     test_usart_interrupts_and_overrun();
+    test_flash_rules();
     twin_free(&T);
     if (failures != 0) {
         fprintf(stderr, "%d checks failed\n", failures);

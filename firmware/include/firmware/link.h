@@ -17,6 +17,8 @@
 #include <stdint.h>
 
 #include "firmware/app.h"
+#include "firmware/record.h"
+#include "firmware/settings.h"
 #include "hal/hal_serial.h"
 #include "telemetry/tlm_frame.h"
 
@@ -53,11 +55,18 @@ struct tof_link {
     uint8_t last_seq, last_type, last_result, last_length;
     int8_t last_error;
     uint8_t last_payload[TOF_LINK_COMMAND_MAX];
-    uint32_t commands_repeated; /* retries answered without being applied again */
+    uint32_t commands_repeated;        /* retries answered without being applied again */
+    struct tof_record_store *records;  /* where `save` keeps the settings (NULL: nowhere) */
+    struct tof_settings process_noise; /* the last accepted set-process-noise, for `save` */
+    uint8_t record_state;              /* enum tof_record_state found at start, in status */
 };
 
 /* Start a link over `serial`. */
 void tof_link_init(struct tof_link *link, struct hal_serial serial);
+
+/* Keep the settings in `store` (initialised with tof_record_init()): the service's start
+ * applies the saved ones (firmware/settings.h), `save` writes them. Call before the start. */
+void tof_link_set_records(struct tof_link *link, struct tof_record_store *store);
 
 /* Attach the application the commands act on (after tof_app_init). */
 void tof_link_bind(struct tof_link *link, struct tof_app *app);
@@ -75,8 +84,8 @@ void tof_link_send_status(struct tof_link *link);
  * so the window's own iteration does not carry it too. */
 extern const struct tof_output_ops tof_link_output_ops;
 
-/* tof_app_main() service ops (ctx: the link): start binds it and sends a status frame,
- * poll is tof_link_poll(). */
+/* tof_app_main() service ops (ctx: the link): start binds it, applies the saved settings
+ * (tof_settings_boot()) and sends a status frame, poll is tof_link_poll(). */
 extern const struct tof_app_service_ops tof_link_service_ops;
 
 #endif /* FIRMWARE_LINK_H */

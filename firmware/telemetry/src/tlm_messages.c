@@ -1,74 +1,10 @@
-/* Telemetry messages and commands: the type table, encoders and validating parsers. */
+/* Telemetry messages and commands: encoders and validating parsers (types: tlm_types.c). */
 #include "telemetry/tlm_messages.h"
 
 #include <string.h>
 
 #include "hal/hal_err.h"
 #include "telemetry/tlm_crc.h"
-
-/* --- the type table: direction and fixed payload length of every type ---- */
-
-struct type_info {
-    uint8_t type;
-    uint8_t accept; /* TLM_ACCEPT_COMMANDS or TLM_ACCEPT_TELEMETRY */
-    uint8_t length;
-};
-
-static const struct type_info type_table[] = {
-    {TLM_TYPE_ESTIMATE, TLM_ACCEPT_TELEMETRY, TLM_LEN_ESTIMATE},
-    {TLM_TYPE_RAW_SAMPLE, TLM_ACCEPT_TELEMETRY, TLM_LEN_RAW_SAMPLE},
-    {TLM_TYPE_HEALTH, TLM_ACCEPT_TELEMETRY, TLM_LEN_HEALTH},
-    {TLM_TYPE_ACK, TLM_ACCEPT_TELEMETRY, TLM_LEN_ACK},
-    {TLM_TYPE_STATUS, TLM_ACCEPT_TELEMETRY, TLM_LEN_STATUS},
-    {TLM_TYPE_SET_WINDOW, TLM_ACCEPT_COMMANDS, TLM_LEN_SET_WINDOW},
-    {TLM_TYPE_SELECT_ESTIMATOR, TLM_ACCEPT_COMMANDS, TLM_LEN_SELECT_ESTIMATOR},
-    {TLM_TYPE_START, TLM_ACCEPT_COMMANDS, TLM_LEN_START},
-    {TLM_TYPE_STOP, TLM_ACCEPT_COMMANDS, TLM_LEN_STOP},
-    {TLM_TYPE_STATUS_REQUEST, TLM_ACCEPT_COMMANDS, TLM_LEN_STATUS_REQUEST},
-    {TLM_TYPE_RAW_STREAM, TLM_ACCEPT_COMMANDS, TLM_LEN_RAW_STREAM},
-    {TLM_TYPE_SET_PROCESS_NOISE, TLM_ACCEPT_COMMANDS, TLM_LEN_SET_PROCESS_NOISE},
-};
-
-#define TYPE_COUNT (sizeof type_table / sizeof type_table[0])
-
-_Static_assert(TLM_LEN_HEALTH <= TLM_MAX_PAYLOAD, "largest payload must fit a frame");
-_Static_assert(TLM_LEN_ESTIMATE <= TLM_MAX_PAYLOAD && TLM_LEN_STATUS <= TLM_MAX_PAYLOAD &&
-                   TLM_LEN_RAW_SAMPLE <= TLM_MAX_PAYLOAD,
-               "every payload must fit a frame");
-_Static_assert(TLM_WINDOW_MAX <= UINT16_MAX, "window length travels as uint16");
-
-static const struct type_info *find_type(uint8_t type, uint8_t accept) {
-    for (size_t i = 0; i < TYPE_COUNT; ++i) {
-        if (type_table[i].type == type && (type_table[i].accept & accept) != 0u) {
-            return &type_table[i];
-        }
-    }
-    return NULL;
-}
-
-int tlm_type_payload_length(uint8_t type, uint8_t accept) {
-    const struct type_info *info = find_type(type, accept);
-    return info != NULL ? (int)info->length : -1;
-}
-
-static int table_length(const void *ctx, uint8_t type) {
-    return tlm_type_payload_length(type, *(const uint8_t *)ctx);
-}
-
-const struct tlm_type_table *tlm_message_types(uint8_t accept) {
-    static const uint8_t masks[4] = {0u, TLM_ACCEPT_COMMANDS, TLM_ACCEPT_TELEMETRY, TLM_ACCEPT_ALL};
-    static const struct tlm_type_table tables[4] = {
-        {.payload_length = table_length, .ctx = &masks[0]},
-        {.payload_length = table_length, .ctx = &masks[1]},
-        {.payload_length = table_length, .ctx = &masks[2]},
-        {.payload_length = table_length, .ctx = &masks[3]},
-    };
-    return &tables[accept & TLM_ACCEPT_ALL];
-}
-
-bool tlm_type_is_command(uint8_t type) {
-    return find_type(type, TLM_ACCEPT_COMMANDS) != NULL;
-}
 
 /* --- little-endian byte order helpers ------------------------------------ */
 
@@ -420,7 +356,8 @@ static bool window_is_valid(uint16_t window_n, uint8_t mode) {
 }
 
 static bool status_is_valid(const struct tlm_status *m) {
-    return window_is_valid(m->window_n, m->mode) && m->estimator <= TLM_ESTIMATOR_LAST;
+    return window_is_valid(m->window_n, m->mode) && m->estimator <= TLM_ESTIMATOR_LAST &&
+           m->record <= TLM_RECORD_STATE_LAST; /* enum tlm_record_state */
 }
 
 int tlm_encode_status(uint8_t seq, const struct tlm_status *msg, uint8_t *out, size_t cap) {
@@ -439,6 +376,7 @@ int tlm_encode_status(uint8_t seq, const struct tlm_status *msg, uint8_t *out, s
     put_u8(&w, msg->running ? 1u : 0u);
     put_u8(&w, msg->raw_stream ? 1u : 0u);
     put_u16(&w, msg->period_ms);
+    put_u8(&w, msg->record);
     return finish_frame(TLM_TYPE_STATUS, seq, out, w.at, cap);
 }
 
@@ -461,6 +399,7 @@ static enum tlm_result parse_status(struct reader *r, struct tlm_status *m) {
     const bool running_ok = get_bool(r, &m->running);
     const bool raw_ok = get_bool(r, &m->raw_stream);
     m->period_ms = get_u16(r);
+    m->record = get_u8(r);
     if (protocol != TLM_PROTOCOL_VERSION || !running_ok || !raw_ok || !status_is_valid(m)) {
         return TLM_RESULT_OUT_OF_RANGE;
     }
@@ -480,8 +419,8 @@ int tlm_encode_command(uint8_t seq, const struct tlm_command *cmd, uint8_t *out,
     if (cmd == NULL || out == NULL) {
         return HAL_ERR_INVALID;
     }
-    const struct type_info *info = find_type(cmd->type, TLM_ACCEPT_COMMANDS);
-    if (info == NULL || !has_room(out, cap, info->length)) {
+    const int length = tlm_type_payload_length(cmd->type, TLM_ACCEPT_COMMANDS);
+    if (length < 0 || !has_room(out, cap, (size_t)length)) {
         return HAL_ERR_INVALID;
     }
     struct writer w = {.buf = &out[TLM_HEADER_SIZE], .at = 0};
@@ -510,7 +449,7 @@ int tlm_encode_command(uint8_t seq, const struct tlm_command *cmd, uint8_t *out,
         put_u32(&w, cmd->u.process_noise.qt_um2_per_s);
         put_u8(&w, cmd->u.process_noise.flags);
         break;
-    default: /* start, stop, status request: no payload */
+    default: /* start, stop, status request, save: no payload */
         break;
     }
     return finish_frame(cmd->type, seq, out, w.at, cap);
@@ -519,11 +458,11 @@ int tlm_encode_command(uint8_t seq, const struct tlm_command *cmd, uint8_t *out,
 enum tlm_result tlm_parse_command(const struct tlm_frame *frame, struct tlm_command *out,
                                   struct tlm_rx_counters *counters) {
     enum tlm_result result = TLM_RESULT_OK;
-    const struct type_info *info = find_type(frame->type, TLM_ACCEPT_COMMANDS);
+    const int length = tlm_type_payload_length(frame->type, TLM_ACCEPT_COMMANDS);
     memset(out, 0, sizeof *out);
-    if (info == NULL) {
+    if (length < 0) {
         result = TLM_RESULT_UNKNOWN_TYPE;
-    } else if (frame->length != info->length || (frame->length > 0u && frame->payload == NULL)) {
+    } else if (frame->length != (size_t)length || (frame->length > 0u && frame->payload == NULL)) {
         result = TLM_RESULT_BAD_LENGTH;
     } else {
         struct reader r = {.buf = frame->payload, .at = 0};
@@ -555,7 +494,7 @@ enum tlm_result tlm_parse_command(const struct tlm_frame *frame, struct tlm_comm
                 result = TLM_RESULT_OUT_OF_RANGE;
             }
             break;
-        default: /* start, stop, status request: the length check was all */
+        default: /* start, stop, status request, save: the length check was all */
             break;
         }
     }
@@ -568,11 +507,11 @@ enum tlm_result tlm_parse_command(const struct tlm_frame *frame, struct tlm_comm
 enum tlm_result tlm_parse_telemetry(const struct tlm_frame *frame, struct tlm_telemetry *out,
                                     struct tlm_rx_counters *counters) {
     enum tlm_result result = TLM_RESULT_OK;
-    const struct type_info *info = find_type(frame->type, TLM_ACCEPT_TELEMETRY);
+    const int length = tlm_type_payload_length(frame->type, TLM_ACCEPT_TELEMETRY);
     memset(out, 0, sizeof *out);
-    if (info == NULL) {
+    if (length < 0) {
         result = TLM_RESULT_UNKNOWN_TYPE;
-    } else if (frame->length != info->length || frame->payload == NULL) {
+    } else if (frame->length != (size_t)length || frame->payload == NULL) {
         result = TLM_RESULT_BAD_LENGTH; /* every telemetry type has a payload */
     } else {
         struct reader r = {.buf = frame->payload, .at = 0};

@@ -19,7 +19,8 @@
 /* Version of this protocol, reported in the status message. */
 /* 2: the estimate carries its standard deviations and why set (replacing the reason
  * byte), and nacks the firmware's error code. */
-/* 3: the health message ends with uart_overruns (148 bytes). */
+/* 3: the health message ends with uart_overruns (148 bytes), the status message with the
+ * record state (17 bytes), and the save command (0x88). */
 #define TLM_PROTOCOL_VERSION 3u
 
 /* Frame types. Commands have the top bit set, so direction shows in a dump. */
@@ -36,6 +37,7 @@ enum tlm_type {
     TLM_TYPE_STATUS_REQUEST = 0x85,
     TLM_TYPE_RAW_STREAM = 0x86,
     TLM_TYPE_SET_PROCESS_NOISE = 0x87,
+    TLM_TYPE_SAVE = 0x88, /* keep the settings in force across resets (the record) */
 };
 
 /* Fixed payload length of each type, in bytes. */
@@ -43,7 +45,7 @@ enum tlm_type {
 #define TLM_LEN_RAW_SAMPLE        17u
 #define TLM_LEN_HEALTH            148u
 #define TLM_LEN_ACK               4u
-#define TLM_LEN_STATUS            16u
+#define TLM_LEN_STATUS            17u
 #define TLM_LEN_SET_WINDOW        3u
 #define TLM_LEN_SELECT_ESTIMATOR  1u
 #define TLM_LEN_START             0u
@@ -51,6 +53,7 @@ enum tlm_type {
 #define TLM_LEN_STATUS_REQUEST    0u
 #define TLM_LEN_RAW_STREAM        1u
 #define TLM_LEN_SET_PROCESS_NOISE 9u
+#define TLM_LEN_SAVE              0u
 
 #define TLM_SENSOR_COUNT    4u /* A, B, C, D; bit i of a sensor mask is sensor i */
 #define TLM_SENSOR_MASK_ALL 0x0Fu
@@ -178,7 +181,20 @@ struct tlm_status {
     bool running;
     bool raw_stream;
     uint16_t period_ms; /* sample period */
+    uint8_t record;     /* enum tlm_record_state: the saved settings at boot */
 };
+
+/* The status message's `record`: what the firmware found of its saved settings at boot
+ * (the values of firmware/record.h's enum tof_record_state). */
+enum tlm_record_state {
+    TLM_RECORD_NONE = 0,       /* nothing saved: defaults */
+    TLM_RECORD_LOADED = 1,     /* the saved settings are in force */
+    TLM_RECORD_CORRUPT = 2,    /* damaged, no valid copy: defaults */
+    TLM_RECORD_VERSION = 3,    /* a version this firmware does not read: defaults */
+    TLM_RECORD_REJECTED = 4,   /* valid, refused by the application: defaults */
+    TLM_RECORD_NO_STORAGE = 5, /* the board has no record storage: defaults */
+};
+#define TLM_RECORD_STATE_LAST TLM_RECORD_NO_STORAGE
 
 /* A decoded telemetry message, tagged by `type`. */
 struct tlm_telemetry {
