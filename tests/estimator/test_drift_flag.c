@@ -18,27 +18,16 @@
 #include <cmocka.h>
 
 #include "estimator/attitude.h"
+#include "test_rand.h"
 
 #define TEST_PI 3.14159265358979323846
 #define WINDOWS 500u /* windows per seed */
 #define SEEDS   8u   /* N <= 20, where the learnt drift scatters most; 3 above */
 
-/* Its own noise stream (xorshift64, polar Box-Muller), seeded per run. */
-static uint64_t rs;
-static double urand(void) {
-    rs ^= rs << 13;
-    rs ^= rs >> 7;
-    rs ^= rs << 17;
-    return (double)(rs >> 11) / 9007199254740992.0;
-}
+/* Its own noise stream (tests/common: xorshift64, polar method), seeded per run. */
+static struct test_rng rng;
 static double gauss(void) {
-    double u, v, s;
-    do {
-        u = 2 * urand() - 1;
-        v = 2 * urand() - 1;
-        s = u * u + v * v;
-    } while (s >= 1 || s == 0);
-    return u * sqrt(-2 * log(s) / s);
+    return test_gauss(&rng);
 }
 static const uint64_t seeds[SEEDS] = {0x9E3779B97F4A7C15u, 0xD1B54A32D192ED03u, 0x2545F4914F6CDD1Du,
                                       0xBF58476D1CE4E5B9u, 0x94D049BB133111EBu, 0x5851F42D4C957F2Du,
@@ -65,7 +54,7 @@ static void ideal(double x[4]) {
  * every estimator). */
 static double drift_share(unsigned n, double sigma, double wander_mm, uint64_t seed,
                           enum attitude_window_mode mode, unsigned windows) {
-    rs = seed;
+    rng.state = seed;
     struct attitude_config cfg;
     attitude_config_default(&cfg);
     cfg.window = (uint16_t)n;
