@@ -5,28 +5,8 @@
 
 #include "cortex_m_regs.h"
 #include "hal/hal_err.h"
+#include "stm32_irq.h"
 #include "stm32_reg.h"
-
-/* Mask interrupts (PRIMASK) around the snapshot so the tick ISR cannot move
- * the base between the reads; the previous state is restored, so this is safe
- * inside callers' critical sections too. No interrupts exist on the host. */
-static inline uint32_t irq_save(void) {
-#if defined(__arm__)
-    uint32_t primask;
-    __asm__ volatile("mrs %0, primask\n cpsid i" : "=r"(primask)::"memory");
-    return primask;
-#else
-    return 0u;
-#endif
-}
-
-static inline void irq_restore(uint32_t primask) {
-#if defined(__arm__)
-    __asm__ volatile("msr primask, %0" ::"r"(primask) : "memory");
-#else
-    (void)primask;
-#endif
-}
 
 int stm32_systick_time_init(struct stm32_systick_time *time, uint32_t core_hz) {
     if (time == NULL || core_hz == 0u || core_hz % 1000000u != 0u ||
@@ -50,6 +30,7 @@ void stm32_systick_time_tick(struct stm32_systick_time *time) {
 
 uint32_t stm32_systick_time_now_us(void *ctx) {
     struct stm32_systick_time *time = ctx;
+    /* masked: the tick ISR must not move the base between the reads (stm32_irq.h) */
     const uint32_t primask = irq_save();
     const uint32_t base = time->tick_base_us;
     const uint32_t before = stm32_reg_read(CORTEX_M_SYST_CVR) & CORTEX_M_SYST_CVR_MASK;

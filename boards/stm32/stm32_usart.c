@@ -3,6 +3,8 @@
 
 #include <stdbool.h>
 
+#include "stm32_irq.h"
+
 /* USARTv2 register offsets and bits (RM0351 §40.8 / RM0444 §33.8). */
 #define USART_CR1    0x00u
 #define USART_BRR    0x0Cu
@@ -21,25 +23,6 @@
 #define USART_ISR_TC    (1u << 6)   /* transmission complete: the last stop bit has gone */
 #define USART_ISR_TXE   (1u << 7)   /* TXE (L4) / TXFNF (G0, FIFO disabled: same meaning) */
 #define NVIC_ISER       0xE000E100u /* set-enable registers, 32 IRQs each (ARMv7-M B3.4.4) */
-
-/* PRIMASK around a read-modify-write of CR1 that the IRQ handler also changes (TXEIE). */
-static inline uint32_t irq_save(void) {
-#if defined(__arm__)
-    uint32_t primask;
-    __asm__ volatile("mrs %0, primask\n cpsid i" : "=r"(primask)::"memory");
-    return primask;
-#else
-    return 0u;
-#endif
-}
-
-static inline void irq_restore(uint32_t primask) {
-#if defined(__arm__)
-    __asm__ volatile("msr primask, %0" ::"r"(primask) : "memory");
-#else
-    (void)primask;
-#endif
-}
 
 void stm32_usart_init(struct stm32_usart *usart) {
     usart->tx_head = usart->tx_tail = usart->rx_head = usart->rx_tail = 0u;
@@ -90,6 +73,7 @@ static bool tx_queue(struct stm32_usart *usart, const uint8_t *data, size_t len)
     }
     __asm__ volatile("" ::: "memory"); /* the bytes are in place before the handler sees them */
     usart->tx_head = head + (uint32_t)len;
+    /* masked: a read-modify-write of CR1 that the IRQ handler also changes (TXEIE) */
     const uint32_t primask = irq_save();
     stm32_reg_modify(usart->base + USART_CR1, 0u, USART_CR1_TXEIE);
     irq_restore(primask);
