@@ -31,6 +31,7 @@
 #include <stdint.h>
 
 #include "estimator/attitude_why.h"
+#include "estimator/calibration.h"
 #include "estimator/consensus.h"
 #include "estimator/integrity.h"
 #include "estimator/kalman.h"
@@ -113,6 +114,9 @@ struct attitude_config {
     uint16_t offset_stability_um; /* prior 1σ of each sensor's offset, not learnable */
     uint16_t drift_flag_um;       /* learnt per-sensor drift 1σ above this: `drift` */
     uint8_t drift_shift;          /* drift learning gain 2^-shift per block of N rows */
+    /* The head's calibration (estimator/calibration.h), applied to every reading before
+     * any estimator: calibrated false is an uncalibrated head, never `ok`. */
+    struct calibration_head calibration;
 };
 
 /* Counts over the rows of the window, per sensor. */
