@@ -27,6 +27,7 @@ static int read_ahead(const char *path, struct trace_mode_evidence *ev) {
         }
         return -1;
     }
+    trace_v1_readings_only(&scan.core); /* the evidence is in the readings alone */
     *ev = (struct trace_mode_evidence){.short_max_mm = VL53_RANGE_MAX_SHORT_MM,
                                        .long_max_mm = VL53_RANGE_MAX_LONG_MM};
     struct trace_v1_row row;

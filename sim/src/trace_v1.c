@@ -379,6 +379,14 @@ int trace_v1_next(struct trace_v1_reader *r, struct trace_v1_row *row) {
     }
 }
 
+void trace_v1_readings_only(struct trace_v1_reader *r) {
+    for (unsigned c = TRACE_COL_ALPHA; c < TRACE_COL_COUNT; ++c) {
+        if (r->column_of[c] >= 0) {
+            r->column_use[r->column_of[c]] = 0u; /* skipped like a column nobody knows */
+        }
+    }
+}
+
 const char *trace_v1_meta(const struct trace_v1_reader *r, const char *key) {
     for (unsigned i = 0; i < r->meta.count; ++i) {
         if (strcmp(r->meta.key[i], key) == 0) {

@@ -78,6 +78,27 @@ static void expect_failure(const char *text, uint32_t line, uint32_t col, const 
     }
 }
 
+/* A readings-only pass (host_sim's distance-mode evidence) skips the truth unread: the same
+ * ranges, statuses and presence, no truth, and a truth value it skipped is no error there. */
+static void test_readings_only(void **state) {
+    (void)state;
+    assert_int_equal(open_text(HEAD "t_ms,a_mm,b_mm,c_mm,d_mm,d_st,alpha_deg,beta_deg,distance_mm\n"
+                                    "0,1,2,3,0,255,-1.250000,2.5e-1,100.125\n"
+                                    "20,1,2,3,4,0,not-a-number,-0,\n"),
+                     0);
+    trace_v1_readings_only(&reader);
+    struct trace_v1_row row;
+    assert_int_equal(trace_v1_next(&reader, &row), 0);
+    assert_false(row.has[TRACE_TRUTH_ALPHA] || row.has[TRACE_TRUTH_BETA] ||
+                 row.has[TRACE_TRUTH_DISTANCE]);
+    assert_int_equal(row.range_mm[2], 3);
+    assert_false(row.present[3]);
+    assert_int_equal(trace_v1_next(&reader, &row), 0);
+    assert_true(row.present[3]);
+    assert_int_equal(row.range_mm[3], 4);
+    assert_int_equal(trace_v1_next(&reader, &row), 1);
+}
+
 static void test_errors_without_a_file_name(void **state) {
     (void)state;
     expect_failure(HEAD "t_ms,a_mm,b_mm,c_mm,d_mm,distance_mm\n0,1,2,3,4,-5\n", 5, 11,
@@ -135,6 +156,7 @@ static void test_distance_mode_policy(void **state) {
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_fixed_point_truth),
+        cmocka_unit_test(test_readings_only),
         cmocka_unit_test(test_errors_without_a_file_name),
         cmocka_unit_test(test_arm_finer_than_a_micrometre),
         cmocka_unit_test(test_distance_mode_policy),

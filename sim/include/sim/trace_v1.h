@@ -152,6 +152,14 @@ int trace_v1_open(struct trace_v1_reader *r, struct trace_v1_input in, unsigned 
  */
 int trace_v1_next(struct trace_v1_reader *r, struct trace_v1_row *row);
 
+/*
+ * After trace_v1_open: the rows that follow are read without their truth columns
+ * (alpha_deg, beta_deg, distance_mm: skipped unread, has[] false), for a pass that needs
+ * only the readings (host_sim's distance-mode evidence): the truth's decimals are most of
+ * a row's parsing. A truth value such a pass skips is still checked by the pass that reads it.
+ */
+void trace_v1_readings_only(struct trace_v1_reader *r);
+
 /* Value of metadata key (NULL if absent). */
 const char *trace_v1_meta(const struct trace_v1_reader *r, const char *key);
 
