@@ -37,7 +37,7 @@
 #define ANGLE_MAX 10.0 /* ramp targets in ±10° */
 /* test_ramps_reduced_guard's bounds: what is met today, with a margin (not the goals) */
 #define GUARD_WITHIN3 85.0
-#define GUARD_SILENT6 3.0
+#define GUARD_SILENT6 2.0
 
 enum variant { V_CONSENSUS, V_KALMAN_Q0, V_KALMAN_Q, V_KALMAN_AUTO, V_COUNT };
 static const char *const variant_name[V_COUNT] = {"consensus", "kalman Q=0", "kalman Q fixed",
@@ -183,6 +183,9 @@ static void run(const struct scenario *sc, struct tally t[V_COUNT][2]) {
             r[k] = (uint16_t)(z < 1 ? 1 : (z > 4000 ? 4000 : z));
         }
         debug_row = row;
+        if (getenv("RAMPS_TRACE") != NULL && row % 17u == 0u) {
+            printf("  truth %u: %.3f %.3f %.1f\n", row, ax[0].value, ax[1].value, ax[2].value);
+        }
         for (unsigned v = V_KALMAN_Q0; v < V_COUNT; ++v) {
             if (!attitude_push_sample(&st[v - 1u], r, ok4, present4, &out)) {
                 continue;
@@ -336,6 +339,23 @@ static void test_ramps_slow_tilt_with_approach(void **state) {
     assert_true(w.silent6 <= 0.1);
 }
 
+/* The goals for a slow tilt (0.1°/s) at short windows and high noise, sliding, every
+ * estimator: a filter that outlives its windows and lags by less than one window's noise.
+ * Fails on the code before the Kalman filter's learnt lag (issue 24): with Q = 0, 88 %
+ * within 3 sd and 5.9 % beyond 6 sd, `ok`, at σ 7 mm. */
+static void test_ramps_slow_tilt_short_windows(void **state) {
+    (void)state;
+    static const double rates[] = {0.1};
+    static const double sigmas[] = {3, 7};
+    static const unsigned ns[] = {10};
+    const struct sweep sw = {"0.1 deg/s, N 10", rates, 1, sigmas, 2, ns, 1, 1, 1, 5000, 0, 2u};
+    const struct worst w = run_sweep(&sw, false);
+    report("0.1 deg/s, sigma 3 and 7 mm, N 10", w);
+    assert_true(w.within3 >= 95.0);
+    assert_true(w.silent3 <= 5.0);
+    assert_true(w.silent6 <= 0.1);
+}
+
 /* A guard, not the goal: the reduced sweep of both sets (tuning: 1 and 10 °/s, σ 1 and
  * 7 mm, N 10 and 100; held out: 6 °/s, σ 5 mm, N 20 and 50) must not get worse than what
  * docs/estimator-benchmark.md "Ramps" reports (the goals are missed there: fast ramps in a
@@ -411,6 +431,7 @@ int main(int argc, char **argv) {
     }
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_ramps_slow_tilt_with_approach),
+        cmocka_unit_test(test_ramps_slow_tilt_short_windows),
         cmocka_unit_test(test_ramps_reduced_guard),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
