@@ -178,6 +178,40 @@ static int32_t learnt_lag(struct attitude_state *st, const struct kalman_cmp *c,
     return lag_beyond_noise(st, st->kalman_lag_udeg[axis], st->kalman_lag_var_udeg2[axis], moved);
 }
 
+/* The filter's lag on each axis against the window (lag[]: this window's beyond the noise,
+ * or the learnt one, whichever is larger) and `motion` when either says so. A filter that
+ * outlives its windows is compared with the window's end point and says `motion`; a
+ * restarted one (tumbling, Q = 0) that disagrees with its window is wrong, and its sd says
+ * by how much. */
+static attitude_why_t kalman_lags(struct attitude_state *st,
+                                  const struct consensus_product_result *product,
+                                  const struct kalman_result *ke, bool restarted, int32_t lag[2]) {
+    const bool outlives = st->cfg.mode == ATTITUDE_SLIDING || st->kalman.process_noise;
+    bool moved = false;
+    bool *ask = outlives ? &moved : NULL;
+    const bool learn = outlives && !restarted && st->rows % st->cfg.window == 0u;
+    bool learnt_any = false;
+    for (unsigned ax = 0; ax < 2u; ++ax) {
+        const struct consensus_axis *pa = ax == 0u ? &product->alpha : &product->beta;
+        const int32_t k_udeg = ax == 0u ? ke->alpha_udeg : ke->beta_udeg;
+        const int32_t k_sigma = ax == 0u ? ke->alpha_sigma_udeg : ke->beta_sigma_udeg;
+        const struct kalman_cmp c = kalman_compare(st, pa, k_udeg, k_sigma, ax, outlives);
+        if (!c.valid) {
+            continue;
+        }
+        lag[ax] = lag_beyond_noise(st, c.delta, c.var, ask);
+        if (outlives && !restarted) {
+            const int32_t l = learnt_lag(st, &c, ax, learn, ask);
+            lag[ax] = l > lag[ax] ? l : lag[ax];
+            learnt_any = learnt_any || learn;
+        }
+    }
+    if (learnt_any && st->kalman_lag_blocks < 16u) {
+        st->kalman_lag_blocks++;
+    }
+    return moved ? ATTITUDE_WHY_MOTION : 0u;
+}
+
 void attitude_run_kalman(struct attitude_state *st, const struct consensus_product_result *product,
                          struct attitude_estimate *e) {
     const struct window_stats *w = &st->stats;
@@ -210,34 +244,8 @@ void attitude_run_kalman(struct attitude_state *st, const struct consensus_produ
     attitude_finish_status(e, ke.alpha_observable, ke.beta_observable);
     int32_t lag[2] = {0, 0};
     attitude_why_t own = 0;
-    /* a filter that outlives its windows is compared with the window's end point and says
-     * `motion`; a restarted one (tumbling, Q = 0) that disagrees with its window is wrong,
-     * and its sd says by how much */
-    const bool outlives = st->cfg.mode == ATTITUDE_SLIDING || st->kalman.process_noise;
     if (product != NULL) { /* compared with the window's own estimate, every window */
-        bool moved = false;
-        bool *ask = outlives ? &moved : NULL;
-        const bool learn = outlives && !restarted && st->rows % st->cfg.window == 0u;
-        bool learnt_any = false;
-        for (unsigned ax = 0; ax < 2u; ++ax) {
-            const struct consensus_axis *pa = ax == 0u ? &product->alpha : &product->beta;
-            const int32_t k_udeg = ax == 0u ? ke.alpha_udeg : ke.beta_udeg;
-            const int32_t k_sigma = ax == 0u ? ke.alpha_sigma_udeg : ke.beta_sigma_udeg;
-            const struct kalman_cmp c = kalman_compare(st, pa, k_udeg, k_sigma, ax, outlives);
-            if (!c.valid) {
-                continue;
-            }
-            lag[ax] = lag_beyond_noise(st, c.delta, c.var, ask);
-            if (outlives && !restarted) {
-                const int32_t l = learnt_lag(st, &c, ax, learn, ask);
-                lag[ax] = l > lag[ax] ? l : lag[ax];
-                learnt_any = learnt_any || learn;
-            }
-        }
-        if (learnt_any && st->kalman_lag_blocks < 16u) {
-            st->kalman_lag_blocks++;
-        }
-        own = moved ? ATTITUDE_WHY_MOTION : 0u;
+        own = kalman_lags(st, product, &ke, restarted, lag);
     }
     fix_q32_t p00 = ke.p_mm2[0][0] > 0 ? ke.p_mm2[0][0] : attitude_window_white_dist(st);
     int32_t white_a = ke.alpha_sigma_udeg;
