@@ -149,7 +149,8 @@ static void score(struct tally *t, bool valid, int32_t est_udeg, int32_t sd_udeg
 static void run(const struct scenario *sc, struct tally t[V_COUNT][2]) {
     struct test_rng rng = {sc->seed * 0x9E3779B97F4A7C15u + 1u};
     const double rate_t = sc->rate_dps * PERIOD_S;
-    const unsigned max_hold = 2u * sc->n;
+    const char *hold_env = getenv("RAMPS_HOLD_WINDOWS"); /* --debug: longer holds */
+    const unsigned max_hold = (hold_env != NULL ? (unsigned)atoi(hold_env) : 2u) * sc->n;
     struct schedule ax[3] = {
         {.lo = -ANGLE_MAX, .hi = ANGLE_MAX, .rate = rate_t, .max_hold = max_hold},
         {.lo = -ANGLE_MAX, .hi = ANGLE_MAX, .rate = rate_t, .max_hold = max_hold},
@@ -392,6 +393,8 @@ int main(int argc, char **argv) {
         struct tally t[V_COUNT][2];
         (void)memset(t, 0, sizeof t);
         run(&sc, t);
+        struct worst w = {100.0, 0.0, 0.0, 0.0, 0.0};
+        print_row(&sc, (enum variant)debug_variant, t[debug_variant], true, &w);
         return 0;
     }
     if (argc > 1 && strcmp(argv[1], "--table") == 0) {
