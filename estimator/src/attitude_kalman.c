@@ -23,10 +23,14 @@ static void forget_kalman_used(struct attitude_state *st) {
     }
 }
 
-/* A restart while processing the newest row: the row count restarts with it. */
+/* A restart while processing the newest row: the row count restarts with it, and the lag
+ * learnt against the windows is the old filter's. */
 static void note_kalman_restart(struct attitude_state *st) {
     forget_kalman_used(st);
     st->kalman_rows_since_restart = 0;
+    st->kalman_lag_blocks = 0;
+    (void)memset(st->kalman_lag_udeg, 0, sizeof st->kalman_lag_udeg);
+    (void)memset(st->kalman_lag_var_udeg2, 0, sizeof st->kalman_lag_var_udeg2);
 }
 
 /* Writes the Kalman outcomes of the rows just processed into their ring rows (newest: the
@@ -91,31 +95,49 @@ void attitude_kalman_learn_noise(struct attitude_state *st) {
     }
 }
 
-/* A filter that is never reset (sliding mode) can lag a moving plate by more than its
- * window; a tumbling one answers from rows the window's gate may have dropped (garbage in
- * its warm-up, a VL53L1X's plausible no-target values after a lock-out restart). Its
- * distance d from the window's estimate (sliding: the end point, the product's value plus
- * the window's lag when it moved; tumbling: the product's value) beyond the noise of that
- * comparison, sqrt(d² − var), is this estimate's own lag or error (unbiased for its
- * square, so no padding when they agree); d beyond motion_sigmas sets *moved (when
- * moved is not NULL). */
-static int32_t kalman_lag_udeg(const struct attitude_state *st,
-                               const struct consensus_axis *product, int32_t kalman_udeg,
-                               int32_t kalman_sigma_udeg, unsigned axis, bool *moved) {
+/* The comparison of the filter with the window on one axis: their difference (µdeg) and
+ * the noise variance of that difference (µdeg²). */
+struct kalman_cmp {
+    bool valid;
+    int64_t delta;
+    int64_t var;
+};
+
+/* A filter that outlives its windows (sliding mode, or tracking with Q > 0) can lag a
+ * moving plate by more than its window; one restarted with each window (tumbling, Q = 0)
+ * answers from rows the window's gate may have dropped (garbage in its warm-up, a
+ * VL53L1X's plausible no-target values after a lock-out restart). Its distance d from the
+ * window's estimate (outliving: the end point, the product's value plus the window's lag
+ * when it moved; restarted: the product's value, as it lags as the product does) and the
+ * noise variance of that comparison. */
+static struct kalman_cmp kalman_compare(const struct attitude_state *st,
+                                        const struct consensus_axis *product, int32_t kalman_udeg,
+                                        int32_t kalman_sigma_udeg, unsigned axis, bool outlives) {
+    struct kalman_cmp c = {false, 0, 0};
     if (product == NULL || product->status != CONSENSUS_OK) {
-        return 0;
+        return c;
     }
     const struct integrity_window *iw = &st->iw;
     int64_t lag = 0;
     int64_t lag_sd = 0;
-    /* a tumbling filter is a window estimator: it lags as the product does, so it is
-     * compared with the product itself, not with the window's end point */
-    if (iw->moved[axis] && st->cfg.mode == ATTITUDE_SLIDING) {
+    if (iw->moved[axis] && outlives) {
         lag = attitude_angle_sd(st, square_mm2(iw->lag_mm[axis]), axis);
         lag = iw->lag_mm[axis] < 0 ? -lag : lag;
         lag_sd = attitude_angle_sd(st, iw->lag_var_mm2[axis], axis);
     }
-    const int64_t delta = (int64_t)kalman_udeg - product->angle_udeg - lag;
+    const int64_t p2 = (int64_t)product->sigma_udeg * product->sigma_udeg;
+    const int64_t k2 = (int64_t)kalman_sigma_udeg * kalman_sigma_udeg;
+    c.valid = true;
+    c.delta = (int64_t)kalman_udeg - product->angle_udeg - lag;
+    c.var = fix_sat_add_s64(fix_sat_add_s64(p2, lag_sd * lag_sd), k2);
+    return c;
+}
+
+/* sqrt(d² − var): unbiased for the square of the filter's own lag or error beyond the
+ * comparison's noise, so no padding when they agree; d beyond motion_sigmas sets *moved
+ * (when moved is not NULL). */
+static int32_t lag_beyond_noise(const struct attitude_state *st, int64_t delta, int64_t var_s,
+                                bool *moved) {
     const uint64_t d = fix_abs_u64(delta);
     if (d > (uint64_t)INT32_MAX) {
         if (moved != NULL) {
@@ -123,16 +145,71 @@ static int32_t kalman_lag_udeg(const struct attitude_state *st,
         }
         return INT32_MAX;
     }
-    const int64_t p2 = (int64_t)product->sigma_udeg * product->sigma_udeg;
-    const int64_t k2 = (int64_t)kalman_sigma_udeg * kalman_sigma_udeg;
-    const int64_t var_s = fix_sat_add_s64(fix_sat_add_s64(p2, lag_sd * lag_sd), k2);
     const uint64_t var = (uint64_t)var_s;
     const uint64_t k = st->cfg.motion_sigmas_q8;
-    /* d² > k²·var with k in Q8: compare d·256 against k·sqrt(var) (moved NULL: not asked) */
+    /* d² > k²·var with k in Q8: compare d·256 against k·sqrt(var) */
     if (moved != NULL && d * 256u > k * fix_isqrt_u64(var)) {
         *moved = true;
     }
     return d * d > var ? (int32_t)fix_isqrt_u64(d * d - var) : 0;
+}
+
+/* The lag learnt across blocks (issue 24): one window's comparison has the window's own
+ * noise (3° at N = 10, σ 7 mm), so a filter that outlives its windows and lags a slow
+ * motion by less than that (Q = 0, or a Q too small: 1.7° at 0.1°/s) answered `ok` 6 of its
+ * sd off. The mean of the comparisons over blocks of N rows (gain 1/b for the first 16
+ * blocks, then 1/16: the memory of the drift learning) has 1/31 of one comparison's
+ * variance; its excess over that noise is the filter's lag, and beyond motion_sigmas of it
+ * the window is `motion`. Once per block; returns the learnt lag (µdeg). */
+static int32_t learnt_lag(struct attitude_state *st, const struct kalman_cmp *c, unsigned axis,
+                          bool learn, bool *moved) {
+    if (learn) {
+        const int64_t b = st->kalman_lag_blocks + 1;
+        const int64_t m = st->kalman_lag_udeg[axis];
+        st->kalman_lag_udeg[axis] = m + (c->delta - m) / b;
+        /* V = ((b − 1)² V + var)/b² (exact 128-bit intermediate, saturating) */
+        const int64_t v = st->kalman_lag_var_udeg2[axis];
+        st->kalman_lag_var_udeg2[axis] =
+            fix_sat_add_s64(fix_muldiv_s64(v, (b - 1) * (b - 1), b * b, NULL), c->var / (b * b));
+    }
+    if (st->kalman_lag_blocks == 0u && !learn) {
+        return 0;
+    }
+    return lag_beyond_noise(st, st->kalman_lag_udeg[axis], st->kalman_lag_var_udeg2[axis], moved);
+}
+
+/* The filter's lag on each axis against the window (lag[]: this window's beyond the noise,
+ * or the learnt one, whichever is larger) and `motion` when either says so. A filter that
+ * outlives its windows is compared with the window's end point and says `motion`; a
+ * restarted one (tumbling, Q = 0) that disagrees with its window is wrong, and its sd says
+ * by how much. */
+static attitude_why_t kalman_lags(struct attitude_state *st,
+                                  const struct consensus_product_result *product,
+                                  const struct kalman_result *ke, bool restarted, int32_t lag[2]) {
+    const bool outlives = st->cfg.mode == ATTITUDE_SLIDING || st->kalman.process_noise;
+    bool moved = false;
+    bool *ask = outlives ? &moved : NULL;
+    const bool learn = outlives && !restarted && st->rows % st->cfg.window == 0u;
+    bool learnt_any = false;
+    for (unsigned ax = 0; ax < 2u; ++ax) {
+        const struct consensus_axis *pa = ax == 0u ? &product->alpha : &product->beta;
+        const int32_t k_udeg = ax == 0u ? ke->alpha_udeg : ke->beta_udeg;
+        const int32_t k_sigma = ax == 0u ? ke->alpha_sigma_udeg : ke->beta_sigma_udeg;
+        const struct kalman_cmp c = kalman_compare(st, pa, k_udeg, k_sigma, ax, outlives);
+        if (!c.valid) {
+            continue;
+        }
+        lag[ax] = lag_beyond_noise(st, c.delta, c.var, ask);
+        if (outlives && !restarted) {
+            const int32_t l = learnt_lag(st, &c, ax, learn, ask);
+            lag[ax] = l > lag[ax] ? l : lag[ax];
+            learnt_any = learnt_any || learn;
+        }
+    }
+    if (learnt_any && st->kalman_lag_blocks < 16u) {
+        st->kalman_lag_blocks++;
+    }
+    return moved ? ATTITUDE_WHY_MOTION : 0u;
 }
 
 void attitude_run_kalman(struct attitude_state *st, const struct consensus_product_result *product,
@@ -165,17 +242,10 @@ void attitude_run_kalman(struct attitude_state *st, const struct consensus_produ
         e->reason = ATTITUDE_REASON_KALMAN_RESTARTED;
     }
     attitude_finish_status(e, ke.alpha_observable, ke.beta_observable);
-    int32_t lag_a = 0;
-    int32_t lag_b = 0;
+    int32_t lag[2] = {0, 0};
     attitude_why_t own = 0;
     if (product != NULL) { /* compared with the window's own estimate, every window */
-        /* only a filter that outlives its windows has moved with the plate; a tumbling
-         * one that disagrees with its window is wrong, and its sd says by how much */
-        bool moved = false;
-        bool *ask = st->cfg.mode == ATTITUDE_SLIDING ? &moved : NULL;
-        lag_a = kalman_lag_udeg(st, &product->alpha, ke.alpha_udeg, ke.alpha_sigma_udeg, 0u, ask);
-        lag_b = kalman_lag_udeg(st, &product->beta, ke.beta_udeg, ke.beta_sigma_udeg, 1u, ask);
-        own = moved ? ATTITUDE_WHY_MOTION : 0u;
+        own = kalman_lags(st, product, &ke, restarted, lag);
     }
     fix_q32_t p00 = ke.p_mm2[0][0] > 0 ? ke.p_mm2[0][0] : attitude_window_white_dist(st);
     int32_t white_a = ke.alpha_sigma_udeg;
@@ -202,5 +272,5 @@ void attitude_run_kalman(struct attitude_state *st, const struct consensus_produ
         const fix_q32_t d = attitude_window_white_dist(st);
         p00 = d > p00 ? d : p00;
     }
-    attitude_settle(st, e, white_a, white_b, p00, lag_a, lag_b, own);
+    attitude_settle(st, e, white_a, white_b, p00, lag[0], lag[1], own);
 }

@@ -72,10 +72,16 @@ FIX_NOINLINE attitude_why_t scan_rows(const struct integrity_config *cfg,
             const int32_t x = row->range_mm[k];
             int32_t dev = 2 * x - centre[k];
             dev = dev < 0 ? -dev : dev;
-            if ((valid & (1u << k)) == 0u || dev > half[k]) {
-                continue; /* not used by the window statistics (gate: window_stats.c) */
-            }
             struct integrity_ramp_sums *rk = &r[k];
+            if ((valid & (1u << k)) == 0u || dev > half[k]) {
+                /* not used by the window statistics (gate: window_stats.c); a late move the
+                 * gate dropped still counts for the late step (integrity_motion.c) */
+                if ((valid & (1u << k)) != 0u && i >= tail8) {
+                    rk->tail_out_n++;
+                    rk->tail_out_sx += x;
+                }
+                continue;
+            }
             rk->n++;
             rk->si += i;
             rk->sii += ii;

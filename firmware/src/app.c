@@ -401,6 +401,7 @@ int tof_app_set_window(struct tof_app *app, uint16_t window, bool sliding) {
     struct attitude_config next = app->estimator.cfg;
     next.window = window;
     next.mode = sliding ? ATTITUDE_SLIDING : ATTITUDE_TUMBLING;
+    tof_estimator_mode_process_noise(&next); /* Q = 0: auto when sliding (issue 24) */
     /* attitude_init() checks window and mode before it touches the state, and the rest
      * of the configuration was accepted at init: a refusal changes nothing. */
     return attitude_init(&app->estimator, &next);

@@ -107,8 +107,16 @@ int tof_app_config_for_replay(struct tof_app_config *cfg, int32_t arm_um, uint32
     cfg->estimator.arm_um = arm_um;
     cfg->estimator.window = window;
     cfg->estimator.mode = sliding ? ATTITUDE_SLIDING : ATTITUDE_TUMBLING;
+    tof_estimator_mode_process_noise(&cfg->estimator);
     cfg->raw_output = true;
     return tof_app_config_check(cfg) == NULL ? HAL_OK : HAL_ERR_INVALID;
+}
+
+void tof_estimator_mode_process_noise(struct attitude_config *est) {
+    const uint32_t *q = est->kalman_process_noise_um2;
+    if (q[0] == 0u && q[1] == 0u && q[2] == 0u) {
+        est->kalman_process_noise_auto = est->mode == ATTITUDE_SLIDING;
+    }
 }
 
 int tof_estimator_process_noise(struct attitude_config *est, uint32_t period_us,

@@ -125,6 +125,7 @@ static const char replay_help[] =
     "  --i2c-log BUS.csv    every bus transaction: t_us,addr,write,read,result (docs/driver.md)\n"
     "  --process-noise Q    Kalman random-walk intensities QD,QT in mm²/s (x̄; a·tan α and\n"
     "                       a·tan β; Q per row = q·period), or auto (learned); default 0\n"
+    "                       in tumbling mode, auto in sliding mode (0,0 for Q = 0 there)\n"
     "  --distance-mode M    the parts' mode: short (to 1360 mm) or long (to 4000 mm); default:\n"
     "                       the trace's '# distance_mode=', else long when it holds readings\n"
     "                       above 1360 mm and its period admits long mode, else short\n"
@@ -248,6 +249,7 @@ int cli_parse_replay(int argc, char **argv, struct replay_args *out) {
             if ((v = option_value(cmd, argc, argv, &i)) == NULL) {
                 return -1;
             }
+            out->process_noise_given = true;
             const char *comma = strchr(v, ',');
             if (strcmp(v, "auto") == 0) {
                 out->process_noise_auto = true;

@@ -167,7 +167,8 @@ static int configure(struct replay *r) {
                 (unsigned)vl53_shortest_budget_ms(r->distance.mode), VL53_IMP_MARGIN_MS);
         return -1;
     }
-    if (tof_app_config_process_noise(&r->app_cfg, r->args->process_noise_um2_per_s[0],
+    if (r->args->process_noise_given &&
+        tof_app_config_process_noise(&r->app_cfg, r->args->process_noise_um2_per_s[0],
                                      r->args->process_noise_um2_per_s[1],
                                      r->args->process_noise_auto) != HAL_OK) {
         fprintf(stderr,

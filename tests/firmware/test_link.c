@@ -515,6 +515,36 @@ static void test_estimate_frames_carry_the_estimators_sd_and_why(void **state) {
     }
 }
 
+/* The window mode's process noise (issue 24): sliding mode with Q = 0 runs the Kalman filter
+ * with `auto` (a sliding estimate is for a plate that may move), tumbling mode with Q = 0 the
+ * paper's static windows; a process noise chosen after the mode wins (Q = 0 in sliding mode
+ * by choice), and a fixed Q survives a change of mode. */
+static void test_sliding_mode_defaults_to_auto(void **state) {
+    (void)state;
+    assert_false(t.app.estimator.cfg.kalman_process_noise_auto); /* boot: tumbling, Q = 0 */
+    assert_int_equal(tof_app_set_window(&t.app, 50, true), ATTITUDE_ERR_NONE);
+    assert_true(t.app.estimator.cfg.kalman_process_noise_auto);
+    assert_true(t.app.estimator.kalman.process_noise);
+    assert_int_equal(tof_app_set_process_noise(&t.app, 0u, 0u, false), ATTITUDE_ERR_NONE);
+    assert_false(t.app.estimator.cfg.kalman_process_noise_auto); /* chosen: Q = 0 */
+    assert_false(t.app.estimator.kalman.process_noise);
+    assert_int_equal(tof_app_set_window(&t.app, 100, false), ATTITUDE_ERR_NONE);
+    assert_false(t.app.estimator.cfg.kalman_process_noise_auto);
+    assert_int_equal(tof_app_set_process_noise(&t.app, 2000000u, 500000u, false),
+                     ATTITUDE_ERR_NONE);
+    assert_int_equal(tof_app_set_window(&t.app, 50, true), ATTITUDE_ERR_NONE);
+    assert_false(t.app.estimator.cfg.kalman_process_noise_auto); /* a fixed Q is kept */
+    assert_int_equal(t.app.estimator.cfg.kalman_process_noise_um2[1], 10000u);
+    /* the replay configuration (host_sim, the QEMU replay image) takes the same default */
+    static struct tof_app_config cfg;
+    assert_int_equal(tof_app_config_for_replay(&cfg, 30000, 20, 100, true, VL53_DISTANCE_SHORT),
+                     HAL_OK);
+    assert_true(cfg.estimator.kalman_process_noise_auto);
+    assert_int_equal(tof_app_config_for_replay(&cfg, 30000, 20, 100, false, VL53_DISTANCE_SHORT),
+                     HAL_OK);
+    assert_false(cfg.estimator.kalman_process_noise_auto);
+}
+
 /* Set-process-noise reaches the application and the Kalman filter runs the new Q (the
  * intensities times the 20 ms period, as --process-noise QD,QT gives them at init); a value
  * the estimator refuses is nacked with its own code and changes nothing. */
@@ -694,6 +724,7 @@ int main(void) {
         cmocka_unit_test_setup(test_main_runs_the_link_as_a_service, setup),
         cmocka_unit_test_setup(test_estimate_frames_carry_the_estimators_sd_and_why,
                                setup_no_target),
+        cmocka_unit_test_setup(test_sliding_mode_defaults_to_auto, setup),
         cmocka_unit_test_setup(test_set_process_noise_changes_the_filters_q, setup),
         cmocka_unit_test_setup(test_refused_process_noise_changes_nothing, setup),
         cmocka_unit_test_setup(test_save_then_reset_brings_the_settings_back, setup),

@@ -170,6 +170,10 @@ struct attitude_state {
     uint32_t rows;                      /* rows pushed since attitude_init */
     uint32_t kalman_rows_since_restart; /* since the filter last restarted (UINT32_MAX: never) */
     bool kalman_restart_due;            /* restart before the next row (R guessed wrong) */
+    uint8_t kalman_lag_blocks;          /* blocks in the learnt lag below (saturating) */
+    int64_t kalman_lag_udeg[2];         /* learnt: mean over blocks of the filter minus the
+                                           window's end point, α and β (µdeg) */
+    int64_t kalman_lag_var_udeg2[2];    /* ... and that mean's noise variance (µdeg²) */
     struct integrity_config icfg;
     struct integrity_state integrity; /* learnt drift */
     struct integrity_window iw;       /* scratch: the last window's integrity facts */

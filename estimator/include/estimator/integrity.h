@@ -82,6 +82,8 @@ struct integrity_ramp_sums {
     int32_t six;
     int32_t tail_n[2]; /* the newest N/8 and N/4 rows: a late step */
     int32_t tail_sx[2];
+    int32_t tail_out_n; /* valid readings of the newest N/8 rows the gate dropped */
+    int32_t tail_out_sx;
 };
 
 /* The facts of one window, common to every estimator. */

@@ -57,6 +57,16 @@ int tof_app_config_process_noise(struct tof_app_config *cfg, uint32_t qd_um2_per
                                  uint32_t qt_um2_per_s, bool automatic);
 
 /*
+ * The process noise a window mode implies when none is chosen (issue 24): a sliding estimate
+ * is for a plate that may move, so with the Kalman filter's Q all 0 sliding mode takes
+ * `auto` and tumbling mode the paper's static windows (auto off); a fixed Q > 0 is kept in
+ * both. Applied whenever the mode is set (tof_app_config_for_replay, tof_app_set_window); a
+ * process noise set after it (host_sim --process-noise, the process-noise command, a saved
+ * record's) wins, so Q = 0 in sliding mode is `--process-noise 0,0`.
+ */
+void tof_estimator_mode_process_noise(struct attitude_config *est);
+
+/*
  * The same conversion into an estimator configuration `est` at sample period `period_us`
  * (the run-time command's path, tof_app_set_process_noise()): ATTITUDE_ERR_NONE, or
  * ATTITUDE_ERR_KALMAN_PROCESS_NOISE with `est` unchanged when a non-zero intensity rounds
