@@ -107,6 +107,7 @@ int tof_app_config_for_replay(struct tof_app_config *cfg, int32_t arm_um, uint32
     cfg->estimator.arm_um = arm_um;
     cfg->estimator.window = window;
     cfg->estimator.mode = sliding ? ATTITUDE_SLIDING : ATTITUDE_TUMBLING;
+    cfg->estimator.period_us = period_us; /* the drift allowance's clock (issue 23) */
     cfg->raw_output = true;
     return tof_app_config_check(cfg) == NULL ? HAL_OK : HAL_ERR_INVALID;
 }
