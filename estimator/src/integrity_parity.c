@@ -19,13 +19,16 @@ static void learn_drift(struct integrity_state *st, const struct integrity_confi
      * noise alone (E[max(0, W(χ² − 1))] = 0.48 W); only the upper clip remains, and
      * a floor of −base/4 bounds one window's pull downwards */
     const fix_q32_t floor = -fix_asr_s64(base_sum, 2u);
-    sample = sample < floor ? floor : (sample > limit ? limit : sample);
+    sample = sample < floor ? floor : sample;
+    const fix_q32_t shown = sample; /* what the parity shows, for `recalibrate` */
+    sample = sample > limit ? limit : sample;
     const uint16_t cap = (uint16_t)(1u << cfg->drift_shift);
     if (st->blocks < cap) {
         st->blocks++;
     }
     const int64_t b = st->blocks;
     st->drift_mm2 += fix_div_round_s64(sample - st->drift_mm2, b);
+    st->shown_mm2 += fix_div_round_s64(shown - st->shown_mm2, b);
     /* the learnt drift's own scatter: white noise alone gives r² = base·χ²₁, so a sample
      * (r² − base)/4 has variance 2·base²/16 = base²/8; the mean with gain 1/b takes it in
      * as V ← ((b − 1)²·V + base²/8)/b² (once per block: the 128-bit division is cheap) */
@@ -58,15 +61,15 @@ fix_q32_t integrity_drift_var(const struct integrity_state *st) {
     return v > 0 ? v : 0;
 }
 
-/* `recalibrate`: the drift the parity shows (D, significant) beyond k² times the
- * allowance since the start, offset stability² plus the prior walk. */
+/* `recalibrate`: the drift the parity shows (significant) beyond k² times the allowance
+ * since the start, offset stability² plus the prior walk. */
 static bool beyond_allowance(const struct integrity_state *st, const struct integrity_config *cfg) {
     const fix_q32_t allowance =
         fix_sat_add_s64(integrity_um2_to_q32(cfg->offset_stability_um), st->walk_mm2);
     const uint32_t k = INTEGRITY_RECALIBRATE_SIGMAS_Q8;
     const fix_q32_t limit = fix_mul_shr_s64(allowance, (int64_t)(k * k), 16u, NULL);
-    return st->drift_mm2 > limit &&
-           integrity_beyond(st->drift_mm2, st->drift_var_mm4, INTEGRITY_DRIFT_SIGNIFICANCE_Q8);
+    return st->shown_mm2 > limit &&
+           integrity_beyond(st->shown_mm2, st->drift_var_mm4, INTEGRITY_DRIFT_SIGNIFICANCE_Q8);
 }
 
 void integrity_parity(struct integrity_state *st, const struct integrity_config *cfg,

@@ -41,7 +41,8 @@
  * then 0.02 % (0.17 % at N = 10): docs/estimator-design.md "Integrity". */
 #define INTEGRITY_DRIFT_SIGNIFICANCE_Q8 (5u * 256u)
 
-/* `recalibrate` when the drift the parity shows (the learnt per-sensor variance D, and
+/* `recalibrate` when the drift the parity shows (its per-sensor mean square beyond white
+ * noise over the recent blocks, not clipped at the parity threshold as D is, and
  * significant as for `drift`) exceeds k² times the allowance since the start, offset
  * stability² + walk·t: k = 3, the parity beyond 3σ of what the model allows (a χ²₁ of a
  * slow wander beyond 9: 0.27 % of the time for a head that drifts exactly as the prior
@@ -86,6 +87,8 @@ struct integrity_state {
     uint32_t rows;            /* rows since the start at this window's end */
     uint32_t long_blocks;     /* blocks in drift_long_mm2 (no cap: the whole run) */
     fix_q32_t drift_long_mm2; /* the parity's drift samples' mean over the whole run */
+    fix_q32_t shown_mm2;      /* ... the recent blocks' mean not clipped above: the drift the
+                                 parity shows, for `recalibrate` */
     fix_q32_t walk_mm2;       /* the prior walk's variance at the last block, Q32 mm² */
 };
 
