@@ -7,8 +7,9 @@ static_tof_dist_data_1_h.csv: one VL53L0X, 200,244 readings over 3,600 s) and pr
     the white-noise prediction sigma/sqrt(m);
   * the structure function of 2 s block means, S(L) = E[(m(t+L) - m(t))^2] - 2 s^2/m: the
     offset change of a window L after another, beyond white noise;
-  * the random-walk rate q (mm^2/s) of the Allan variance's slope, sigma_A^2 = h + q tau/3,
-    least squares over tau = 36 s .. 15 min (white noise is under 5 % of sigma_A^2 there,
+  * the random-walk rate q (mm^2/s) of the Allan variance's slope, sigma_A^2 = h + q tau/3:
+    between its ends tau = 36 s and 15 min (the default offset_walk_um2_h), and by least
+    squares over log-spaced tau = 36 s .. 15 min (white noise is under 5 % of sigma_A^2 there,
     and the longest tau still has 40 overlapping pairs) and its value in um^2/h, the
     estimator's offset_walk_um2_h;
   * with --split S: the same fit on the first S seconds only, and the structure function of
@@ -123,6 +124,11 @@ def main(argv):
         av, n = allan(x, m)
         if n:
             print(f"| {m * period:.1f} | {math.sqrt(av):.4f} | {sd / math.sqrt(m):.4f} | {n} |")
+    a36, _ = allan(x, max(2, int(round(36.0 / period))))
+    a900, _ = allan(x, max(2, int(round(900.0 / period))))
+    q2p = 3.0 * (a900 - a36) / (900.0 - 36.0)
+    print(f"\nrandom-walk slope between tau = 36 s and 900 s: q = 3 (sigma_A^2(900) - sigma_A^2(36)) / 864 s "
+          f"= {q2p:.3e} mm^2/s = {q2p * 1e6 * 3600:.0f} um^2/h (the default offset_walk_um2_h)")
     q, h, _ = fit_rate(x, period)
     print(f"\nrandom-walk fit sigma_A^2 = h + q tau/3 over 36 s .. 900 s: q = {q:.3e} mm^2/s "
           f"= {q * 1e6 * 3600:.0f} um^2/h, floor h = {h:.4f} mm^2 (sigma_A {math.sqrt(max(h, 0)):.3f} mm)")

@@ -2,7 +2,8 @@
  * Integrity of a window (issue 15): which readings a part cannot give as valid, whether
  * the four sensors agree with a flat plate (the parity test), whether the plate moved
  * inside the window, and what one window cannot see: the learnt drift of the sensors'
- * offsets, a stated offset-stability prior and the 1 mm quantisation. The facade
+ * offsets, its growth since the start (a prior random walk, issue 23; `recalibrate` when
+ * the parity shows more), a stated offset-stability prior and the 1 mm quantisation. The facade
  * (estimator/attitude.h) turns these facts into each estimator's standard deviation and
  * `why` set; docs/estimator-design.md "Integrity" derives every term and says which are
  * learnt and which are prior.
