@@ -9,8 +9,9 @@ both axes the share of answered rows within 3 sd, beyond 6 sd, RMS error / RMS s
 share with `recalibrate`. Exit status 1 when a goal is missed (>= 95 % within 3 sd,
 <= 0.1 % beyond 6 sd, RMS err / RMS sd >= 0.5, >= 95 % answered).
 
-Usage: drift_report.py HOST_SIM LOG.csv WORKDIR [--quick]
-  --quick  the 1 h and 4 h cases only (no day)
+Usage: drift_report.py HOST_SIM LOG.csv WORKDIR [--quick] [--only TEXT]
+  --quick  the cases up to 4 h only (no day)
+  --only   the cases whose label holds TEXT
 """
 import json
 import os
@@ -27,6 +28,7 @@ CASES = [
     ("real 1 h + walk 1x, 4 h", 4, ["--walk", "1", "--seed", "2"]),
     ("real 1 h + walk 3x, 4 h", 4, ["--walk", "3", "--seed", "3"]),
     ("real 1 h + walk 1x, 24 h", 24, ["--walk", "1", "--seed", "4"]),
+    ("real 1 h + A warm-up 3 mm, tau 15 min, 1.1 h", 1.1, ["--warmup", "3:900"]),
 ]
 MODES = [("tumbling", 50), ("tumbling", 100), ("tumbling", 250), ("sliding", 100)]
 
@@ -64,6 +66,11 @@ def main(argv):
     quick = "--quick" in args
     if quick:
         args.remove("--quick")
+    only = None
+    if "--only" in args:
+        k = args.index("--only")
+        only = args[k + 1]
+        del args[k:k + 2]
     if len(args) != 3:
         fail("usage: drift_report.py HOST_SIM LOG.csv WORKDIR [--quick]")
     host_sim, log, work = args
@@ -72,9 +79,10 @@ def main(argv):
     print("|---|---|---|---|---|---|---|---|---|")
     missed = []
     for label, hours, opts in CASES:
-        if quick and hours > 4:
+        if (quick and hours > 4) or (only is not None and only not in label):
             continue
-        trace = os.path.join(work, label.replace(" ", "_").replace("/", "") + ".csv")
+        trace = os.path.join(work, "".join(c if c.isalnum() or c in ".-" else "_" for c in label)
+                             + ".csv")
         run([sys.executable, os.path.join(HERE, "drift_traces.py"), log, trace,
              "--hours", str(hours)] + opts)
         for mode, n in MODES:

@@ -9,6 +9,9 @@ joined differently from how tools/real_traces.py cuts it (four disjoint quarters
   * past the stretch's end it runs on through the stretch reversed, then forward again
     (no jump at a join: the wander continues as a mirrored path), so hours and a day can be
     built from one hour;
+  * --warmup MM:TAU adds to sensor A a warm-up MM·exp(−t/TAU s) less its mean over the
+    trace (a part calibrated on the whole recording's mean, as tools/real_traces.py does):
+    the first half hour of the longer log of the same setup falls by about 2–3 mm;
   * --walk F adds to each sensor an independent Gaussian random walk starting at 0 (the head
     calibrated at the start) with rate F times offset_walk_um2_h (the estimator's prior,
     µm²/h), one step per row.
@@ -16,7 +19,7 @@ The plate is static at alpha = 1.5 deg, beta = -2 deg, x = 100 mm, a = 30 mm; re
 rounded to whole mm after a uniform ±0.5 mm dither, as tools/real_traces.py does.
 
 Usage: drift_traces.py LOG.csv OUT.csv --hours H [--from S] [--to S] [--walk F]
-       [--rate UM2_H] [--seed N] [--period-ms P]
+       [--rate UM2_H] [--seed N] [--period-ms P] [--warmup MM:TAU]
   --from/--to  seconds of the log used (its own clock: 3,600 s over its readings)
 """
 import math
@@ -72,6 +75,7 @@ def main(argv):
     rate = option(args, "--rate", RATE_UM2_H)
     seed = option(args, "--seed", 23, int)
     period_ms = option(args, "--period-ms", 20, int)
+    warmup = option(args, "--warmup", None, str)
     if len(args) != 2 or hours is None:
         fail("usage: drift_traces.py LOG.csv OUT.csv --hours H [--from S] [--to S] [--walk F] "
              "[--rate UM2_H] [--seed N] [--period-ms P]")
@@ -92,6 +96,9 @@ def main(argv):
     ideal = (MEAN_MM - ARM_MM * ta, MEAN_MM + ARM_MM * tb, MEAN_MM + ARM_MM * ta,
              MEAN_MM - ARM_MM * tb)
     shift = [k * len(seg) // 4 for k in range(4)]
+    warm_mm, warm_tau = (float(v) for v in warmup.split(":")) if warmup else (0.0, 1.0)
+    span_s = rows * period_ms / 1000.0
+    warm_mean = warm_mm * warm_tau / span_s * (1.0 - math.exp(-span_s / warm_tau))
     w = [0.0] * 4
     os.makedirs(os.path.dirname(os.path.abspath(args[1])), exist_ok=True)
     with open(args[1], "w") as f:
@@ -106,6 +113,8 @@ def main(argv):
                 if step > 0.0:
                     w[k] += rng.gauss(0.0, step)
                 x = ideal[k] + mirrored(seg, i + shift[k]) + w[k] + rng.uniform(-0.5, 0.5)
+                if k == 0 and warm_mm != 0.0:
+                    x += warm_mm * math.exp(-i * period_ms / 1000.0 / warm_tau) - warm_mean
                 r.append(int(math.floor(x + 0.5)))
             f.write(f"{i * period_ms},{r[0]},{r[1]},{r[2]},{r[3]},0,0,0,0,"
                     f"{ALPHA_DEG:.6f},{BETA_DEG:.6f}\n")
