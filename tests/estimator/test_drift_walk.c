@@ -153,8 +153,54 @@ static void test_recalibrate(void **state) {
     assert_true(s >= 0.80);
 }
 
+/* The walk in fixed point: after an hour of 20 ms rows (180,000) of a flat plate with
+ * identical readings (no learnt drift), each sensor carries q0·t = 0.576 mm² exactly as
+ * the prior says (Q32, within 1e-6 mm²); at 200 ms rows the same rows are ten hours. */
+static void test_walk_fixed_point(void **state) {
+    (void)state;
+    static const uint32_t periods[2] = {20000u, 200000u};
+    for (unsigned p = 0; p < 2u; ++p) {
+        struct attitude_config cfg;
+        attitude_config_default(&cfg);
+        cfg.period_us = periods[p];
+        cfg.estimators = ATTITUDE_EST_BIT(ATTITUDE_EST_CONSENSUS);
+        assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_NONE);
+        const uint16_t r[4] = {500, 500, 500, 500};
+        for (unsigned i = 0; i < 180000u; ++i) {
+            (void)attitude_push_sample(&st, r, all_ok, all_present, &out);
+        }
+        const double hours = 180000.0 * periods[p] / 3.6e9;
+        const double want = ATTITUDE_OFFSET_WALK_UM2_H_DEFAULT * 1e-6 * hours;
+        const double got = (double)integrity_drift_var(&st.integrity) / 4294967296.0;
+        print_message("walk after %.0f h: %.6f mm² (q0·t %.6f)\n", hours, got, want);
+        assert_true(fabs(got - want) < 1e-6);
+    }
+}
+
+/* period_us outside 1000..10,000,000 µs is refused, naming the integrity fields. */
+static void test_period_checked(void **state) {
+    (void)state;
+    static const uint32_t bad[3] = {0u, 999u, 10000001u};
+    for (unsigned i = 0; i < 3u; ++i) {
+        struct attitude_config cfg;
+        attitude_config_default(&cfg);
+        cfg.period_us = bad[i];
+        assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_INTEGRITY);
+    }
+    struct attitude_config cfg;
+    attitude_config_default(&cfg);
+    assert_int_equal(cfg.period_us, 20000u);
+    cfg.period_us = 1000u;
+    assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_NONE);
+    cfg.period_us = 10000000u;
+    assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_NONE);
+    assert_non_null(strstr(attitude_error_message(ATTITUDE_ERR_INTEGRITY), "period_us"));
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_walk_fixed_point),
+        cmocka_unit_test(test_period_checked),
         cmocka_unit_test(test_walk_four_hours),
         cmocka_unit_test(test_recalibrate),
     };
