@@ -48,7 +48,9 @@ int attitude_init(struct attitude_state *st, const struct attitude_config *cfg) 
                                           .motion_sigmas_q8 = cfg->motion_sigmas_q8,
                                           .offset_stability_um = cfg->offset_stability_um,
                                           .drift_flag_um = cfg->drift_flag_um,
-                                          .drift_shift = cfg->drift_shift};
+                                          .drift_shift = cfg->drift_shift,
+                                          .period_us = cfg->period_us,
+                                          .offset_walk_um2_h = cfg->offset_walk_um2_h};
     if (!integrity_config_valid(&icfg)) {
         return ATTITUDE_ERR_INTEGRITY;
     }
@@ -105,8 +107,8 @@ FIX_NOINLINE void window_end(struct attitude_state *st, struct attitude_output *
     window_compute(&st->window, &st->stats);
     const struct window_stats *w = &st->stats;
     /* the drift learning takes one window per block of N rows (every window when tumbling) */
-    integrity_assess(&st->integrity, &st->icfg, &st->window, w, st->rows % cfg->window == 0u,
-                     &st->iw);
+    integrity_assess(&st->integrity, &st->icfg, &st->window, w, st->rows,
+                     st->rows % cfg->window == 0u, &st->iw);
     /* what the window adds to every estimator's angles, as 1σ: computed once */
     st->extra_udeg[0] = attitude_angle_sd(st, st->iw.extra_var_mm2[INTEGRITY_ALPHA], 0u);
     st->extra_udeg[1] = attitude_angle_sd(st, st->iw.extra_var_mm2[INTEGRITY_BETA], 1u);

@@ -31,7 +31,7 @@ const char *attitude_error_message(int err) {
         return "NULL state or config";
     case ATTITUDE_ERR_INTEGRITY:
         return "an integrity field out of range (range_max_mm 1..8189, parity/motion sigmas "
-               "1..16 x 256, drift_shift 1..8)";
+               "1..16 x 256, drift_shift 1..8, period_us 1000..10000000)";
     case ATTITUDE_ERR_BUFFER:
         return "buffer too small";
     default:
@@ -140,6 +140,9 @@ int attitude_why_format(attitude_why_t why, char *buf, size_t cap) {
         if ((why & (ATTITUDE_WHY_PARITY << b)) != 0u) {
             fits = why_append(buf, cap, &len, window[b], '\0');
         }
+    }
+    if (fits && (why & ATTITUDE_WHY_RECALIBRATE) != 0u) {
+        fits = why_append(buf, cap, &len, "recalibrate", '\0');
     }
     for (unsigned r = 1; r < (unsigned)ATTITUDE_REASON_COUNT && fits; ++r) {
         if ((why & ATTITUDE_WHY_REASON(r)) != 0u) {

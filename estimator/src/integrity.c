@@ -12,7 +12,8 @@ bool integrity_config_valid(const struct integrity_config *cfg) {
     return cfg->range_max_mm != 0u && cfg->range_max_mm < INTEGRITY_NO_TARGET_8190 &&
            cfg->parity_sigmas_q8 >= 256u && cfg->parity_sigmas_q8 <= 16u * 256u &&
            cfg->motion_sigmas_q8 >= 256u && cfg->motion_sigmas_q8 <= 16u * 256u &&
-           cfg->drift_shift != 0u && cfg->drift_shift <= 8u;
+           cfg->drift_shift != 0u && cfg->drift_shift <= 8u &&
+           cfg->period_us >= INTEGRITY_PERIOD_US_MIN && cfg->period_us <= INTEGRITY_PERIOD_US_MAX;
 }
 
 void integrity_init(struct integrity_state *st) {
@@ -135,9 +136,10 @@ static void axes_extra(struct integrity_window *out, const struct integrity_axes
 }
 
 void integrity_assess(struct integrity_state *st, const struct integrity_config *cfg,
-                      struct window_state *w, const struct window_stats *s, bool learn,
-                      struct integrity_window *out) {
+                      struct window_state *w, const struct window_stats *s, uint32_t rows,
+                      bool learn, struct integrity_window *out) {
     (void)memset(out, 0, sizeof *out);
+    st->rows = rows; /* the drift allowance's time: rows × period since the start */
     /* the ramp sums: zeroed above; in out, not on the window-end stack */
     out->why = scan_rows(cfg, w, s, out->ramp);
     struct integrity_noise_sums sums;

@@ -18,8 +18,8 @@ void integrity_noise_budget(const struct integrity_state *st, const struct integ
         out->white_mm2[k] = integrity_div_small(s2, ss->used);
         /* noise under half a step does not dither the rounding: the mean keeps its error */
         const fix_q32_t quant = ss->var_mm2 < Q32_QUARTER ? Q32_TWELFTH : 0;
-        /* the learnt drift is a mean of unbiased samples that may be negative: never below 0 */
-        const fix_q32_t drift = st->drift_mm2 > 0 ? st->drift_mm2 : 0;
+        /* the learnt drift and the walk since the start (integrity_parity.c), never below 0 */
+        const fix_q32_t drift = integrity_drift_var(st);
         out->extra_mm2[k] = fix_sat_add_s64(fix_sat_add_s64(drift, prior), quant);
         base_sum = fix_sat_add_s64(
             base_sum, fix_sat_add_s64(out->white_mm2[k], fix_sat_add_s64(prior, quant)));

@@ -19,13 +19,16 @@ static void learn_drift(struct integrity_state *st, const struct integrity_confi
      * noise alone (E[max(0, W(χ² − 1))] = 0.48 W); only the upper clip remains, and
      * a floor of −base/4 bounds one window's pull downwards */
     const fix_q32_t floor = -fix_asr_s64(base_sum, 2u);
-    sample = sample < floor ? floor : (sample > limit ? limit : sample);
+    sample = sample < floor ? floor : sample;
+    const fix_q32_t shown = sample; /* what the parity shows, for `recalibrate` */
+    sample = sample > limit ? limit : sample;
     const uint16_t cap = (uint16_t)(1u << cfg->drift_shift);
     if (st->blocks < cap) {
         st->blocks++;
     }
     const int64_t b = st->blocks;
     st->drift_mm2 += fix_div_round_s64(sample - st->drift_mm2, b);
+    st->shown_mm2 += fix_div_round_s64(shown - st->shown_mm2, b);
     /* the learnt drift's own scatter: white noise alone gives r² = base·χ²₁, so a sample
      * (r² − base)/4 has variance 2·base²/16 = base²/8; the mean with gain 1/b takes it in
      * as V ← ((b − 1)²·V + base²/8)/b² (once per block: the 128-bit division is cheap) */
@@ -33,11 +36,48 @@ static void learn_drift(struct integrity_state *st, const struct integrity_confi
     st->drift_var_mm4 = fix_s128_div_s64(
         fix_s128_add(fix_s128_mul(st->drift_var_mm4, (b - 1) * (b - 1)), fix_s128_from_s64(v)),
         b * b, NULL);
+    /* the same samples' mean over the whole run: the parity's one direction of the drift,
+     * which by the isotropy assumption stands for the three it cannot see, kept when
+     * the recent blocks' residual happens to pass near 0 */
+    if (st->long_blocks < UINT32_MAX) {
+        st->long_blocks++;
+    }
+    st->drift_long_mm2 += fix_div_round_s64(sample - st->drift_long_mm2, st->long_blocks);
+}
+
+/* The prior walk's variance at rows since the start: offset_walk (µm²/h) · rows · period
+ * (µs) / 3.6e9 µs/h, in µm², then as Q32 mm² (saturating: it grows, it is never capped). */
+static fix_q32_t prior_walk(const struct integrity_config *cfg, uint32_t rows) {
+    bool sat = false;
+    const int64_t us = (int64_t)rows * (int64_t)cfg->period_us;
+    const int64_t um2 = fix_muldiv_s64(us, (int64_t)cfg->offset_walk_um2_h, 3600000000, &sat);
+    const int64_t q32 = fix_muldiv_s64(um2, FIX_Q32_ONE, 1000000, &sat);
+    return sat ? INT64_MAX : q32;
+}
+
+fix_q32_t integrity_drift_var(const struct integrity_state *st) {
+    fix_q32_t v = st->drift_mm2 > st->drift_long_mm2 ? st->drift_mm2 : st->drift_long_mm2;
+    v = v > st->walk_mm2 ? v : st->walk_mm2;
+    return v > 0 ? v : 0;
+}
+
+/* `recalibrate`: the drift the parity shows (significant) beyond k² times the allowance
+ * since the start, offset stability² plus the prior walk. */
+static bool beyond_allowance(const struct integrity_state *st, const struct integrity_config *cfg) {
+    const fix_q32_t allowance =
+        fix_sat_add_s64(integrity_um2_to_q32(cfg->offset_stability_um), st->walk_mm2);
+    const uint32_t k = INTEGRITY_RECALIBRATE_SIGMAS_Q8;
+    const fix_q32_t limit = fix_mul_shr_s64(allowance, (int64_t)(k * k), 16u, NULL);
+    return st->shown_mm2 > limit &&
+           integrity_beyond(st->shown_mm2, st->drift_var_mm4, INTEGRITY_DRIFT_SIGNIFICANCE_Q8);
 }
 
 void integrity_parity(struct integrity_state *st, const struct integrity_config *cfg,
                       const struct window_stats *s, const struct integrity_noise_sums *sums,
                       bool learn, struct integrity_window *out) {
+    if (learn) { /* the walk grows with the time since the start, once per block */
+        st->walk_mm2 = prior_walk(cfg, st->rows);
+    }
     if (out->used == ANGLES_ALL_SENSORS) {
         const struct window_sensor_stats *sn = s->sensor;
         out->parity_mm = sn[ANGLES_A].mean_mm + sn[ANGLES_C].mean_mm - sn[ANGLES_B].mean_mm -
@@ -56,6 +96,9 @@ void integrity_parity(struct integrity_state *st, const struct integrity_config 
     if (st->drift_mm2 > integrity_um2_to_q32(cfg->drift_flag_um) &&
         integrity_beyond(st->drift_mm2, st->drift_var_mm4, INTEGRITY_DRIFT_SIGNIFICANCE_Q8)) {
         out->why |= ATTITUDE_WHY_DRIFT;
+    }
+    if (beyond_allowance(st, cfg)) {
+        out->why |= ATTITUDE_WHY_RECALIBRATE;
     }
 }
 

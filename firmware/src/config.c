@@ -108,6 +108,7 @@ int tof_app_config_for_replay(struct tof_app_config *cfg, int32_t arm_um, uint32
     cfg->estimator.window = window;
     cfg->estimator.mode = sliding ? ATTITUDE_SLIDING : ATTITUDE_TUMBLING;
     tof_estimator_mode_process_noise(&cfg->estimator);
+    cfg->estimator.period_us = period_us; /* the drift allowance's clock (issue 23) */
     cfg->raw_output = true;
     return tof_app_config_check(cfg) == NULL ? HAL_OK : HAL_ERR_INVALID;
 }

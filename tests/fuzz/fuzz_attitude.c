@@ -109,7 +109,8 @@ static bool warmup_ok(uint8_t w) {
 static bool integrity_ok(const struct attitude_config *c) {
     return c->range_max_mm >= 1u && c->range_max_mm <= 8189u && c->parity_sigmas_q8 >= 256u &&
            c->parity_sigmas_q8 <= 4096u && c->motion_sigmas_q8 >= 256u &&
-           c->motion_sigmas_q8 <= 4096u && c->drift_shift >= 1u && c->drift_shift <= 8u;
+           c->motion_sigmas_q8 <= 4096u && c->drift_shift >= 1u && c->drift_shift <= 8u &&
+           c->period_us >= 1000u && c->period_us <= 10000000u;
 }
 
 static bool config_valid(const struct attitude_config *c) {
@@ -172,6 +173,8 @@ static void config_raw(struct fuzz_input *in, struct attitude_config *c) {
     c->offset_stability_um = fuzz_u16(in);
     c->drift_flag_um = fuzz_u16(in);
     c->drift_shift = fuzz_u8(in);
+    c->period_us = fuzz_u32(in);
+    c->offset_walk_um2_h = fuzz_u32(in);
 }
 
 /* Every field inside its valid range, spread over the range. */
@@ -202,6 +205,8 @@ static void config_guided(struct fuzz_input *in, struct attitude_config *c) {
     c->offset_stability_um = fuzz_u16(in);
     c->drift_flag_um = fuzz_u16(in);
     c->drift_shift = (uint8_t)fuzz_range_u32(in, 1u, 8u);
+    c->period_us = fuzz_range_u32(in, 1000u, 10000000u);
+    c->offset_walk_um2_h = fuzz_u32(in);
 }
 
 /* --- checks of one output ------------------------------------------------------------ */
@@ -304,7 +309,7 @@ static void check_estimate(const struct attitude_output *out, enum attitude_esti
     FUZZ_CHECK(e->distance_valid ? e->distance_sd_um >= 1 : e->distance_sd_um == 0);
     FUZZ_CHECK(e->alpha_sd_udeg >= e->alpha_sigma_udeg && e->beta_sd_udeg >= e->beta_sigma_udeg);
     const attitude_why_t window_bits =
-        ATTITUDE_WHY_PARITY | ATTITUDE_WHY_MOTION | ATTITUDE_WHY_DRIFT;
+        ATTITUDE_WHY_PARITY | ATTITUDE_WHY_MOTION | ATTITUDE_WHY_DRIFT | ATTITUDE_WHY_RECALIBRATE;
     switch (e->status) {
     case ATTITUDE_OK:
         FUZZ_CHECK(e->reason == ATTITUDE_REASON_NONE);

@@ -66,7 +66,7 @@ enum attitude_status {
 };
 
 /* Longest text attitude_why_format() can write, terminator included (every bit set). */
-#define ATTITUDE_WHY_TEXT_MAX 544u
+#define ATTITUDE_WHY_TEXT_MAX 556u
 
 /* Errors of attitude_init, one per configuration field (negative), in the attitude
  * block -64..-79 of the one error convention (docs/errors.md). */
@@ -114,6 +114,10 @@ struct attitude_config {
     uint16_t offset_stability_um; /* prior 1σ of each sensor's offset, not learnable */
     uint16_t drift_flag_um;       /* learnt per-sensor drift 1σ above this: `drift` */
     uint8_t drift_shift;          /* drift learning gain 2^-shift per block of N rows */
+    uint32_t period_us;           /* the row period, µs (1000..10000000): time for the drift
+                                     allowance, which grows with rows × period since start */
+    uint32_t offset_walk_um2_h;   /* prior random-walk rate of each sensor's offset, µm² per
+                                     hour (0: none): the unseen drift's growth */
     /* The head's calibration (estimator/calibration.h), applied to every reading before
      * any estimator: calibrated false is an uncalibrated head, never `ok`. */
     struct calibration_head calibration;
@@ -188,12 +192,19 @@ struct attitude_state {
  * 2 s window means of one real static VL53L0X over one hour (the tomisuarez2 log of
  * ../shared/traces/external: 0.015 mm² beyond 0.045 mm²), drift no single window sees.
  * drift flag 500 um: a learnt per-sensor drift above 0.5 mm 1σ, a quarter of the
- * VL53L0X's white noise (2.1 mm 1σ on the same log). */
+ * VL53L0X's white noise (2.1 mm 1σ on the same log).
+ * period 20 000 us: the firmware's 50 Hz (firmware/src/config.c); host_sim and the twin
+ * set the trace's own.
+ * offset walk 576 000 um²/h (160 um²/s): the random-walk slope of the same log's Allan
+ * variance of block means, tau 36 s .. 15 min (tools/drift_allan.py; docs/estimator-design.md
+ * "Integrity", "Drift since the start"): 0.76 mm 1σ after an hour, 1.5 mm after four. */
 #define ATTITUDE_RANGE_MAX_MM_DEFAULT        4000u
 #define ATTITUDE_PARITY_SIGMAS_Q8_DEFAULT    (4u * 256u)
 #define ATTITUDE_MOTION_SIGMAS_Q8_DEFAULT    (4u * 256u)
 #define ATTITUDE_OFFSET_STABILITY_UM_DEFAULT 120u
 #define ATTITUDE_DRIFT_FLAG_UM_DEFAULT       500u
+#define ATTITUDE_PERIOD_US_DEFAULT           20000u
+#define ATTITUDE_OFFSET_WALK_UM2_H_DEFAULT   576000u
 
 /*
  * The default configuration as an initializer, so a const configuration (the
@@ -217,6 +228,8 @@ struct attitude_state {
         .motion_sigmas_q8 = ATTITUDE_MOTION_SIGMAS_Q8_DEFAULT,                                     \
         .offset_stability_um = ATTITUDE_OFFSET_STABILITY_UM_DEFAULT,                               \
         .drift_flag_um = ATTITUDE_DRIFT_FLAG_UM_DEFAULT, .drift_shift = 4,                         \
+        .period_us = ATTITUDE_PERIOD_US_DEFAULT,                                                   \
+        .offset_walk_um2_h = ATTITUDE_OFFSET_WALK_UM2_H_DEFAULT,                                   \
     }
 
 /* Fills cfg with ATTITUDE_CONFIG_DEFAULT. */

@@ -2,7 +2,8 @@
  * Integrity of a window (issue 15): which readings a part cannot give as valid, whether
  * the four sensors agree with a flat plate (the parity test), whether the plate moved
  * inside the window, and what one window cannot see: the learnt drift of the sensors'
- * offsets, a stated offset-stability prior and the 1 mm quantisation. The facade
+ * offsets, its growth since the start (a prior random walk, issue 23; `recalibrate` when
+ * the parity shows more), a stated offset-stability prior and the 1 mm quantisation. The facade
  * (estimator/attitude.h) turns these facts into each estimator's standard deviation and
  * `why` set; docs/estimator-design.md "Integrity" derives every term and says which are
  * learnt and which are prior.
@@ -41,6 +42,18 @@
  * then 0.02 % (0.17 % at N = 10): docs/estimator-design.md "Integrity". */
 #define INTEGRITY_DRIFT_SIGNIFICANCE_Q8 (5u * 256u)
 
+/* `recalibrate` when the drift the parity shows (its per-sensor mean square beyond white
+ * noise over the recent blocks, not clipped at the parity threshold as D is, and
+ * significant as for `drift`) exceeds k² times the allowance since the start, offset
+ * stability² + walk·t: k = 3, the parity beyond 3σ of what the model allows (a χ²₁ of a
+ * slow wander beyond 9: 0.27 % of the time for a head that drifts exactly as the prior
+ * says): docs/estimator-design.md "Integrity", "Drift since the start". */
+#define INTEGRITY_RECALIBRATE_SIGMAS_Q8 (3u * 256u)
+
+/* The row period's bounds (µs): the trace format's 1..10 000 ms. */
+#define INTEGRITY_PERIOD_US_MIN 1000u
+#define INTEGRITY_PERIOD_US_MAX 10000000u
+
 /* The three axes of an estimate, as y = a·tan α, y = a·tan β and x̄. */
 enum integrity_axis { INTEGRITY_ALPHA = 0, INTEGRITY_BETA = 1, INTEGRITY_DISTANCE = 2 };
 #define INTEGRITY_AXES 3u
@@ -53,6 +66,8 @@ struct integrity_config {
     uint16_t offset_stability_um; /* prior per-sensor offset 1σ (not learnable) */
     uint16_t drift_flag_um;       /* learnt drift 1σ above this (and significant): `drift` */
     uint8_t drift_shift;          /* learning gain 2^-shift per block, after a start-up mean */
+    uint32_t period_us;           /* row period: the time since the start is rows × period */
+    uint32_t offset_walk_um2_h;   /* prior random-walk rate of each offset, µm²/h */
 };
 
 /* What is learnt across windows: the per-sensor drift variance from the parity
@@ -69,6 +84,13 @@ struct integrity_state {
     fix_q32_t block_mean_mm[3][ANGLES_SENSORS]; /* ... and their sensor means, newest first */
     fix_q32_t steady_lag2_mm2[INTEGRITY_AXES];  /* learnt lag² per axis, Q32 mm², held
                                                    until the next block */
+    /* Drift since the start (docs/estimator-design.md "Drift since the start"): */
+    uint32_t rows;            /* rows since the start at this window's end */
+    uint32_t long_blocks;     /* blocks in drift_long_mm2 (no cap: the whole run) */
+    fix_q32_t drift_long_mm2; /* the parity's drift samples' mean over the whole run */
+    fix_q32_t shown_mm2;      /* ... the recent blocks' mean not clipped above: the drift the
+                                 parity shows, for `recalibrate` */
+    fix_q32_t walk_mm2;       /* the prior walk's variance at the last block, Q32 mm² */
 };
 
 /* Per-sensor sums of the used readings of a window against their row index (0 = the
@@ -129,10 +151,17 @@ static inline uint8_t integrity_implausible(const uint16_t range_mm[ANGLES_SENSO
 }
 
 /* Window facts from the window's rows (w, as window_compute left it) and statistics s.
+ * rows: rows since the start at this window's end (time = rows × cfg->period_us).
  * learn: this window ends a block of N rows, so the drift learning takes it in. */
 void integrity_assess(struct integrity_state *st, const struct integrity_config *cfg,
-                      struct window_state *w, const struct window_stats *s, bool learn,
-                      struct integrity_window *out);
+                      struct window_state *w, const struct window_stats *s, uint32_t rows,
+                      bool learn, struct integrity_window *out);
+
+/* Each sensor's drift variance (Q32 mm², >= 0) the sd carries beyond the offset-stability
+ * prior: the largest of the learnt drift D (recent blocks), its mean over the whole run
+ * and the prior walk's offset_walk · t since the start (docs/estimator-design.md
+ * "Drift since the start"). */
+fix_q32_t integrity_drift_var(const struct integrity_state *st);
 
 /* Variance (Q32 mm², saturating) of the axis' least-squares combination of the sensor
  * means over the set `used` (DESIGN.md §2: y_α = (x_C − x_A)/2 with all four, ...), for
