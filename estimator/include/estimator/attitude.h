@@ -66,7 +66,7 @@ enum attitude_status {
 };
 
 /* Longest text attitude_why_format() can write, terminator included (every bit set). */
-#define ATTITUDE_WHY_TEXT_MAX 544u
+#define ATTITUDE_WHY_TEXT_MAX 557u
 
 /* Errors of attitude_init, one per configuration field (negative), in the attitude
  * block -64..-79 of the one error convention (docs/errors.md). */
@@ -85,8 +85,10 @@ enum attitude_error {
     ATTITUDE_ERR_KALMAN_WARMUP = -72,            /* kalman_warmup_rows outside 1..8 */
     ATTITUDE_ERR_KALMAN_NOISE_SHIFT = -73,       /* kalman_noise_shift above 8 */
     ATTITUDE_ERR_NULL = -74,                     /* a NULL pointer */
-    ATTITUDE_ERR_INTEGRITY = -75, /* an integrity field out of range (estimator/integrity.h) */
-    ATTITUDE_ERR_BUFFER = -76,    /* attitude_why_format: the buffer is too small */
+    ATTITUDE_ERR_INTEGRITY = -75,   /* an integrity field out of range (estimator/integrity.h) */
+    ATTITUDE_ERR_BUFFER = -76,      /* attitude_why_format: the buffer is too small */
+    ATTITUDE_ERR_CALIBRATION = -77, /* a calibrated head's offset, gain or sd beyond the
+                                       bounds of estimator/calibration.h */
 };
 
 struct attitude_config {
@@ -115,7 +117,12 @@ struct attitude_config {
     uint16_t drift_flag_um;       /* learnt per-sensor drift 1σ above this: `drift` */
     uint8_t drift_shift;          /* drift learning gain 2^-shift per block of N rows */
     /* The head's calibration (estimator/calibration.h), applied to every reading before
-     * any estimator: calibrated false is an uncalibrated head, never `ok`. */
+     * any estimator: calibrated false is an uncalibrated head, never `ok` (why
+     * `uncalibrated`; offset 0, gain 1, the parts' spread CALIBRATION_UNCAL_* in every
+     * sd, and its other fields ignored). Read by attitude_init() only: a new calibration
+     * takes effect through a new attitude_init(). Checked when calibrated: |offset_um|
+     * and offset_sd_um <= CALIBRATION_OFFSET_MAX_UM, |gain_ppm| and gain_sd_ppm <=
+     * CALIBRATION_GAIN_MAX_PPM (else ATTITUDE_ERR_CALIBRATION). */
     struct calibration_head calibration;
 };
 
@@ -174,6 +181,7 @@ struct attitude_state {
     struct integrity_state integrity; /* learnt drift */
     struct integrity_window iw;       /* scratch: the last window's integrity facts */
     int32_t extra_udeg[2];            /* ... what they add to α and β, as 1σ in µdeg */
+    bool cal_spread; /* the calibration leaves an sd (uncalibrated, or a stated sd) */
 };
 
 /* Integrity defaults (sources in docs/estimator-design.md "Integrity"):
@@ -198,7 +206,8 @@ struct attitude_state {
  * consistency 1.5σ (a paper value merely noisier than the efficient product differs
  * from it by sqrt(var_paper − var_product) ≈ 0.3σ (Hausman), so 1.5σ + tol flags only
  * values the paper's weights pulled off), MAD gate 5σ with a 3 mm floor, Kalman Q = 0,
- * R = (2 mm)² (the paper's jitter), innovation gate 5σ, 5 warm-up rows, noise shift 2.
+ * R = (2 mm)² (the paper's jitter), innovation gate 5σ, 5 warm-up rows, noise shift 2,
+ * and no calibration: an uncalibrated head, never `ok` (set .calibration to fly).
  */
 #define ATTITUDE_CONFIG_DEFAULT                                                                    \
     {                                                                                              \
@@ -213,6 +222,7 @@ struct attitude_state {
         .motion_sigmas_q8 = ATTITUDE_MOTION_SIGMAS_Q8_DEFAULT,                                     \
         .offset_stability_um = ATTITUDE_OFFSET_STABILITY_UM_DEFAULT,                               \
         .drift_flag_um = ATTITUDE_DRIFT_FLAG_UM_DEFAULT, .drift_shift = 4,                         \
+        .calibration = {.calibrated = false},                                                      \
     }
 
 /* Fills cfg with ATTITUDE_CONFIG_DEFAULT. */
@@ -246,7 +256,7 @@ const char *attitude_reason_name(enum attitude_reason r);
 /*
  * Writes the names of the reasons in `why`, joined by '+', into buf (cap bytes,
  * always NUL-terminated): per-sensor names first (no-target:A .. rejected:D), then
- * parity, motion, drift, then the attitude_reason names; "" when why is empty.
+ * parity, motion, drift, uncalibrated, then the attitude_reason names; "" when why is empty.
  * Returns the length written, or ATTITUDE_ERR_BUFFER (buf then holds "") when cap is
  * too small (ATTITUDE_WHY_TEXT_MAX always suffices), ATTITUDE_ERR_NULL for a NULL buf.
  */

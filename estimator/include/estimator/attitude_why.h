@@ -46,6 +46,9 @@ enum attitude_reason {
  *                what their sd allows; the sd then covers that disagreement in any one
  *   motion       the plate moved inside the window (a step or ramp): the sd includes it
  *   drift        the learnt drift of the sensors' offsets exceeds drift_flag_um
+ *   uncalibrated the head has no calibration (attitude_config.calibration.calibrated
+ *                false): offset 0 and gain 1 assumed, the parts' spread in the sd, never
+ *                ok (issue 23); bit 24 (bit 23 is kept for the drift's `recalibrate`)
  * and one bit per enum attitude_reason value r, ATTITUDE_WHY_REASON(r) (NONE has none;
  * the summaries flagged-data and sensor-missing appear only when no other bit says why).
  * An estimate is `ok` exactly when both angles are valid and its set is empty.
@@ -59,6 +62,7 @@ typedef uint64_t attitude_why_t;
 #define ATTITUDE_WHY_PARITY       ((attitude_why_t)1u << 20u)
 #define ATTITUDE_WHY_MOTION       ((attitude_why_t)1u << 21u)
 #define ATTITUDE_WHY_DRIFT        ((attitude_why_t)1u << 22u)
+#define ATTITUDE_WHY_UNCALIBRATED ((attitude_why_t)1u << 24u)
 #define ATTITUDE_WHY_REASON_SHIFT 32u
 #define ATTITUDE_WHY_REASON(r)    ((attitude_why_t)1u << (ATTITUDE_WHY_REASON_SHIFT + (unsigned)(r)))
 
