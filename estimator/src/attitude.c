@@ -236,9 +236,7 @@ bool attitude_push_sample(struct attitude_state *st, const uint16_t range_mm[ATT
      * corrected, in whole mm */
     struct window_row *newest = window_push(&st->window, ranges, present_mask, valid_mask);
     if (kalman_on) {
-        uint16_t corrected[ATTITUDE_SENSORS];
-        window_newest_mm(&st->window, corrected);
-        attitude_kalman_push_row(st, corrected, valid_mask, newest);
+        attitude_kalman_push_row(st, st->window.newest_mm, valid_mask, newest);
     }
     st->rows++;
     const bool ready = cfg->mode == ATTITUDE_TUMBLING ? st->rows % cfg->window == 0u

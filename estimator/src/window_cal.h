@@ -20,6 +20,19 @@ FIX_INLINE void window_correct(const struct window_state *w,
     }
 }
 
+/* window_correct() of the newest row, also rounded to whole mm (newest_mm), in one pass. */
+FIX_INLINE void window_correct_newest(struct window_state *w,
+                                      const uint16_t range_mm[ANGLES_SENSORS]) {
+    for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
+        const int32_t d = (int32_t)range_mm[k] * ANGLES_FINE_ONE - w->cal_offset_fine[k];
+        const int32_t x = d + fix_hi32((int64_t)d * w->cal_inv_gain_q32[k] + ((int64_t)1 << 31));
+        w->newest_fine[k] = x;
+        const int32_t f = x + (ANGLES_FINE_ONE / 2);
+        const uint32_t mm = f < 0 ? 0u : (uint32_t)f >> ANGLES_FINE_SHIFT;
+        w->newest_mm[k] = (uint16_t)(mm > 65535u ? 65535u : mm);
+    }
+}
+
 /* The calibration applied to a sensor's mean and variance (the correction is affine:
  * mean' = (mean − offset)/gain, var' = var/gain², exact from the raw sums; identity
  * leaves both as they are). */

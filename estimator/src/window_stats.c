@@ -36,6 +36,7 @@ int window_init(struct window_state *w, const struct window_config *cfg) {
         w->cal_inv_gain_q32[k] = (int32_t)fix_muldiv_s64(-(int64_t)cfg->gain_ppm[k], FIX_Q32_ONE,
                                                          1000000 + (int64_t)cfg->gain_ppm[k], NULL);
         w->newest_fine[k] = 0;
+        w->newest_mm[k] = 0;
     }
     window_clear(w);
     return WINDOW_OK;
@@ -184,7 +185,7 @@ struct window_row *window_push(struct window_state *w, const uint16_t range_mm[A
     row->masks = (uint8_t)(present | (uint8_t)(valid << 4));
     row->aux = 0;
     w->fill++;
-    window_correct(w, range_mm, w->newest_fine);
+    window_correct_newest(w, range_mm);
     contrib(&w->sums, row, w->newest_fine, valid, &w->arm, +1);
     return row;
 }

@@ -120,6 +120,8 @@ struct window_state {
     int32_t cal_offset_fine[ANGLES_SENSORS];
     int32_t cal_inv_gain_q32[ANGLES_SENSORS];
     int32_t newest_fine[ANGLES_SENSORS]; /* the newest row's corrected readings, fine units */
+    uint16_t newest_mm[ANGLES_SENSORS];  /* ... rounded to whole mm, 0..65535: what a
+                                            consumer of whole mm (the Kalman filter) takes */
     struct window_row ring[WINDOW_MAX_SAMPLES];
     uint16_t oldest;          /* ring index of the oldest row */
     uint16_t fill;            /* rows held, <= cfg.length */
@@ -169,16 +171,6 @@ void window_clear(struct window_state *w);
  * Returns the new row (window_row_at(w, 0)). */
 struct window_row *window_push(struct window_state *w, const uint16_t range_mm[ANGLES_SENSORS],
                                uint8_t present_mask, uint8_t valid_mask);
-
-/* The newest row's readings corrected by the calibration, rounded to whole mm (0..65535):
- * what a consumer of whole millimetres (the Kalman filter) takes. */
-static inline void window_newest_mm(const struct window_state *w, uint16_t out[ANGLES_SENSORS]) {
-    for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
-        const int32_t f = w->newest_fine[k] + (ANGLES_FINE_ONE / 2);
-        const uint32_t mm = f < 0 ? 0u : (uint32_t)f >> ANGLES_FINE_SHIFT;
-        out[k] = (uint16_t)(mm > 65535u ? 65535u : mm);
-    }
-}
 
 /* Rows currently held (0..length). */
 uint16_t window_fill(const struct window_state *w);
