@@ -64,6 +64,7 @@ void angles_arm_prepare(struct angles_arm *arm, int32_t arm_um) {
     const int64_t inv = fix_div_round_s64((int64_t)1000 << (31u + shift), arm_um); /* < 2^52 */
     arm->inv = inv > (int64_t)UINT32_MAX ? UINT32_MAX : (uint32_t)inv;
     arm->shift = shift;
+    arm->fine_shift = shift + ANGLES_FINE_SHIFT;
 }
 
 /* atan(d / (span·a)) beyond 45°: the CORDIC on the exact operands, the difference in µm
@@ -81,7 +82,7 @@ FIX_INLINE fix_udeg_t pair_angle(int32_t x_hi, int32_t x_lo, const struct angles
                                  unsigned span) {
     const bool neg = x_hi < x_lo;
     const uint32_t m = neg ? (uint32_t)(x_lo - x_hi) : (uint32_t)(x_hi - x_lo);
-    const unsigned sh = arm->shift + (span - 1u) + ANGLES_FINE_SHIFT; /* 11..21 */
+    const unsigned sh = arm->fine_shift + (span - 1u); /* 11..21 */
     const uint64_t p = (uint64_t)m * arm->inv;
     const uint32_t lo = (uint32_t)p;
     const uint32_t hi = (uint32_t)(p >> 32);

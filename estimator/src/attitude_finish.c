@@ -88,9 +88,11 @@ int32_t attitude_extra_sd(const struct attitude_state *st, fix_q32_t var_mm2, un
         /* the slope 3 sd of y nearer 0 (where atan is steepest): a calibration error of
          * tens of mm moves the estimate by tens of degrees, and the slope at the estimate
          * would under-state how far the truth may be (docs/estimator-design.md
-         * "Calibration"); sqrt(Q32 mm²) is Q16 mm, as a Q32 slope · 2^16 · 1000 / a µm */
-        const int64_t s3 = fix_muldiv_s64((int64_t)fix_isqrt_u64((uint64_t)var_mm2) * 3,
-                                          (int64_t)65536000, st->cfg.arm_um, NULL);
+         * "Calibration"); sqrt(Q32 mm²) is Q16 mm, as a Q32 slope · 2^16 / a mm, with the
+         * window's reciprocal of a (2^(31 + shift) / a mm) */
+        const struct angles_arm *arm = &st->window.arm;
+        const int64_t s3 = fix_mul_shr_s64((int64_t)fix_isqrt_u64((uint64_t)var_mm2) * 3,
+                                           (int64_t)arm->inv, 15u + arm->shift, NULL);
         const fix_q32_t mag = t < 0 ? -t : t;
         const fix_q32_t near = mag > s3 ? mag - s3 : 0;
         t = t < 0 ? -near : near;

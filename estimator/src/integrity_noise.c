@@ -8,12 +8,13 @@
  * stated exact. */
 static fix_q32_t calibration_var(const struct integrity_config *cfg, unsigned k, fix_q32_t x_mm) {
     const int64_t so = cfg->cal_offset_sd_um[k];
-    const int64_t x_um = fix_mul_shr_s64(x_mm, 1000, FIX_Q32_SHIFT, NULL);
+    const int64_t x_um = fix_asr_s64(x_mm * 1000, FIX_Q32_SHIFT); /* |x| < 2^48 */
     /* x·σg in µm: · 4295 / 2^32 for / 10^6 (8e-6 relative), no 64-bit division */
     const int64_t sg = fix_asr_s64(x_um * (int64_t)cfg->cal_gain_sd_ppm[k] * 4295, 32u);
     int64_t var = so * so + sg * sg + fix_asr_s64(2 * so * sg * cfg->cal_corr_q15[k], 15u);
     var = var > 0 ? var : 0;
-    return fix_mul_shr_s64(var, (int64_t)4503599627, 20u, NULL); /* µm² as Q32 mm² */
+    /* µm² as Q32 mm²: · 4295 for 2^32 / 10^6 (8e-6 relative, within int64: var < 2^46) */
+    return var * 4295;
 }
 
 /* The ring pass sums the readings as they came (integrity.c), the window statistics are

@@ -35,6 +35,8 @@ int window_init(struct window_state *w, const struct window_config *cfg) {
         w->cal_offset_fine[k] = (int32_t)fix_div_round_s64((int64_t)cfg->offset_um[k] * 128, 125);
         w->cal_inv_gain_q32[k] = (int32_t)fix_muldiv_s64(-(int64_t)cfg->gain_ppm[k], FIX_Q32_ONE,
                                                          1000000 + (int64_t)cfg->gain_ppm[k], NULL);
+        const int64_t r = w->cal_inv_gain_q32[k]; /* (1 + r)² − 1 = 2r + r² */
+        w->cal_inv_gain2_q32[k] = 2 * r + fix_mul_shr_s64(r, r, FIX_Q32_SHIFT, NULL);
         w->newest_fine[k] = 0;
         w->newest_mm[k] = 0;
     }

@@ -76,8 +76,9 @@ bool angles_arm_valid(int32_t arm_um);
  * division and a CORDIC. */
 struct angles_arm {
     int32_t arm_um;
-    uint32_t inv;   /* round(2^(31 + shift) · 1000 / arm_um), in [2^31, 2^32) */
-    uint32_t shift; /* 1..10: |d| · inv / 2^shift is the slope |d| / a in Q31 */
+    uint32_t inv;        /* round(2^(31 + shift) · 1000 / arm_um), in [2^31, 2^32) */
+    uint32_t shift;      /* 1..10: |d| · inv / 2^shift is the slope |d| / a in Q31 */
+    uint32_t fine_shift; /* shift + ANGLES_FINE_SHIFT: the same for d in fine units */
 };
 
 /* Prepares arm_um (which must satisfy angles_arm_valid()) for angles_compute_prepared(). */

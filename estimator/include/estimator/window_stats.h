@@ -119,9 +119,11 @@ struct window_state {
      * fine units and 1/gain − 1 in Q32, so true = d + d·r/2^32 with d = raw − offset */
     int32_t cal_offset_fine[ANGLES_SENSORS];
     int32_t cal_inv_gain_q32[ANGLES_SENSORS];
-    int32_t newest_fine[ANGLES_SENSORS]; /* the newest row's corrected readings, fine units */
-    uint16_t newest_mm[ANGLES_SENSORS];  /* ... rounded to whole mm, 0..65535: what a
-                                            consumer of whole mm (the Kalman filter) takes */
+    int64_t cal_inv_gain2_q32[ANGLES_SENSORS]; /* 1/gain² − 1 in Q32: the variances' */
+    int32_t newest_fine[ANGLES_SENSORS];       /* the newest row's corrected readings, fine units */
+    uint16_t newest_mm[ANGLES_SENSORS];        /* ... rounded to whole mm (0 below 0; exact for
+                                                  the readings the window uses): what a consumer
+                                                  of whole mm (the Kalman filter) takes */
     struct window_row ring[WINDOW_MAX_SAMPLES];
     uint16_t oldest;          /* ring index of the oldest row */
     uint16_t fill;            /* rows held, <= cfg.length */
