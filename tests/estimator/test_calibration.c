@@ -189,6 +189,44 @@ static void test_identity_whole_mm(void **state) {
     assert_int_equal(out.est[ATTITUDE_EST_CONSENSUS].distance_um, 102750);
 }
 
+/* Sliding windows drop their oldest row by subtracting the same corrected values it
+ * added (the ring keeps raw mm; the correction is recomputed): after 60 rows the sliding
+ * estimate over the last 20 equals a fresh tumbling window of those 20 rows, exactly. */
+static void test_sliding_subtracts_exactly(void **state) {
+    (void)state;
+    rng.state = 0x082EFA98EC4E6C89u;
+    struct head h;
+    random_head(&h, 20, 0.03);
+    const double zero[4] = {0, 0, 0, 0};
+    struct calibration_head c;
+    told(&h, zero, zero, 50, 200, &c);
+    struct attitude_config cfg;
+    config(&cfg, &c);
+    cfg.window = 20;
+    cfg.mode = ATTITUDE_SLIDING;
+    assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_NONE);
+    double x[4];
+    geometry(3.0, -2.0, 120, x);
+    uint16_t raw[60][4];
+    assert_true(window(&h, x, 2.0, 60, raw));
+    const struct attitude_output sliding = out;
+    static struct attitude_state fresh;
+    cfg.mode = ATTITUDE_TUMBLING;
+    assert_int_equal(attitude_init(&fresh, &cfg), ATTITUDE_ERR_NONE);
+    bool ready = false;
+    for (unsigned r = 40; r < 60u; ++r) {
+        ready = attitude_push_sample(&fresh, raw[r], all_ok, all_present, &out);
+    }
+    assert_true(ready);
+    for (unsigned e = 0; e < 2u; ++e) {
+        const enum attitude_estimator est = e == 0u ? ATTITUDE_EST_MEAN : ATTITUDE_EST_CONSENSUS;
+        assert_int_equal(sliding.est[est].alpha_udeg, out.est[est].alpha_udeg);
+        assert_int_equal(sliding.est[est].beta_udeg, out.est[est].beta_udeg);
+        assert_int_equal(sliding.est[est].distance_um, out.est[est].distance_um);
+        assert_int_equal(sliding.est[est].flatness_residual_um, out.est[est].flatness_residual_um);
+    }
+}
+
 static void test_validation(void **state) {
     (void)state;
     struct attitude_config cfg;
@@ -348,7 +386,7 @@ int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_correction_exact),  cmocka_unit_test(test_identity_whole_mm),
         cmocka_unit_test(test_validation),        cmocka_unit_test(test_uncalibrated),
-        cmocka_unit_test(test_stated_sd_covered),
+        cmocka_unit_test(test_stated_sd_covered), cmocka_unit_test(test_sliding_subtracts_exactly),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
