@@ -32,7 +32,10 @@ static void correct_tails(const struct integrity_config *cfg, struct integrity_w
         struct integrity_ramp_sums *r = &out->ramp[k];
         for (unsigned t = 0; t < 2u; ++t) {
             const int64_t um = (int64_t)r->tail_sx[t] * 1000 - (int64_t)r->tail_n[t] * o;
-            r->tail_sx[t] = (int32_t)fix_div_round_s64(um * 1000, g);
+            /* never below 0: the motion statistics take the sums as distances (>= 0); a
+             * reading corrected below 0 (read under its offset) counts as 0 there */
+            const int64_t v = fix_div_round_s64(um * 1000, g);
+            r->tail_sx[t] = (int32_t)(v > 0 ? v : 0);
         }
     }
 }

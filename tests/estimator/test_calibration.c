@@ -227,6 +227,54 @@ static void test_sliding_subtracts_exactly(void **state) {
     }
 }
 
+/* The extremes (under the sanitizers of the host build): calibrations at every bound,
+ * readings from 1 mm to 65535 (no-target) in sliding and tumbling windows. Nothing
+ * overflows, every answer keeps its contract (an sd >= 1 with its axis). */
+static void test_extremes(void **state) {
+    (void)state;
+    rng.state = 0xC0AC29B7C97C50DDu;
+    const int32_t om = CALIBRATION_OFFSET_MAX_UM;
+    const int32_t gm = CALIBRATION_GAIN_MAX_PPM;
+    for (unsigned i = 0; i < 16u; ++i) {
+        struct calibration_head c;
+        memset(&c, 0, sizeof c);
+        c.calibrated = (i % 4u) != 3u;
+        for (unsigned k = 0; k < 4u; ++k) {
+            c.offset_um[k] = ((i + k) % 2u) != 0u ? om : -om;
+            c.gain_ppm[k] = ((i / 2u + k) % 2u) != 0u ? gm : -gm;
+            c.offset_sd_um[k] = (uint32_t)om;
+            c.gain_sd_ppm[k] = (uint32_t)gm;
+            c.offset_gain_corr_q15[k] = (i % 3u) == 0u ? INT16_MIN : INT16_MAX;
+        }
+        struct attitude_config cfg;
+        config(&cfg, &c);
+        cfg.window = (uint16_t)(i % 2u ? 10 : ATTITUDE_WINDOW_MAX);
+        cfg.mode = i % 2u ? ATTITUDE_SLIDING : ATTITUDE_TUMBLING;
+        assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_NONE);
+        unsigned answers = 0;
+        for (unsigned r = 0; r < 600u; ++r) {
+            uint16_t raw[4];
+            for (unsigned k = 0; k < 4u; ++k) {
+                const unsigned pick = (unsigned)(test_u64(&rng) % 8u);
+                raw[k] = pick == 0u   ? 1u
+                         : pick == 1u ? 65535u
+                         : pick == 2u ? 8189u
+                                      : (uint16_t)(1u + test_u64(&rng) % 300u);
+            }
+            if (attitude_push_sample(&st, raw, all_ok, all_present, &out)) {
+                for (unsigned e = 0; e < ATTITUDE_EST_COUNT; ++e) {
+                    const struct attitude_estimate *p = &out.est[e];
+                    assert_true(p->alpha_valid ? p->alpha_sd_udeg >= 1 : p->alpha_sd_udeg == 0);
+                    assert_true(p->beta_valid ? p->beta_sd_udeg >= 1 : p->beta_sd_udeg == 0);
+                    assert_true(c.calibrated || p->status != ATTITUDE_OK);
+                }
+                ++answers;
+            }
+        }
+        assert_true(answers > 0u);
+    }
+}
+
 static void test_validation(void **state) {
     (void)state;
     struct attitude_config cfg;
@@ -387,6 +435,7 @@ int main(void) {
         cmocka_unit_test(test_correction_exact),  cmocka_unit_test(test_identity_whole_mm),
         cmocka_unit_test(test_validation),        cmocka_unit_test(test_uncalibrated),
         cmocka_unit_test(test_stated_sd_covered), cmocka_unit_test(test_sliding_subtracts_exactly),
+        cmocka_unit_test(test_extremes),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
