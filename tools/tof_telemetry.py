@@ -87,6 +87,7 @@ STATUSES = ["ok", "degraded", "invalid"]
 # (estimator/integrity.h, estimator/attitude.h; named as attitude_why_format() names them).
 WHY_PER_SENSOR = ["no-target", "range", "flagged", "missing", "rejected"]  # bit 4*g + k
 WHY_WINDOW = ["parity", "motion", "drift"]                                 # bits 20..22
+WHY_UNCALIBRATED_BIT = 23  # "uncalibrated": the head has no calibration (issue 23)
 WHY_RECALIBRATE_BIT = 24  # "recalibrate": the drift shown exceeds the allowance (issue 23)
 WHY_REASON_SHIFT = 32  # bit 32 + r for enum attitude_reason r (r = 0, "none", has no bit)
 ATTITUDE_REASONS = [
@@ -400,9 +401,11 @@ def why_names(why):
         known |= bit
         if why & bit:
             names.append(name)
-    known |= 1 << WHY_RECALIBRATE_BIT
-    if why & (1 << WHY_RECALIBRATE_BIT):
-        names.append("recalibrate")
+    for bit_no, name in ((WHY_UNCALIBRATED_BIT, "uncalibrated"),
+                         (WHY_RECALIBRATE_BIT, "recalibrate")):
+        known |= 1 << bit_no
+        if why & (1 << bit_no):
+            names.append(name)
     for r in range(1, len(ATTITUDE_REASONS)):
         bit = 1 << (WHY_REASON_SHIFT + r)
         known |= bit

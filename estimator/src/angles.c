@@ -64,50 +64,73 @@ void angles_arm_prepare(struct angles_arm *arm, int32_t arm_um) {
     const int64_t inv = fix_div_round_s64((int64_t)1000 << (31u + shift), arm_um); /* < 2^52 */
     arm->inv = inv > (int64_t)UINT32_MAX ? UINT32_MAX : (uint32_t)inv;
     arm->shift = shift;
+    arm->fine_shift = shift + ANGLES_FINE_SHIFT;
 }
 
-/* atan(d / (span·a)): |d| / (span·a) in Q31 from the reciprocal with one 32x32 -> 64
- * product (|d| <= 65535), the table within 45°, the CORDIC on the exact operands beyond. */
-FIX_INLINE fix_udeg_t pair_angle(uint16_t x_hi_mm, uint16_t x_lo_mm, const struct angles_arm *arm,
+/* atan(d / (span·a)) beyond 45°: the CORDIC on the exact operands, the difference in µm
+ * (exact for whole millimetres: 1024 fine units are 1000 µm). */
+static fix_udeg_t pair_far(int64_t diff_fine, int32_t arm_um, unsigned span) {
+    const int64_t diff_um = fix_div_round_s64(diff_fine * 125, 128);
+    return fix_atan2_udeg(diff_um, (int64_t)arm_um * (int64_t)span);
+}
+
+/* atan(d / (span·a)) of two readings in fine units (2^-ANGLES_FINE_SHIFT mm): |d| / (span·a)
+ * in Q31 from the reciprocal with one 32x32 -> 64 product (|d| < 2^27), the table within
+ * 45°, the CORDIC beyond. Whole millimetres (d a multiple of 2^10) give exactly what the
+ * millimetre path gave: the product is 2^10 times larger and shifted 10 bits further. */
+FIX_INLINE fix_udeg_t pair_angle(int32_t x_hi, int32_t x_lo, const struct angles_arm *arm,
                                  unsigned span) {
-    const bool neg = x_hi_mm < x_lo_mm;
-    const uint32_t m = neg ? (uint32_t)x_lo_mm - x_hi_mm : (uint32_t)x_hi_mm - x_lo_mm;
-    const unsigned sh = arm->shift + (span - 1u); /* 1..11 */
+    const bool neg = x_hi < x_lo;
+    const uint32_t m = neg ? (uint32_t)(x_lo - x_hi) : (uint32_t)(x_hi - x_lo);
+    const unsigned sh = arm->fine_shift + (span - 1u); /* 11..21 */
     const uint64_t p = (uint64_t)m * arm->inv;
     const uint32_t lo = (uint32_t)p;
     const uint32_t hi = (uint32_t)(p >> 32);
     if ((hi >> (sh - 1u)) != 0u) { /* slope >= 1 */
-        return angles_pair_udeg(x_hi_mm, x_lo_mm, arm->arm_um, span);
+        return pair_far((int64_t)x_hi - (int64_t)x_lo, arm->arm_um, span);
     }
     const fix_udeg_t a = fix_atan_q31_inline((lo >> sh) | (hi << (32u - sh)));
     return neg ? -a : a;
 }
 
-static fix_udeg_t pair1(uint16_t x_hi_mm, uint16_t x_lo_mm, const struct angles_arm *arm) {
-    return pair_angle(x_hi_mm, x_lo_mm, arm, 1u);
+static fix_udeg_t pair1(int32_t x_hi, int32_t x_lo, const struct angles_arm *arm) {
+    return pair_angle(x_hi, x_lo, arm, 1u);
 }
 
-static fix_udeg_t pair2(uint16_t x_hi_mm, uint16_t x_lo_mm, const struct angles_arm *arm) {
-    return pair_angle(x_hi_mm, x_lo_mm, arm, 2u);
+static fix_udeg_t pair2(int32_t x_hi, int32_t x_lo, const struct angles_arm *arm) {
+    return pair_angle(x_hi, x_lo, arm, 2u);
+}
+
+/* Whole millimetres as fine units. */
+static int32_t fine(uint16_t x_mm) {
+    return (int32_t)x_mm * ANGLES_FINE_ONE;
 }
 
 fix_udeg_t angles_pair_prepared_udeg(uint16_t x_hi_mm, uint16_t x_lo_mm,
                                      const struct angles_arm *arm, unsigned span) {
-    return span == 2u ? pair2(x_hi_mm, x_lo_mm, arm) : pair1(x_hi_mm, x_lo_mm, arm);
+    return span == 2u ? pair2(fine(x_hi_mm), fine(x_lo_mm), arm)
+                      : pair1(fine(x_hi_mm), fine(x_lo_mm), arm);
 }
 
-void angles_compute_all(const uint16_t range_mm[ANGLES_SENSORS], const struct angles_arm *arm,
-                        fix_udeg_t alpha_udeg[ANGLES_PER_AXIS], fix_udeg_t *beta5_udeg) {
-    const uint16_t xa = range_mm[ANGLES_A];
-    const uint16_t xb = range_mm[ANGLES_B];
-    const uint16_t xc = range_mm[ANGLES_C];
-    const uint16_t xd = range_mm[ANGLES_D];
+void angles_compute_all_fine(const int32_t x[ANGLES_SENSORS], const struct angles_arm *arm,
+                             fix_udeg_t alpha_udeg[ANGLES_PER_AXIS], fix_udeg_t *beta5_udeg) {
+    const int32_t xa = x[ANGLES_A];
+    const int32_t xb = x[ANGLES_B];
+    const int32_t xc = x[ANGLES_C];
+    const int32_t xd = x[ANGLES_D];
     alpha_udeg[0] = pair1(xb, xa, arm);
     alpha_udeg[1] = pair1(xd, xa, arm);
     alpha_udeg[2] = pair1(xc, xb, arm);
     alpha_udeg[3] = pair1(xc, xd, arm);
     alpha_udeg[4] = pair2(xc, xa, arm);
     *beta5_udeg = pair2(xb, xd, arm);
+}
+
+void angles_compute_all(const uint16_t range_mm[ANGLES_SENSORS], const struct angles_arm *arm,
+                        fix_udeg_t alpha_udeg[ANGLES_PER_AXIS], fix_udeg_t *beta5_udeg) {
+    const int32_t x[ANGLES_SENSORS] = {fine(range_mm[0]), fine(range_mm[1]), fine(range_mm[2]),
+                                       fine(range_mm[3])};
+    angles_compute_all_fine(x, arm, alpha_udeg, beta5_udeg);
 }
 
 void angles_compute(const uint16_t range_mm[ANGLES_SENSORS], uint8_t sensor_mask, int32_t arm_um,
@@ -117,12 +140,12 @@ void angles_compute(const uint16_t range_mm[ANGLES_SENSORS], uint8_t sensor_mask
     angles_compute_prepared(range_mm, sensor_mask, &arm, out);
 }
 
-void angles_compute_prepared(const uint16_t range_mm[ANGLES_SENSORS], uint8_t sensor_mask,
-                             const struct angles_arm *arm, struct angles_sample *out) {
-    const uint16_t xa = range_mm[ANGLES_A];
-    const uint16_t xb = range_mm[ANGLES_B];
-    const uint16_t xc = range_mm[ANGLES_C];
-    const uint16_t xd = range_mm[ANGLES_D];
+void angles_compute_prepared_fine(const int32_t x[ANGLES_SENSORS], uint8_t sensor_mask,
+                                  const struct angles_arm *arm, struct angles_sample *out) {
+    const int32_t xa = x[ANGLES_A];
+    const int32_t xb = x[ANGLES_B];
+    const int32_t xc = x[ANGLES_C];
+    const int32_t xd = x[ANGLES_D];
     const uint8_t am = angles_alpha_mask(sensor_mask);
     const uint8_t bm = angles_beta_mask(sensor_mask);
 
@@ -154,6 +177,13 @@ void angles_compute_prepared(const uint16_t range_mm[ANGLES_SENSORS], uint8_t se
     out->alpha_valid = am;
     out->beta_valid = bm;
     out->flatness_valid = (sensor_mask & ANGLES_ALL_SENSORS) == ANGLES_ALL_SENSORS;
-    out->flatness_mm =
-        out->flatness_valid ? (int32_t)xa + (int32_t)xc - (int32_t)xb - (int32_t)xd : 0;
+    /* whole mm (exact for whole-mm readings, rounded down otherwise) */
+    out->flatness_mm = out->flatness_valid ? (xa + xc - xb - xd) >> ANGLES_FINE_SHIFT : 0;
+}
+
+void angles_compute_prepared(const uint16_t range_mm[ANGLES_SENSORS], uint8_t sensor_mask,
+                             const struct angles_arm *arm, struct angles_sample *out) {
+    const int32_t x[ANGLES_SENSORS] = {fine(range_mm[0]), fine(range_mm[1]), fine(range_mm[2]),
+                                       fine(range_mm[3])};
+    angles_compute_prepared_fine(x, sensor_mask, arm, out);
 }

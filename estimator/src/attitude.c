@@ -20,6 +20,46 @@ static fix_q32_t um2_to_q32_mm2(uint32_t um2) {
     return fix_muldiv_s64((int64_t)um2, FIX_Q32_ONE, 1000000, NULL);
 }
 
+/* A calibrated head's values within the bounds of estimator/calibration.h (an
+ * uncalibrated head's are ignored). */
+static bool calibration_valid(const struct calibration_head *c) {
+    if (!c->calibrated) {
+        return true;
+    }
+    for (unsigned k = 0; k < CALIBRATION_SENSORS; ++k) {
+        const int32_t o = c->offset_um[k];
+        const int32_t g = c->gain_ppm[k];
+        if (o < -CALIBRATION_OFFSET_MAX_UM || o > CALIBRATION_OFFSET_MAX_UM ||
+            g < -CALIBRATION_GAIN_MAX_PPM || g > CALIBRATION_GAIN_MAX_PPM ||
+            c->offset_sd_um[k] > (uint32_t)CALIBRATION_OFFSET_MAX_UM ||
+            c->gain_sd_ppm[k] > (uint32_t)CALIBRATION_GAIN_MAX_PPM) {
+            return false;
+        }
+    }
+    return true;
+}
+
+/* What the calibration gives the window (the correction) and the integrity (what it
+ * leaves in the sd): an uncalibrated head takes offset 0, gain 1 and the parts' spread
+ * (CALIBRATION_UNCAL_*, estimator/calibration.h); true when some sd remains. */
+static bool calibration_prepare(const struct calibration_head *c, struct window_config *wcfg,
+                                struct integrity_config *icfg) {
+    bool spread = !c->calibrated;
+    for (unsigned k = 0; k < CALIBRATION_SENSORS; ++k) {
+        wcfg->offset_um[k] = c->calibrated ? c->offset_um[k] : 0;
+        wcfg->gain_ppm[k] = c->calibrated ? c->gain_ppm[k] : 0;
+        icfg->cal_offset_um[k] = wcfg->offset_um[k];
+        icfg->cal_gain_ppm[k] = wcfg->gain_ppm[k];
+        icfg->cal_offset_sd_um[k] =
+            c->calibrated ? c->offset_sd_um[k] : CALIBRATION_UNCAL_OFFSET_SD_UM;
+        icfg->cal_gain_sd_ppm[k] =
+            c->calibrated ? c->gain_sd_ppm[k] : CALIBRATION_UNCAL_GAIN_SD_PPM;
+        icfg->cal_corr_q15[k] = c->calibrated ? c->offset_gain_corr_q15[k] : 0;
+        spread = spread || icfg->cal_offset_sd_um[k] != 0u || icfg->cal_gain_sd_ppm[k] != 0u;
+    }
+    return spread;
+}
+
 int attitude_init(struct attitude_state *st, const struct attitude_config *cfg) {
     if (st == NULL || cfg == NULL) {
         return ATTITUDE_ERR_NULL;
@@ -42,15 +82,18 @@ int attitude_init(struct attitude_state *st, const struct attitude_config *cfg) 
     if (cfg->paper_max_iterations == 0u) {
         return ATTITUDE_ERR_PAPER_ITERATIONS;
     }
-    const struct integrity_config icfg = {.arm_um = cfg->arm_um,
-                                          .range_max_mm = cfg->range_max_mm,
-                                          .parity_sigmas_q8 = cfg->parity_sigmas_q8,
-                                          .motion_sigmas_q8 = cfg->motion_sigmas_q8,
-                                          .offset_stability_um = cfg->offset_stability_um,
-                                          .drift_flag_um = cfg->drift_flag_um,
-                                          .drift_shift = cfg->drift_shift,
-                                          .period_us = cfg->period_us,
-                                          .offset_walk_um2_h = cfg->offset_walk_um2_h};
+    if (!calibration_valid(&cfg->calibration)) {
+        return ATTITUDE_ERR_CALIBRATION;
+    }
+    struct integrity_config icfg = {.arm_um = cfg->arm_um,
+                                    .range_max_mm = cfg->range_max_mm,
+                                    .parity_sigmas_q8 = cfg->parity_sigmas_q8,
+                                    .motion_sigmas_q8 = cfg->motion_sigmas_q8,
+                                    .offset_stability_um = cfg->offset_stability_um,
+                                    .drift_flag_um = cfg->drift_flag_um,
+                                    .drift_shift = cfg->drift_shift,
+                                    .period_us = cfg->period_us,
+                                    .offset_walk_um2_h = cfg->offset_walk_um2_h};
     if (!integrity_config_valid(&icfg)) {
         return ATTITUDE_ERR_INTEGRITY;
     }
@@ -81,15 +124,17 @@ int attitude_init(struct attitude_state *st, const struct attitude_config *cfg) 
     default:
         return ATTITUDE_ERR_KALMAN_NOISE_SHIFT;
     }
+    struct window_config wcfg = {.arm_um = cfg->arm_um,
+                                 .length = cfg->window,
+                                 .gate_sigmas_q8 = cfg->gate_sigmas_q8,
+                                 .gate_floor_mm = cfg->gate_floor_mm};
+    const bool spread = calibration_prepare(&cfg->calibration, &wcfg, &icfg);
     (void)memset(st, 0, sizeof *st);
     st->cfg = *cfg;
     st->icfg = icfg;
+    st->cal_spread = spread;
     integrity_init(&st->integrity);
     st->kalman_rows_since_restart = UINT32_MAX;
-    const struct window_config wcfg = {.arm_um = cfg->arm_um,
-                                       .length = cfg->window,
-                                       .gate_sigmas_q8 = cfg->gate_sigmas_q8,
-                                       .gate_floor_mm = cfg->gate_floor_mm};
     if (window_init(&st->window, &wcfg) != WINDOW_OK) {
         return ATTITUDE_ERR_WINDOW; /* unreachable: checked above */
     }
@@ -109,9 +154,12 @@ FIX_NOINLINE void window_end(struct attitude_state *st, struct attitude_output *
     /* the drift learning takes one window per block of N rows (every window when tumbling) */
     integrity_assess(&st->integrity, &st->icfg, &st->window, w, st->rows,
                      st->rows % cfg->window == 0u, &st->iw);
+    if (!cfg->calibration.calibrated) { /* never ok: every estimate says why */
+        st->iw.why |= ATTITUDE_WHY_UNCALIBRATED;
+    }
     /* what the window adds to every estimator's angles, as 1σ: computed once */
-    st->extra_udeg[0] = attitude_angle_sd(st, st->iw.extra_var_mm2[INTEGRITY_ALPHA], 0u);
-    st->extra_udeg[1] = attitude_angle_sd(st, st->iw.extra_var_mm2[INTEGRITY_BETA], 1u);
+    st->extra_udeg[0] = attitude_extra_sd(st, st->iw.extra_var_mm2[INTEGRITY_ALPHA], 0u);
+    st->extra_udeg[1] = attitude_extra_sd(st, st->iw.extra_var_mm2[INTEGRITY_BETA], 1u);
     out->last_row = st->rows - 1u;
     out->first_row = st->rows - cfg->window;
     out->rows = cfg->window;
@@ -186,9 +234,11 @@ bool attitude_push_sample(struct attitude_state *st, const uint16_t range_mm[ATT
             kalman_reset(&st->kalman);
         }
     }
+    /* the window corrects the readings by the calibration; the filter takes them
+     * corrected, in whole mm */
     struct window_row *newest = window_push(&st->window, ranges, present_mask, valid_mask);
     if (kalman_on) {
-        attitude_kalman_push_row(st, ranges, valid_mask, newest);
+        attitude_kalman_push_row(st, st->window.newest_mm, valid_mask, newest);
     }
     st->rows++;
     const bool ready = cfg->mode == ATTITUDE_TUMBLING ? st->rows % cfg->window == 0u

@@ -82,6 +82,24 @@ int32_t attitude_angle_sd(const struct attitude_state *st, fix_q32_t var_mm2, un
     return fix_angle_sigma_udeg(var_mm2, st->cfg.arm_um, st->iw.tan_q32[axis]);
 }
 
+int32_t attitude_extra_sd(const struct attitude_state *st, fix_q32_t var_mm2, unsigned axis) {
+    fix_q32_t t = st->iw.tan_q32[axis];
+    if (st->cal_spread) {
+        /* the slope 3 sd of y nearer 0 (where atan is steepest): a calibration error of
+         * tens of mm moves the estimate by tens of degrees, and the slope at the estimate
+         * would under-state how far the truth may be (docs/estimator-design.md
+         * "Calibration"); sqrt(Q32 mm²) is Q16 mm, as a Q32 slope · 2^16 / a mm, with the
+         * window's reciprocal of a (2^(31 + shift) / a mm) */
+        const struct angles_arm *arm = &st->window.arm;
+        const int64_t s3 = fix_mul_shr_s64((int64_t)fix_isqrt_u64((uint64_t)var_mm2) * 3,
+                                           (int64_t)arm->inv, 15u + arm->shift, NULL);
+        const fix_q32_t mag = t < 0 ? -t : t;
+        const fix_q32_t near = mag > s3 ? mag - s3 : 0;
+        t = t < 0 ? -near : near;
+    }
+    return fix_angle_sigma_udeg(var_mm2, st->cfg.arm_um, t);
+}
+
 /*
  * The integrity of one estimate (docs/estimator-design.md "Integrity"): the why set from
  * the window's facts and the estimator's own counts and reason, the sd from the

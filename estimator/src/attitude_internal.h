@@ -42,6 +42,11 @@ void attitude_settle(const struct attitude_state *st, struct attitude_estimate *
  * (axis 0: α, 1: β). */
 int32_t attitude_angle_sd(const struct attitude_state *st, fix_q32_t var_mm2, unsigned axis);
 
+/* attitude_angle_sd() of what the window adds to an axis (drift, prior, rounding, the
+ * calibration, ...): with a calibration sd (st->cal_spread) at the slope 3 of its sd
+ * nearer 0, so that the tens of degrees an uncalibrated head can be off stay covered. */
+int32_t attitude_extra_sd(const struct attitude_state *st, fix_q32_t var_mm2, unsigned axis);
+
 /* White variance (Q32 mm²) of the window's least-squares distance x̄. */
 fix_q32_t attitude_window_white_dist(const struct attitude_state *st);
 

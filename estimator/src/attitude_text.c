@@ -34,6 +34,9 @@ const char *attitude_error_message(int err) {
                "1..16 x 256, drift_shift 1..8, period_us 1000..10000000)";
     case ATTITUDE_ERR_BUFFER:
         return "buffer too small";
+    case ATTITUDE_ERR_CALIBRATION:
+        return "a calibration value out of range (|offset| and offset sd <= 100 mm, |gain - 1| "
+               "and gain sd <= 10 %)";
     default:
         return "unknown attitude error";
     }
@@ -140,6 +143,9 @@ int attitude_why_format(attitude_why_t why, char *buf, size_t cap) {
         if ((why & (ATTITUDE_WHY_PARITY << b)) != 0u) {
             fits = why_append(buf, cap, &len, window[b], '\0');
         }
+    }
+    if ((why & ATTITUDE_WHY_UNCALIBRATED) != 0u && fits) {
+        fits = why_append(buf, cap, &len, "uncalibrated", '\0');
     }
     if (fits && (why & ATTITUDE_WHY_RECALIBRATE) != 0u) {
         fits = why_append(buf, cap, &len, "recalibrate", '\0');

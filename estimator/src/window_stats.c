@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "fix_inline.h"
+#include "window_cal.h"
 
 _Static_assert(WINDOW_MAX_SAMPLES >= 255u, "the issue asks for windows of at least 255 rows");
 _Static_assert(WINDOW_MAX_SAMPLES <= 1024u, "exact 64-bit sums of angle products need N <= 1024");
@@ -28,6 +29,17 @@ int window_init(struct window_state *w, const struct window_config *cfg) {
     }
     w->cfg = *cfg;
     angles_arm_prepare(&w->arm, cfg->arm_um);
+    for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
+        /* µm as fine units: · 1024/1000; 1/gain − 1 = −ppm/(10^6 + ppm), in Q32 (|.| < 2^31
+         * for gains within ±10 %); all exactly 0 for an identity calibration */
+        w->cal_offset_fine[k] = (int32_t)fix_div_round_s64((int64_t)cfg->offset_um[k] * 128, 125);
+        w->cal_inv_gain_q32[k] = (int32_t)fix_muldiv_s64(-(int64_t)cfg->gain_ppm[k], FIX_Q32_ONE,
+                                                         1000000 + (int64_t)cfg->gain_ppm[k], NULL);
+        const int64_t r = w->cal_inv_gain_q32[k]; /* (1 + r)² − 1 = 2r + r² */
+        w->cal_inv_gain2_q32[k] = 2 * r + fix_mul_shr_s64(r, r, FIX_Q32_SHIFT, NULL);
+        w->newest_fine[k] = 0;
+        w->newest_mm[k] = 0;
+    }
     window_clear(w);
     return WINDOW_OK;
 }
@@ -46,11 +58,11 @@ static uint16_t count_step(uint16_t count, int32_t sign) {
 /* A complete row (all four readings used): the six distinct angles, their sums and
  * the 20 distinct products. sign −1 removes the row: the first factor of every product
  * is negated, so exactly what was added is subtracted. */
-static void contrib_complete(struct window_sums *s, const uint16_t x[ANGLES_SENSORS],
+static void contrib_complete(struct window_sums *s, const int32_t x[ANGLES_SENSORS],
                              const struct angles_arm *arm, int32_t sign) {
     fix_udeg_t al[ANGLES_PER_AXIS];
     fix_udeg_t b5;
-    angles_compute_all(x, arm, al, &b5);
+    angles_compute_all_fine(x, arm, al, &b5);
     const int32_t a1 = al[0];
     const int32_t a2 = al[1];
     const int32_t a3 = al[2];
@@ -92,16 +104,15 @@ static void contrib_complete(struct window_sums *s, const uint16_t x[ANGLES_SENS
     s->alpha_sum[4] += s5;
     s->beta5_sum += sb5;
     s->complete = count_step(s->complete, sign);
-    const int32_t residual =
-        (int32_t)x[ANGLES_A] + (int32_t)x[ANGLES_C] - (int32_t)x[ANGLES_B] - (int32_t)x[ANGLES_D];
-    s->residual_sum_mm += (int64_t)sign * residual;
+    const int32_t residual = x[ANGLES_A] + x[ANGLES_C] - x[ANGLES_B] - x[ANGLES_D];
+    s->residual_sum_fine += (int64_t)sign * residual;
 }
 
 /* An incomplete row: the valid angles into the per-angle sums only. */
-static void contrib_partial(struct window_sums *s, const uint16_t x[ANGLES_SENSORS], uint8_t mask,
+static void contrib_partial(struct window_sums *s, const int32_t x[ANGLES_SENSORS], uint8_t mask,
                             const struct angles_arm *arm, int32_t sign) {
     struct angles_sample a;
-    angles_compute_prepared(x, mask, arm, &a);
+    angles_compute_prepared_fine(x, mask, arm, &a);
     for (unsigned i = 0; i < ANGLES_PER_AXIS; ++i) {
         if ((a.alpha_valid & (1u << i)) != 0u) {
             s->partial_alpha_sum[i] += (int64_t)sign * a.alpha_udeg[i];
@@ -114,9 +125,11 @@ static void contrib_partial(struct window_sums *s, const uint16_t x[ANGLES_SENSO
     }
 }
 
-/* Adds (sign +1) or removes (sign −1) the readings of row selected by mask. */
-static void contrib(struct window_sums *s, const struct window_row *row, uint8_t mask,
-                    const struct angles_arm *arm, int32_t sign) {
+/* Adds (sign +1) or removes (sign −1) the readings of row selected by mask (x: the row's
+ * corrected readings, window_correct). */
+static void contrib(struct window_sums *s, const struct window_row *row,
+                    const int32_t xf[ANGLES_SENSORS], uint8_t mask, const struct angles_arm *arm,
+                    int32_t sign) {
     if (mask == 0u) {
         return;
     }
@@ -138,7 +151,7 @@ static void contrib(struct window_sums *s, const struct window_row *row, uint8_t
         s->count[1]++;
         s->count[2]++;
         s->count[3]++;
-        contrib_complete(s, x, arm, sign);
+        contrib_complete(s, xf, arm, sign);
         return;
     }
     for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
@@ -150,9 +163,9 @@ static void contrib(struct window_sums *s, const struct window_row *row, uint8_t
         }
     }
     if ((mask & ANGLES_ALL_SENSORS) == ANGLES_ALL_SENSORS) {
-        contrib_complete(s, row->range_mm, arm, sign);
+        contrib_complete(s, xf, arm, sign);
     } else {
-        contrib_partial(s, row->range_mm, mask, arm, sign);
+        contrib_partial(s, xf, mask, arm, sign);
     }
 }
 
@@ -160,7 +173,9 @@ struct window_row *window_push(struct window_state *w, const uint16_t range_mm[A
                                uint8_t present_mask, uint8_t valid_mask) {
     if (w->fill >= w->cfg.length) {
         const struct window_row *old = &w->ring[w->oldest];
-        contrib(&w->sums, old, window_row_valid(old), &w->arm, -1);
+        int32_t xo[ANGLES_SENSORS];
+        window_correct(w, old->range_mm, xo);
+        contrib(&w->sums, old, xo, window_row_valid(old), &w->arm, -1);
         w->oldest = (uint16_t)((w->oldest + 1u) % w->cfg.length);
         w->fill--;
     }
@@ -172,7 +187,8 @@ struct window_row *window_push(struct window_state *w, const uint16_t range_mm[A
     row->masks = (uint8_t)(present | (uint8_t)(valid << 4));
     row->aux = 0;
     w->fill++;
-    contrib(&w->sums, row, valid, &w->arm, +1);
+    window_correct_newest(w, range_mm);
+    contrib(&w->sums, row, w->newest_fine, valid, &w->arm, +1);
     return row;
 }
 
@@ -539,8 +555,10 @@ void window_compute(struct window_state *w, struct window_stats *out) {
         if (rejected != 0u) {
             /* exact: remove the row as it was added, add back what survives */
             const uint8_t valid = window_row_valid(row);
-            contrib(g, row, valid, &w->arm, -1);
-            contrib(g, row, (uint8_t)(valid ^ (valid & rejected)), &w->arm, +1);
+            int32_t xr[ANGLES_SENSORS];
+            window_correct(w, row->range_mm, xr);
+            contrib(g, row, xr, valid, &w->arm, -1);
+            contrib(g, row, xr, (uint8_t)(valid ^ (valid & rejected)), &w->arm, +1);
         }
     }
 
@@ -560,11 +578,14 @@ void window_compute(struct window_state *w, struct window_stats *out) {
             ss->var_mm2 = fix_s128_div_s64(fix_s128_shl(num, FIX_Q32_SHIFT),
                                            (int64_t)n * ((int64_t)n - 1), NULL);
         }
+        correct_stats(w, k, ss);
     }
     out->complete = g->complete;
     both_axes(g, out);
     if (g->complete > 0u) {
         out->residual_valid = true;
-        out->residual_um = fix_sat_s32(fix_div_round_s64(g->residual_sum_mm * 1000, g->complete));
+        /* fine units as µm: · 1000/1024 = · 125/128 (exact for whole-mm readings) */
+        out->residual_um =
+            fix_sat_s32(fix_div_round_s64(g->residual_sum_fine * 125, 128 * (int64_t)g->complete));
     }
 }

@@ -463,6 +463,7 @@ static int run_scenario(const struct scenario *sc, uint64_t first_seed, unsigned
         }
         struct attitude_config acfg;
         attitude_config_default(&acfg);
+        acfg.calibration.calibrated = true; /* ideal sensors: an exact calibration */
         acfg.arm_um = (int32_t)lround(cfg.arm_mm * 1000.0);
         acfg.window = (uint16_t)cfg.samples_per_position;
         if (offset_prior_um >= 0) { /* the sd table's second pass: another prior */

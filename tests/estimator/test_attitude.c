@@ -16,6 +16,7 @@
 #include "test_rand.h"
 
 #include "estimator/attitude.h"
+#include "test_calibration.h"
 
 #define TEST_PI 3.14159265358979323846
 
@@ -52,6 +53,7 @@ static bool push_noisy(struct attitude_state *s, const double x[4], double sd,
 static void init_default(uint16_t n, enum attitude_window_mode mode) {
     struct attitude_config cfg;
     attitude_config_default(&cfg);
+    test_calibration_exact(&cfg.calibration); /* ideal sensors: an exact calibration */
     cfg.window = n;
     cfg.mode = mode;
     assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_NONE);
@@ -61,6 +63,7 @@ static void test_config_errors(void **state) {
     (void)state;
     struct attitude_config cfg;
     attitude_config_default(&cfg);
+    test_calibration_exact(&cfg.calibration); /* ideal sensors: an exact calibration */
     assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_NONE);
     assert_int_equal(attitude_init(NULL, &cfg), ATTITUDE_ERR_NULL);
     cfg.arm_um = 999;
@@ -68,25 +71,31 @@ static void test_config_errors(void **state) {
     assert_string_equal(attitude_error_message(ATTITUDE_ERR_ARM),
                         "arm_um outside [1000, 1000000] um");
     attitude_config_default(&cfg);
+    test_calibration_exact(&cfg.calibration); /* ideal sensors: an exact calibration */
     cfg.window = 1;
     assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_WINDOW);
     cfg.window = ATTITUDE_WINDOW_MAX + 1;
     assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_WINDOW);
     attitude_config_default(&cfg);
+    test_calibration_exact(&cfg.calibration); /* ideal sensors: an exact calibration */
     cfg.mode = (enum attitude_window_mode)7;
     assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_MODE);
     attitude_config_default(&cfg);
+    test_calibration_exact(&cfg.calibration); /* ideal sensors: an exact calibration */
     cfg.estimators = 0;
     assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_ESTIMATORS);
     cfg.estimators = 0x10;
     assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_ESTIMATORS);
     attitude_config_default(&cfg);
+    test_calibration_exact(&cfg.calibration); /* ideal sensors: an exact calibration */
     cfg.consensus_tolerance_udeg = 0;
     assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_TOLERANCE);
     attitude_config_default(&cfg);
+    test_calibration_exact(&cfg.calibration); /* ideal sensors: an exact calibration */
     cfg.paper_max_iterations = 0;
     assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_PAPER_ITERATIONS);
     attitude_config_default(&cfg);
+    test_calibration_exact(&cfg.calibration); /* ideal sensors: an exact calibration */
     cfg.kalman_initial_noise_um2[3] = 0;
     assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_KALMAN_MEASUREMENT_NOISE);
     cfg.kalman_initial_noise_um2[3] = 83333; /* below 1/12 mm² */
@@ -94,9 +103,11 @@ static void test_config_errors(void **state) {
     cfg.kalman_initial_noise_um2[3] = 83334;
     assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_NONE);
     attitude_config_default(&cfg);
+    test_calibration_exact(&cfg.calibration); /* ideal sensors: an exact calibration */
     cfg.kalman_warmup_rows = 0;
     assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_KALMAN_WARMUP);
     attitude_config_default(&cfg);
+    test_calibration_exact(&cfg.calibration); /* ideal sensors: an exact calibration */
     cfg.kalman_noise_shift = 9;
     assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_KALMAN_NOISE_SHIFT);
     for (int e = 0; e >= ATTITUDE_ERR_NULL; --e) {
@@ -530,6 +541,7 @@ static void test_deterministic(void **state) {
     (void)state;
     struct attitude_config cfg;
     attitude_config_default(&cfg);
+    test_calibration_exact(&cfg.calibration); /* ideal sensors: an exact calibration */
     cfg.window = 25;
     cfg.mode = ATTITUDE_SLIDING;
     assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_NONE);
@@ -554,6 +566,7 @@ static void test_disabled_estimators(void **state) {
     (void)state;
     struct attitude_config cfg;
     attitude_config_default(&cfg);
+    test_calibration_exact(&cfg.calibration); /* ideal sensors: an exact calibration */
     cfg.window = 10;
     cfg.estimators = ATTITUDE_EST_BIT(ATTITUDE_EST_MEAN);
     assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_NONE);

@@ -16,6 +16,7 @@
 #include <cmocka.h>
 
 #include "estimator/attitude.h"
+#include "test_calibration.h"
 
 #define TEST_PI 3.14159265358979323846
 #define FLIGHT_SET                                                                                 \
@@ -30,6 +31,7 @@ static void test_default_selects_the_built_set(void **state) {
     (void)state;
     struct attitude_config cfg;
     attitude_config_default(&cfg);
+    test_calibration_exact(&cfg.calibration); /* ideal sensors: an exact calibration */
     assert_int_equal(cfg.estimators, FLIGHT_SET);
     assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_NONE);
 }
@@ -38,6 +40,7 @@ static void test_unbuilt_estimator_refused(void **state) {
     (void)state;
     struct attitude_config cfg;
     attitude_config_default(&cfg);
+    test_calibration_exact(&cfg.calibration); /* ideal sensors: an exact calibration */
     const uint8_t refused[] = {ATTITUDE_EST_ALL, ATTITUDE_EST_BIT(ATTITUDE_EST_PAPER),
                                ATTITUDE_EST_BIT(ATTITUDE_EST_MEAN),
                                (uint8_t)(FLIGHT_SET | ATTITUDE_EST_BIT(ATTITUDE_EST_MEAN))};
@@ -57,6 +60,7 @@ static void test_built_estimators_run_others_disabled(void **state) {
     (void)state;
     struct attitude_config cfg;
     attitude_config_default(&cfg);
+    test_calibration_exact(&cfg.calibration); /* ideal sensors: an exact calibration */
     assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_NONE);
     const double ta = tan(2.0 * TEST_PI / 180), tb = tan(-1.5 * TEST_PI / 180);
     const double x[4] = {400 - 30 * ta, 400 + 30 * tb, 400 + 30 * ta, 400 - 30 * tb};
@@ -99,6 +103,7 @@ static void test_process_noise_tracks_a_step(void **state) {
     (void)state;
     struct attitude_config cfg;
     attitude_config_default(&cfg);
+    test_calibration_exact(&cfg.calibration); /* ideal sensors: an exact calibration */
     cfg.kalman_process_noise_um2[0] = 10000u; /* 0.01 mm² per row */
     cfg.kalman_process_noise_um2[1] = 10000u;
     cfg.kalman_process_noise_um2[2] = 10000u;

@@ -18,6 +18,7 @@
 #include <cmocka.h>
 
 #include "estimator/attitude.h"
+#include "test_calibration.h"
 #include "test_rand.h"
 
 #define TEST_PI 3.14159265358979323846
@@ -57,6 +58,7 @@ static double drift_share(unsigned n, double sigma, double wander_mm, uint64_t s
     rng.state = seed;
     struct attitude_config cfg;
     attitude_config_default(&cfg);
+    test_calibration_exact(&cfg.calibration); /* ideal sensors: an exact calibration */
     cfg.window = (uint16_t)n;
     cfg.mode = mode;
     cfg.estimators = ATTITUDE_EST_BIT(ATTITUDE_EST_CONSENSUS);

@@ -20,6 +20,7 @@
 #include <cmocka.h>
 
 #include "estimator/attitude.h"
+#include "test_calibration.h"
 #include "test_rand.h"
 
 #define TEST_PI   3.14159265358979323846
@@ -75,6 +76,8 @@ static struct tally run(enum attitude_window_mode mode, double rate, double sigm
     rng.state = seed;
     struct attitude_config cfg;
     attitude_config_default(&cfg);
+    test_calibration_exact(
+        &cfg.calibration); /* calibrated at the start: the walk is what follows */
     cfg.mode = mode;
     cfg.period_us = PERIOD_US;
     cfg.estimators = ATTITUDE_EST_BIT(ATTITUDE_EST_CONSENSUS);
@@ -162,6 +165,7 @@ static void test_walk_fixed_point(void **state) {
     for (unsigned p = 0; p < 2u; ++p) {
         struct attitude_config cfg;
         attitude_config_default(&cfg);
+        test_calibration_exact(&cfg.calibration);
         cfg.period_us = periods[p];
         cfg.estimators = ATTITUDE_EST_BIT(ATTITUDE_EST_CONSENSUS);
         assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_NONE);

@@ -17,6 +17,7 @@
 #include <cmocka.h>
 
 #include "estimator/attitude.h"
+#include "test_calibration.h"
 
 #define TEST_PI 3.14159265358979323846
 #define N       100
@@ -56,6 +57,7 @@ static const bool all_present[4] = {true, true, true, true};
 static void init(enum attitude_window_mode mode) {
     struct attitude_config cfg;
     attitude_config_default(&cfg);
+    test_calibration_exact(&cfg.calibration); /* ideal sensors: an exact calibration */
     cfg.window = N;
     cfg.mode = mode;
     assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_NONE);
@@ -157,11 +159,12 @@ static void test_why_format(void **state) {
     assert_string_equal(buf,
                         "range:B+flagged:C+missing:D+rejected:A+motion+drift+kalman-restarted");
     /* every bit at once fits the documented maximum; one byte less does not */
-    const attitude_why_t all = (((attitude_why_t)1u << 23u) - 1u) | ATTITUDE_WHY_RECALIBRATE |
+    const attitude_why_t all = (((attitude_why_t)1u << 23u) - 1u) | ATTITUDE_WHY_UNCALIBRATED |
+                               ATTITUDE_WHY_RECALIBRATE |
                                (((((attitude_why_t)1u << (ATTITUDE_REASON_COUNT - 1u)) - 1u))
                                 << (ATTITUDE_WHY_REASON_SHIFT + 1u));
     const int len = attitude_why_format(all, buf, sizeof buf);
-    assert_int_equal(len + 1, (int)ATTITUDE_WHY_TEXT_MAX - 2); /* 554: two bytes to spare */
+    assert_int_equal(len + 1, (int)ATTITUDE_WHY_TEXT_MAX - 2); /* 567: two bytes to spare */
     assert_int_equal(attitude_why_format(all, buf, (size_t)len), ATTITUDE_ERR_BUFFER);
     assert_string_equal(buf, "");
     assert_int_equal(attitude_why_format(1u, NULL, 4), ATTITUDE_ERR_NULL);
@@ -171,15 +174,19 @@ static void test_integrity_config_checked(void **state) {
     (void)state;
     struct attitude_config cfg;
     attitude_config_default(&cfg);
-    cfg.range_max_mm = 8190; /* a no-target value cannot be a range */
+    test_calibration_exact(&cfg.calibration); /* ideal sensors: an exact calibration */
+    cfg.range_max_mm = 8190;                  /* a no-target value cannot be a range */
     assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_INTEGRITY);
     attitude_config_default(&cfg);
+    test_calibration_exact(&cfg.calibration); /* ideal sensors: an exact calibration */
     cfg.parity_sigmas_q8 = 255;
     assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_INTEGRITY);
     attitude_config_default(&cfg);
+    test_calibration_exact(&cfg.calibration); /* ideal sensors: an exact calibration */
     cfg.motion_sigmas_q8 = 0;
     assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_INTEGRITY);
     attitude_config_default(&cfg);
+    test_calibration_exact(&cfg.calibration); /* ideal sensors: an exact calibration */
     cfg.drift_shift = 9;
     assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_INTEGRITY);
     assert_true(strlen(attitude_error_message(ATTITUDE_ERR_INTEGRITY)) > 0);
@@ -552,6 +559,7 @@ static void test_drift_learnt(void **state) {
     rs = DRIFT_SEED; /* its own noise, whatever ran before */
     struct attitude_config cfg;
     attitude_config_default(&cfg);
+    test_calibration_exact(&cfg.calibration); /* ideal sensors: an exact calibration */
     cfg.window = N;
     cfg.drift_flag_um = 300;
     assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_NONE);

@@ -308,8 +308,9 @@ static void check_estimate(const struct attitude_output *out, enum attitude_esti
     FUZZ_CHECK(e->beta_valid ? e->beta_sd_udeg >= 1 : e->beta_sd_udeg == 0);
     FUZZ_CHECK(e->distance_valid ? e->distance_sd_um >= 1 : e->distance_sd_um == 0);
     FUZZ_CHECK(e->alpha_sd_udeg >= e->alpha_sigma_udeg && e->beta_sd_udeg >= e->beta_sigma_udeg);
-    const attitude_why_t window_bits =
-        ATTITUDE_WHY_PARITY | ATTITUDE_WHY_MOTION | ATTITUDE_WHY_DRIFT | ATTITUDE_WHY_RECALIBRATE;
+    const attitude_why_t window_bits = ATTITUDE_WHY_PARITY | ATTITUDE_WHY_MOTION |
+                                       ATTITUDE_WHY_DRIFT | ATTITUDE_WHY_RECALIBRATE |
+                                       ATTITUDE_WHY_UNCALIBRATED;
     switch (e->status) {
     case ATTITUDE_OK:
         FUZZ_CHECK(e->reason == ATTITUDE_REASON_NONE);

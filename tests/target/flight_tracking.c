@@ -43,6 +43,8 @@ static uint16_t dithered(int32_t whole, int32_t frac_e4, unsigned row, unsigned 
 static int32_t run_step(uint32_t q_um2, bool automatic, int32_t *before) {
     struct attitude_config cfg;
     attitude_config_default(&cfg);
+    cfg.calibration.calibrated =
+        true; /* ideal sensors: an exact calibration (offsets 0, gains 1, sd 0) */
     cfg.mode = ATTITUDE_SLIDING;
     for (unsigned i = 0; i < KALMAN_STATES; ++i) {
         cfg.kalman_process_noise_um2[i] = q_um2;

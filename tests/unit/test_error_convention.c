@@ -92,11 +92,11 @@ static void test_blocks_are_disjoint(void **state) {
     for (int code = -1; code >= HAL_ERR_LAST; --code) {
         assert_string_equal(attitude_error_message(code), unknown_attitude);
     }
-    for (int code = ATTITUDE_ERR_ARM; code >= ATTITUDE_ERR_BUFFER; --code) {
+    for (int code = ATTITUDE_ERR_ARM; code >= ATTITUDE_ERR_CALIBRATION; --code) {
         assert_string_not_equal(attitude_error_message(code), unknown_attitude);
         assert_string_equal(hal_err_name(code), "UNKNOWN");
     }
-    assert_string_equal(attitude_error_message(ATTITUDE_ERR_BUFFER - 1), unknown_attitude);
+    assert_string_equal(attitude_error_message(ATTITUDE_ERR_CALIBRATION - 1), unknown_attitude);
     const int estimator_codes[] = {WINDOW_ERR_ARM,           WINDOW_ERR_LENGTH,
                                    KALMAN_ERR_PROCESS_NOISE, KALMAN_ERR_MEASUREMENT_NOISE,
                                    KALMAN_ERR_WARMUP,        KALMAN_ERR_NOISE_SHIFT};
@@ -113,7 +113,7 @@ static void test_app_names_a_code_by_its_block(void **state) {
     for (int code = -1; code >= HAL_ERR_LAST; --code) {
         assert_string_equal(tof_app_error_message(&app, code), hal_err_name(code));
     }
-    for (int code = ATTITUDE_ERR_ARM; code >= ATTITUDE_ERR_BUFFER; --code) {
+    for (int code = ATTITUDE_ERR_ARM; code >= ATTITUDE_ERR_CALIBRATION; --code) {
         assert_string_equal(tof_app_error_message(&app, code), attitude_error_message(code));
     }
     assert_string_equal(tof_app_error_message(&app, HAL_OK), "OK");

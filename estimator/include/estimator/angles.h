@@ -43,6 +43,14 @@ enum angles_sensor { ANGLES_A = 0, ANGLES_B = 1, ANGLES_C = 2, ANGLES_D = 3 };
 #define ANGLES_ARM_MIN_UM 1000
 #define ANGLES_ARM_MAX_UM 1000000
 
+/* Fine units of the corrected readings (issue 23): 2^-10 mm, under a micrometre, so a
+ * calibrated reading keeps its fraction of a millimetre through the angles and the sums.
+ * Whole millimetres are exactly x · ANGLES_FINE_ONE, and every angle of them is the one
+ * the millimetre functions give. Readings up to 65535 mm after a correction of up to
+ * ±10 % and ±100 mm stay below 2^27 fine units. */
+#define ANGLES_FINE_SHIFT 10u
+#define ANGLES_FINE_ONE   1024
+
 /* Sensors each α_i (β_i) uses, as sensor masks, index 0..4 = estimate 1..5. */
 extern const uint8_t angles_alpha_sensors[ANGLES_PER_AXIS];
 extern const uint8_t angles_beta_sensors[ANGLES_PER_AXIS];
@@ -68,8 +76,9 @@ bool angles_arm_valid(int32_t arm_um);
  * division and a CORDIC. */
 struct angles_arm {
     int32_t arm_um;
-    uint32_t inv;   /* round(2^(31 + shift) · 1000 / arm_um), in [2^31, 2^32) */
-    uint32_t shift; /* 1..10: |d| · inv / 2^shift is the slope |d| / a in Q31 */
+    uint32_t inv;        /* round(2^(31 + shift) · 1000 / arm_um), in [2^31, 2^32) */
+    uint32_t shift;      /* 1..10: |d| · inv / 2^shift is the slope |d| / a in Q31 */
+    uint32_t fine_shift; /* shift + ANGLES_FINE_SHIFT: the same for d in fine units */
 };
 
 /* Prepares arm_um (which must satisfy angles_arm_valid()) for angles_compute_prepared(). */
@@ -86,6 +95,15 @@ void angles_compute(const uint16_t range_mm[ANGLES_SENSORS], uint8_t sensor_mask
 /* angles_compute() with a prepared arm: identical results, no division. */
 void angles_compute_prepared(const uint16_t range_mm[ANGLES_SENSORS], uint8_t sensor_mask,
                              const struct angles_arm *arm, struct angles_sample *out);
+
+/* angles_compute_prepared() of readings in fine units (|x| < 2^27); flatness_mm is the
+ * residual rounded down to whole mm. */
+void angles_compute_prepared_fine(const int32_t x[ANGLES_SENSORS], uint8_t sensor_mask,
+                                  const struct angles_arm *arm, struct angles_sample *out);
+
+/* angles_compute_all() of readings in fine units (|x| < 2^27). */
+void angles_compute_all_fine(const int32_t x[ANGLES_SENSORS], const struct angles_arm *arm,
+                             fix_udeg_t alpha_udeg[ANGLES_PER_AXIS], fix_udeg_t *beta5_udeg);
 
 /* α1..α5 and β5 of a sample whose four readings are all valid (β1..β4 are ±α:
  * β1 = −α2, β2 = α4, β3 = α1, β4 = −α3), as angles_compute_prepared() gives them. */

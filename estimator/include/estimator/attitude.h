@@ -66,7 +66,7 @@ enum attitude_status {
 };
 
 /* Longest text attitude_why_format() can write, terminator included (every bit set). */
-#define ATTITUDE_WHY_TEXT_MAX 556u
+#define ATTITUDE_WHY_TEXT_MAX 569u
 
 /* Errors of attitude_init, one per configuration field (negative), in the attitude
  * block -64..-79 of the one error convention (docs/errors.md). */
@@ -85,8 +85,10 @@ enum attitude_error {
     ATTITUDE_ERR_KALMAN_WARMUP = -72,            /* kalman_warmup_rows outside 1..8 */
     ATTITUDE_ERR_KALMAN_NOISE_SHIFT = -73,       /* kalman_noise_shift above 8 */
     ATTITUDE_ERR_NULL = -74,                     /* a NULL pointer */
-    ATTITUDE_ERR_INTEGRITY = -75, /* an integrity field out of range (estimator/integrity.h) */
-    ATTITUDE_ERR_BUFFER = -76,    /* attitude_why_format: the buffer is too small */
+    ATTITUDE_ERR_INTEGRITY = -75,   /* an integrity field out of range (estimator/integrity.h) */
+    ATTITUDE_ERR_BUFFER = -76,      /* attitude_why_format: the buffer is too small */
+    ATTITUDE_ERR_CALIBRATION = -77, /* a calibrated head's offset, gain or sd beyond the
+                                       bounds of estimator/calibration.h */
 };
 
 struct attitude_config {
@@ -119,7 +121,12 @@ struct attitude_config {
     uint32_t offset_walk_um2_h;   /* prior random-walk rate of each sensor's offset, µm² per
                                      hour (0: none): the unseen drift's growth */
     /* The head's calibration (estimator/calibration.h), applied to every reading before
-     * any estimator: calibrated false is an uncalibrated head, never `ok`. */
+     * any estimator: calibrated false is an uncalibrated head, never `ok` (why
+     * `uncalibrated`; offset 0, gain 1, the parts' spread CALIBRATION_UNCAL_* in every
+     * sd, and its other fields ignored). Read by attitude_init() only: a new calibration
+     * takes effect through a new attitude_init(). Checked when calibrated: |offset_um|
+     * and offset_sd_um <= CALIBRATION_OFFSET_MAX_UM, |gain_ppm| and gain_sd_ppm <=
+     * CALIBRATION_GAIN_MAX_PPM (else ATTITUDE_ERR_CALIBRATION). */
     struct calibration_head calibration;
 };
 
@@ -182,6 +189,7 @@ struct attitude_state {
     struct integrity_state integrity; /* learnt drift */
     struct integrity_window iw;       /* scratch: the last window's integrity facts */
     int32_t extra_udeg[2];            /* ... what they add to α and β, as 1σ in µdeg */
+    bool cal_spread; /* the calibration leaves an sd (uncalibrated, or a stated sd) */
 };
 
 /* Integrity defaults (sources in docs/estimator-design.md "Integrity"):
@@ -213,7 +221,8 @@ struct attitude_state {
  * consistency 1.5σ (a paper value merely noisier than the efficient product differs
  * from it by sqrt(var_paper − var_product) ≈ 0.3σ (Hausman), so 1.5σ + tol flags only
  * values the paper's weights pulled off), MAD gate 5σ with a 3 mm floor, Kalman Q = 0,
- * R = (2 mm)² (the paper's jitter), innovation gate 5σ, 5 warm-up rows, noise shift 2.
+ * R = (2 mm)² (the paper's jitter), innovation gate 5σ, 5 warm-up rows, noise shift 2,
+ * and no calibration: an uncalibrated head, never `ok` (set .calibration to fly).
  */
 #define ATTITUDE_CONFIG_DEFAULT                                                                    \
     {                                                                                              \
@@ -230,6 +239,7 @@ struct attitude_state {
         .drift_flag_um = ATTITUDE_DRIFT_FLAG_UM_DEFAULT, .drift_shift = 4,                         \
         .period_us = ATTITUDE_PERIOD_US_DEFAULT,                                                   \
         .offset_walk_um2_h = ATTITUDE_OFFSET_WALK_UM2_H_DEFAULT,                                   \
+        .calibration = {.calibrated = false},                                                      \
     }
 
 /* Fills cfg with ATTITUDE_CONFIG_DEFAULT. */
@@ -263,7 +273,7 @@ const char *attitude_reason_name(enum attitude_reason r);
 /*
  * Writes the names of the reasons in `why`, joined by '+', into buf (cap bytes,
  * always NUL-terminated): per-sensor names first (no-target:A .. rejected:D), then
- * parity, motion, drift, then the attitude_reason names; "" when why is empty.
+ * parity, motion, drift, uncalibrated, then the attitude_reason names; "" when why is empty.
  * Returns the length written, or ATTITUDE_ERR_BUFFER (buf then holds "") when cap is
  * too small (ATTITUDE_WHY_TEXT_MAX always suffices), ATTITUDE_ERR_NULL for a NULL buf.
  */

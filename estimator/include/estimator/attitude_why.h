@@ -46,6 +46,9 @@ enum attitude_reason {
  *                what their sd allows; the sd then covers that disagreement in any one
  *   motion       the plate moved inside the window (a step or ramp): the sd includes it
  *   drift        the learnt drift of the sensors' offsets exceeds drift_flag_um
+ *   uncalibrated the head has no calibration (attitude_config.calibration.calibrated
+ *                false): offset 0 and gain 1 assumed, the parts' spread in the sd, never
+ *                ok (issue 23)
  *   recalibrate  the drift the parity shows exceeds the allowance since the start
  *                (offset stability plus the prior walk): the calibration no longer holds
  * and one bit per enum attitude_reason value r, ATTITUDE_WHY_REASON(r) (NONE has none;
@@ -61,6 +64,7 @@ typedef uint64_t attitude_why_t;
 #define ATTITUDE_WHY_PARITY       ((attitude_why_t)1u << 20u)
 #define ATTITUDE_WHY_MOTION       ((attitude_why_t)1u << 21u)
 #define ATTITUDE_WHY_DRIFT        ((attitude_why_t)1u << 22u)
+#define ATTITUDE_WHY_UNCALIBRATED ((attitude_why_t)1u << 23u)
 #define ATTITUDE_WHY_RECALIBRATE  ((attitude_why_t)1u << 24u)
 #define ATTITUDE_WHY_REASON_SHIFT 32u
 #define ATTITUDE_WHY_REASON(r)    ((attitude_why_t)1u << (ATTITUDE_WHY_REASON_SHIFT + (unsigned)(r)))

@@ -68,6 +68,14 @@ struct integrity_config {
     uint8_t drift_shift;          /* learning gain 2^-shift per block, after a start-up mean */
     uint32_t period_us;           /* row period: the time since the start is rows × period */
     uint32_t offset_walk_um2_h;   /* prior random-walk rate of each offset, µm²/h */
+    /* What the head's calibration leaves, per sensor (estimator/calibration.h; the parts'
+     * spread for an uncalibrated head): 1σ of its offset and gain errors and their
+     * correlation. Each sensor mean's variance carries them at its distance. */
+    int32_t cal_offset_um[ANGLES_SENSORS]; /* the correction (0, 0 uncalibrated): the */
+    int32_t cal_gain_ppm[ANGLES_SENSORS];  /* ring's readings are raw, the statistics not */
+    uint32_t cal_offset_sd_um[ANGLES_SENSORS];
+    uint32_t cal_gain_sd_ppm[ANGLES_SENSORS];
+    int16_t cal_corr_q15[ANGLES_SENSORS];
 };
 
 /* What is learnt across windows: the per-sensor drift variance from the parity
@@ -114,7 +122,8 @@ struct integrity_window {
                                             and parity, motion, drift */
     uint8_t used;                        /* sensors with a used reading (the window's set) */
     fix_q32_t white_mm2[ANGLES_SENSORS]; /* var of each sensor's window mean: s²/n */
-    fix_q32_t extra_mm2[ANGLES_SENSORS]; /* drift + prior + quantisation per sensor mean */
+    fix_q32_t extra_mm2[ANGLES_SENSORS]; /* drift + prior + quantisation + calibration per
+                                            sensor mean */
     fix_q32_t tan_q32[2];                /* slopes for the delta method (0 if unknown) */
     fix_q32_t parity_mm;                 /* x_A + x_C − x_B − x_D of the means (all four) */
     bool parity_failed;

@@ -19,6 +19,12 @@
  * Gaussian noise and ignores up to half the window being outliers. Rejected
  * readings are subtracted from a copy of the sums, again exactly.
  *
+ * Calibration (issue 23): the ring keeps the readings as they came (whole mm, 10 bytes a
+ * row); each row's angles and residual are computed from its readings corrected to
+ * true = (raw − offset)/gain in fine units (angles.h, 2^-10 mm), recomputed exactly the
+ * same way when the row is dropped or gated out; the per-sensor mean and variance are
+ * corrected at the window's end (the correction is affine: exact from the raw sums).
+ *
  * Which rows count: a sensor's reading is used when present, status 0 and not
  * rejected. α_i (β_i) uses the rows where both its sensors are used. The 5×5
  * covariances (what the paper's consensus needs) use the complete rows, where
@@ -56,6 +62,11 @@ struct window_config {
     uint16_t length;         /* N rows */
     uint16_t gate_sigmas_q8; /* k x 256 of the MAD gate; 0 disables the gate */
     uint16_t gate_floor_mm;  /* the gate never rejects |x − median| <= this */
+    /* The head's calibration (estimator/calibration.h: raw = gain · true + offset), applied
+     * to every reading: offset in µm and gain − 1 in ppm, within CALIBRATION_OFFSET_MAX_UM
+     * and CALIBRATION_GAIN_MAX_PPM (the caller checks). All 0: the readings as they are. */
+    int32_t offset_um[ANGLES_SENSORS];
+    int32_t gain_ppm[ANGLES_SENSORS];
 };
 
 /* One stored row: 10 bytes, so the ring of WINDOW_MAX_SAMPLES rows stays within the
@@ -89,7 +100,8 @@ struct window_sums {
     uint64_t sum_sq_mm2[ANGLES_SENSORS];
     uint16_t count[ANGLES_SENSORS];
     uint16_t complete;                   /* rows with all four readings used */
-    int64_t residual_sum_mm;             /* Σ(x_A + x_C − x_B − x_D), complete rows */
+    int64_t residual_sum_fine;           /* Σ(x_A + x_C − x_B − x_D), complete rows, fine
+                                            units of the corrected readings */
     int64_t alpha_sum[ANGLES_PER_AXIS];  /* Σα_i, complete rows */
     int64_t alpha_prod[WINDOW_PAIRS];    /* Σα_iα_j, complete rows, i <= j packed */
     int64_t beta5_sum;                   /* Σβ5, complete rows */
@@ -103,6 +115,15 @@ struct window_sums {
 struct window_state {
     struct window_config cfg;
     struct angles_arm arm; /* cfg.arm_um prepared for the per-row angles */
+    /* the calibration prepared for the per-row correction (window_correct): the offset in
+     * fine units and 1/gain − 1 in Q32, so true = d + d·r/2^32 with d = raw − offset */
+    int32_t cal_offset_fine[ANGLES_SENSORS];
+    int32_t cal_inv_gain_q32[ANGLES_SENSORS];
+    int64_t cal_inv_gain2_q32[ANGLES_SENSORS]; /* 1/gain² − 1 in Q32: the variances' */
+    int32_t newest_fine[ANGLES_SENSORS];       /* the newest row's corrected readings, fine units */
+    uint16_t newest_mm[ANGLES_SENSORS];        /* ... rounded to whole mm (0 below 0; exact for
+                                                  the readings the window uses): what a consumer
+                                                  of whole mm (the Kalman filter) takes */
     struct window_row ring[WINDOW_MAX_SAMPLES];
     uint16_t oldest;          /* ring index of the oldest row */
     uint16_t fill;            /* rows held, <= cfg.length */
@@ -110,6 +131,8 @@ struct window_state {
     struct window_sums gated; /* scratch of window_compute: sums after the gate */
 };
 
+/* Per sensor: the statistics of the corrected readings (mean, variance); the gate (median,
+ * half-width) works on the readings as they came. */
 struct window_sensor_stats {
     uint16_t used;        /* present, status 0, not rejected */
     uint16_t flagged;     /* present with a non-zero range status */
