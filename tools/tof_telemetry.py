@@ -42,7 +42,7 @@ HEADER_SIZE = 5
 CRC_SIZE = 2
 FRAME_OVERHEAD = HEADER_SIZE + CRC_SIZE
 MAX_PAYLOAD = 192
-PROTOCOL_VERSION = 3
+PROTOCOL_VERSION = 4
 
 ACCEPT_COMMANDS = 1
 ACCEPT_TELEMETRY = 2
@@ -68,7 +68,7 @@ TYPES = {
     T_RAW_SAMPLE: ("raw", ACCEPT_TELEMETRY, 17),
     T_HEALTH: ("health", ACCEPT_TELEMETRY, 148),
     T_ACK: ("ack", ACCEPT_TELEMETRY, 4),
-    T_STATUS: ("status", ACCEPT_TELEMETRY, 17),
+    T_STATUS: ("status", ACCEPT_TELEMETRY, 18),
     T_SET_WINDOW: ("set-window", ACCEPT_COMMANDS, 3),
     T_SELECT_ESTIMATOR: ("select-estimator", ACCEPT_COMMANDS, 1),
     T_START: ("start", ACCEPT_COMMANDS, 0),
@@ -99,6 +99,10 @@ MODES = ["tumbling", "sliding"]
 # The status frame's record state: what the firmware found of its saved settings at boot
 # (firmware/record.h enum tof_record_state).
 RECORD_STATES = ["none", "loaded", "corrupt", "version", "rejected", "no-storage"]
+# The status frame's calibration state: what the firmware found of the head's calibration
+# at boot (firmware/calibration_record.h enum tof_cal_state); all but applied: uncalibrated.
+CAL_STATES = ["none", "applied", "corrupt", "version", "other-head", "other-mode", "rejected",
+              "no-storage"]
 SENSORS = "ABCD"
 WINDOW_MIN, WINDOW_MAX = 2, 255
 PROCESS_NOISE_AUTO = 0x01  # set-process-noise flags; every other bit is out of range
@@ -317,14 +321,14 @@ def _ack(p):
 
 def _status(p):
     (major, minor, patch, protocol, uptime, window_n, mode, estimator, running, raw,
-     period, record) = struct.unpack("<BBBBIHBBBBHB", p)
+     period, record, cal) = struct.unpack("<BBBBIHBBBBHBB", p)
     valid = (protocol == PROTOCOL_VERSION and WINDOW_MIN <= window_n <= WINDOW_MAX
              and mode < len(MODES) and estimator < len(ESTIMATORS) and running <= 1 and raw <= 1
-             and record < len(RECORD_STATES))
+             and record < len(RECORD_STATES) and cal < len(CAL_STATES))
     return valid, {"fw": (major, minor, patch), "protocol": protocol, "uptime_ms": uptime,
                    "window_n": window_n, "mode": mode, "estimator": estimator,
                    "running": running, "raw_stream": raw, "period_ms": period,
-                   "record": record}
+                   "record": record, "calibration": cal}
 
 
 def _set_window(p):
@@ -465,11 +469,11 @@ def format_message(ftype, seq, m):
     if ftype == T_STATUS:
         return head + (
             "status fw=%d.%d.%d protocol=%d uptime_ms=%d window_n=%d mode=%s estimator=%s "
-            "running=%s raw_stream=%s period_ms=%d record=%s" % (
+            "running=%s raw_stream=%s period_ms=%d record=%s calibration=%s" % (
                 m["fw"][0], m["fw"][1], m["fw"][2], m["protocol"], m["uptime_ms"],
                 m["window_n"], MODES[m["mode"]], ESTIMATORS[m["estimator"]],
                 "yes" if m["running"] else "no", "yes" if m["raw_stream"] else "no",
-                m["period_ms"], RECORD_STATES[m["record"]]))
+                m["period_ms"], RECORD_STATES[m["record"]], CAL_STATES[m["calibration"]]))
     if ftype == T_SET_WINDOW:
         return head + "set-window window_n=%d mode=%s" % (m["window_n"], MODES[m["mode"]])
     if ftype == T_SELECT_ESTIMATOR:

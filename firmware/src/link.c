@@ -3,6 +3,7 @@
 
 #include <string.h>
 
+#include "firmware/calibration_record.h"
 #include "hal/hal_err.h"
 #include "telemetry/tlm_messages.h"
 
@@ -145,7 +146,8 @@ void tof_link_send_status(struct tof_link *link) {
         .running = st.running,
         .raw_stream = st.raw_output,
         .period_ms = (uint16_t)(st.period_us / 1000u),
-        .record = link->record_state, /* enum tof_record_state == enum tlm_record_state */
+        .record = link->record_state,   /* enum tof_record_state == enum tlm_record_state */
+        .calibration = link->cal_state, /* enum tof_cal_state == enum tlm_cal_state */
     };
     uint8_t frame[TLM_FRAME_MAX];
     send(link, frame, tlm_encode_status(link->seq, &msg, frame, sizeof frame));
@@ -274,6 +276,7 @@ void tof_link_init(struct tof_link *link, struct hal_serial serial) {
     memset(link, 0, sizeof *link);
     link->serial = serial;
     link->record_state = TOF_RECORD_NO_STORAGE;
+    link->cal_state = TOF_CAL_NO_STORAGE;
     tlm_decoder_init(&link->decoder, tlm_message_types(TLM_ACCEPT_COMMANDS));
 }
 
@@ -308,6 +311,7 @@ static void service_start(void *ctx, struct tof_app *app) {
     tof_link_bind(link, app);
     /* the settings in force: their process noise is what `save` keeps until a command */
     link->record_state = (uint8_t)tof_settings_boot(link->records, app, &link->process_noise);
+    link->cal_state = (uint8_t)tof_cal_boot(link->records, app); /* the head's calibration */
     tof_link_send_status(link);
 }
 

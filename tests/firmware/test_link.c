@@ -11,6 +11,7 @@
 #include <string.h>
 #include <cmocka.h>
 
+#include "firmware/calibration_record.h"
 #include "firmware/link.h"
 #include "hal/hal_err.h"
 #include "sim/sim_flash.h"
@@ -601,6 +602,7 @@ static void test_save_then_reset_brings_the_settings_back(void **state) {
     assert_int_equal(sim_flash_init(&saved_flash, 2u, 2048u), HAL_OK);
     boot_with_records();
     assert_int_equal(t.last_status.record, TLM_RECORD_NONE);
+    assert_int_equal(t.last_status.calibration, TLM_CAL_NONE);
     struct tlm_command cmd = {.type = TLM_TYPE_SET_WINDOW};
     cmd.u.set_window.window_n = 50u;
     cmd.u.set_window.mode = TLM_WINDOW_SLIDING;
@@ -648,6 +650,7 @@ static void test_save_then_reset_brings_the_settings_back(void **state) {
     setup(NULL);
     boot_with_records();
     assert_int_equal(t.last_status.record, TLM_RECORD_CORRUPT);
+    assert_int_equal(t.last_status.calibration, TLM_CAL_CORRUPT);
     assert_int_equal(t.last_status.window_n, 100u);
     assert_int_equal(t.last_status.mode, TLM_WINDOW_TUMBLING);
     assert_int_equal(t.app.estimator.cfg.kalman_process_noise_um2[0], 0u);
@@ -666,6 +669,35 @@ static void test_settings_the_image_refuses_fall_back_to_defaults(void **state) 
     assert_int_equal(t.last_status.mode, TLM_WINDOW_TUMBLING);
 }
 
+/* A calibration section saved on this head in this mode is in force after boot and the status
+ * frame says so; one of another mode is not, and the status frame says why. */
+static void test_a_saved_calibration_is_applied_at_boot(void **state) {
+    (void)state;
+    assert_int_equal(sim_flash_init(&saved_flash, 2u, 2048u), HAL_OK);
+    assert_int_equal(tof_record_init(&saved_store, sim_flash_hal(&saved_flash), 0u, 1u), HAL_OK);
+    const struct calibration_head cal = {.calibrated = true,
+                                         .offset_um = {1500, -800, -1200, 600},
+                                         .offset_sd_um = {30, 30, 30, 30}};
+    struct tof_cal_binding b = tof_cal_binding_of(t.app.cfg);
+    uint8_t section[TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH];
+    assert_int_equal(tof_cal_encode(&cal, false, &b, section), HAL_OK);
+    assert_int_equal(tof_section_save(&saved_store, section), HAL_OK);
+    assert_false(t.app.estimator.cfg.calibration.calibrated);
+    boot_with_records();
+    assert_int_equal(t.last_status.calibration, TLM_CAL_APPLIED);
+    assert_int_equal(t.last_status.record, TLM_RECORD_NONE); /* no settings section */
+    assert_true(t.app.estimator.cfg.calibration.calibrated);
+    assert_int_equal(t.app.estimator.cfg.calibration.offset_um[1], -800);
+
+    b.budget_ms = (uint16_t)(b.budget_ms * 2u);
+    assert_int_equal(tof_cal_encode(&cal, false, &b, section), HAL_OK);
+    assert_int_equal(tof_section_save(&saved_store, section), HAL_OK);
+    setup(NULL);
+    boot_with_records();
+    assert_int_equal(t.last_status.calibration, TLM_CAL_OTHER_MODE);
+    assert_false(t.app.estimator.cfg.calibration.calibrated);
+}
+
 static void test_save_without_storage_is_refused(void **state) {
     (void)state;
     tof_link_service_ops.start(&t.link, &t.app);
@@ -674,6 +706,7 @@ static void test_save_without_storage_is_refused(void **state) {
     run_ms(50);
     decode_output();
     assert_int_equal(t.last_status.record, TLM_RECORD_NO_STORAGE);
+    assert_int_equal(t.last_status.calibration, TLM_CAL_NO_STORAGE);
     assert_int_equal(t.nacks, 1);
     assert_int_equal(t.last_nack_result, TLM_RESULT_STATE);
     assert_int_equal(t.last_nack_error, HAL_ERR_STATE);
@@ -698,6 +731,7 @@ int main(void) {
         cmocka_unit_test_setup(test_refused_process_noise_changes_nothing, setup),
         cmocka_unit_test_setup(test_save_then_reset_brings_the_settings_back, setup),
         cmocka_unit_test_setup(test_settings_the_image_refuses_fall_back_to_defaults, setup),
+        cmocka_unit_test_setup(test_a_saved_calibration_is_applied_at_boot, setup),
         cmocka_unit_test_setup(test_save_without_storage_is_refused, setup),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -88,7 +88,8 @@ static struct tlm_status sample_status(void) {
                                .running = true,
                                .raw_stream = false,
                                .period_ms = 20,
-                               .record = TLM_RECORD_CORRUPT};
+                               .record = TLM_RECORD_CORRUPT,
+                               .calibration = TLM_CAL_OTHER_MODE};
 }
 
 /* Decode exactly one accepted frame from `bytes` through a real decoder. */
@@ -138,7 +139,7 @@ static void test_every_type_has_its_documented_length(void **state) {
     assert_int_equal(tlm_encode_raw_sample(0, &raw, out, sizeof out), 17 + 7);
     assert_int_equal(tlm_encode_health(0, &health, out, sizeof out), 148 + 7);
     assert_int_equal(tlm_encode_ack(0, &ack, out, sizeof out), 4 + 7);
-    assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 17 + 7);
+    assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 18 + 7);
     assert_int_equal(tlm_type_payload_length(TLM_TYPE_HEALTH, TLM_ACCEPT_TELEMETRY), 148);
     assert_int_equal(tlm_type_payload_length(TLM_TYPE_HEALTH, TLM_ACCEPT_COMMANDS), -1);
     assert_int_equal(tlm_type_payload_length(TLM_TYPE_SET_WINDOW, TLM_ACCEPT_ALL), 3);
@@ -156,10 +157,10 @@ static void test_status_layout(void **state) {
     (void)state;
     const struct tlm_status status = sample_status();
     uint8_t out[TLM_FRAME_MAX];
-    assert_int_equal(tlm_encode_status(3, &status, out, sizeof out), 24);
+    assert_int_equal(tlm_encode_status(3, &status, out, sizeof out), 25);
     const uint8_t *p = &out[TLM_HEADER_SIZE];
     const uint8_t expected[] = {
-        0, 1, 2, TLM_PROTOCOL_VERSION, 0x40, 0xE2, 0x01, 0x00, 100, 0, 1, 2, 1, 0, 20, 0, 2};
+        0, 1, 2, TLM_PROTOCOL_VERSION, 0x40, 0xE2, 0x01, 0x00, 100, 0, 1, 2, 1, 0, 20, 0, 2, 5};
     assert_memory_equal(p, expected, sizeof expected);
 }
 
@@ -526,18 +527,18 @@ static void test_raw_health_ack_status_validation(void **state) {
     const struct tlm_ack ack_with_error = {.result = 0, .error = -1};
     assert_int_equal(tlm_encode_ack(0, &ack_with_error, out, sizeof out), HAL_ERR_INVALID);
 
-    const size_t status_bytes[] = {3, 10, 11, 12, 13, 16};
-    const uint8_t status_bad[] = {TLM_PROTOCOL_VERSION + 1u, 2, 4, 2, 2, 6}; /* protocol, mode,
-                                                             estimator, bools, record state */
-    for (size_t i = 0; i < 6; ++i) {
+    const size_t status_bytes[] = {3, 10, 11, 12, 13, 16, 17};
+    const uint8_t status_bad[] = {TLM_PROTOCOL_VERSION + 1u, 2, 4, 2, 2, 6, 8}; /* protocol,
+                                 mode, estimator, bools, record state, calibration state */
+    for (size_t i = 0; i < 7; ++i) {
         status = sample_status();
-        assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 24);
+        assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 25);
         out[5 + status_bytes[i]] = status_bad[i];
         frame = raw_frame(TLM_TYPE_STATUS, &out[5], TLM_LEN_STATUS);
         assert_int_equal(tlm_parse_telemetry(&frame, &msg, NULL), TLM_RESULT_OUT_OF_RANGE);
     }
     status = sample_status();
-    assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 24);
+    assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 25);
     out[5 + 8] = 1; /* window_n = 1 */
     frame = raw_frame(TLM_TYPE_STATUS, &out[5], TLM_LEN_STATUS);
     assert_int_equal(tlm_parse_telemetry(&frame, &msg, NULL), TLM_RESULT_OUT_OF_RANGE);

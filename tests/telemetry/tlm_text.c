@@ -11,6 +11,8 @@ static const char *const estimator_names[] = {"consensus", "consensus-paper", "k
 static const char *const status_names[] = {"ok", "degraded", "invalid"};
 static const char *const record_names[] = {"none",    "loaded",   "corrupt",
                                            "version", "rejected", "no-storage"};
+static const char *const cal_names[] = {"none",       "applied",    "corrupt",  "version",
+                                        "other-head", "other-mode", "rejected", "no-storage"};
 static const char *const health_names[] = {"healthy", "suspect", "lost", "recovering"};
 static const char *const mode_names[] = {"tumbling", "sliding"};
 static const char *const result_names[] = {"ok", "unknown-type", "bad-length", "out-of-range",
@@ -181,11 +183,11 @@ void tlm_text_telemetry(FILE *out, uint8_t seq, const struct tlm_telemetry *msg)
         fprintf(out,
                 "status fw=%u.%u.%u protocol=%u uptime_ms=%" PRIu32
                 " window_n=%u mode=%s estimator=%s running=%s raw_stream=%s period_ms=%u"
-                " record=%s",
+                " record=%s calibration=%s",
                 s->fw_major, s->fw_minor, s->fw_patch, TLM_PROTOCOL_VERSION, s->uptime_ms,
                 s->window_n, mode_names[s->mode], estimator_names[s->estimator],
                 s->running ? "yes" : "no", s->raw_stream ? "yes" : "no", s->period_ms,
-                record_names[s->record]);
+                record_names[s->record], cal_names[s->calibration]);
         break;
     }
     default:

@@ -59,6 +59,7 @@ struct tof_link {
     struct tof_record_store *records;  /* where `save` keeps the settings (NULL: nowhere) */
     struct tof_settings process_noise; /* the last accepted set-process-noise, for `save` */
     uint8_t record_state;              /* enum tof_record_state found at start, in status */
+    uint8_t cal_state;                 /* enum tof_cal_state found at start, in status */
 };
 
 /* Start a link over `serial`. */

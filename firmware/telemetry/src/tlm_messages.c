@@ -357,7 +357,8 @@ static bool window_is_valid(uint16_t window_n, uint8_t mode) {
 
 static bool status_is_valid(const struct tlm_status *m) {
     return window_is_valid(m->window_n, m->mode) && m->estimator <= TLM_ESTIMATOR_LAST &&
-           m->record <= TLM_RECORD_STATE_LAST; /* enum tlm_record_state */
+           m->record <= TLM_RECORD_STATE_LAST && /* enum tlm_record_state */
+           m->calibration <= TLM_CAL_STATE_LAST; /* enum tlm_cal_state */
 }
 
 int tlm_encode_status(uint8_t seq, const struct tlm_status *msg, uint8_t *out, size_t cap) {
@@ -377,6 +378,7 @@ int tlm_encode_status(uint8_t seq, const struct tlm_status *msg, uint8_t *out, s
     put_u8(&w, msg->raw_stream ? 1u : 0u);
     put_u16(&w, msg->period_ms);
     put_u8(&w, msg->record);
+    put_u8(&w, msg->calibration);
     return finish_frame(TLM_TYPE_STATUS, seq, out, w.at, cap);
 }
 
@@ -400,6 +402,7 @@ static enum tlm_result parse_status(struct reader *r, struct tlm_status *m) {
     const bool raw_ok = get_bool(r, &m->raw_stream);
     m->period_ms = get_u16(r);
     m->record = get_u8(r);
+    m->calibration = get_u8(r);
     if (protocol != TLM_PROTOCOL_VERSION || !running_ok || !raw_ok || !status_is_valid(m)) {
         return TLM_RESULT_OUT_OF_RANGE;
     }

@@ -21,7 +21,8 @@
  * byte), and nacks the firmware's error code. */
 /* 3: the health message ends with uart_overruns (148 bytes), the status message with the
  * record state (17 bytes), and the save command (0x88). */
-#define TLM_PROTOCOL_VERSION 3u
+/* 4: the status message ends with the head calibration's state (18 bytes). */
+#define TLM_PROTOCOL_VERSION 4u
 
 /* Frame types. Commands have the top bit set, so direction shows in a dump. */
 enum tlm_type {
@@ -45,7 +46,7 @@ enum tlm_type {
 #define TLM_LEN_RAW_SAMPLE        17u
 #define TLM_LEN_HEALTH            148u
 #define TLM_LEN_ACK               4u
-#define TLM_LEN_STATUS            17u
+#define TLM_LEN_STATUS            18u
 #define TLM_LEN_SET_WINDOW        3u
 #define TLM_LEN_SELECT_ESTIMATOR  1u
 #define TLM_LEN_START             0u
@@ -180,8 +181,9 @@ struct tlm_status {
     uint8_t estimator; /* enum tlm_estimator */
     bool running;
     bool raw_stream;
-    uint16_t period_ms; /* sample period */
-    uint8_t record;     /* enum tlm_record_state: the saved settings at boot */
+    uint16_t period_ms;  /* sample period */
+    uint8_t record;      /* enum tlm_record_state: the saved settings at boot */
+    uint8_t calibration; /* enum tlm_cal_state: the head's calibration at boot */
 };
 
 /* The status message's `record`: what the firmware found of its saved settings at boot
@@ -195,6 +197,21 @@ enum tlm_record_state {
     TLM_RECORD_NO_STORAGE = 5, /* the board has no record storage: defaults */
 };
 #define TLM_RECORD_STATE_LAST TLM_RECORD_NO_STORAGE
+
+/* The status message's `calibration`: what the firmware found of the head's calibration at
+ * boot (the values of firmware/calibration_record.h's enum tof_cal_state). Every state but
+ * applied leaves the head uncalibrated: no estimate is `ok`. */
+enum tlm_cal_state {
+    TLM_CAL_NONE = 0,       /* none stored */
+    TLM_CAL_APPLIED = 1,    /* this head's, this configuration's: in force */
+    TLM_CAL_CORRUPT = 2,    /* no valid record, or values out of range */
+    TLM_CAL_VERSION = 3,    /* a version this firmware does not read */
+    TLM_CAL_OTHER_HEAD = 4, /* made on another head */
+    TLM_CAL_OTHER_MODE = 5, /* made in another distance mode or timing budget */
+    TLM_CAL_REJECTED = 6,   /* refused by the estimator */
+    TLM_CAL_NO_STORAGE = 7, /* the board has no record storage */
+};
+#define TLM_CAL_STATE_LAST TLM_CAL_NO_STORAGE
 
 /* A decoded telemetry message, tagged by `type`. */
 struct tlm_telemetry {
