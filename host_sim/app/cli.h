@@ -33,9 +33,10 @@ struct replay_args {
      * µm²/s (given in mm²/s); --process-noise auto: learned by the filter */
     uint32_t process_noise_um2_per_s[2];
     bool process_noise_auto;
-    const char *i2c_log_path; /* --i2c-log BUS.csv: every bus transaction (NULL: none) */
-    unsigned distance_mode;   /* --distance-mode: 0 unset (the trace's, else from its
-                                 readings), else enum vl53_distance_mode */
+    const char *i2c_log_path;     /* --i2c-log BUS.csv: every bus transaction (NULL: none) */
+    unsigned distance_mode;       /* --distance-mode: 0 unset (the trace's, else from its
+                                     readings), else enum vl53_distance_mode */
+    const char *calibration_path; /* --calibration HEAD.cal (wins over the trace's keys) */
 };
 
 struct scenario_args {

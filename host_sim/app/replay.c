@@ -13,6 +13,7 @@
 #include <string.h>
 
 #include "estimator/attitude.h"
+#include "firmware/calibration_record.h"
 #include "firmware/est_csv.h"
 #include "hal/hal_err.h"
 #include "replay_report.h"
@@ -108,7 +109,8 @@ static int open_inputs(struct replay *r) {
         return -1;
     }
     scene_row_stream_init(&r->stream, scene_pull_trace, &r->reader);
-    return 0;
+    return replay_cal_resolve(r->args->calibration_path, &r->reader.core.meta, r->args->trace_path,
+                              &r->cal);
 }
 
 /* The estimator to write, the faults, the simulated world and the firmware's platform. */
@@ -177,6 +179,9 @@ static int configure(struct replay *r) {
                 r->period_ms, r->args->trace_path);
         return -1;
     }
+    if (replay_cal_preload(&r->cal.cal, &r->app_cfg, &r->flash, &r->records) != 0) {
+        return -1;
+    }
     return configure_world(r);
 }
 
@@ -225,6 +230,14 @@ static void track_fault_stop(struct replay *r) {
 static int run(struct replay *r) {
     if (tof_app_init(&r->app, &r->platform, &r->app_cfg) != HAL_OK) {
         fprintf(stderr, "host_sim replay: firmware init failed\n");
+        return -1;
+    }
+    /* The boot reads the calibration from the record storage, as on the flight unit. */
+    r->cal_state = (int)tof_cal_boot(&r->records, &r->app);
+    if (r->cal_state != (r->cal.cal.calibrated ? TOF_CAL_APPLIED : TOF_CAL_NONE)) {
+        fprintf(stderr,
+                "host_sim replay: internal: the firmware's boot found calibration state %d\n",
+                r->cal_state);
         return -1;
     }
     sim_replay_set_origin(&r->sim, r->app.assembler.origin_us);

@@ -1,0 +1,121 @@
+/* host_sim replay's head calibration: resolved from the option or the trace, preloaded as a record
+ * (replay_cal.h). */
+#include "replay_cal.h"
+
+#include <stdio.h>
+#include <string.h>
+
+#include "calibrate/head_cal.h"
+#include "estimator/calibration.h"
+#include "firmware/calibration_record.h"
+#include "firmware/settings.h"
+#include "hal/hal_err.h"
+
+_Static_assert(TRACE_CAL_SENSORS == CALIBRATION_SENSORS &&
+                   TRACE_CAL_OFFSET_MAX_UM == CALIBRATION_OFFSET_MAX_UM &&
+                   TRACE_CAL_GAIN_MAX_PPM == CALIBRATION_GAIN_MAX_PPM &&
+                   TRACE_CAL_UNCAL_GAIN_SD_PPM == CALIBRATION_UNCAL_GAIN_SD_PPM,
+               "the trace reader's calibration integers are the estimator's");
+
+int replay_cal_load(const char *path, struct trace_v1_cal *out, char *err, size_t errlen) {
+    static struct head_cal hc; /* ~6 KB of keys */
+    if (head_cal_load(path, &hc, err, errlen) != 0) {
+        return -1;
+    }
+    /* The file's text through the trace reader's exact conversion: a HEAD.cal and the same
+     * keys inline give the same integers. */
+    memset(out, 0, sizeof *out);
+    for (unsigned k = 0; k < hc.count; ++k) {
+        uint32_t col = 0;
+        const char *what = NULL;
+        const int rc = trace_v1_cal_value(out, hc.key[k], hc.value[k], hc.line[k], &col, &what);
+        if (rc < 0 || (rc == 0 && strcmp(hc.key[k], "calibration") == 0)) {
+            snprintf(err, errlen, "%s:%u: %s: %s", path, hc.line[k], hc.key[k],
+                     rc < 0 ? what : "not a key of a head-calibration file");
+            return -1;
+        }
+    }
+    const char *what = NULL;
+    uint32_t line = 0;
+    if (trace_v1_cal_check(out, &what, &line) != 0 || !out->calibrated) {
+        snprintf(err, errlen, "%s:%u: %s", path, line,
+                 what != NULL ? what : "no offset_mm and offset_sd_mm");
+        return -1;
+    }
+    return 0;
+}
+
+/* The path of `file` relative to the directory of `trace_path`. */
+static void beside(const char *trace_path, const char *file, char *out, size_t cap) {
+    const char *slash = strrchr(trace_path, '/');
+    if (file[0] == '/' || slash == NULL) {
+        snprintf(out, cap, "%s", file);
+    } else {
+        snprintf(out, cap, "%.*s/%s", (int)(slash - trace_path), trace_path, file);
+    }
+}
+
+int replay_cal_resolve(const char *option, const struct trace_v1_meta *meta, const char *trace_path,
+                       struct replay_cal *out) {
+    memset(out, 0, sizeof *out);
+    char path[256];
+    const char *file = option;
+    if (file == NULL && (meta->cal.keys & TRACE_CAL_KEY_FILE) != 0u) {
+        for (unsigned k = 0; k < meta->count; ++k) {
+            if (strcmp(meta->key[k], "calibration") == 0) {
+                beside(trace_path, meta->value[k], path, sizeof path);
+                file = path;
+            }
+        }
+    }
+    if (file != NULL) {
+        char err[HEAD_CAL_ERR_MAX];
+        if (replay_cal_load(file, &out->cal, err, sizeof err) != 0) {
+            fprintf(stderr, "host_sim replay: %s%s\n", option != NULL ? "--calibration: " : "",
+                    err);
+            return -1;
+        }
+        snprintf(out->source, sizeof out->source, "%s", file);
+        return 0;
+    }
+    out->cal = meta->cal; /* inline keys, calibration=none, or nothing: uncalibrated */
+    snprintf(out->source, sizeof out->source, "%s",
+             out->cal.calibrated ? "the trace's keys" : "none (uncalibrated)");
+    return 0;
+}
+
+void replay_cal_head(const struct trace_v1_cal *cal, struct calibration_head *out) {
+    memset(out, 0, sizeof *out);
+    out->calibrated = cal->calibrated;
+    for (unsigned i = 0; i < CALIBRATION_SENSORS; ++i) {
+        out->offset_um[i] = cal->offset_um[i];
+        out->gain_ppm[i] = cal->gain_ppm[i];
+        out->offset_sd_um[i] = cal->offset_sd_um[i];
+        out->gain_sd_ppm[i] = cal->gain_sd_ppm[i];
+        out->offset_gain_corr_q15[i] = cal->corr_q15[i];
+    }
+}
+
+int replay_cal_preload(const struct trace_v1_cal *cal, const struct tof_app_config *cfg,
+                       struct sim_flash *flash, struct tof_record_store *store) {
+    /* Two 2 KB pages, as the flight unit's (boards/stm32/stm32_flash.h). */
+    if (sim_flash_init(flash, 2u, 2048u) != HAL_OK ||
+        tof_record_init(store, sim_flash_hal(flash), 0u, 1u) != HAL_OK) {
+        fprintf(stderr, "host_sim replay: internal: the simulated record storage\n");
+        return -1;
+    }
+    if (!cal->calibrated) {
+        return 0; /* nothing stored: the firmware boots uncalibrated */
+    }
+    struct calibration_head head;
+    replay_cal_head(cal, &head);
+    const struct tof_cal_binding bind = tof_cal_binding_of(cfg);
+    uint8_t section[TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH];
+    if (tof_cal_encode(&head, cal->has_gain, &bind, section) != HAL_OK ||
+        tof_section_save(store, section) != HAL_OK) {
+        fprintf(stderr, "host_sim replay: internal: the calibration does not make a record\n");
+        return -1;
+    }
+    sim_flash_power_on(flash); /* the record is in place before the firmware boots */
+    return tof_record_init(store, sim_flash_hal(flash), 0u, 1u) == HAL_OK ? 0 : -1;
+}
