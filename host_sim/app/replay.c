@@ -109,8 +109,8 @@ static int open_inputs(struct replay *r) {
         return -1;
     }
     scene_row_stream_init(&r->stream, scene_pull_trace, &r->reader);
-    return replay_cal_resolve(r->args->calibration_path, &r->reader.core.meta, r->args->trace_path,
-                              &r->cal);
+    return cal_apply_resolve("host_sim replay", r->args->calibration_path, &r->reader.core.meta,
+                             r->args->trace_path, &r->cal);
 }
 
 /* The estimator to write, the faults, the simulated world and the firmware's platform. */
@@ -179,7 +179,7 @@ static int configure(struct replay *r) {
                 r->period_ms, r->args->trace_path);
         return -1;
     }
-    if (replay_cal_preload(&r->cal.cal, &r->app_cfg, &r->flash, &r->records) != 0) {
+    if (cal_apply_preload(&r->cal.cal, &r->app_cfg, &r->flash, &r->records) != 0) {
         return -1;
     }
     return configure_world(r);

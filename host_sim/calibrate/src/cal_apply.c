@@ -1,6 +1,6 @@
-/* host_sim replay's head calibration: resolved from the option or the trace, preloaded as a record
- * (replay_cal.h). */
-#include "replay_cal.h"
+/* A replay's head calibration: from the option or the trace, preloaded as a record
+ * (calibrate/cal_apply.h). */
+#include "calibrate/cal_apply.h"
 
 #include <stdio.h>
 #include <string.h>
@@ -17,7 +17,7 @@ _Static_assert(TRACE_CAL_SENSORS == CALIBRATION_SENSORS &&
                    TRACE_CAL_UNCAL_GAIN_SD_PPM == CALIBRATION_UNCAL_GAIN_SD_PPM,
                "the trace reader's calibration integers are the estimator's");
 
-int replay_cal_load(const char *path, struct trace_v1_cal *out, char *err, size_t errlen) {
+int cal_apply_load(const char *path, struct trace_v1_cal *out, char *err, size_t errlen) {
     static struct head_cal hc; /* ~6 KB of keys */
     if (head_cal_load(path, &hc, err, errlen) != 0) {
         return -1;
@@ -55,8 +55,8 @@ static void beside(const char *trace_path, const char *file, char *out, size_t c
     }
 }
 
-int replay_cal_resolve(const char *option, const struct trace_v1_meta *meta, const char *trace_path,
-                       struct replay_cal *out) {
+int cal_apply_resolve(const char *prog, const char *option, const struct trace_v1_meta *meta,
+                      const char *trace_path, struct cal_apply *out) {
     memset(out, 0, sizeof *out);
     char path[256];
     const char *file = option;
@@ -70,9 +70,8 @@ int replay_cal_resolve(const char *option, const struct trace_v1_meta *meta, con
     }
     if (file != NULL) {
         char err[HEAD_CAL_ERR_MAX];
-        if (replay_cal_load(file, &out->cal, err, sizeof err) != 0) {
-            fprintf(stderr, "host_sim replay: %s%s\n", option != NULL ? "--calibration: " : "",
-                    err);
+        if (cal_apply_load(file, &out->cal, err, sizeof err) != 0) {
+            fprintf(stderr, "%s: %s%s\n", prog, option != NULL ? "--calibration: " : "", err);
             return -1;
         }
         snprintf(out->source, sizeof out->source, "%s", file);
@@ -84,7 +83,7 @@ int replay_cal_resolve(const char *option, const struct trace_v1_meta *meta, con
     return 0;
 }
 
-void replay_cal_head(const struct trace_v1_cal *cal, struct calibration_head *out) {
+void cal_apply_head(const struct trace_v1_cal *cal, struct calibration_head *out) {
     memset(out, 0, sizeof *out);
     out->calibrated = cal->calibrated;
     for (unsigned i = 0; i < CALIBRATION_SENSORS; ++i) {
@@ -96,24 +95,24 @@ void replay_cal_head(const struct trace_v1_cal *cal, struct calibration_head *ou
     }
 }
 
-int replay_cal_preload(const struct trace_v1_cal *cal, const struct tof_app_config *cfg,
-                       struct sim_flash *flash, struct tof_record_store *store) {
+int cal_apply_preload(const struct trace_v1_cal *cal, const struct tof_app_config *cfg,
+                      struct sim_flash *flash, struct tof_record_store *store) {
     /* Two 2 KB pages, as the flight unit's (boards/stm32/stm32_flash.h). */
     if (sim_flash_init(flash, 2u, 2048u) != HAL_OK ||
         tof_record_init(store, sim_flash_hal(flash), 0u, 1u) != HAL_OK) {
-        fprintf(stderr, "host_sim replay: internal: the simulated record storage\n");
+        fprintf(stderr, "internal: the simulated record storage\n");
         return -1;
     }
     if (!cal->calibrated) {
         return 0; /* nothing stored: the firmware boots uncalibrated */
     }
     struct calibration_head head;
-    replay_cal_head(cal, &head);
+    cal_apply_head(cal, &head);
     const struct tof_cal_binding bind = tof_cal_binding_of(cfg);
     uint8_t section[TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH];
     if (tof_cal_encode(&head, cal->has_gain, &bind, section) != HAL_OK ||
         tof_section_save(store, section) != HAL_OK) {
-        fprintf(stderr, "host_sim replay: internal: the calibration does not make a record\n");
+        fprintf(stderr, "internal: the calibration does not make a record\n");
         return -1;
     }
     sim_flash_power_on(flash); /* the record is in place before the firmware boots */
