@@ -185,3 +185,44 @@ enum tof_cal_state tof_cal_boot(struct tof_record_store *store, struct tof_app *
     }
     return state;
 }
+
+enum tof_cal_state tof_cal_write(struct tof_record_store *store, struct tof_app *app,
+                                 const uint8_t *section, int *error) {
+    *error = 0;
+    struct calibration_head cal;
+    struct tof_cal_binding bind;
+    enum tof_cal_state state = tof_cal_decode(
+        section, (uint16_t)(TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH), &cal, &bind);
+    if (state == TOF_CAL_APPLIED) {
+        state = tof_cal_check(&bind, app->cfg);
+    }
+    if (state == TOF_CAL_NONE) {
+        state = TOF_CAL_CORRUPT; /* not a calibration section at all */
+    }
+    if (state != TOF_CAL_APPLIED) {
+        return state;
+    }
+    /* Saved first: a calibration in force that the next boot would not find is worse
+     * than one refused now. */
+    *error = tof_section_save(store, section);
+    if (*error != HAL_OK) {
+        return TOF_CAL_NO_STORAGE;
+    }
+    *error = tof_app_set_calibration(app, &cal);
+    return *error == 0 ? TOF_CAL_APPLIED : TOF_CAL_REJECTED;
+}
+
+void tof_cal_read(const struct tof_record_store *store, uint8_t *section) {
+    memset(section, 0, TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH);
+    if (store == NULL || store->current < 0) {
+        return;
+    }
+    const int at = tof_section_find(store->payload, store->length, TOF_SECTION_CALIBRATION);
+    if (at >= 0) {
+        const uint32_t size =
+            TOF_SECTION_HEADER + (uint32_t)(store->payload[at + 2] | store->payload[at + 3] << 8);
+        if (size == TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH) {
+            memcpy(section, &store->payload[at], size);
+        }
+    }
+}

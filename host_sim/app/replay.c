@@ -179,7 +179,7 @@ static int configure(struct replay *r) {
                 r->period_ms, r->args->trace_path);
         return -1;
     }
-    if (cal_apply_preload(&r->cal.cal, &r->app_cfg, &r->flash, &r->records) != 0) {
+    if (cal_apply_preload(&r->cal.cal, &r->app_cfg, NULL, &r->flash, &r->records) != 0) {
         return -1;
     }
     return configure_world(r);

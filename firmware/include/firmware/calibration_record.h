@@ -84,6 +84,21 @@ enum tof_cal_state tof_cal_check(const struct tof_cal_binding *bind,
  */
 enum tof_cal_state tof_cal_boot(struct tof_record_store *store, struct tof_app *app);
 
+/*
+ * The write-calibration command (docs/telemetry.md): `section` (TOF_SECTION_HEADER +
+ * TOF_CALIBRATION_LENGTH bytes, as stored) is decoded and checked against this image
+ * (head, distance mode, budget), saved into the record (other sections kept) and put in
+ * force. Returns APPLIED; CORRUPT or VERSION (nothing done); OTHER_HEAD or OTHER_MODE
+ * (refused: it would not hold here); NO_STORAGE or REJECTED with *error the storage's hal
+ * code or the estimator's attitude_error (the record and the estimator as before).
+ */
+enum tof_cal_state tof_cal_write(struct tof_record_store *store, struct tof_app *app,
+                                 const uint8_t *section, int *error);
+
+/* The calibration section of the record in use into `section` (TOF_SECTION_HEADER +
+ * TOF_CALIBRATION_LENGTH bytes, as stored), or zeros when there is none. */
+void tof_cal_read(const struct tof_record_store *store, uint8_t *section);
+
 /* The binding of the running image (its head id, distance mode, timing budget). */
 struct tof_cal_binding tof_cal_binding_of(const struct tof_app_config *cfg);
 

@@ -96,20 +96,33 @@ void cal_apply_head(const struct trace_v1_cal *cal, struct calibration_head *out
 }
 
 int cal_apply_preload(const struct trace_v1_cal *cal, const struct tof_app_config *cfg,
-                      struct sim_flash *flash, struct tof_record_store *store) {
-    /* Two 2 KB pages, as the flight unit's (boards/stm32/stm32_flash.h). */
-    if (sim_flash_init(flash, 2u, 2048u) != HAL_OK ||
-        tof_record_init(store, sim_flash_hal(flash), 0u, 1u) != HAL_OK) {
+                      const uint8_t *pages_in, struct sim_flash *flash,
+                      struct tof_record_store *store) {
+    if (sim_flash_init(flash, 2u, CAL_APPLY_PAGE_SIZE) != HAL_OK) {
+        fprintf(stderr, "internal: the simulated record storage\n");
+        return -1;
+    }
+    for (unsigned p = 0; p < 2u && pages_in != NULL; ++p) {
+        memcpy(flash->mem[p], &pages_in[p * CAL_APPLY_PAGE_SIZE], CAL_APPLY_PAGE_SIZE);
+    }
+    if (tof_record_init(store, sim_flash_hal(flash), 0u, 1u) != HAL_OK) {
         fprintf(stderr, "internal: the simulated record storage\n");
         return -1;
     }
     if (!cal->calibrated) {
-        return 0; /* nothing stored: the firmware boots uncalibrated */
+        return 0; /* nothing written: the firmware boots with what the pages hold */
     }
+    (void)tof_record_load(store); /* the record in use, whose other sections are kept */
     struct calibration_head head;
     cal_apply_head(cal, &head);
     const struct tof_cal_binding bind = tof_cal_binding_of(cfg);
     uint8_t section[TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH];
+    uint8_t stored[TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH];
+    tof_cal_read(store, stored);
+    if (tof_cal_encode(&head, cal->has_gain, &bind, section) == HAL_OK &&
+        memcmp(stored, section, sizeof section) == 0) {
+        return 0; /* already there (pages kept from a run before): left as they are */
+    }
     if (tof_cal_encode(&head, cal->has_gain, &bind, section) != HAL_OK ||
         tof_section_save(store, section) != HAL_OK) {
         fprintf(stderr, "internal: the calibration does not make a record\n");

@@ -31,10 +31,16 @@ int cal_apply_resolve(const char *prog, const char *option, const struct trace_v
 /* A HEAD.cal at `path` in the trace reader's integers. 0, or -1 with the message in err. */
 int cal_apply_load(const char *path, struct trace_v1_cal *out, char *err, size_t errlen);
 
-/* Record storage holding `cal`'s section made in `cfg`'s configuration (nothing stored for
- * an uncalibrated head), and a store over it for the firmware's boot. 0, or -1 (said). */
+/* The record storage's two pages of 2 KB (the flight unit's, boards/stm32/stm32_flash.h). */
+#define CAL_APPLY_PAGE_SIZE 2048u
+
+/* Record storage (`flash`: two CAL_APPLY_PAGE_SIZE pages, erased, or a copy of `pages_in`
+ * when not NULL) holding `cal`'s section made in `cfg`'s configuration in place of any
+ * calibration there (every other section kept; nothing written for an uncalibrated head),
+ * and a store over it for the firmware's boot. 0, or -1 (said on stderr). */
 int cal_apply_preload(const struct trace_v1_cal *cal, const struct tof_app_config *cfg,
-                      struct sim_flash *flash, struct tof_record_store *store);
+                      const uint8_t *pages_in, struct sim_flash *flash,
+                      struct tof_record_store *store);
 
 /* The firmware's calibration_head of `cal` (the same integers). */
 void cal_apply_head(const struct trace_v1_cal *cal, struct calibration_head *out);
