@@ -174,6 +174,25 @@ static uint8_t estimator_result(int err) {
                : TLM_RESULT_STATE;
 }
 
+/* write-calibration (docs/telemetry.md): saved and in force, or refused as it stands. */
+static uint8_t write_calibration(struct tof_link *link, const uint8_t *section, int *error) {
+    const enum tof_cal_state st = tof_cal_write(link->records, link->app, section, error);
+    if (st == TOF_CAL_APPLIED) {
+        link->cal_state = (uint8_t)st; /* what the status frame says from now on */
+        return TLM_RESULT_OK;
+    }
+    return st == TOF_CAL_CORRUPT || st == TOF_CAL_VERSION ? TLM_RESULT_OUT_OF_RANGE
+                                                          : TLM_RESULT_STATE;
+}
+
+/* The calibration message: the state in force and the stored section. */
+static void send_calibration(struct tof_link *link) {
+    struct tlm_calibration msg = {.state = link->cal_state};
+    tof_cal_read(link->records, msg.section);
+    uint8_t frame[TLM_FRAME_MAX];
+    send(link, frame, tlm_encode_calibration(link->seq, &msg, frame, sizeof frame));
+}
+
 /* Apply a validated command; returns the result code to answer with and sets *error to
  * the application's code behind a refusal (0 if none). */
 static uint8_t apply(struct tof_link *link, const struct tlm_command *cmd, int *error) {
@@ -211,6 +230,10 @@ static uint8_t apply(struct tof_link *link, const struct tlm_command *cmd, int *
         return TLM_RESULT_OK;
     case TLM_TYPE_STATUS_REQUEST:
         return TLM_RESULT_OK; /* the status frame follows the ack */
+    case TLM_TYPE_WRITE_CALIBRATION:
+        return write_calibration(link, cmd->u.cal_section, error);
+    case TLM_TYPE_READ_CALIBRATION:
+        return TLM_RESULT_OK; /* the calibration message follows the ack */
     case TLM_TYPE_SAVE: {
         struct tof_settings now;
         tof_settings_capture(app, &link->process_noise, &now);
@@ -234,6 +257,9 @@ static bool answer_retry(struct tof_link *link, const struct tlm_frame *frame) {
     answer(link, frame->seq, frame->type, link->last_result, link->last_error);
     if (link->last_result == TLM_RESULT_OK && frame->type == TLM_TYPE_STATUS_REQUEST) {
         tof_link_send_status(link);
+    }
+    if (link->last_result == TLM_RESULT_OK && frame->type == TLM_TYPE_READ_CALIBRATION) {
+        send_calibration(link);
     }
     return true;
 }
@@ -264,6 +290,9 @@ static void on_frame(void *ctx, const struct tlm_frame *frame) {
     link->last_error = (int8_t)error;
     if (result == TLM_RESULT_OK && frame->type == TLM_TYPE_STATUS_REQUEST) {
         tof_link_send_status(link);
+    }
+    if (result == TLM_RESULT_OK && frame->type == TLM_TYPE_READ_CALIBRATION) {
+        send_calibration(link);
     }
 }
 

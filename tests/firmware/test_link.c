@@ -66,6 +66,8 @@ static struct {
     struct tlm_status last_status;
     struct tlm_estimate last_estimate[4];
     struct tlm_health last_health;
+    unsigned calibrations;
+    struct tlm_calibration last_calibration;
 } t;
 
 static void push_command(const struct tlm_command *cmd, uint8_t seq) {
@@ -105,6 +107,10 @@ static void on_frame(void *ctx, const struct tlm_frame *frame) {
         break;
     case TLM_TYPE_RAW_SAMPLE:
         ++t.raw;
+        break;
+    case TLM_TYPE_CALIBRATION:
+        ++t.calibrations;
+        t.last_calibration = msg.u.calibration;
         break;
     default:
         fail_msg("unexpected telemetry type 0x%02x", msg.type);
@@ -698,6 +704,71 @@ static void test_a_saved_calibration_is_applied_at_boot(void **state) {
     assert_false(t.app.estimator.cfg.calibration.calibrated);
 }
 
+/* write-calibration saves the section and puts it in force at once; read-calibration gives it
+ * back as stored; one made in another configuration, or damaged, is refused and changes
+ * nothing; the next boot finds what was written. */
+static void test_write_and_read_calibration_by_command(void **state) {
+    (void)state;
+    assert_int_equal(sim_flash_init(&saved_flash, 2u, 2048u), HAL_OK);
+    boot_with_records();
+    assert_int_equal(t.last_status.calibration, TLM_CAL_NONE);
+    struct tlm_command cmd = {.type = TLM_TYPE_READ_CALIBRATION};
+    push_command(&cmd, 1);
+    run_ms(30);
+    decode_output();
+    assert_int_equal(t.calibrations, 1);
+    assert_int_equal(t.last_calibration.state, TLM_CAL_NONE);
+    assert_int_equal(t.last_calibration.section[0], 0);
+
+    const struct calibration_head cal = {.calibrated = true,
+                                         .offset_um = {1500, -800, -1200, 600},
+                                         .gain_ppm = {1000, -2000, 0, 500},
+                                         .offset_sd_um = {30, 31, 32, 33},
+                                         .gain_sd_ppm = {100, 100, 100, 100},
+                                         .offset_gain_corr_q15 = {-30000, -30000, 0, 5}};
+    struct tof_cal_binding b = tof_cal_binding_of(t.app.cfg);
+    b.mode = (uint8_t)(b.mode == 1u ? 2u : 1u); /* another mode: refused */
+    cmd = (struct tlm_command){.type = TLM_TYPE_WRITE_CALIBRATION};
+    assert_int_equal(tof_cal_encode(&cal, true, &b, cmd.u.cal_section), HAL_OK);
+    t.serial.tx_len = 0;
+    push_command(&cmd, 2);
+    b = tof_cal_binding_of(t.app.cfg);
+    assert_int_equal(tof_cal_encode(&cal, true, &b, cmd.u.cal_section), HAL_OK);
+    cmd.u.cal_section[4u + 8u + 3u] = 0x7Fu; /* offset A out of bounds: refused */
+    push_command(&cmd, 3);
+    run_ms(30);
+    decode_output();
+    assert_int_equal(t.nacks, 2);
+    assert_false(t.app.estimator.cfg.calibration.calibrated);
+    assert_int_equal(t.last_nack_result, TLM_RESULT_OUT_OF_RANGE);
+
+    assert_int_equal(tof_cal_encode(&cal, true, &b, cmd.u.cal_section), HAL_OK);
+    t.serial.tx_len = 0;
+    t.calibrations = t.nacks = t.acks = 0;
+    push_command(&cmd, 4);
+    cmd = (struct tlm_command){.type = TLM_TYPE_READ_CALIBRATION};
+    push_command(&cmd, 5);
+    cmd = (struct tlm_command){.type = TLM_TYPE_STATUS_REQUEST};
+    push_command(&cmd, 6);
+    run_ms(30);
+    decode_output();
+    assert_int_equal(t.nacks, 0);
+    assert_int_equal(t.acks, 3);
+    assert_true(t.app.estimator.cfg.calibration.calibrated);
+    assert_int_equal(t.app.estimator.cfg.calibration.gain_ppm[1], -2000);
+    assert_int_equal(t.last_status.calibration, TLM_CAL_APPLIED);
+    assert_int_equal(t.calibrations, 1);
+    assert_int_equal(t.last_calibration.state, TLM_CAL_APPLIED);
+    uint8_t want[TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH];
+    assert_int_equal(tof_cal_encode(&cal, true, &b, want), HAL_OK);
+    assert_memory_equal(t.last_calibration.section, want, sizeof want);
+
+    setup(NULL); /* a reset: the calibration comes back from the record */
+    boot_with_records();
+    assert_int_equal(t.last_status.calibration, TLM_CAL_APPLIED);
+    assert_int_equal(t.app.estimator.cfg.calibration.offset_um[0], 1500);
+}
+
 static void test_save_without_storage_is_refused(void **state) {
     (void)state;
     tof_link_service_ops.start(&t.link, &t.app);
@@ -732,6 +803,7 @@ int main(void) {
         cmocka_unit_test_setup(test_save_then_reset_brings_the_settings_back, setup),
         cmocka_unit_test_setup(test_settings_the_image_refuses_fall_back_to_defaults, setup),
         cmocka_unit_test_setup(test_a_saved_calibration_is_applied_at_boot, setup),
+        cmocka_unit_test_setup(test_write_and_read_calibration_by_command, setup),
         cmocka_unit_test_setup(test_save_without_storage_is_refused, setup),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

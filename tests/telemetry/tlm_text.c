@@ -98,8 +98,18 @@ static const char *command_name(uint8_t type) {
         return "set-process-noise";
     case TLM_TYPE_SAVE:
         return "save";
+    case TLM_TYPE_WRITE_CALIBRATION:
+        return "write-calibration";
+    case TLM_TYPE_READ_CALIBRATION:
+        return "read-calibration";
     default:
         return NULL;
+    }
+}
+
+static void print_hex(FILE *out, const uint8_t *bytes, size_t n) {
+    for (size_t i = 0; i < n; ++i) {
+        fprintf(out, "%02x", bytes[i]);
     }
 }
 
@@ -190,6 +200,10 @@ void tlm_text_telemetry(FILE *out, uint8_t seq, const struct tlm_telemetry *msg)
                 record_names[s->record], cal_names[s->calibration]);
         break;
     }
+    case TLM_TYPE_CALIBRATION:
+        fprintf(out, "calibration state=%s section=", cal_names[msg->u.calibration.state]);
+        print_hex(out, msg->u.calibration.section, TLM_CAL_SECTION_LEN);
+        break;
     default:
         fprintf(out, "unprintable type 0x%02x", msg->type);
         break;
@@ -220,6 +234,10 @@ void tlm_text_command(FILE *out, uint8_t seq, const struct tlm_command *cmd) {
                 cmd->u.process_noise.qt_um2_per_s / 1000000u,
                 cmd->u.process_noise.qt_um2_per_s % 1000000u,
                 (cmd->u.process_noise.flags & TLM_PROCESS_NOISE_AUTO) != 0u ? "yes" : "no");
+        break;
+    case TLM_TYPE_WRITE_CALIBRATION:
+        fputs(" section=", out);
+        print_hex(out, cmd->u.cal_section, TLM_CAL_SECTION_LEN);
         break;
     default:
         break;

@@ -21,7 +21,8 @@
  * byte), and nacks the firmware's error code. */
 /* 3: the health message ends with uart_overruns (148 bytes), the status message with the
  * record state (17 bytes), and the save command (0x88). */
-/* 4: the status message ends with the head calibration's state (18 bytes). */
+/* 4: the status message ends with the head calibration's state (18 bytes); write- and
+ * read-calibration (0x90, 0x91) and the calibration message (0x10). */
 #define TLM_PROTOCOL_VERSION 4u
 
 /* Frame types. Commands have the top bit set, so direction shows in a dump. */
@@ -31,6 +32,7 @@ enum tlm_type {
     TLM_TYPE_HEALTH = 0x03,
     TLM_TYPE_ACK = 0x04, /* ack (result 0) or nack (result != 0) of a command */
     TLM_TYPE_STATUS = 0x05,
+    TLM_TYPE_CALIBRATION = 0x10, /* the answer to read-calibration */
     TLM_TYPE_SET_WINDOW = 0x81,
     TLM_TYPE_SELECT_ESTIMATOR = 0x82,
     TLM_TYPE_START = 0x83,
@@ -39,6 +41,9 @@ enum tlm_type {
     TLM_TYPE_RAW_STREAM = 0x86,
     TLM_TYPE_SET_PROCESS_NOISE = 0x87,
     TLM_TYPE_SAVE = 0x88, /* keep the settings in force across resets (the record) */
+    /* The head's calibration (issue 23; 0x90 on, clear of the settings' commands): */
+    TLM_TYPE_WRITE_CALIBRATION = 0x90, /* a record section 2, saved and put in force */
+    TLM_TYPE_READ_CALIBRATION = 0x91,  /* answered by a calibration message */
 };
 
 /* Fixed payload length of each type, in bytes. */
@@ -55,6 +60,13 @@ enum tlm_type {
 #define TLM_LEN_RAW_STREAM        1u
 #define TLM_LEN_SET_PROCESS_NOISE 9u
 #define TLM_LEN_SAVE              0u
+/* The calibration travels as the record's section 2 as it is stored (firmware/
+ * calibration_record.h): u8 id 2, u8 version, u16 length 80, then the 80 bytes. */
+#define TLM_CAL_SECTION_ID        2u
+#define TLM_CAL_SECTION_LEN       84u
+#define TLM_LEN_WRITE_CALIBRATION TLM_CAL_SECTION_LEN
+#define TLM_LEN_READ_CALIBRATION  0u
+#define TLM_LEN_CALIBRATION       (1u + TLM_CAL_SECTION_LEN) /* state, section */
 
 #define TLM_SENSOR_COUNT    4u /* A, B, C, D; bit i of a sensor mask is sensor i */
 #define TLM_SENSOR_MASK_ALL 0x0Fu
@@ -213,6 +225,14 @@ enum tlm_cal_state {
 };
 #define TLM_CAL_STATE_LAST TLM_CAL_NO_STORAGE
 
+/* The calibration message (TLM_TYPE_CALIBRATION): what the firmware holds. */
+struct tlm_calibration {
+    uint8_t state; /* enum tlm_cal_state of the boot, or applied after a write */
+    /* the stored section (id 2, its version, length 80, the bytes), all zero when none is
+     * stored; the telemetry checks the header only, the firmware the content */
+    uint8_t section[TLM_CAL_SECTION_LEN];
+};
+
 /* A decoded telemetry message, tagged by `type`. */
 struct tlm_telemetry {
     uint8_t type; /* TLM_TYPE_ESTIMATE .. TLM_TYPE_STATUS */
@@ -222,6 +242,7 @@ struct tlm_telemetry {
         struct tlm_health health;
         struct tlm_ack ack;
         struct tlm_status status;
+        struct tlm_calibration calibration;
     } u;
 };
 
@@ -243,6 +264,9 @@ struct tlm_command {
             uint32_t qt_um2_per_s; /* of a·tan α and a·tan β */
             uint8_t flags;         /* TLM_PROCESS_NOISE_* bits */
         } process_noise;
+        /* TLM_TYPE_WRITE_CALIBRATION: record section 2 (header id 2, length 80; the
+         * firmware checks the version and the content) */
+        uint8_t cal_section[TLM_CAL_SECTION_LEN];
     } u;
 };
 
@@ -280,6 +304,10 @@ int tlm_encode_health(uint8_t seq, const struct tlm_health *msg, uint8_t *out, s
 int tlm_encode_ack(uint8_t seq, const struct tlm_ack *msg, uint8_t *out, size_t cap);
 /* As tlm_encode_estimate(), for a status message. */
 int tlm_encode_status(uint8_t seq, const struct tlm_status *msg, uint8_t *out, size_t cap);
+
+/* As tlm_encode_estimate(), for a calibration message. */
+int tlm_encode_calibration(uint8_t seq, const struct tlm_calibration *msg, uint8_t *out,
+                           size_t cap);
 /* As tlm_encode_estimate(), for a command (host side, tests). */
 int tlm_encode_command(uint8_t seq, const struct tlm_command *cmd, uint8_t *out, size_t cap);
 
