@@ -66,6 +66,8 @@ T_SAVE = 0x88
 T_CALIBRATION = 0x10          # the answer to read-calibration
 T_WRITE_CALIBRATION = 0x90    # record section 2, saved and put in force
 T_READ_CALIBRATION = 0x91
+T_REZERO = 0x92               # u16 samples: refit the offsets at the latched position
+REZERO_MIN, REZERO_MAX = 10, 5000
 CAL_SECTION_LEN = 84          # u8 id 2, u8 version, u16 80, the 80 bytes (tof_calibration.py)
 
 # type -> (name, direction, payload length)
@@ -86,6 +88,7 @@ TYPES = {
     T_CALIBRATION: ("calibration", ACCEPT_TELEMETRY, 1 + CAL_SECTION_LEN),
     T_WRITE_CALIBRATION: ("write-calibration", ACCEPT_COMMANDS, CAL_SECTION_LEN),
     T_READ_CALIBRATION: ("read-calibration", ACCEPT_COMMANDS, 0),
+    T_REZERO: ("re-zero", ACCEPT_COMMANDS, 2),
 }
 
 RESULTS = ["ok", "unknown-type", "bad-length", "out-of-range", "state"]
@@ -377,6 +380,11 @@ def _calibration(p):
             {"state": p[0], "section": bytes(p[1:])})
 
 
+def _rezero(p):
+    samples = struct.unpack("<H", p)[0]
+    return REZERO_MIN <= samples <= REZERO_MAX, {"samples": samples}
+
+
 def _write_calibration(p):
     return _cal_section_valid(p, False), {"section": bytes(p)}
 
@@ -387,7 +395,7 @@ PARSERS = {T_ESTIMATE: _estimate, T_RAW_SAMPLE: _raw, T_HEALTH: _health, T_ACK: 
            T_STATUS_REQUEST: _empty, T_RAW_STREAM: _raw_stream,
            T_SET_PROCESS_NOISE: _set_process_noise, T_SAVE: _empty,
            T_CALIBRATION: _calibration, T_WRITE_CALIBRATION: _write_calibration,
-           T_READ_CALIBRATION: _empty}
+           T_READ_CALIBRATION: _empty, T_REZERO: _rezero}
 
 
 def parse(ftype, payload):
@@ -507,6 +515,8 @@ def format_message(ftype, seq, m):
                                                            m["section"].hex())
     if ftype == T_WRITE_CALIBRATION:
         return head + "write-calibration section=%s" % m["section"].hex()
+    if ftype == T_REZERO:
+        return head + "re-zero samples=%d" % m["samples"]
     if ftype == T_SET_WINDOW:
         return head + "set-window window_n=%d mode=%s" % (m["window_n"], MODES[m["mode"]])
     if ftype == T_SELECT_ESTIMATOR:
@@ -585,6 +595,17 @@ def command_payload(text):
         plain = {"start": T_START, "stop": T_STOP, "save": T_SAVE,
                  "read-calibration": T_READ_CALIBRATION}
         return plain.get(verb, T_STATUS_REQUEST), b""
+    if verb == "re-zero":
+        expect(1, 1, "re-zero N (samples at the latched position, %d..%d)"
+               % (REZERO_MIN, REZERO_MAX))
+        try:
+            samples = int(args[0], 10)
+        except ValueError:
+            samples = -1
+        if not REZERO_MIN <= samples <= REZERO_MAX:
+            raise ProtocolError("'%s': N must be an integer %d..%d, got '%s'"
+                                % (text, REZERO_MIN, REZERO_MAX, args[0]))
+        return T_REZERO, struct.pack("<H", samples)
     if verb == "write-calibration":
         expect(1, 1, "write-calibration HEX (record section 2, 84 bytes; --send-cal makes it)")
         try:
@@ -611,7 +632,8 @@ def command_payload(text):
                                 "most 6 places) or auto, got '%s'" % (text, args[0]))
         return T_SET_PROCESS_NOISE, struct.pack("<IIB", values[0], values[1], 0)
     raise ProtocolError("unknown command '%s' (set-window, estimator, start, stop, status, raw, "
-                        "process-noise, save, write-calibration, read-calibration)" % verb)
+                        "process-noise, save, write-calibration, read-calibration, re-zero)"
+                        % verb)
 
 
 # The firmware's own codes behind a nack (the ack's `error`): estimator/attitude.h's

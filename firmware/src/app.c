@@ -426,6 +426,10 @@ int tof_app_set_calibration(struct tof_app *app, const struct calibration_head *
     return attitude_init(&app->estimator, &next);
 }
 
+void tof_app_get_calibration(const struct tof_app *app, struct calibration_head *out) {
+    *out = app->estimator.cfg.calibration;
+}
+
 int tof_app_set_primary(struct tof_app *app, enum attitude_estimator primary) {
     /* only an estimator that runs (selected in the configuration, built into the image) */
     if ((unsigned)primary >= (unsigned)ATTITUDE_EST_COUNT ||

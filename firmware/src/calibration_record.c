@@ -226,3 +226,19 @@ void tof_cal_read(const struct tof_record_store *store, uint8_t *section) {
         }
     }
 }
+
+enum tof_cal_state tof_cal_write_head(struct tof_record_store *store, struct tof_app *app,
+                                      const struct calibration_head *cal, int *error) {
+    bool has_gain = false;
+    for (unsigned i = 0; i < CALIBRATION_SENSORS; ++i) {
+        has_gain = has_gain || cal->gain_ppm[i] != 0 ||
+                   cal->gain_sd_ppm[i] != CALIBRATION_UNCAL_GAIN_SD_PPM;
+    }
+    const struct tof_cal_binding bind = tof_cal_binding_of(app->cfg);
+    uint8_t section[TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH];
+    *error = 0;
+    if (tof_cal_encode(cal, has_gain, &bind, section) != HAL_OK) {
+        return TOF_CAL_CORRUPT;
+    }
+    return tof_cal_write(store, app, section, error);
+}

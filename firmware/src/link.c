@@ -116,8 +116,36 @@ static void on_estimate(void *ctx, const struct tof_estimate_record *record) {
     }
 }
 
+static void send_calibration(struct tof_link *link);
+
+/* The re-zero's last sample is in: the offsets refitted, saved and in force (or the reason
+ * not), the raw stream as the user had it, and a calibration message says how it went. */
+static void finish_rezero(struct tof_link *link) {
+    struct calibration_head now, next;
+    tof_app_get_calibration(link->app, &now);
+    int error = 0;
+    enum tof_cal_state st = TOF_CAL_REJECTED;
+    if (tof_rezero_fit(&link->rezero, &now, &next)) {
+        st = tof_cal_write_head(link->records, link->app, &next, &error);
+    }
+    link->rezero.wanted = 0u;
+    tof_app_set_raw_output(link->app, link->rezero_raw);
+    const uint8_t kept = link->cal_state;
+    link->cal_state = (uint8_t)st; /* this message says how the re-zero went */
+    send_calibration(link);
+    link->cal_state = st == TOF_CAL_APPLIED ? (uint8_t)st : kept;
+}
+
 static void on_sample(void *ctx, const struct tof_sample *sample) {
     struct tof_link *link = ctx;
+    if (link->rezero.wanted != 0u) {
+        if (tof_rezero_add(&link->rezero, sample)) {
+            finish_rezero(link);
+        }
+        if (!link->rezero_raw) {
+            return; /* raw on for the re-zero only: nothing sent */
+        }
+    }
     const struct tlm_raw_sample msg = {
         .t_ms = (uint32_t)(sample->t_us / 1000u),
         .range_mm = {sample->range_mm[0], sample->range_mm[1], sample->range_mm[2],
@@ -185,6 +213,25 @@ static uint8_t write_calibration(struct tof_link *link, const uint8_t *section, 
                                                           : TLM_RESULT_STATE;
 }
 
+/* re-zero: refused without a calibration in force or while one runs; else samples are
+ * collected (the raw stream on meanwhile) and finish_rezero() answers with a calibration
+ * message once they are in. */
+static uint8_t start_rezero(struct tof_link *link, uint16_t samples) {
+    struct calibration_head now;
+    tof_app_get_calibration(link->app, &now);
+    if (!now.calibrated || link->rezero.wanted != 0u) {
+        return TLM_RESULT_STATE;
+    }
+    if (!tof_rezero_start(&link->rezero, samples)) {
+        return TLM_RESULT_OUT_OF_RANGE;
+    }
+    struct tof_app_status st;
+    tof_app_get_status(link->app, &st);
+    link->rezero_raw = st.raw_output;
+    tof_app_set_raw_output(link->app, true);
+    return TLM_RESULT_OK;
+}
+
 /* The calibration message: the state in force and the stored section. */
 static void send_calibration(struct tof_link *link) {
     struct tlm_calibration msg = {.state = link->cal_state};
@@ -234,6 +281,8 @@ static uint8_t apply(struct tof_link *link, const struct tlm_command *cmd, int *
         return write_calibration(link, cmd->u.cal_section, error);
     case TLM_TYPE_READ_CALIBRATION:
         return TLM_RESULT_OK; /* the calibration message follows the ack */
+    case TLM_TYPE_REZERO:
+        return start_rezero(link, cmd->u.rezero_samples);
     case TLM_TYPE_SAVE: {
         struct tof_settings now;
         tof_settings_capture(app, &link->process_noise, &now);

@@ -769,6 +769,57 @@ static void test_write_and_read_calibration_by_command(void **state) {
     assert_int_equal(t.app.estimator.cfg.calibration.offset_um[0], 1500);
 }
 
+/* re-zero at a parallel plate (every sensor reads 100 mm): refused uncalibrated; with a
+ * calibration in force, N samples refit the offsets so every corrected reading is the same
+ * (attitude zero), their sum kept, gains kept, saved and in force; the raw stream stays off. */
+static void test_rezero_refits_the_offsets(void **state) {
+    (void)state;
+    assert_int_equal(sim_flash_init(&saved_flash, 2u, 2048u), HAL_OK);
+    boot_with_records();
+    struct tlm_command cmd = {.type = TLM_TYPE_REZERO, .u.rezero_samples = 50};
+    push_command(&cmd, 1);
+    run_ms(30);
+    decode_output();
+    assert_int_equal(t.nacks, 1);
+    assert_int_equal(t.last_nack_result, TLM_RESULT_STATE); /* nothing to keep the gains of */
+
+    const struct calibration_head cal = {.calibrated = true,
+                                         .offset_um = {1500, -800, -1200, 600},
+                                         .gain_ppm = {10000, -10000, 0, 5000},
+                                         .offset_sd_um = {40, 40, 40, 40},
+                                         .gain_sd_ppm = {300, 300, 300, 300}};
+    cmd = (struct tlm_command){.type = TLM_TYPE_WRITE_CALIBRATION};
+    const struct tof_cal_binding b = tof_cal_binding_of(t.app.cfg);
+    assert_int_equal(tof_cal_encode(&cal, true, &b, cmd.u.cal_section), HAL_OK);
+    push_command(&cmd, 2);
+    cmd = (struct tlm_command){.type = TLM_TYPE_REZERO, .u.rezero_samples = 50};
+    push_command(&cmd, 3);
+    t.raw = t.calibrations = 0;
+    run_ms(50u * 20u + 200u);
+    decode_output();
+    assert_int_equal(t.raw, 0);
+    assert_int_equal(t.calibrations, 1);
+    assert_int_equal(t.last_calibration.state, TLM_CAL_APPLIED);
+    struct calibration_head now;
+    tof_app_get_calibration(&t.app, &now);
+    /* x̂ = Σ(100000 − o_i) / Σ g_i = 399900 / 4.005 = 99850.19 µm; o_i' = 100000 − g_i·x̂ */
+    const int32_t want[4] = {100000 - 100848, 100000 - 98852, 100000 - 99850, 100000 - 100349};
+    int32_t sum = 0;
+    for (unsigned i = 0; i < 4u; ++i) {
+        assert_true(now.offset_um[i] >= want[i] - 1 && now.offset_um[i] <= want[i] + 1);
+        assert_int_equal(now.gain_ppm[i], cal.gain_ppm[i]);
+        /* noise-free whole-mm readings: the mean's quantisation floor (1 mm)²/12/50 = 1666
+         * µm², halved, plus four of them and four old sd² (1600) over 16: √1649 = 40 µm */
+        assert_int_equal(now.offset_sd_um[i], 40);
+        sum += now.offset_um[i];
+    }
+    assert_true(sum >= 100 - 2 && sum <= 100 + 2); /* Σ o_i kept */
+    setup(NULL);                                   /* saved: back after a reset */
+    boot_with_records();
+    assert_int_equal(t.last_status.calibration, TLM_CAL_APPLIED);
+    assert_int_equal(t.app.estimator.cfg.calibration.offset_um[2], now.offset_um[2]);
+}
+
 static void test_save_without_storage_is_refused(void **state) {
     (void)state;
     tof_link_service_ops.start(&t.link, &t.app);
@@ -804,6 +855,7 @@ int main(void) {
         cmocka_unit_test_setup(test_settings_the_image_refuses_fall_back_to_defaults, setup),
         cmocka_unit_test_setup(test_a_saved_calibration_is_applied_at_boot, setup),
         cmocka_unit_test_setup(test_write_and_read_calibration_by_command, setup),
+        cmocka_unit_test_setup(test_rezero_refits_the_offsets, setup),
         cmocka_unit_test_setup(test_save_without_storage_is_refused, setup),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

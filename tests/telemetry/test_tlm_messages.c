@@ -769,6 +769,16 @@ static void test_calibration_messages(void **state) {
     assert_memory_equal(m.u.calibration.section, msg.section, TLM_CAL_SECTION_LEN);
     out[5] = TLM_CAL_STATE_LAST + 1u;
     assert_int_equal(tlm_parse_telemetry(&frame, &m, NULL), TLM_RESULT_OUT_OF_RANGE);
+
+    /* re-zero: u16 samples, 10..5000 */
+    cmd = (struct tlm_command){.type = TLM_TYPE_REZERO, .u.rezero_samples = 500};
+    assert_int_equal(tlm_encode_command(1, &cmd, out, sizeof out), 2 + TLM_FRAME_OVERHEAD);
+    assert_int_equal(out[TLM_HEADER_SIZE], 0xF4);
+    assert_int_equal(out[TLM_HEADER_SIZE + 1], 0x01);
+    const uint8_t nine[2] = {9, 0};
+    assert_int_equal(parse_bytes(TLM_TYPE_REZERO, nine, 2, &back, NULL), TLM_RESULT_OUT_OF_RANGE);
+    cmd.u.rezero_samples = 5001;
+    assert_int_equal(tlm_encode_command(1, &cmd, out, sizeof out), HAL_ERR_INVALID);
 }
 
 static void test_unknown_commands(void **state) {
@@ -776,20 +786,21 @@ static void test_unknown_commands(void **state) {
     struct tlm_command cmd;
     struct tlm_rx_counters c;
     memset(&c, 0, sizeof c);
-    /* Every byte that is not one of the ten command types is an unknown command,
+    /* Every byte that is not one of the eleven command types is an unknown command,
      * telemetry types included. */
     unsigned unknown = 0;
     for (unsigned type = 0; type <= 0xFF; ++type) {
         const enum tlm_result r = parse_bytes((uint8_t)type, NULL, 0, &cmd, NULL);
         if ((type >= TLM_TYPE_SET_WINDOW && type <= TLM_TYPE_SAVE) ||
-            type == TLM_TYPE_WRITE_CALIBRATION || type == TLM_TYPE_READ_CALIBRATION) {
+            type == TLM_TYPE_WRITE_CALIBRATION || type == TLM_TYPE_READ_CALIBRATION ||
+            type == TLM_TYPE_REZERO) {
             assert_int_not_equal(r, TLM_RESULT_UNKNOWN_TYPE);
         } else {
             assert_int_equal(r, TLM_RESULT_UNKNOWN_TYPE);
             unknown++;
         }
     }
-    assert_int_equal(unknown, 246);
+    assert_int_equal(unknown, 245);
     assert_int_equal(parse_bytes(TLM_TYPE_ESTIMATE, NULL, 0, &cmd, &c), TLM_RESULT_UNKNOWN_TYPE);
     assert_int_equal(c.unknown_type, 1);
 }

@@ -345,6 +345,10 @@ static void build(struct builder *b) {
         cmd.u.cal_section[i] = (uint8_t)(255u - i);
     }
     add_command(b, &cmd);
+    memset(&cmd, 0, sizeof cmd);
+    cmd.type = TLM_TYPE_REZERO;
+    cmd.u.rezero_samples = TLM_REZERO_MAX;
+    add_command(b, &cmd);
 
     /* Malformed 7: the capture ends inside a frame (truncated at the flush). */
     m = estimate(12000, TLM_ESTIMATOR_MEAN, 5, 6, 7);

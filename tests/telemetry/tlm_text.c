@@ -102,6 +102,8 @@ static const char *command_name(uint8_t type) {
         return "write-calibration";
     case TLM_TYPE_READ_CALIBRATION:
         return "read-calibration";
+    case TLM_TYPE_REZERO:
+        return "re-zero";
     default:
         return NULL;
     }
@@ -234,6 +236,9 @@ void tlm_text_command(FILE *out, uint8_t seq, const struct tlm_command *cmd) {
                 cmd->u.process_noise.qt_um2_per_s / 1000000u,
                 cmd->u.process_noise.qt_um2_per_s % 1000000u,
                 (cmd->u.process_noise.flags & TLM_PROCESS_NOISE_AUTO) != 0u ? "yes" : "no");
+        break;
+    case TLM_TYPE_REZERO:
+        fprintf(out, " samples=%u", cmd->u.rezero_samples);
         break;
     case TLM_TYPE_WRITE_CALIBRATION:
         fputs(" section=", out);

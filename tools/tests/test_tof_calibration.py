@@ -90,6 +90,10 @@ class TelemetryTest(unittest.TestCase):
         ftype, payload = t.command_payload("write-calibration " + FIRMWARE_SECTION.hex())
         self.assertEqual((ftype, payload), (t.T_WRITE_CALIBRATION, FIRMWARE_SECTION))
         self.assertEqual(t.command_payload("read-calibration"), (t.T_READ_CALIBRATION, b""))
+        self.assertEqual(t.command_payload("re-zero 500"), (t.T_REZERO, b"\xf4\x01"))
+        for bad in ("re-zero 9", "re-zero 5001", "re-zero x"):
+            with self.assertRaises(t.ProtocolError):
+                t.command_payload(bad)
         with self.assertRaises(t.ProtocolError):
             t.command_payload("write-calibration 0201")
         fields, result = t.parse(t.T_CALIBRATION, bytes([1]) + FIRMWARE_SECTION)

@@ -95,6 +95,11 @@ enum tof_cal_state tof_cal_boot(struct tof_record_store *store, struct tof_app *
 enum tof_cal_state tof_cal_write(struct tof_record_store *store, struct tof_app *app,
                                  const uint8_t *section, int *error);
 
+/* As tof_cal_write() for `cal` made in this image's configuration (the re-zero's result);
+ * its gains count as fitted unless all four are 0 with the parts' spread as sd. */
+enum tof_cal_state tof_cal_write_head(struct tof_record_store *store, struct tof_app *app,
+                                      const struct calibration_head *cal, int *error);
+
 /* The calibration section of the record in use into `section` (TOF_SECTION_HEADER +
  * TOF_CALIBRATION_LENGTH bytes, as stored), or zeros when there is none. */
 void tof_cal_read(const struct tof_record_store *store, uint8_t *section);

@@ -411,36 +411,10 @@ static enum tlm_result parse_status(struct reader *r, struct tlm_status *m) {
 
 /* --- calibration ---------------------------------------------------------- */
 
-/* A calibration section's header as the protocol checks it: id 2, length 80 (the content is
- * the firmware's to check); `none_ok` also takes the all-zero section of "none stored". */
-static bool cal_section_is_valid(const uint8_t *s, bool none_ok) {
-    if (none_ok && s[0] == 0u && s[1] == 0u && s[2] == 0u && s[3] == 0u) {
-        for (size_t i = 4; i < TLM_CAL_SECTION_LEN; ++i) {
-            if (s[i] != 0u) {
-                return false;
-            }
-        }
-        return true;
-    }
-    return s[0] == TLM_CAL_SECTION_ID && s[1] != 0u &&
-           (size_t)(s[2] | s[3] << 8) == TLM_CAL_SECTION_LEN - 4u;
-}
-
-int tlm_encode_calibration(uint8_t seq, const struct tlm_calibration *msg, uint8_t *out,
-                           size_t cap) {
-    if (msg == NULL || !has_room(out, cap, TLM_LEN_CALIBRATION) ||
-        msg->state > TLM_CAL_STATE_LAST || !cal_section_is_valid(msg->section, true)) {
-        return HAL_ERR_INVALID;
-    }
-    out[TLM_HEADER_SIZE] = msg->state;
-    memcpy(&out[TLM_HEADER_SIZE + 1u], msg->section, TLM_CAL_SECTION_LEN);
-    return finish_frame(TLM_TYPE_CALIBRATION, seq, out, TLM_LEN_CALIBRATION, cap);
-}
-
 static enum tlm_result parse_calibration(const uint8_t *p, struct tlm_calibration *m) {
     m->state = p[0];
     memcpy(m->section, &p[1], TLM_CAL_SECTION_LEN);
-    return m->state <= TLM_CAL_STATE_LAST && cal_section_is_valid(m->section, true)
+    return m->state <= TLM_CAL_STATE_LAST && tlm_cal_section_is_valid(m->section, true)
                ? TLM_RESULT_OK
                : TLM_RESULT_OUT_OF_RANGE;
 }
@@ -489,11 +463,17 @@ int tlm_encode_command(uint8_t seq, const struct tlm_command *cmd, uint8_t *out,
         put_u8(&w, cmd->u.process_noise.flags);
         break;
     case TLM_TYPE_WRITE_CALIBRATION:
-        if (!cal_section_is_valid(cmd->u.cal_section, false)) {
+        if (!tlm_cal_section_is_valid(cmd->u.cal_section, false)) {
             return HAL_ERR_INVALID;
         }
         memcpy(w.buf, cmd->u.cal_section, TLM_CAL_SECTION_LEN);
         w.at = TLM_CAL_SECTION_LEN;
+        break;
+    case TLM_TYPE_REZERO:
+        if (cmd->u.rezero_samples < TLM_REZERO_MIN || cmd->u.rezero_samples > TLM_REZERO_MAX) {
+            return HAL_ERR_INVALID;
+        }
+        put_u16(&w, cmd->u.rezero_samples);
         break;
     default: /* start, stop, status request, save, read-calibration: no payload */
         break;
@@ -542,7 +522,13 @@ enum tlm_result tlm_parse_command(const struct tlm_frame *frame, struct tlm_comm
             break;
         case TLM_TYPE_WRITE_CALIBRATION:
             memcpy(out->u.cal_section, frame->payload, TLM_CAL_SECTION_LEN);
-            if (!cal_section_is_valid(out->u.cal_section, false)) {
+            if (!tlm_cal_section_is_valid(out->u.cal_section, false)) {
+                result = TLM_RESULT_OUT_OF_RANGE;
+            }
+            break;
+        case TLM_TYPE_REZERO:
+            out->u.rezero_samples = get_u16(&r);
+            if (out->u.rezero_samples < TLM_REZERO_MIN || out->u.rezero_samples > TLM_REZERO_MAX) {
                 result = TLM_RESULT_OUT_OF_RANGE;
             }
             break;

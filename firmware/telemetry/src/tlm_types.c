@@ -28,6 +28,7 @@ static const struct type_info type_table[] = {
     {TLM_TYPE_SAVE, TLM_ACCEPT_COMMANDS, TLM_LEN_SAVE},
     {TLM_TYPE_WRITE_CALIBRATION, TLM_ACCEPT_COMMANDS, TLM_LEN_WRITE_CALIBRATION},
     {TLM_TYPE_READ_CALIBRATION, TLM_ACCEPT_COMMANDS, TLM_LEN_READ_CALIBRATION},
+    {TLM_TYPE_REZERO, TLM_ACCEPT_COMMANDS, TLM_LEN_REZERO},
 };
 #define TYPE_COUNT (sizeof type_table / sizeof type_table[0])
 _Static_assert(TLM_LEN_HEALTH <= TLM_MAX_PAYLOAD, "largest payload must fit a frame");

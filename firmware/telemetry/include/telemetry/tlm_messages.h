@@ -44,6 +44,7 @@ enum tlm_type {
     /* The head's calibration (issue 23; 0x90 on, clear of the settings' commands): */
     TLM_TYPE_WRITE_CALIBRATION = 0x90, /* a record section 2, saved and put in force */
     TLM_TYPE_READ_CALIBRATION = 0x91,  /* answered by a calibration message */
+    TLM_TYPE_REZERO = 0x92,            /* refit the offsets at the latched position */
 };
 
 /* Fixed payload length of each type, in bytes. */
@@ -66,6 +67,9 @@ enum tlm_type {
 #define TLM_CAL_SECTION_LEN       84u
 #define TLM_LEN_WRITE_CALIBRATION TLM_CAL_SECTION_LEN
 #define TLM_LEN_READ_CALIBRATION  0u
+#define TLM_LEN_REZERO            2u /* u16 samples */
+#define TLM_REZERO_MIN            10u
+#define TLM_REZERO_MAX            5000u
 #define TLM_LEN_CALIBRATION       (1u + TLM_CAL_SECTION_LEN) /* state, section */
 
 #define TLM_SENSOR_COUNT    4u /* A, B, C, D; bit i of a sensor mask is sensor i */
@@ -267,6 +271,7 @@ struct tlm_command {
         /* TLM_TYPE_WRITE_CALIBRATION: record section 2 (header id 2, length 80; the
          * firmware checks the version and the content) */
         uint8_t cal_section[TLM_CAL_SECTION_LEN];
+        uint16_t rezero_samples; /* TLM_TYPE_REZERO: TLM_REZERO_MIN..TLM_REZERO_MAX */
     } u;
 };
 
@@ -304,6 +309,11 @@ int tlm_encode_health(uint8_t seq, const struct tlm_health *msg, uint8_t *out, s
 int tlm_encode_ack(uint8_t seq, const struct tlm_ack *msg, uint8_t *out, size_t cap);
 /* As tlm_encode_estimate(), for a status message. */
 int tlm_encode_status(uint8_t seq, const struct tlm_status *msg, uint8_t *out, size_t cap);
+
+/* A calibration section's header as the protocol checks it: id 2, a version other than 0,
+ * length 80 (the content is the firmware's to check); `none_ok` also takes the all-zero
+ * section of "none stored". */
+bool tlm_cal_section_is_valid(const uint8_t *section, bool none_ok);
 
 /* As tlm_encode_estimate(), for a calibration message. */
 int tlm_encode_calibration(uint8_t seq, const struct tlm_calibration *msg, uint8_t *out,
