@@ -179,7 +179,11 @@ static int configure(struct replay *r) {
                 r->period_ms, r->args->trace_path);
         return -1;
     }
-    if (cal_apply_preload(&r->cal.cal, &r->app_cfg, NULL, &r->flash, &r->records) != 0) {
+    /* The simulated head is the one the HEAD.cal names; its mode and budget are the file's
+     * to state, and the boot refuses them as the flight unit would. */
+    r->app_cfg.head_id = r->cal.made_in.has_head ? r->cal.made_in.head_id : 0u;
+    if (cal_apply_preload(&r->cal.cal, &r->app_cfg, &r->cal.made_in, NULL, &r->flash,
+                          &r->records) != 0) {
         return -1;
     }
     return configure_world(r);
@@ -234,7 +238,15 @@ static int run(struct replay *r) {
     }
     /* The boot reads the calibration from the record storage, as on the flight unit. */
     r->cal_state = (int)tof_cal_boot(&r->records, &r->app);
-    if (r->cal_state != (r->cal.cal.calibrated ? TOF_CAL_APPLIED : TOF_CAL_NONE)) {
+    if (r->cal.cal.calibrated &&
+        (r->cal_state == TOF_CAL_OTHER_MODE || r->cal_state == TOF_CAL_OTHER_HEAD)) {
+        fprintf(stderr,
+                "host_sim replay: warning: %s was made in another distance mode or timing budget "
+                "than this replay's (%s, %u ms): not applied, as the flight unit would refuse "
+                "it; the head is uncalibrated\n",
+                r->cal.source, vl53_distance_mode_name(r->app_cfg.timing.mode),
+                (unsigned)r->app_cfg.timing.budget_ms);
+    } else if (r->cal_state != (r->cal.cal.calibrated ? TOF_CAL_APPLIED : TOF_CAL_NONE)) {
         fprintf(stderr,
                 "host_sim replay: internal: the firmware's boot found calibration state %d\n",
                 r->cal_state);

@@ -65,3 +65,14 @@ replay(half 1 "half.csv:4:1: offset_mm and offset_sd_mm come together" "")
 write_trace(missing_file "# calibration=nowhere.cal\n")
 replay(missing_file 1 "nowhere.cal" "")
 replay(none 1 "--calibration: .*wide.cal:4: gain: a gain within 0.9..1.1" "" --calibration ${WORK}/cal/wide.cal)
+# What a HEAD.cal says it was made in (tools/tof_telemetry.py --read-cal writes these keys):
+# the simulated head is the file's head_id; another distance mode is refused by the boot as
+# the flight unit would (a warning, the replay uncalibrated), a bad value is an error.
+file(READ ${WORK}/cal/head.cal base)
+file(WRITE ${WORK}/cal/head7.cal "${base}# head_id=7\n")
+replay(none 0 "" "\"state\": \"applied\", \"calibrated\": true" --calibration ${WORK}/cal/head7.cal)
+file(WRITE ${WORK}/cal/long.cal "${base}# distance_mode=long\n")
+replay(none 0 "warning: .*long.cal was made in another distance mode"
+       "\"state\": \"other-mode\", \"calibrated\": false" --calibration ${WORK}/cal/long.cal)
+file(WRITE ${WORK}/cal/badid.cal "${base}# head_id=-1\n")
+replay(none 1 "badid.cal: head_id '-1' is not an integer" "" --calibration ${WORK}/cal/badid.cal)

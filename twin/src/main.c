@@ -133,7 +133,10 @@ static int preload_calibration(struct run *r) {
         return -1;
     }
     uint8_t *mem = &r->t.flash[TWIN_RECORDS_BASE - TWIN_FLASH_BASE];
-    if (cal_apply_preload(&cal.cal, &tof_app_default_config, mem, &flash, &store) != 0) {
+    /* bound as the HEAD.cal states (head, mode, budget): the flight image's boot refuses
+     * what a flight unit would, and the report's calibration_state says so */
+    if (cal_apply_preload(&cal.cal, &tof_app_default_config, &cal.made_in, mem, &flash, &store) !=
+        0) {
         return -1;
     }
     memcpy(mem, flash.mem[0], CAL_APPLY_PAGE_SIZE);

@@ -2,7 +2,9 @@
  * (calibrate/cal_apply.h). */
 #include "calibrate/cal_apply.h"
 
+#include <stdint.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "calibrate/head_cal.h"
@@ -17,9 +19,47 @@ _Static_assert(TRACE_CAL_SENSORS == CALIBRATION_SENSORS &&
                    TRACE_CAL_UNCAL_GAIN_SD_PPM == CALIBRATION_UNCAL_GAIN_SD_PPM,
                "the trace reader's calibration integers are the estimator's");
 
-int cal_apply_load(const char *path, struct trace_v1_cal *out, char *err, size_t errlen) {
+/* The binding keys of `hc` (head_id, distance_mode, timing_budget_ms). 0, or -1 (err). */
+static int read_binding(const struct head_cal *hc, const char *path, struct cal_apply_binding *b,
+                        char *err, size_t errlen) {
+    memset(b, 0, sizeof *b);
+    const char *v = head_cal_extra(hc, "head_id");
+    char *end = NULL;
+    if (v != NULL) {
+        const unsigned long long id = strtoull(v, &end, 10);
+        if (end == v || *end != '\0' || v[0] == '-' || id > UINT32_MAX) {
+            snprintf(err, errlen, "%s: head_id '%s' is not an integer 0..4294967295", path, v);
+            return -1;
+        }
+        b->has_head = true;
+        b->head_id = (uint32_t)id;
+    }
+    if ((v = head_cal_extra(hc, "distance_mode")) != NULL) {
+        b->has_mode = strcmp(v, "short") == 0 || strcmp(v, "long") == 0;
+        if (!b->has_mode) {
+            snprintf(err, errlen, "%s: distance_mode '%s' is not short or long", path, v);
+            return -1;
+        }
+        b->mode = strcmp(v, "long") == 0 ? 2u : 1u; /* enum vl53_distance_mode */
+    }
+    if ((v = head_cal_extra(hc, "timing_budget_ms")) != NULL) {
+        const unsigned long ms = strtoul(v, &end, 10);
+        if (end == v || *end != '\0' || v[0] == '-' || ms == 0u || ms > UINT16_MAX) {
+            snprintf(err, errlen, "%s: timing_budget_ms '%s' is not an integer 1..65535", path, v);
+            return -1;
+        }
+        b->has_budget = true;
+        b->budget_ms = (uint16_t)ms;
+    }
+    return 0;
+}
+
+int cal_apply_load(const char *path, struct trace_v1_cal *out, struct cal_apply_binding *made_in,
+                   char *err, size_t errlen) {
     static struct head_cal hc; /* ~6 KB of keys */
-    if (head_cal_load(path, &hc, err, errlen) != 0) {
+    struct cal_apply_binding ignored;
+    if (head_cal_load(path, &hc, err, errlen) != 0 ||
+        read_binding(&hc, path, made_in != NULL ? made_in : &ignored, err, errlen) != 0) {
         return -1;
     }
     /* The file's text through the trace reader's exact conversion: a HEAD.cal and the same
@@ -70,7 +110,7 @@ int cal_apply_resolve(const char *prog, const char *option, const struct trace_v
     }
     if (file != NULL) {
         char err[HEAD_CAL_ERR_MAX];
-        if (cal_apply_load(file, &out->cal, err, sizeof err) != 0) {
+        if (cal_apply_load(file, &out->cal, &out->made_in, err, sizeof err) != 0) {
             fprintf(stderr, "%s: %s%s\n", prog, option != NULL ? "--calibration: " : "", err);
             return -1;
         }
@@ -96,8 +136,8 @@ void cal_apply_head(const struct trace_v1_cal *cal, struct calibration_head *out
 }
 
 int cal_apply_preload(const struct trace_v1_cal *cal, const struct tof_app_config *cfg,
-                      const uint8_t *pages_in, struct sim_flash *flash,
-                      struct tof_record_store *store) {
+                      const struct cal_apply_binding *made_in, const uint8_t *pages_in,
+                      struct sim_flash *flash, struct tof_record_store *store) {
     if (sim_flash_init(flash, 2u, CAL_APPLY_PAGE_SIZE) != HAL_OK) {
         fprintf(stderr, "internal: the simulated record storage\n");
         return -1;
@@ -115,7 +155,12 @@ int cal_apply_preload(const struct trace_v1_cal *cal, const struct tof_app_confi
     (void)tof_record_load(store); /* the record in use, whose other sections are kept */
     struct calibration_head head;
     cal_apply_head(cal, &head);
-    const struct tof_cal_binding bind = tof_cal_binding_of(cfg);
+    struct tof_cal_binding bind = tof_cal_binding_of(cfg);
+    if (made_in != NULL) {
+        bind.head_id = made_in->has_head ? made_in->head_id : bind.head_id;
+        bind.mode = made_in->has_mode ? made_in->mode : bind.mode;
+        bind.budget_ms = made_in->has_budget ? made_in->budget_ms : bind.budget_ms;
+    }
     uint8_t section[TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH];
     uint8_t stored[TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH];
     tof_cal_read(store, stored);
