@@ -34,6 +34,8 @@ import struct
 import sys
 import time
 
+import tof_calibration
+
 # --- protocol constants (docs/telemetry.md; tlm_frame.h, tlm_messages.h) ----
 
 SYNC0 = 0xA5
@@ -42,7 +44,7 @@ HEADER_SIZE = 5
 CRC_SIZE = 2
 FRAME_OVERHEAD = HEADER_SIZE + CRC_SIZE
 MAX_PAYLOAD = 192
-PROTOCOL_VERSION = 3
+PROTOCOL_VERSION = 4
 
 ACCEPT_COMMANDS = 1
 ACCEPT_TELEMETRY = 2
@@ -61,6 +63,12 @@ T_STATUS_REQUEST = 0x85
 T_RAW_STREAM = 0x86
 T_SET_PROCESS_NOISE = 0x87
 T_SAVE = 0x88
+T_CALIBRATION = 0x10          # the answer to read-calibration
+T_WRITE_CALIBRATION = 0x90    # record section 2, saved and put in force
+T_READ_CALIBRATION = 0x91
+T_REZERO = 0x92               # u16 samples: refit the offsets at the latched position
+REZERO_MIN, REZERO_MAX = 10, 5000
+CAL_SECTION_LEN = 84          # u8 id 2, u8 version, u16 80, the 80 bytes (tof_calibration.py)
 
 # type -> (name, direction, payload length)
 TYPES = {
@@ -68,7 +76,7 @@ TYPES = {
     T_RAW_SAMPLE: ("raw", ACCEPT_TELEMETRY, 17),
     T_HEALTH: ("health", ACCEPT_TELEMETRY, 148),
     T_ACK: ("ack", ACCEPT_TELEMETRY, 4),
-    T_STATUS: ("status", ACCEPT_TELEMETRY, 17),
+    T_STATUS: ("status", ACCEPT_TELEMETRY, 18),
     T_SET_WINDOW: ("set-window", ACCEPT_COMMANDS, 3),
     T_SELECT_ESTIMATOR: ("select-estimator", ACCEPT_COMMANDS, 1),
     T_START: ("start", ACCEPT_COMMANDS, 0),
@@ -77,6 +85,10 @@ TYPES = {
     T_RAW_STREAM: ("raw-stream", ACCEPT_COMMANDS, 1),
     T_SET_PROCESS_NOISE: ("set-process-noise", ACCEPT_COMMANDS, 9),
     T_SAVE: ("save", ACCEPT_COMMANDS, 0),
+    T_CALIBRATION: ("calibration", ACCEPT_TELEMETRY, 1 + CAL_SECTION_LEN),
+    T_WRITE_CALIBRATION: ("write-calibration", ACCEPT_COMMANDS, CAL_SECTION_LEN),
+    T_READ_CALIBRATION: ("read-calibration", ACCEPT_COMMANDS, 0),
+    T_REZERO: ("re-zero", ACCEPT_COMMANDS, 2),
 }
 
 RESULTS = ["ok", "unknown-type", "bad-length", "out-of-range", "state"]
@@ -101,6 +113,10 @@ MODES = ["tumbling", "sliding"]
 # The status frame's record state: what the firmware found of its saved settings at boot
 # (firmware/record.h enum tof_record_state).
 RECORD_STATES = ["none", "loaded", "corrupt", "version", "rejected", "no-storage"]
+# The status frame's calibration state: what the firmware found of the head's calibration
+# at boot (firmware/calibration_record.h enum tof_cal_state); all but applied: uncalibrated.
+CAL_STATES = ["none", "applied", "corrupt", "version", "other-head", "other-mode", "rejected",
+              "no-storage"]
 SENSORS = "ABCD"
 WINDOW_MIN, WINDOW_MAX = 2, 255
 PROCESS_NOISE_AUTO = 0x01  # set-process-noise flags; every other bit is out of range
@@ -319,14 +335,14 @@ def _ack(p):
 
 def _status(p):
     (major, minor, patch, protocol, uptime, window_n, mode, estimator, running, raw,
-     period, record) = struct.unpack("<BBBBIHBBBBHB", p)
+     period, record, cal) = struct.unpack("<BBBBIHBBBBHBB", p)
     valid = (protocol == PROTOCOL_VERSION and WINDOW_MIN <= window_n <= WINDOW_MAX
              and mode < len(MODES) and estimator < len(ESTIMATORS) and running <= 1 and raw <= 1
-             and record < len(RECORD_STATES))
+             and record < len(RECORD_STATES) and cal < len(CAL_STATES))
     return valid, {"fw": (major, minor, patch), "protocol": protocol, "uptime_ms": uptime,
                    "window_n": window_n, "mode": mode, "estimator": estimator,
                    "running": running, "raw_stream": raw, "period_ms": period,
-                   "record": record}
+                   "record": record, "calibration": cal}
 
 
 def _set_window(p):
@@ -353,11 +369,35 @@ def _empty(_p):
     return True, {}
 
 
+def _cal_section_valid(s, none_ok):
+    """The protocol's check of a calibration section: its header (id 2, a version, length
+    80), or all zero (none stored) where none_ok; the content is the firmware's to check."""
+    if none_ok and not any(s):
+        return True
+    return s[0] == 2 and s[1] != 0 and struct.unpack_from("<H", s, 2)[0] == CAL_SECTION_LEN - 4
+
+
+def _calibration(p):
+    return (p[0] < len(CAL_STATES) and _cal_section_valid(p[1:], True),
+            {"state": p[0], "section": bytes(p[1:])})
+
+
+def _rezero(p):
+    samples = struct.unpack("<H", p)[0]
+    return REZERO_MIN <= samples <= REZERO_MAX, {"samples": samples}
+
+
+def _write_calibration(p):
+    return _cal_section_valid(p, False), {"section": bytes(p)}
+
+
 PARSERS = {T_ESTIMATE: _estimate, T_RAW_SAMPLE: _raw, T_HEALTH: _health, T_ACK: _ack,
            T_STATUS: _status, T_SET_WINDOW: _set_window,
            T_SELECT_ESTIMATOR: _select_estimator, T_START: _empty, T_STOP: _empty,
            T_STATUS_REQUEST: _empty, T_RAW_STREAM: _raw_stream,
-           T_SET_PROCESS_NOISE: _set_process_noise, T_SAVE: _empty}
+           T_SET_PROCESS_NOISE: _set_process_noise, T_SAVE: _empty,
+           T_CALIBRATION: _calibration, T_WRITE_CALIBRATION: _write_calibration,
+           T_READ_CALIBRATION: _empty, T_REZERO: _rezero}
 
 
 def parse(ftype, payload):
@@ -472,11 +512,18 @@ def format_message(ftype, seq, m):
     if ftype == T_STATUS:
         return head + (
             "status fw=%d.%d.%d protocol=%d uptime_ms=%d window_n=%d mode=%s estimator=%s "
-            "running=%s raw_stream=%s period_ms=%d record=%s" % (
+            "running=%s raw_stream=%s period_ms=%d record=%s calibration=%s" % (
                 m["fw"][0], m["fw"][1], m["fw"][2], m["protocol"], m["uptime_ms"],
                 m["window_n"], MODES[m["mode"]], ESTIMATORS[m["estimator"]],
                 "yes" if m["running"] else "no", "yes" if m["raw_stream"] else "no",
-                m["period_ms"], RECORD_STATES[m["record"]]))
+                m["period_ms"], RECORD_STATES[m["record"]], CAL_STATES[m["calibration"]]))
+    if ftype == T_CALIBRATION:
+        return head + "calibration state=%s section=%s" % (CAL_STATES[m["state"]],
+                                                           m["section"].hex())
+    if ftype == T_WRITE_CALIBRATION:
+        return head + "write-calibration section=%s" % m["section"].hex()
+    if ftype == T_REZERO:
+        return head + "re-zero samples=%d" % m["samples"]
     if ftype == T_SET_WINDOW:
         return head + "set-window window_n=%d mode=%s" % (m["window_n"], MODES[m["mode"]])
     if ftype == T_SELECT_ESTIMATOR:
@@ -550,10 +597,32 @@ def command_payload(text):
             raise ProtocolError("'%s': estimator must be one of %s, got '%s'"
                                 % (text, ", ".join(ESTIMATORS), name))
         return T_SELECT_ESTIMATOR, bytes([ESTIMATORS.index(name)])
-    if verb in ("start", "stop", "status", "status-request", "save"):
+    if verb in ("start", "stop", "status", "status-request", "save", "read-calibration"):
         expect(0, 0, verb)
-        plain = {"start": T_START, "stop": T_STOP, "save": T_SAVE}
+        plain = {"start": T_START, "stop": T_STOP, "save": T_SAVE,
+                 "read-calibration": T_READ_CALIBRATION}
         return plain.get(verb, T_STATUS_REQUEST), b""
+    if verb == "re-zero":
+        expect(1, 1, "re-zero N (samples at the latched position, %d..%d)"
+               % (REZERO_MIN, REZERO_MAX))
+        try:
+            samples = int(args[0], 10)
+        except ValueError:
+            samples = -1
+        if not REZERO_MIN <= samples <= REZERO_MAX:
+            raise ProtocolError("'%s': N must be an integer %d..%d, got '%s'"
+                                % (text, REZERO_MIN, REZERO_MAX, args[0]))
+        return T_REZERO, struct.pack("<H", samples)
+    if verb == "write-calibration":
+        expect(1, 1, "write-calibration HEX (record section 2, 84 bytes; --send-cal makes it)")
+        try:
+            section = bytes.fromhex(args[0])
+        except ValueError:
+            section = b""
+        if len(section) != CAL_SECTION_LEN or not _cal_section_valid(section, False):
+            raise ProtocolError("'%s': not the 84 bytes of a calibration section in hex"
+                                % text[:60])
+        return T_WRITE_CALIBRATION, section
     if verb in ("raw", "raw-stream"):
         expect(1, 1, "raw on|off")
         if args[0].lower() not in ("on", "off"):
@@ -570,7 +639,8 @@ def command_payload(text):
                                 "most 6 places) or auto, got '%s'" % (text, args[0]))
         return T_SET_PROCESS_NOISE, struct.pack("<IIB", values[0], values[1], 0)
     raise ProtocolError("unknown command '%s' (set-window, estimator, start, stop, status, raw, "
-                        "process-noise, save)" % verb)
+                        "process-noise, save, write-calibration, read-calibration, re-zero)"
+                        % verb)
 
 
 # The firmware's own codes behind a nack (the ack's `error`): estimator/attitude.h's
@@ -877,6 +947,134 @@ def serial_chunks(port, duration, idle_s=0.2):
             yield b""
 
 
+# --- the head's calibration: send, read back, record fixture stations ----------
+
+def _collect(chunks, decoder, want, count, on_event=None):
+    """Up to `count` valid messages of type `want` from `chunks` (every event also to
+    on_event)."""
+    out = []
+    for data in chunks:
+        for event in decoder.feed(data) if data else []:
+            if on_event is not None:
+                on_event(event, decoder.counters)
+            if event[0] == "frame" and event[1] == want:
+                fields, result = parse(want, event[3])
+                if result == R_OK:
+                    out.append(fields)
+        if len(out) >= count:
+            break
+    return out
+
+
+class _Tap:
+    """An on_event that keeps the messages of one type and passes every event on."""
+
+    def __init__(self, want, then):
+        self.want, self.then, self.got = want, then, []
+
+    def __call__(self, event, counters):
+        if event[0] == "frame" and event[1] == self.want:
+            fields, result = parse(self.want, event[3])
+            if result == R_OK:
+                self.got.append(fields)
+        self.then(event, counters)
+
+
+def _read_back(port, seq, printer, decoder, timeout=1.0):
+    """read-calibration on `port`: the calibration message (fields) or None."""
+    tap = _Tap(T_CALIBRATION, printer.handle)
+    send_command(port, "read-calibration", seq, tap, decoder=decoder)
+    if not tap.got:
+        tap.got = _collect(serial_chunks(port, timeout), decoder, T_CALIBRATION, 1,
+                           printer.handle)
+    return tap.got[-1] if tap.got else None
+
+
+def write_head_cal(path, message, source):
+    """The calibration message's section as HEAD.cal at path; its state on stdout."""
+    text = tof_calibration.section_to_head_cal(message["section"], source)
+    with open(path, "w") as f:
+        f.write(text)
+    return "calibration state=%s written to %s" % (CAL_STATES[message["state"]], path)
+
+
+def calibration_main(args, ap):
+    """--send-cal, --read-cal, --record-station. Returns the exit status."""
+    section = None
+    if args.send_cal:
+        try:
+            with open(args.send_cal) as f:
+                section = tof_calibration.head_cal_to_section(
+                    f.read(), args.send_cal, args.cal_mode, args.cal_budget_ms)
+        except (OSError, tof_calibration.CalibrationError) as e:
+            ap.exit(1, "tof_telemetry: --send-cal %s\n" % e)
+        if args.write_commands:
+            with open(args.write_commands, "wb") as f:
+                f.write(encode_commands(["write-calibration " + section.hex(),
+                                         "read-calibration"], args.first_seq or 0))
+            return 0
+    decoder = Decoder(ACCEPT_ALL)
+    printer = Printer(sys.stdout)
+    if args.file:  # a capture: what it holds
+        chunks = file_chunks(args.file)
+        if args.read_cal:
+            got = _collect(chunks, decoder, T_CALIBRATION, 1 << 30)
+            if not got:
+                ap.exit(1, "tof_telemetry: %s: no calibration message\n" % args.file)
+            print(write_head_cal(args.read_cal, got[-1], args.file))
+        if args.record_station:
+            raw = _collect(chunks, decoder, T_RAW_SAMPLE, args.readings)
+            return _append_station(args, ap, raw[:args.readings])
+        return 0
+    try:
+        import serial
+        port = serial.Serial(args.port, args.baud, timeout=0.05)
+    except (ImportError, OSError) as e:
+        ap.exit(1, "tof_telemetry: --port %s: %s\n" % (args.port, e))
+    seq = (args.first_seq if args.first_seq is not None else int(time.time() * 1000)) & 0xFF
+    with port:
+        try:
+            if section is not None:
+                send_command(port, "write-calibration " + section.hex(), seq, printer.handle,
+                             decoder=decoder)
+                back = _read_back(port, (seq + 1) & 0xFF, printer, decoder)
+                if back is None or back["section"] != section:
+                    ap.exit(1, "tof_telemetry: --send-cal: the calibration read back differs\n")
+                print("calibration written, saved and read back: state=%s"
+                      % CAL_STATES[back["state"]])
+                seq = (seq + 2) & 0xFF
+            if args.read_cal:
+                back = _read_back(port, seq, printer, decoder)
+                if back is None:
+                    ap.exit(1, "tof_telemetry: --read-cal: no calibration message\n")
+                print(write_head_cal(args.read_cal, back, args.port))
+                seq = (seq + 1) & 0xFF
+            if args.record_station:
+                send_command(port, "raw on", seq, printer.handle, decoder=decoder)
+                wait = args.readings * 0.1 + 2.0  # at 20 ms a sample: far more than needed
+                raw = _collect(serial_chunks(port, wait), decoder, T_RAW_SAMPLE, args.readings)
+                send_command(port, "raw off", (seq + 1) & 0xFF, printer.handle, decoder=decoder)
+                return _append_station(args, ap, raw[:args.readings])
+        except CommandFailed as e:
+            ap.exit(1, "tof_telemetry: %s\n" % e)
+    return 0
+
+
+def _append_station(args, ap, raw):
+    if len(raw) < args.readings:
+        ap.exit(1, "tof_telemetry: --record-station: %d raw samples, %d asked for\n"
+                % (len(raw), args.readings))
+    try:
+        alpha, beta, distance = args.station.split(",")
+        n = tof_calibration.append_station(args.record_station, raw, alpha, beta, distance,
+                                           args.arm_mm, args.period_ms)
+    except (ValueError, AttributeError, tof_calibration.CalibrationError) as e:
+        ap.exit(1, "tof_telemetry: --station ALPHA,BETA,DISTANCE: %s\n" % e)
+    print("station alpha=%s beta=%s distance_mm=%s: %d rows appended to %s"
+          % (alpha, beta, distance, n, args.record_station))
+    return 0
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(
         description="Decode the ToF firmware's binary telemetry (docs/telemetry.md).")
@@ -906,7 +1104,37 @@ def main(argv=None):
                     help="with --live: keep only the newest N estimates on screen")
     ap.add_argument("--strict", action="store_true",
                     help="exit with status 1 if any malformed frame was seen")
+    cal = ap.add_argument_group("the head's calibration (docs/calibration.md)")
+    cal.add_argument("--send-cal", metavar="HEAD.cal",
+                     help="send HEAD.cal as the calibration (write-calibration: saved and in "
+                          "force), then read it back and compare")
+    cal.add_argument("--read-cal", metavar="OUT.cal",
+                     help="read the unit's calibration (or a capture's last calibration "
+                          "message) into a HEAD.cal")
+    cal.add_argument("--cal-mode", choices=["short", "long"],
+                     help="distance mode the HEAD.cal was made in, if it has no "
+                          "distance_mode key (default short, the flight image's)")
+    cal.add_argument("--cal-budget-ms", type=int,
+                     help="timing budget the HEAD.cal was made with, if it has no "
+                          "timing_budget_ms key (default 15, the flight image's)")
+    cal.add_argument("--record-station", metavar="CAL_TRACE.csv",
+                     help="append a fixture station's raw readings (raw on, N samples, raw "
+                          "off) with --station's reference to a calibration trace")
+    cal.add_argument("--station", metavar="ALPHA,BETA,DISTANCE",
+                     help="the station's stated reference: degrees, degrees, mm (x-bar)")
+    cal.add_argument("--readings", type=int, default=500,
+                     help="raw samples per station (default 500)")
+    cal.add_argument("--arm-mm", default="30", help="arm_mm of a new calibration trace (30)")
+    cal.add_argument("--period-ms", type=int, default=20,
+                     help="period_ms of a new calibration trace (20)")
     args = ap.parse_args(argv)
+    if args.send_cal or args.read_cal or args.record_station:
+        if args.record_station and not args.station:
+            ap.exit(1, "tof_telemetry: --record-station needs --station ALPHA,BETA,DISTANCE\n")
+        if not (args.port or args.file or (args.send_cal and args.write_commands)):
+            ap.exit(1, "tof_telemetry: --send-cal/--read-cal/--record-station need --port "
+                       "(or --file, or --write-commands for --send-cal)\n")
+        return calibration_main(args, ap)
 
     try:
         commands = encode_commands(args.send)

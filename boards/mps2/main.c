@@ -13,10 +13,13 @@
 
 #include "board.h"
 #include "firmware/app.h"
+#include "firmware/calibration_record.h"
+#include "firmware/settings.h"
 #include "firmware/est_csv.h"
 #include "hal/hal_err.h"
 #include "qemu_trace.h"
 #include "semihost.h"
+#include "sim/sim_flash.h"
 #include "sim/sim_replay.h"
 
 static void semihost_log_write(void *ctx, const char *text, size_t len) {
@@ -38,6 +41,8 @@ static struct {
     uint32_t samples_done;
     int failed;
     char cmdline[512];
+    struct sim_flash flash;          /* the record storage, the trace's calibration in it */
+    struct tof_record_store records; /* what the firmware's boot reads */
 } q;
 
 static void say(const char *a, const char *b) {
@@ -135,6 +140,46 @@ static int parse_args(char **trace, char **out, uint16_t *window, bool *sliding)
     return 0;
 }
 
+/* The trace's calibration keys (DESIGN.md §5) as the flight unit keeps them: record section 2
+ * in the record storage, which the firmware's boot reads (as host_sim replay does). A
+ * calibration=FILE is host_sim's to read: refused here. 0, or -1 (said). */
+static int apply_trace_calibration(void) {
+    const struct trace_v1_cal *tc = &q.trace.reader.meta.cal;
+    if ((tc->keys & TRACE_CAL_KEY_FILE) != 0u) {
+        say("replay: calibration=FILE is not read by this image: put the keys in the trace, or "
+            "replay with host_sim: ",
+            q.trace.path);
+        return -1;
+    }
+    if (sim_flash_init(&q.flash, 2u, 2048u) != HAL_OK ||
+        tof_record_init(&q.records, sim_flash_hal(&q.flash), 0u, 1u) != HAL_OK) {
+        return -1;
+    }
+    if (tc->calibrated) {
+        struct calibration_head head = {.calibrated = true};
+        for (unsigned i = 0; i < CALIBRATION_SENSORS; ++i) {
+            head.offset_um[i] = tc->offset_um[i];
+            head.gain_ppm[i] = tc->gain_ppm[i];
+            head.offset_sd_um[i] = tc->offset_sd_um[i];
+            head.gain_sd_ppm[i] = tc->gain_sd_ppm[i];
+            head.offset_gain_corr_q15[i] = tc->corr_q15[i];
+        }
+        const struct tof_cal_binding bind = tof_cal_binding_of(&q.cfg);
+        uint8_t section[TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH];
+        if (tof_cal_encode(&head, tc->has_gain, &bind, section) != HAL_OK ||
+            tof_section_save(&q.records, section) != HAL_OK) {
+            say("replay: the trace's calibration does not make a record: ", q.trace.path);
+            return -1;
+        }
+    }
+    const enum tof_cal_state want = tc->calibrated ? TOF_CAL_APPLIED : TOF_CAL_NONE;
+    if (tof_cal_boot(&q.records, &q.app) != want) {
+        say("replay: the firmware's boot did not take the trace's calibration: ", q.trace.path);
+        return -1;
+    }
+    return 0;
+}
+
 int main(void) {
     char *trace_path = NULL;
     char *out_path = NULL;
@@ -177,6 +222,9 @@ int main(void) {
     }
     if (tof_app_init(&q.app, &q.platform, &q.cfg) != HAL_OK) {
         say("replay: firmware init failed on ", BOARD_NAME);
+        return 1;
+    }
+    if (apply_trace_calibration() != 0) {
         return 1;
     }
     sim_replay_set_origin(&q.sim, q.app.assembler.origin_us);

@@ -420,6 +420,17 @@ int tof_app_set_process_noise(struct tof_app *app, uint32_t qd_um2_per_s, uint32
     return attitude_init(&app->estimator, &next);
 }
 
+int tof_app_set_calibration(struct tof_app *app, const struct calibration_head *cal) {
+    struct attitude_config next = app->estimator.cfg;
+    next.calibration = *cal;
+    /* as tof_app_set_window(): checked before the state is touched, a refusal changes nothing */
+    return attitude_init(&app->estimator, &next);
+}
+
+void tof_app_get_calibration(const struct tof_app *app, struct calibration_head *out) {
+    *out = app->estimator.cfg.calibration;
+}
+
 int tof_app_set_primary(struct tof_app *app, enum attitude_estimator primary) {
     /* only an estimator that runs (selected in the configuration, built into the image) */
     if ((unsigned)primary >= (unsigned)ATTITUDE_EST_COUNT ||

@@ -3,6 +3,7 @@
 
 #include <string.h>
 
+#include "firmware/calibration_record.h"
 #include "hal/hal_err.h"
 #include "telemetry/tlm_messages.h"
 
@@ -115,8 +116,36 @@ static void on_estimate(void *ctx, const struct tof_estimate_record *record) {
     }
 }
 
+static void send_calibration(struct tof_link *link);
+
+/* The re-zero's last sample is in: the offsets refitted, saved and in force (or the reason
+ * not), the raw stream as the user had it, and a calibration message says how it went. */
+static void finish_rezero(struct tof_link *link) {
+    struct calibration_head now, next;
+    tof_app_get_calibration(link->app, &now);
+    int error = 0;
+    enum tof_cal_state st = TOF_CAL_REJECTED;
+    if (tof_rezero_fit(&link->rezero, &now, &next)) {
+        st = tof_cal_write_head(link->records, link->app, &next, &error);
+    }
+    link->rezero.wanted = 0u;
+    tof_app_set_raw_output(link->app, link->rezero_raw);
+    const uint8_t kept = link->cal_state;
+    link->cal_state = (uint8_t)st; /* this message says how the re-zero went */
+    send_calibration(link);
+    link->cal_state = st == TOF_CAL_APPLIED ? (uint8_t)st : kept;
+}
+
 static void on_sample(void *ctx, const struct tof_sample *sample) {
     struct tof_link *link = ctx;
+    if (link->rezero.wanted != 0u) {
+        if (tof_rezero_add(&link->rezero, sample)) {
+            finish_rezero(link);
+        }
+        if (!link->rezero_raw) {
+            return; /* raw on for the re-zero only: nothing sent */
+        }
+    }
     const struct tlm_raw_sample msg = {
         .t_ms = (uint32_t)(sample->t_us / 1000u),
         .range_mm = {sample->range_mm[0], sample->range_mm[1], sample->range_mm[2],
@@ -145,7 +174,8 @@ void tof_link_send_status(struct tof_link *link) {
         .running = st.running,
         .raw_stream = st.raw_output,
         .period_ms = (uint16_t)(st.period_us / 1000u),
-        .record = link->record_state, /* enum tof_record_state == enum tlm_record_state */
+        .record = link->record_state,   /* enum tof_record_state == enum tlm_record_state */
+        .calibration = link->cal_state, /* enum tof_cal_state == enum tlm_cal_state */
     };
     uint8_t frame[TLM_FRAME_MAX];
     send(link, frame, tlm_encode_status(link->seq, &msg, frame, sizeof frame));
@@ -170,6 +200,44 @@ static uint8_t estimator_result(int err) {
                    err == ATTITUDE_ERR_KALMAN_PROCESS_NOISE
                ? TLM_RESULT_OUT_OF_RANGE
                : TLM_RESULT_STATE;
+}
+
+/* write-calibration (docs/telemetry.md): saved and in force, or refused as it stands. */
+static uint8_t write_calibration(struct tof_link *link, const uint8_t *section, int *error) {
+    const enum tof_cal_state st = tof_cal_write(link->records, link->app, section, error);
+    if (st == TOF_CAL_APPLIED) {
+        link->cal_state = (uint8_t)st; /* what the status frame says from now on */
+        return TLM_RESULT_OK;
+    }
+    return st == TOF_CAL_CORRUPT || st == TOF_CAL_VERSION ? TLM_RESULT_OUT_OF_RANGE
+                                                          : TLM_RESULT_STATE;
+}
+
+/* re-zero: refused without a calibration in force or while one runs; else samples are
+ * collected (the raw stream on meanwhile) and finish_rezero() answers with a calibration
+ * message once they are in. */
+static uint8_t start_rezero(struct tof_link *link, uint16_t samples) {
+    struct calibration_head now;
+    tof_app_get_calibration(link->app, &now);
+    if (!now.calibrated || link->rezero.wanted != 0u) {
+        return TLM_RESULT_STATE;
+    }
+    if (!tof_rezero_start(&link->rezero, samples)) {
+        return TLM_RESULT_OUT_OF_RANGE;
+    }
+    struct tof_app_status st;
+    tof_app_get_status(link->app, &st);
+    link->rezero_raw = st.raw_output;
+    tof_app_set_raw_output(link->app, true);
+    return TLM_RESULT_OK;
+}
+
+/* The calibration message: the state in force and the stored section. */
+static void send_calibration(struct tof_link *link) {
+    struct tlm_calibration msg = {.state = link->cal_state};
+    tof_cal_read(link->records, msg.section);
+    uint8_t frame[TLM_FRAME_MAX];
+    send(link, frame, tlm_encode_calibration(link->seq, &msg, frame, sizeof frame));
 }
 
 /* Apply a validated command; returns the result code to answer with and sets *error to
@@ -209,6 +277,12 @@ static uint8_t apply(struct tof_link *link, const struct tlm_command *cmd, int *
         return TLM_RESULT_OK;
     case TLM_TYPE_STATUS_REQUEST:
         return TLM_RESULT_OK; /* the status frame follows the ack */
+    case TLM_TYPE_WRITE_CALIBRATION:
+        return write_calibration(link, cmd->u.cal_section, error);
+    case TLM_TYPE_READ_CALIBRATION:
+        return TLM_RESULT_OK; /* the calibration message follows the ack */
+    case TLM_TYPE_REZERO:
+        return start_rezero(link, cmd->u.rezero_samples);
     case TLM_TYPE_SAVE: {
         struct tof_settings now;
         tof_settings_capture(app, &link->process_noise, &now);
@@ -232,6 +306,9 @@ static bool answer_retry(struct tof_link *link, const struct tlm_frame *frame) {
     answer(link, frame->seq, frame->type, link->last_result, link->last_error);
     if (link->last_result == TLM_RESULT_OK && frame->type == TLM_TYPE_STATUS_REQUEST) {
         tof_link_send_status(link);
+    }
+    if (link->last_result == TLM_RESULT_OK && frame->type == TLM_TYPE_READ_CALIBRATION) {
+        send_calibration(link);
     }
     return true;
 }
@@ -263,6 +340,9 @@ static void on_frame(void *ctx, const struct tlm_frame *frame) {
     if (result == TLM_RESULT_OK && frame->type == TLM_TYPE_STATUS_REQUEST) {
         tof_link_send_status(link);
     }
+    if (result == TLM_RESULT_OK && frame->type == TLM_TYPE_READ_CALIBRATION) {
+        send_calibration(link);
+    }
 }
 
 static void on_reject(void *ctx, const struct tlm_reject *reject) {
@@ -274,6 +354,7 @@ void tof_link_init(struct tof_link *link, struct hal_serial serial) {
     memset(link, 0, sizeof *link);
     link->serial = serial;
     link->record_state = TOF_RECORD_NO_STORAGE;
+    link->cal_state = TOF_CAL_NO_STORAGE;
     tlm_decoder_init(&link->decoder, tlm_message_types(TLM_ACCEPT_COMMANDS));
 }
 
@@ -308,6 +389,7 @@ static void service_start(void *ctx, struct tof_app *app) {
     tof_link_bind(link, app);
     /* the settings in force: their process noise is what `save` keeps until a command */
     link->record_state = (uint8_t)tof_settings_boot(link->records, app, &link->process_noise);
+    link->cal_state = (uint8_t)tof_cal_boot(link->records, app); /* the head's calibration */
     tof_link_send_status(link);
 }
 

@@ -18,7 +18,7 @@ _Static_assert(TOF_RECORD_NONE == (int)TLM_RECORD_NONE &&
                    TOF_RECORD_NO_STORAGE == (int)TLM_RECORD_NO_STORAGE,
                "record states are the status frame's codes");
 
-#define SECTION_HEADER 4u
+#define SECTION_HEADER TOF_SECTION_HEADER
 #define FLAG_PN_SET    0x01u
 #define FLAG_PN_AUTO   0x02u
 
@@ -67,29 +67,28 @@ int tof_settings_apply(struct tof_app *app, const struct tof_settings *s) {
     return rc;
 }
 
-/* Offset of section `id` in `payload`, or -1 if absent, -2 if the sections do not add up. */
-static int find_section(const uint8_t *payload, uint16_t len, uint8_t id) {
+int tof_section_find(const uint8_t *payload, uint16_t len, uint8_t id) {
     uint32_t at = 0;
-    /* each section takes >= SECTION_HEADER bytes: at most len / 4 of them */
-    for (uint32_t n = 0; n <= TOF_RECORD_PAYLOAD_MAX / SECTION_HEADER && at < len; ++n) {
-        if (len - at < SECTION_HEADER) {
+    /* each section takes >= TOF_SECTION_HEADER bytes: at most len / 4 of them */
+    for (uint32_t n = 0; n <= TOF_RECORD_PAYLOAD_MAX / TOF_SECTION_HEADER && at < len; ++n) {
+        if (len - at < TOF_SECTION_HEADER) {
             return -2;
         }
         const uint32_t size = (uint32_t)payload[at + 2u] | (uint32_t)payload[at + 3u] << 8;
-        if (size > len - at - SECTION_HEADER) {
+        if (size > len - at - TOF_SECTION_HEADER) {
             return -2;
         }
         if (payload[at] == id) {
             return (int)at;
         }
-        at += SECTION_HEADER + size;
+        at += TOF_SECTION_HEADER + size;
     }
     return at == len ? -1 : -2;
 }
 
 enum tof_record_state tof_settings_decode(const uint8_t *payload, uint16_t len,
                                           struct tof_settings *out) {
-    const int at = find_section(payload, len, TOF_SECTION_SETTINGS);
+    const int at = tof_section_find(payload, len, TOF_SECTION_SETTINGS);
     if (at < 0) {
         return at == -1 ? TOF_RECORD_NONE : TOF_RECORD_CORRUPT;
     }
@@ -160,21 +159,24 @@ static void encode(const struct tof_settings *s, uint8_t *out) {
     put_u32(&v[12], s->qt_um2_per_s);
 }
 
-int tof_settings_save(struct tof_record_store *store, const struct tof_settings *s) {
+int tof_section_save(struct tof_record_store *store, const uint8_t *section) {
     if (store == NULL || store->storage.ops == NULL) {
         return HAL_ERR_STATE;
     }
     /* The new payload: this section first, then every other section of the record in use,
      * as it was (a damaged list is dropped: nothing of it can be trusted). */
     static uint8_t payload[TOF_RECORD_PAYLOAD_MAX];
-    encode(s, payload);
-    uint32_t len = SECTION_HEADER + TOF_SETTINGS_LENGTH;
+    uint32_t len = SECTION_HEADER + (uint32_t)(section[2] | section[3] << 8);
+    if (len > TOF_RECORD_PAYLOAD_MAX) {
+        return HAL_ERR_INVALID;
+    }
+    memcpy(payload, section, len);
     const uint8_t *old = store->payload;
     const uint16_t old_len = store->current >= 0 ? store->length : 0u;
-    if (find_section(old, old_len, 0u) == -1 /* the list adds up */) {
+    if (tof_section_find(old, old_len, 0u) == -1 /* the list adds up */) {
         for (uint32_t at = 0, n = 0; at < old_len && n < TOF_RECORD_PAYLOAD_MAX; ++n) {
             const uint32_t size = SECTION_HEADER + (uint32_t)(old[at + 2u] | old[at + 3u] << 8);
-            if (old[at] != TOF_SECTION_SETTINGS) {
+            if (old[at] != section[0]) {
                 if (len + size > TOF_RECORD_PAYLOAD_MAX) {
                     return HAL_ERR_INVALID;
                 }
@@ -185,4 +187,10 @@ int tof_settings_save(struct tof_record_store *store, const struct tof_settings 
         }
     }
     return tof_record_save(store, payload, (uint16_t)len);
+}
+
+int tof_settings_save(struct tof_record_store *store, const struct tof_settings *s) {
+    uint8_t section[SECTION_HEADER + TOF_SETTINGS_LENGTH];
+    encode(s, section);
+    return tof_section_save(store, section);
 }

@@ -129,6 +129,8 @@ static const char replay_help[] =
     "  --distance-mode M    the parts' mode: short (to 1360 mm) or long (to 4000 mm); default:\n"
     "                       the trace's '# distance_mode=', else long when it holds readings\n"
     "                       above 1360 mm and its period admits long mode, else short\n"
+    "  --calibration F      the head's calibration, a HEAD.cal (docs/calibration.md); wins\n"
+    "                       over the trace's keys; neither: an uncalibrated head, never ok\n"
     "  --quiet              no summary table on stdout\n"
     "  --help, -h           this text\n"
     "exit status: 0 done, 1 bad input or a failed run, 2 bad command line\n";
@@ -221,6 +223,10 @@ int cli_parse_replay(int argc, char **argv, struct replay_args *out) {
             }
         } else if (strcmp(arg, "--plot") == 0) {
             if ((out->plot_path = option_value(cmd, argc, argv, &i)) == NULL) {
+                return -1;
+            }
+        } else if (strcmp(arg, "--calibration") == 0) {
+            if ((out->calibration_path = option_value(cmd, argc, argv, &i)) == NULL) {
                 return -1;
             }
         } else if (strcmp(arg, "--i2c-log") == 0) {

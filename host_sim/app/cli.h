@@ -38,6 +38,10 @@ struct replay_args {
     const char *i2c_log_path; /* --i2c-log BUS.csv: every bus transaction (NULL: none) */
     unsigned distance_mode;   /* --distance-mode: 0 unset (the trace's, else from its
                                  readings), else enum vl53_distance_mode */
+    const char *i2c_log_path;     /* --i2c-log BUS.csv: every bus transaction (NULL: none) */
+    unsigned distance_mode;       /* --distance-mode: 0 unset (the trace's, else from its
+                                     readings), else enum vl53_distance_mode */
+    const char *calibration_path; /* --calibration HEAD.cal (wins over the trace's keys) */
 };
 
 struct scenario_args {

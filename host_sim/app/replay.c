@@ -13,6 +13,7 @@
 #include <string.h>
 
 #include "estimator/attitude.h"
+#include "firmware/calibration_record.h"
 #include "firmware/est_csv.h"
 #include "hal/hal_err.h"
 #include "replay_report.h"
@@ -108,7 +109,8 @@ static int open_inputs(struct replay *r) {
         return -1;
     }
     scene_row_stream_init(&r->stream, scene_pull_trace, &r->reader);
-    return 0;
+    return cal_apply_resolve("host_sim replay", r->args->calibration_path, &r->reader.core.meta,
+                             r->args->trace_path, &r->cal);
 }
 
 /* The estimator to write, the faults, the simulated world and the firmware's platform. */
@@ -178,6 +180,13 @@ static int configure(struct replay *r) {
                 r->period_ms, r->args->trace_path);
         return -1;
     }
+    /* The simulated head is the one the HEAD.cal names; its mode and budget are the file's
+     * to state, and the boot refuses them as the flight unit would. */
+    r->app_cfg.head_id = r->cal.made_in.has_head ? r->cal.made_in.head_id : 0u;
+    if (cal_apply_preload(&r->cal.cal, &r->app_cfg, &r->cal.made_in, NULL, &r->flash,
+                          &r->records) != 0) {
+        return -1;
+    }
     return configure_world(r);
 }
 
@@ -226,6 +235,22 @@ static void track_fault_stop(struct replay *r) {
 static int run(struct replay *r) {
     if (tof_app_init(&r->app, &r->platform, &r->app_cfg) != HAL_OK) {
         fprintf(stderr, "host_sim replay: firmware init failed\n");
+        return -1;
+    }
+    /* The boot reads the calibration from the record storage, as on the flight unit. */
+    r->cal_state = (int)tof_cal_boot(&r->records, &r->app);
+    if (r->cal.cal.calibrated &&
+        (r->cal_state == TOF_CAL_OTHER_MODE || r->cal_state == TOF_CAL_OTHER_HEAD)) {
+        fprintf(stderr,
+                "host_sim replay: warning: %s was made in another distance mode or timing budget "
+                "than this replay's (%s, %u ms): not applied, as the flight unit would refuse "
+                "it; the head is uncalibrated\n",
+                r->cal.source, vl53_distance_mode_name(r->app_cfg.timing.mode),
+                (unsigned)r->app_cfg.timing.budget_ms);
+    } else if (r->cal_state != (r->cal.cal.calibrated ? TOF_CAL_APPLIED : TOF_CAL_NONE)) {
+        fprintf(stderr,
+                "host_sim replay: internal: the firmware's boot found calibration state %d\n",
+                r->cal_state);
         return -1;
     }
     sim_replay_set_origin(&r->sim, r->app.assembler.origin_us);

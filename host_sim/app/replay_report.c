@@ -119,6 +119,32 @@ static void write_calibration(FILE *f, const struct replay *r, unsigned e) {
     fputc('}', f);
 }
 
+/* The head's calibration as the firmware's boot put it into the estimator's configuration
+ * (attitude_config.calibration), and where it came from. */
+static void write_head_calibration(FILE *f, const struct replay *r) {
+    static const char *const states[] = {"none",       "applied",    "corrupt",  "version",
+                                         "other-head", "other-mode", "rejected", "no-storage"};
+    const struct calibration_head *c = &r->app.estimator.cfg.calibration;
+    fprintf(f, "  \"calibration\": {\"source\": \"%s\", \"state\": \"%s\", \"calibrated\": %s",
+            r->cal.source, r->cal_state >= 0 && r->cal_state <= 7 ? states[r->cal_state] : "?",
+            c->calibrated ? "true" : "false");
+    const char *const names[5] = {"offset_um", "gain_ppm", "offset_sd_um", "gain_sd_ppm",
+                                  "offset_gain_corr_q15"};
+    for (unsigned k = 0; k < 5u && c->calibrated; ++k) {
+        fprintf(f, ", \"%s\": [", names[k]);
+        for (unsigned i = 0; i < CALIBRATION_SENSORS; ++i) {
+            const long v = k == 0u   ? (long)c->offset_um[i]
+                           : k == 1u ? (long)c->gain_ppm[i]
+                           : k == 2u ? (long)c->offset_sd_um[i]
+                           : k == 3u ? (long)c->gain_sd_ppm[i]
+                                     : (long)c->offset_gain_corr_q15[i];
+            fprintf(f, "%s%ld", i > 0u ? ", " : "", v);
+        }
+        fputc(']', f);
+    }
+    fputs("},\n", f);
+}
+
 /* The trace, the windows, the time base and the distance mode. */
 static void write_head(FILE *f, const struct replay *r) {
     fprintf(f,
@@ -139,6 +165,7 @@ static void write_head(FILE *f, const struct replay *r) {
             (unsigned long)tm->max_jump_ms, (unsigned long)tm->max_jump_line,
             (unsigned long long)r->partial_rows, vl53_distance_mode_name(r->distance.mode),
             vl53_range_max_mm(r->distance.mode), r->distance.source);
+    write_head_calibration(f, r);
     fputs("  \"crb_alpha_deg\": ", f);
     json_number(f, replay_rms(r->stats.crb_sum2_alpha, r->stats.crb_windows));
     fputs(",\n  \"crb_beta_deg\": ", f);

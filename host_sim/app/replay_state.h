@@ -12,6 +12,7 @@
 #include "cli.h"
 #include "firmware/app.h"
 #include "i2c_log.h"
+#include "calibrate/cal_apply.h"
 #include "replay_mode.h"
 #include "replay_plot.h"
 #include "replay_stats.h"
@@ -45,6 +46,10 @@ struct replay {
     int failed;            /* an output or data error: stop and report */
     uint64_t partial_rows; /* tumbling: rows after the last whole window (no estimate) */
     struct replay_mode distance;
+    struct cal_apply cal;            /* the head's calibration (calibrate/cal_apply.h) */
+    struct sim_flash flash;          /* the simulated record storage, the calibration in it */
+    struct tof_record_store records; /* over it, what the firmware's boot reads */
+    int cal_state;                   /* enum tof_cal_state the boot found */
 };
 
 #endif /* HOST_SIM_REPLAY_STATE_H */

@@ -176,7 +176,7 @@ static int keep_meta(struct trace_v1_reader *r, size_t key_start, size_t key_len
         trace_msg_str(&m, " metadata keys");
         return trace_msg_fail(r);
     }
-    if (read_known_key(r, key, val) != 0) {
+    if (read_known_key(r, key, val) != 0 || trace_v1_cal_key(r, key, val) != 0) {
         return -1;
     }
     const unsigned i = r->meta.count++;
@@ -329,7 +329,7 @@ int trace_v1_open(struct trace_v1_reader *r, struct trace_v1_input in, unsigned 
             return trace_v1_fail(r, r->line_no, 1u, "empty line where the header was expected");
         }
         if (r->line[0] != '#') {
-            return read_header_line(r);
+            return trace_v1_cal_finish(r) != 0 ? -1 : read_header_line(r);
         }
         if (read_meta_line(r) != 0) {
             return -1;

@@ -57,6 +57,21 @@ int trace_v1_meta_uint(const struct trace_field *f, uint64_t max, uint64_t *out)
 int trace_v1_meta_positive(const struct trace_field *f, unsigned decimals, int32_t *units,
                            bool *exact);
 
+/* One decimal of a comma-separated list at *pp (blanks around it allowed) in units of
+ * 10^-decimals, rounded half away from zero: 0 with *units and *pp at its ',' or the end, or
+ * -1 (not a plain decimal, or beyond ±max_units). */
+int trace_v1_list_decimal(const char **pp, unsigned decimals, int64_t max_units, int64_t *units);
+
+/* ---- the head's calibration keys (trace_v1_cal.c) ---- */
+
+/* Reads key=val into r->meta.cal when key is one of the calibration keys (DESIGN.md §5).
+ * 0 (read, or not such a key), or -1 failed (line and column of the value). */
+int trace_v1_cal_key(struct trace_v1_reader *r, const char *key, const struct trace_field *val);
+
+/* After the last metadata line: the keys come as a whole (offsets with their sd, gains with
+ * theirs, inline keys or a file or none). 0, or -1 failed. */
+int trace_v1_cal_finish(struct trace_v1_reader *r);
+
 /* Parses r->line as the next row (checks, timing notes, counters). 0, or -1 failed. */
 int trace_v1_parse_row(struct trace_v1_reader *r, struct trace_v1_row *row);
 

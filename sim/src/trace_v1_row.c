@@ -220,7 +220,8 @@ scan_decimal(const char **pp, unsigned decimals, struct decimal *d) {
             return PARSE_SYNTAX;
         }
     }
-    if (e == 0 && frac_digits <= decimals && digits + (decimals - frac_digits) < 18u) {
+    if (e == 0 && decimals <= 6u && frac_digits <= decimals &&
+        digits + (decimals - frac_digits) < 18u) {
         /* What traces hold (the writer's 6 decimals): the digits as one integer, scaled to
          * the unit (decimals <= 6); the general path below places each digit. */
         static const uint64_t pow10[7] = {1u, 10u, 100u, 1000u, 10000u, 100000u, 1000000u};
@@ -250,6 +251,19 @@ int trace_v1_meta_positive(const struct trace_field *f, unsigned decimals, int32
     const uint64_t v = d.units + d.round_up;
     *units = v > (uint64_t)INT32_MAX ? INT32_MAX : (int32_t)v;
     *exact = !d.below && v <= (uint64_t)INT32_MAX;
+    return 0;
+}
+
+int trace_v1_list_decimal(const char **pp, unsigned decimals, int64_t max_units, int64_t *units) {
+    struct decimal d;
+    if (scan_decimal(pp, decimals, &d) != PARSE_OK || d.over) {
+        return -1;
+    }
+    const uint64_t v = d.units + d.round_up; /* half away from zero */
+    if (v > (uint64_t)max_units) {
+        return -1;
+    }
+    *units = d.negative ? -(int64_t)v : (int64_t)v;
     return 0;
 }
 

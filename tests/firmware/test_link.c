@@ -11,6 +11,7 @@
 #include <string.h>
 #include <cmocka.h>
 
+#include "firmware/calibration_record.h"
 #include "firmware/link.h"
 #include "hal/hal_err.h"
 #include "sim/sim_flash.h"
@@ -65,6 +66,8 @@ static struct {
     struct tlm_status last_status;
     struct tlm_estimate last_estimate[4];
     struct tlm_health last_health;
+    unsigned calibrations;
+    struct tlm_calibration last_calibration;
 } t;
 
 static void push_command(const struct tlm_command *cmd, uint8_t seq) {
@@ -104,6 +107,10 @@ static void on_frame(void *ctx, const struct tlm_frame *frame) {
         break;
     case TLM_TYPE_RAW_SAMPLE:
         ++t.raw;
+        break;
+    case TLM_TYPE_CALIBRATION:
+        ++t.calibrations;
+        t.last_calibration = msg.u.calibration;
         break;
     default:
         fail_msg("unexpected telemetry type 0x%02x", msg.type);
@@ -631,6 +638,7 @@ static void test_save_then_reset_brings_the_settings_back(void **state) {
     assert_int_equal(sim_flash_init(&saved_flash, 2u, 2048u), HAL_OK);
     boot_with_records();
     assert_int_equal(t.last_status.record, TLM_RECORD_NONE);
+    assert_int_equal(t.last_status.calibration, TLM_CAL_NONE);
     struct tlm_command cmd = {.type = TLM_TYPE_SET_WINDOW};
     cmd.u.set_window.window_n = 50u;
     cmd.u.set_window.mode = TLM_WINDOW_SLIDING;
@@ -678,6 +686,7 @@ static void test_save_then_reset_brings_the_settings_back(void **state) {
     setup(NULL);
     boot_with_records();
     assert_int_equal(t.last_status.record, TLM_RECORD_CORRUPT);
+    assert_int_equal(t.last_status.calibration, TLM_CAL_CORRUPT);
     assert_int_equal(t.last_status.window_n, 100u);
     assert_int_equal(t.last_status.mode, TLM_WINDOW_TUMBLING);
     assert_int_equal(t.app.estimator.cfg.kalman_process_noise_um2[0], 0u);
@@ -696,6 +705,151 @@ static void test_settings_the_image_refuses_fall_back_to_defaults(void **state) 
     assert_int_equal(t.last_status.mode, TLM_WINDOW_TUMBLING);
 }
 
+/* A calibration section saved on this head in this mode is in force after boot and the status
+ * frame says so; one of another mode is not, and the status frame says why. */
+static void test_a_saved_calibration_is_applied_at_boot(void **state) {
+    (void)state;
+    assert_int_equal(sim_flash_init(&saved_flash, 2u, 2048u), HAL_OK);
+    assert_int_equal(tof_record_init(&saved_store, sim_flash_hal(&saved_flash), 0u, 1u), HAL_OK);
+    const struct calibration_head cal = {.calibrated = true,
+                                         .offset_um = {1500, -800, -1200, 600},
+                                         .offset_sd_um = {30, 30, 30, 30}};
+    struct tof_cal_binding b = tof_cal_binding_of(t.app.cfg);
+    uint8_t section[TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH];
+    assert_int_equal(tof_cal_encode(&cal, false, &b, section), HAL_OK);
+    assert_int_equal(tof_section_save(&saved_store, section), HAL_OK);
+    assert_false(t.app.estimator.cfg.calibration.calibrated);
+    boot_with_records();
+    assert_int_equal(t.last_status.calibration, TLM_CAL_APPLIED);
+    assert_int_equal(t.last_status.record, TLM_RECORD_NONE); /* no settings section */
+    assert_true(t.app.estimator.cfg.calibration.calibrated);
+    assert_int_equal(t.app.estimator.cfg.calibration.offset_um[1], -800);
+
+    b.budget_ms = (uint16_t)(b.budget_ms * 2u);
+    assert_int_equal(tof_cal_encode(&cal, false, &b, section), HAL_OK);
+    assert_int_equal(tof_section_save(&saved_store, section), HAL_OK);
+    setup(NULL);
+    boot_with_records();
+    assert_int_equal(t.last_status.calibration, TLM_CAL_OTHER_MODE);
+    assert_false(t.app.estimator.cfg.calibration.calibrated);
+}
+
+/* write-calibration saves the section and puts it in force at once; read-calibration gives it
+ * back as stored; one made in another configuration, or damaged, is refused and changes
+ * nothing; the next boot finds what was written. */
+static void test_write_and_read_calibration_by_command(void **state) {
+    (void)state;
+    assert_int_equal(sim_flash_init(&saved_flash, 2u, 2048u), HAL_OK);
+    boot_with_records();
+    assert_int_equal(t.last_status.calibration, TLM_CAL_NONE);
+    struct tlm_command cmd = {.type = TLM_TYPE_READ_CALIBRATION};
+    push_command(&cmd, 1);
+    run_ms(30);
+    decode_output();
+    assert_int_equal(t.calibrations, 1);
+    assert_int_equal(t.last_calibration.state, TLM_CAL_NONE);
+    assert_int_equal(t.last_calibration.section[0], 0);
+
+    const struct calibration_head cal = {.calibrated = true,
+                                         .offset_um = {1500, -800, -1200, 600},
+                                         .gain_ppm = {1000, -2000, 0, 500},
+                                         .offset_sd_um = {30, 31, 32, 33},
+                                         .gain_sd_ppm = {100, 100, 100, 100},
+                                         .offset_gain_corr_q15 = {-30000, -30000, 0, 5}};
+    struct tof_cal_binding b = tof_cal_binding_of(t.app.cfg);
+    b.mode = (uint8_t)(b.mode == 1u ? 2u : 1u); /* another mode: refused */
+    cmd = (struct tlm_command){.type = TLM_TYPE_WRITE_CALIBRATION};
+    assert_int_equal(tof_cal_encode(&cal, true, &b, cmd.u.cal_section), HAL_OK);
+    t.serial.tx_len = 0;
+    push_command(&cmd, 2);
+    b = tof_cal_binding_of(t.app.cfg);
+    assert_int_equal(tof_cal_encode(&cal, true, &b, cmd.u.cal_section), HAL_OK);
+    cmd.u.cal_section[4u + 8u + 3u] = 0x7Fu; /* offset A out of bounds: refused */
+    push_command(&cmd, 3);
+    run_ms(30);
+    decode_output();
+    assert_int_equal(t.nacks, 2);
+    assert_false(t.app.estimator.cfg.calibration.calibrated);
+    assert_int_equal(t.last_nack_result, TLM_RESULT_OUT_OF_RANGE);
+
+    assert_int_equal(tof_cal_encode(&cal, true, &b, cmd.u.cal_section), HAL_OK);
+    t.serial.tx_len = 0;
+    t.calibrations = t.nacks = t.acks = 0;
+    push_command(&cmd, 4);
+    cmd = (struct tlm_command){.type = TLM_TYPE_READ_CALIBRATION};
+    push_command(&cmd, 5);
+    cmd = (struct tlm_command){.type = TLM_TYPE_STATUS_REQUEST};
+    push_command(&cmd, 6);
+    run_ms(30);
+    decode_output();
+    assert_int_equal(t.nacks, 0);
+    assert_int_equal(t.acks, 3);
+    assert_true(t.app.estimator.cfg.calibration.calibrated);
+    assert_int_equal(t.app.estimator.cfg.calibration.gain_ppm[1], -2000);
+    assert_int_equal(t.last_status.calibration, TLM_CAL_APPLIED);
+    assert_int_equal(t.calibrations, 1);
+    assert_int_equal(t.last_calibration.state, TLM_CAL_APPLIED);
+    uint8_t want[TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH];
+    assert_int_equal(tof_cal_encode(&cal, true, &b, want), HAL_OK);
+    assert_memory_equal(t.last_calibration.section, want, sizeof want);
+
+    setup(NULL); /* a reset: the calibration comes back from the record */
+    boot_with_records();
+    assert_int_equal(t.last_status.calibration, TLM_CAL_APPLIED);
+    assert_int_equal(t.app.estimator.cfg.calibration.offset_um[0], 1500);
+}
+
+/* re-zero at a parallel plate (every sensor reads 100 mm): refused uncalibrated; with a
+ * calibration in force, N samples refit the offsets so every corrected reading is the same
+ * (attitude zero), their sum kept, gains kept, saved and in force; the raw stream stays off. */
+static void test_rezero_refits_the_offsets(void **state) {
+    (void)state;
+    assert_int_equal(sim_flash_init(&saved_flash, 2u, 2048u), HAL_OK);
+    boot_with_records();
+    struct tlm_command cmd = {.type = TLM_TYPE_REZERO, .u.rezero_samples = 50};
+    push_command(&cmd, 1);
+    run_ms(30);
+    decode_output();
+    assert_int_equal(t.nacks, 1);
+    assert_int_equal(t.last_nack_result, TLM_RESULT_STATE); /* nothing to keep the gains of */
+
+    const struct calibration_head cal = {.calibrated = true,
+                                         .offset_um = {1500, -800, -1200, 600},
+                                         .gain_ppm = {10000, -10000, 0, 5000},
+                                         .offset_sd_um = {40, 40, 40, 40},
+                                         .gain_sd_ppm = {300, 300, 300, 300}};
+    cmd = (struct tlm_command){.type = TLM_TYPE_WRITE_CALIBRATION};
+    const struct tof_cal_binding b = tof_cal_binding_of(t.app.cfg);
+    assert_int_equal(tof_cal_encode(&cal, true, &b, cmd.u.cal_section), HAL_OK);
+    push_command(&cmd, 2);
+    cmd = (struct tlm_command){.type = TLM_TYPE_REZERO, .u.rezero_samples = 50};
+    push_command(&cmd, 3);
+    t.raw = t.calibrations = 0;
+    run_ms(50u * 20u + 200u);
+    decode_output();
+    assert_int_equal(t.raw, 0);
+    assert_int_equal(t.calibrations, 1);
+    assert_int_equal(t.last_calibration.state, TLM_CAL_APPLIED);
+    struct calibration_head now;
+    tof_app_get_calibration(&t.app, &now);
+    /* x̂ = Σ(100000 − o_i) / Σ g_i = 399900 / 4.005 = 99850.19 µm; o_i' = 100000 − g_i·x̂ */
+    const int32_t want[4] = {100000 - 100848, 100000 - 98852, 100000 - 99850, 100000 - 100349};
+    int32_t sum = 0;
+    for (unsigned i = 0; i < 4u; ++i) {
+        assert_true(now.offset_um[i] >= want[i] - 1 && now.offset_um[i] <= want[i] + 1);
+        assert_int_equal(now.gain_ppm[i], cal.gain_ppm[i]);
+        /* noise-free whole-mm readings: the mean's quantisation floor (1 mm)²/12/50 = 1666
+         * µm², halved, plus four of them and four old sd² (1600) over 16: √1649 = 40 µm */
+        assert_int_equal(now.offset_sd_um[i], 40);
+        sum += now.offset_um[i];
+    }
+    assert_true(sum >= 100 - 2 && sum <= 100 + 2); /* Σ o_i kept */
+    setup(NULL);                                   /* saved: back after a reset */
+    boot_with_records();
+    assert_int_equal(t.last_status.calibration, TLM_CAL_APPLIED);
+    assert_int_equal(t.app.estimator.cfg.calibration.offset_um[2], now.offset_um[2]);
+}
+
 static void test_save_without_storage_is_refused(void **state) {
     (void)state;
     tof_link_service_ops.start(&t.link, &t.app);
@@ -704,6 +858,7 @@ static void test_save_without_storage_is_refused(void **state) {
     run_ms(50);
     decode_output();
     assert_int_equal(t.last_status.record, TLM_RECORD_NO_STORAGE);
+    assert_int_equal(t.last_status.calibration, TLM_CAL_NO_STORAGE);
     assert_int_equal(t.nacks, 1);
     assert_int_equal(t.last_nack_result, TLM_RESULT_STATE);
     assert_int_equal(t.last_nack_error, HAL_ERR_STATE);
@@ -729,6 +884,9 @@ int main(void) {
         cmocka_unit_test_setup(test_refused_process_noise_changes_nothing, setup),
         cmocka_unit_test_setup(test_save_then_reset_brings_the_settings_back, setup),
         cmocka_unit_test_setup(test_settings_the_image_refuses_fall_back_to_defaults, setup),
+        cmocka_unit_test_setup(test_a_saved_calibration_is_applied_at_boot, setup),
+        cmocka_unit_test_setup(test_write_and_read_calibration_by_command, setup),
+        cmocka_unit_test_setup(test_rezero_refits_the_offsets, setup),
         cmocka_unit_test_setup(test_save_without_storage_is_refused, setup),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -75,6 +75,9 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
         case TLM_TYPE_STATUS:
             n = tlm_encode_status(frame.seq, &msg.u.status, out, sizeof out);
             break;
+        case TLM_TYPE_CALIBRATION:
+            n = tlm_encode_calibration(frame.seq, &msg.u.calibration, out, sizeof out);
+            break;
         default:
             /* a telemetry type the fuzzer does not know */
             fprintf(stderr, "%s:%d: property violated: unknown telemetry type %u\n", __FILE__,

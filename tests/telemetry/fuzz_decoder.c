@@ -34,6 +34,8 @@ static int encode_telemetry(const struct tlm_telemetry *msg, uint8_t seq, uint8_
         return tlm_encode_ack(seq, &msg->u.ack, out, cap);
     case TLM_TYPE_STATUS:
         return tlm_encode_status(seq, &msg->u.status, out, cap);
+    case TLM_TYPE_CALIBRATION:
+        return tlm_encode_calibration(seq, &msg->u.calibration, out, cap);
     default:
         return -1;
     }

@@ -88,7 +88,8 @@ static struct tlm_status sample_status(void) {
                                .running = true,
                                .raw_stream = false,
                                .period_ms = 20,
-                               .record = TLM_RECORD_CORRUPT};
+                               .record = TLM_RECORD_CORRUPT,
+                               .calibration = TLM_CAL_OTHER_MODE};
 }
 
 /* Decode exactly one accepted frame from `bytes` through a real decoder. */
@@ -138,7 +139,7 @@ static void test_every_type_has_its_documented_length(void **state) {
     assert_int_equal(tlm_encode_raw_sample(0, &raw, out, sizeof out), 17 + 7);
     assert_int_equal(tlm_encode_health(0, &health, out, sizeof out), 148 + 7);
     assert_int_equal(tlm_encode_ack(0, &ack, out, sizeof out), 4 + 7);
-    assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 17 + 7);
+    assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 18 + 7);
     assert_int_equal(tlm_type_payload_length(TLM_TYPE_HEALTH, TLM_ACCEPT_TELEMETRY), 148);
     assert_int_equal(tlm_type_payload_length(TLM_TYPE_HEALTH, TLM_ACCEPT_COMMANDS), -1);
     assert_int_equal(tlm_type_payload_length(TLM_TYPE_SET_WINDOW, TLM_ACCEPT_ALL), 3);
@@ -156,10 +157,10 @@ static void test_status_layout(void **state) {
     (void)state;
     const struct tlm_status status = sample_status();
     uint8_t out[TLM_FRAME_MAX];
-    assert_int_equal(tlm_encode_status(3, &status, out, sizeof out), 24);
+    assert_int_equal(tlm_encode_status(3, &status, out, sizeof out), 25);
     const uint8_t *p = &out[TLM_HEADER_SIZE];
     const uint8_t expected[] = {
-        0, 1, 2, TLM_PROTOCOL_VERSION, 0x40, 0xE2, 0x01, 0x00, 100, 0, 1, 2, 1, 0, 20, 0, 2};
+        0, 1, 2, TLM_PROTOCOL_VERSION, 0x40, 0xE2, 0x01, 0x00, 100, 0, 1, 2, 1, 0, 20, 0, 2, 5};
     assert_memory_equal(p, expected, sizeof expected);
 }
 
@@ -526,18 +527,18 @@ static void test_raw_health_ack_status_validation(void **state) {
     const struct tlm_ack ack_with_error = {.result = 0, .error = -1};
     assert_int_equal(tlm_encode_ack(0, &ack_with_error, out, sizeof out), HAL_ERR_INVALID);
 
-    const size_t status_bytes[] = {3, 10, 11, 12, 13, 16};
-    const uint8_t status_bad[] = {TLM_PROTOCOL_VERSION + 1u, 2, 4, 2, 2, 6}; /* protocol, mode,
-                                                             estimator, bools, record state */
-    for (size_t i = 0; i < 6; ++i) {
+    const size_t status_bytes[] = {3, 10, 11, 12, 13, 16, 17};
+    const uint8_t status_bad[] = {TLM_PROTOCOL_VERSION + 1u, 2, 4, 2, 2, 6, 8}; /* protocol,
+                                 mode, estimator, bools, record state, calibration state */
+    for (size_t i = 0; i < 7; ++i) {
         status = sample_status();
-        assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 24);
+        assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 25);
         out[5 + status_bytes[i]] = status_bad[i];
         frame = raw_frame(TLM_TYPE_STATUS, &out[5], TLM_LEN_STATUS);
         assert_int_equal(tlm_parse_telemetry(&frame, &msg, NULL), TLM_RESULT_OUT_OF_RANGE);
     }
     status = sample_status();
-    assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 24);
+    assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 25);
     out[5 + 8] = 1; /* window_n = 1 */
     frame = raw_frame(TLM_TYPE_STATUS, &out[5], TLM_LEN_STATUS);
     assert_int_equal(tlm_parse_telemetry(&frame, &msg, NULL), TLM_RESULT_OUT_OF_RANGE);
@@ -720,24 +721,86 @@ static void test_set_process_noise_command(void **state) {
     assert_int_equal(tlm_encode_command(7, &cmd, out, 9 + 6), HAL_ERR_INVALID); /* no room */
 }
 
+/* The calibration commands and message carry record section 2 as stored; the protocol checks
+ * its header (id 2, length 80; all zero for "none stored"), the firmware its content. */
+static void test_calibration_messages(void **state) {
+    (void)state;
+    uint8_t out[TLM_FRAME_MAX];
+    struct tlm_command cmd = {.type = TLM_TYPE_WRITE_CALIBRATION};
+    cmd.u.cal_section[0] = 2;
+    cmd.u.cal_section[1] = 1;
+    cmd.u.cal_section[2] = 80;
+    for (unsigned i = 4; i < TLM_CAL_SECTION_LEN; ++i) {
+        cmd.u.cal_section[i] = (uint8_t)(i * 7u);
+    }
+    const int n = tlm_encode_command(9, &cmd, out, sizeof out);
+    assert_int_equal(n, (int)(TLM_CAL_SECTION_LEN + TLM_FRAME_OVERHEAD));
+    struct tlm_command back;
+    assert_int_equal(parse_bytes(TLM_TYPE_WRITE_CALIBRATION, &out[TLM_HEADER_SIZE],
+                                 TLM_CAL_SECTION_LEN, &back, NULL),
+                     TLM_RESULT_OK);
+    assert_memory_equal(back.u.cal_section, cmd.u.cal_section, TLM_CAL_SECTION_LEN);
+    out[TLM_HEADER_SIZE] = 1; /* the settings' section id */
+    assert_int_equal(parse_bytes(TLM_TYPE_WRITE_CALIBRATION, &out[TLM_HEADER_SIZE],
+                                 TLM_CAL_SECTION_LEN, &back, NULL),
+                     TLM_RESULT_OUT_OF_RANGE);
+    cmd.u.cal_section[2] = 79; /* a length other than 80 */
+    assert_int_equal(tlm_encode_command(9, &cmd, out, sizeof out), HAL_ERR_INVALID);
+
+    struct tlm_calibration msg = {.state = TLM_CAL_NONE}; /* nothing stored: all zero */
+    assert_int_equal(tlm_encode_calibration(3, &msg, out, sizeof out),
+                     (int)(TLM_LEN_CALIBRATION + TLM_FRAME_OVERHEAD));
+    struct tlm_frame frame = raw_frame(TLM_TYPE_CALIBRATION, &out[5], TLM_LEN_CALIBRATION);
+    struct tlm_telemetry m;
+    assert_int_equal(tlm_parse_telemetry(&frame, &m, NULL), TLM_RESULT_OK);
+    msg.section[7] = 1; /* a byte without a header */
+    assert_int_equal(tlm_encode_calibration(3, &msg, out, sizeof out), HAL_ERR_INVALID);
+    msg.section[7] = 0;
+    msg.state = TLM_CAL_STATE_LAST + 1u;
+    assert_int_equal(tlm_encode_calibration(3, &msg, out, sizeof out), HAL_ERR_INVALID);
+    msg.state = TLM_CAL_APPLIED;
+    memcpy(msg.section, cmd.u.cal_section, TLM_CAL_SECTION_LEN);
+    msg.section[2] = 80;
+    assert_int_equal(tlm_encode_calibration(3, &msg, out, sizeof out),
+                     (int)(TLM_LEN_CALIBRATION + TLM_FRAME_OVERHEAD));
+    frame = raw_frame(TLM_TYPE_CALIBRATION, &out[5], TLM_LEN_CALIBRATION);
+    assert_int_equal(tlm_parse_telemetry(&frame, &m, NULL), TLM_RESULT_OK);
+    assert_int_equal(m.u.calibration.state, TLM_CAL_APPLIED);
+    assert_memory_equal(m.u.calibration.section, msg.section, TLM_CAL_SECTION_LEN);
+    out[5] = TLM_CAL_STATE_LAST + 1u;
+    assert_int_equal(tlm_parse_telemetry(&frame, &m, NULL), TLM_RESULT_OUT_OF_RANGE);
+
+    /* re-zero: u16 samples, 10..5000 */
+    cmd = (struct tlm_command){.type = TLM_TYPE_REZERO, .u.rezero_samples = 500};
+    assert_int_equal(tlm_encode_command(1, &cmd, out, sizeof out), 2 + TLM_FRAME_OVERHEAD);
+    assert_int_equal(out[TLM_HEADER_SIZE], 0xF4);
+    assert_int_equal(out[TLM_HEADER_SIZE + 1], 0x01);
+    const uint8_t nine[2] = {9, 0};
+    assert_int_equal(parse_bytes(TLM_TYPE_REZERO, nine, 2, &back, NULL), TLM_RESULT_OUT_OF_RANGE);
+    cmd.u.rezero_samples = 5001;
+    assert_int_equal(tlm_encode_command(1, &cmd, out, sizeof out), HAL_ERR_INVALID);
+}
+
 static void test_unknown_commands(void **state) {
     (void)state;
     struct tlm_command cmd;
     struct tlm_rx_counters c;
     memset(&c, 0, sizeof c);
-    /* Every byte that is not one of the eight command types is an unknown command,
+    /* Every byte that is not one of the eleven command types is an unknown command,
      * telemetry types included. */
     unsigned unknown = 0;
     for (unsigned type = 0; type <= 0xFF; ++type) {
         const enum tlm_result r = parse_bytes((uint8_t)type, NULL, 0, &cmd, NULL);
-        if (type >= TLM_TYPE_SET_WINDOW && type <= TLM_TYPE_SAVE) {
+        if ((type >= TLM_TYPE_SET_WINDOW && type <= TLM_TYPE_SAVE) ||
+            type == TLM_TYPE_WRITE_CALIBRATION || type == TLM_TYPE_READ_CALIBRATION ||
+            type == TLM_TYPE_REZERO) {
             assert_int_not_equal(r, TLM_RESULT_UNKNOWN_TYPE);
         } else {
             assert_int_equal(r, TLM_RESULT_UNKNOWN_TYPE);
             unknown++;
         }
     }
-    assert_int_equal(unknown, 248);
+    assert_int_equal(unknown, 245);
     assert_int_equal(parse_bytes(TLM_TYPE_ESTIMATE, NULL, 0, &cmd, &c), TLM_RESULT_UNKNOWN_TYPE);
     assert_int_equal(c.unknown_type, 1);
 }
@@ -845,6 +908,7 @@ int main(void) {
         cmocka_unit_test(test_empty_commands),
         cmocka_unit_test(test_raw_stream_command),
         cmocka_unit_test(test_set_process_noise_command),
+        cmocka_unit_test(test_calibration_messages),
         cmocka_unit_test(test_unknown_commands),
         cmocka_unit_test(test_commands_round_trip_through_the_firmware_decoder),
         cmocka_unit_test(test_encode_command_validates),

@@ -73,6 +73,9 @@ static void add_telemetry(struct builder *b, const struct tlm_telemetry *msg) {
     case TLM_TYPE_STATUS:
         n = tlm_encode_status(b->seq, &msg->u.status, frame, sizeof frame);
         break;
+    case TLM_TYPE_CALIBRATION:
+        n = tlm_encode_calibration(b->seq, &msg->u.calibration, frame, sizeof frame);
+        break;
     default:
         fail("unknown telemetry type");
     }
@@ -291,6 +294,19 @@ static void build(struct builder *b) {
                     TLM_RESULT_OUT_OF_RANGE);
     b->seq = (uint8_t)(b->seq + 1u);
 
+    /* The head's calibration as the firmware answers read-calibration: none stored, then a
+     * section (the protocol checks its header; bytes of every value). */
+    struct tlm_telemetry cal = {.type = TLM_TYPE_CALIBRATION};
+    add_telemetry(b, &cal);
+    cal.u.calibration.state = TLM_CAL_OTHER_HEAD;
+    cal.u.calibration.section[0] = TLM_CAL_SECTION_ID;
+    cal.u.calibration.section[1] = 1;
+    cal.u.calibration.section[2] = TLM_CAL_SECTION_LEN - 4u;
+    for (size_t i = 4; i < TLM_CAL_SECTION_LEN; ++i) {
+        cal.u.calibration.section[i] = (uint8_t)(i * 37u);
+    }
+    add_telemetry(b, &cal);
+
     /* Every command, as a host would send them. */
     struct tlm_command cmd;
     memset(&cmd, 0, sizeof cmd);
@@ -302,7 +318,8 @@ static void build(struct builder *b) {
     cmd.type = TLM_TYPE_SELECT_ESTIMATOR;
     cmd.u.estimator = TLM_ESTIMATOR_CONSENSUS_PAPER;
     add_command(b, &cmd);
-    const uint8_t plain[] = {TLM_TYPE_START, TLM_TYPE_STOP, TLM_TYPE_STATUS_REQUEST, TLM_TYPE_SAVE};
+    const uint8_t plain[] = {TLM_TYPE_START, TLM_TYPE_STOP, TLM_TYPE_STATUS_REQUEST, TLM_TYPE_SAVE,
+                             TLM_TYPE_READ_CALIBRATION};
     for (size_t i = 0; i < sizeof plain; ++i) {
         memset(&cmd, 0, sizeof cmd);
         cmd.type = plain[i];
@@ -318,6 +335,19 @@ static void build(struct builder *b) {
     cmd.u.process_noise.qt_um2_per_s = 10000u;      /* 0.01 mm²/s */
     add_command(b, &cmd);
     cmd.u.process_noise.flags = TLM_PROCESS_NOISE_AUTO;
+    add_command(b, &cmd);
+    memset(&cmd, 0, sizeof cmd);
+    cmd.type = TLM_TYPE_WRITE_CALIBRATION;
+    cmd.u.cal_section[0] = TLM_CAL_SECTION_ID;
+    cmd.u.cal_section[1] = 1;
+    cmd.u.cal_section[2] = TLM_CAL_SECTION_LEN - 4u;
+    for (size_t i = 4; i < TLM_CAL_SECTION_LEN; ++i) {
+        cmd.u.cal_section[i] = (uint8_t)(255u - i);
+    }
+    add_command(b, &cmd);
+    memset(&cmd, 0, sizeof cmd);
+    cmd.type = TLM_TYPE_REZERO;
+    cmd.u.rezero_samples = TLM_REZERO_MAX;
     add_command(b, &cmd);
 
     /* Malformed 7: the capture ends inside a frame (truncated at the flush). */

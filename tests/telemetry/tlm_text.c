@@ -11,6 +11,8 @@ static const char *const estimator_names[] = {"consensus", "consensus-paper", "k
 static const char *const status_names[] = {"ok", "degraded", "invalid"};
 static const char *const record_names[] = {"none",    "loaded",   "corrupt",
                                            "version", "rejected", "no-storage"};
+static const char *const cal_names[] = {"none",       "applied",    "corrupt",  "version",
+                                        "other-head", "other-mode", "rejected", "no-storage"};
 static const char *const health_names[] = {"healthy", "suspect", "lost", "recovering"};
 static const char *const mode_names[] = {"tumbling", "sliding"};
 static const char *const result_names[] = {"ok", "unknown-type", "bad-length", "out-of-range",
@@ -96,8 +98,20 @@ static const char *command_name(uint8_t type) {
         return "set-process-noise";
     case TLM_TYPE_SAVE:
         return "save";
+    case TLM_TYPE_WRITE_CALIBRATION:
+        return "write-calibration";
+    case TLM_TYPE_READ_CALIBRATION:
+        return "read-calibration";
+    case TLM_TYPE_REZERO:
+        return "re-zero";
     default:
         return NULL;
+    }
+}
+
+static void print_hex(FILE *out, const uint8_t *bytes, size_t n) {
+    for (size_t i = 0; i < n; ++i) {
+        fprintf(out, "%02x", bytes[i]);
     }
 }
 
@@ -181,13 +195,17 @@ void tlm_text_telemetry(FILE *out, uint8_t seq, const struct tlm_telemetry *msg)
         fprintf(out,
                 "status fw=%u.%u.%u protocol=%u uptime_ms=%" PRIu32
                 " window_n=%u mode=%s estimator=%s running=%s raw_stream=%s period_ms=%u"
-                " record=%s",
+                " record=%s calibration=%s",
                 s->fw_major, s->fw_minor, s->fw_patch, TLM_PROTOCOL_VERSION, s->uptime_ms,
                 s->window_n, mode_names[s->mode], estimator_names[s->estimator],
                 s->running ? "yes" : "no", s->raw_stream ? "yes" : "no", s->period_ms,
-                record_names[s->record]);
+                record_names[s->record], cal_names[s->calibration]);
         break;
     }
+    case TLM_TYPE_CALIBRATION:
+        fprintf(out, "calibration state=%s section=", cal_names[msg->u.calibration.state]);
+        print_hex(out, msg->u.calibration.section, TLM_CAL_SECTION_LEN);
+        break;
     default:
         fprintf(out, "unprintable type 0x%02x", msg->type);
         break;
@@ -218,6 +236,13 @@ void tlm_text_command(FILE *out, uint8_t seq, const struct tlm_command *cmd) {
                 cmd->u.process_noise.qt_um2_per_s / 1000000u,
                 cmd->u.process_noise.qt_um2_per_s % 1000000u,
                 (cmd->u.process_noise.flags & TLM_PROCESS_NOISE_AUTO) != 0u ? "yes" : "no");
+        break;
+    case TLM_TYPE_REZERO:
+        fprintf(out, " samples=%u", cmd->u.rezero_samples);
+        break;
+    case TLM_TYPE_WRITE_CALIBRATION:
+        fputs(" section=", out);
+        print_hex(out, cmd->u.cal_section, TLM_CAL_SECTION_LEN);
         break;
     default:
         break;

@@ -18,6 +18,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "calibrate/cal_apply.h"
 #include "firmware/est_csv.h"
 #include "sim/sim_fault.h"
 #include "tof_twin.h"
@@ -102,6 +103,45 @@ static int load_firmware(struct run *r) {
     twin_load_flash(&r->t, image);
     free(image);
     return r->a.flash_in != NULL ? records_file(r, r->a.flash_in, false) : 0;
+}
+
+/* The head's calibration (--calibration, else the trace's keys, DESIGN.md §5) written into
+ * the image's record pages as section 2, as host_sim replay preloads it, so the flight
+ * firmware's boot finds it where a flight unit keeps it. 0, or -1 (message on stderr). */
+static int preload_calibration(struct run *r) {
+    static struct trace_v1_meta m; /* the trace's keys, checked by its reader already */
+    memset(&m, 0, sizeof m);
+    for (unsigned k = 0; k < r->meta.count && k < TRACE_MAX_META; ++k) {
+        uint32_t col = 0;
+        const char *what = NULL;
+        memcpy(m.key[k], r->meta.key[k], sizeof m.key[k]);
+        memcpy(m.value[k], r->meta.value[k], sizeof m.value[k]);
+        m.line[k] = r->meta.line[k];
+        (void)trace_v1_cal_value(&m.cal, m.key[k], m.value[k], m.line[k], &col, &what);
+        m.count = k + 1u;
+    }
+    const char *what = NULL;
+    uint32_t line = 0;
+    static struct cal_apply cal;
+    static struct sim_flash flash;
+    static struct tof_record_store store;
+    if (trace_v1_cal_check(&m.cal, &what, &line) != 0 ||
+        cal_apply_resolve("tof_twin", r->a.calibration, &m, r->a.trace, &cal) != 0) {
+        if (what != NULL) {
+            fprintf(stderr, "tof_twin: %s:%u: %s\n", r->a.trace, line, what);
+        }
+        return -1;
+    }
+    uint8_t *mem = &r->t.flash[TWIN_RECORDS_BASE - TWIN_FLASH_BASE];
+    /* bound as the HEAD.cal states (head, mode, budget): the flight image's boot refuses
+     * what a flight unit would, and the report's calibration_state says so */
+    if (cal_apply_preload(&cal.cal, &tof_app_default_config, &cal.made_in, mem, &flash, &store) !=
+        0) {
+        return -1;
+    }
+    memcpy(mem, flash.mem[0], CAL_APPLY_PAGE_SIZE);
+    memcpy(mem + CAL_APPLY_PAGE_SIZE, flash.mem[1], CAL_APPLY_PAGE_SIZE);
+    return 0;
 }
 
 /* EST.csv with its header, the UART capture and the I2C log if asked for. 0, or -1. */
@@ -246,7 +286,7 @@ int main(int argc, char **argv) {
         }
     }
     faults.seed = (uint32_t)(r->a.seed ^ (r->a.seed >> 32));
-    if (load_firmware(r) != 0 || open_outputs(r) != 0) {
+    if (load_firmware(r) != 0 || preload_calibration(r) != 0 || open_outputs(r) != 0) {
         return 1;
     }
     wire(r, period_ms, &faults);

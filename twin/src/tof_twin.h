@@ -44,6 +44,7 @@ struct args {
     bool save;          /* --save: send `save` once the settings are in force */
     uint32_t flash_cut; /* --flash-cut N: power cut at the Nth flash erase/double-word */
     const char *flash_in, *flash_out; /* --flash-in/--flash-out: the record pages, 4 KB */
+    const char *calibration; /* --calibration HEAD.cal: preloaded as the record's section 2 */
     uint32_t spurious_berr_ppm;
     double max_sim_s;
 };

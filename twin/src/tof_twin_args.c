@@ -13,7 +13,8 @@ static void usage(FILE *f) {
           "                [--uart-out CAPTURE.bin] [--i2c-log BUS.csv] [--strict]\n"
           "                [--coverage FILE] [--report FILE.json] [--hsi-fail]\n"
           "                [--spurious-berr PPM] [--max-sim-s S] [--late-command]\n"
-          "                [--save] [--flash-cut N] [--flash-in FILE] [--flash-out FILE]\n",
+          "                [--save] [--flash-cut N] [--flash-in FILE] [--flash-out FILE]\n"
+          "                [--calibration HEAD.cal]\n",
           f);
 }
 
@@ -83,6 +84,8 @@ static int value_option(const char *o, char **argv, int *i, struct args *a) {
         a->flash_cut = (uint32_t)v;
     } else if (strcmp(o, "--flash-in") == 0) {
         a->flash_in = argv[++*i];
+    } else if (strcmp(o, "--calibration") == 0) {
+        a->calibration = argv[++*i];
     } else if (strcmp(o, "--flash-out") == 0) {
         a->flash_out = argv[++*i];
     } else if (strcmp(o, "--max-sim-s") == 0) {

@@ -63,7 +63,8 @@ int tof_twin_write_report(const struct run *r, bool finished, double host_s) {
             " \"commands_sent\": %u, \"commands_acked\": %u, \"commands_out_of_order\": %u,"
             " \"commands_unmatched\": %u, \"ack_latency_max_us\": %" PRIu64 ",\n"
             " \"status_confirmed\": %u, \"rows_missing\": %" PRIu64 ", \"irqs\": %" PRIu64 ",\n"
-            " \"record_state\": %u, \"boot_window\": %u, \"boot_sliding\": %u,"
+            " \"record_state\": %u, \"calibration_state\": %u, \"boot_window\": %u,"
+            " \"boot_sliding\": %u,"
             " \"flash_erases\": %u, \"flash_programs\": %u, \"flash_cuts\": %u}\n",
             finished ? "true" : "false", finished ? "" : r->t.stop_msg,
             (double)twin_now_ps(&r->t) / 1e12, host_s, r->t.stats.instructions,
@@ -77,8 +78,9 @@ int tof_twin_write_report(const struct run *r, bool finished, double host_s) {
             r->t.usart.overruns, r->health.uart_overruns, r->commands_sent, r->commands_acked,
             r->commands_out_of_order, r->commands_unmatched, r->ack_latency_max_ps / 1000000u,
             r->status_confirmed, r->rows_missing, r->t.stats.irqs, r->boot_status.record,
-            r->boot_status.window_n, r->boot_status.mode == TLM_WINDOW_SLIDING ? 1u : 0u,
-            r->t.flash_pe.erases, r->t.flash_pe.programs, r->t.flash_pe.cuts);
+            r->boot_status.calibration, r->boot_status.window_n,
+            r->boot_status.mode == TLM_WINDOW_SLIDING ? 1u : 0u, r->t.flash_pe.erases,
+            r->t.flash_pe.programs, r->t.flash_pe.cuts);
     fclose(f);
     return 0;
 }

@@ -8,6 +8,13 @@ if(NOT EXISTS "${ELF}")
   message(FATAL_ERROR "twin test: ${ELF} missing: build the m4 preset first")
 endif()
 file(MAKE_DIRECTORY ${OUT})
+# The settings record alone: the trace without its calibration keys (a calibrated trace's
+# record would also hold the calibration, which twin.calibration_* test).
+file(READ ${TRACE} text)
+string(REGEX REPLACE "# (offset_mm|offset_sd_mm|gain|gain_sd|calibration)=[^\n]*\n" "" text
+                     "${text}")
+file(WRITE ${OUT}/uncalibrated.csv "${text}")
+set(TRACE ${OUT}/uncalibrated.csv)
 
 function(twin_run name)
   execute_process(COMMAND ${TWIN} ${ELF} ${TRACE} --strict --late-command --max-sim-s 3

@@ -138,6 +138,14 @@ int tof_app_set_window(struct tof_app *app, uint16_t window, bool sliding);
 int tof_app_set_process_noise(struct tof_app *app, uint32_t qd_um2_per_s, uint32_t qt_um2_per_s,
                               bool automatic);
 
+/* Put the head's calibration `cal` (estimator/calibration.h) in force: the estimators restart
+ * with the next sample, as after tof_app_set_window(). ATTITUDE_ERR_NONE, or the estimator's
+ * attitude_error unchanged with nothing changed. */
+int tof_app_set_calibration(struct tof_app *app, const struct calibration_head *cal);
+
+/* The head's calibration in force (estimator/calibration.h) into `out`. */
+void tof_app_get_calibration(const struct tof_app *app, struct calibration_head *out);
+
 /* Choose the primary estimator: ATTITUDE_ERR_NONE, or ATTITUDE_ERR_ESTIMATORS (nothing
  * changed) for an unknown one or one that does not run (not in the configuration's set,
  * or not built into the image), the estimator's own code for that. */

@@ -21,6 +21,10 @@ struct tof_app_config {
     struct tof_health_config health;
     struct attitude_config estimator; /* window, mode, estimators, tolerances, Kalman */
     bool raw_output;                  /* send every assembled sample to the output too */
+    /* The head this image runs on, as the user numbered it (HEAD.cal `head_id`): a saved
+     * calibration applies only when made on the same head (firmware/calibration_record.h);
+     * 0, the default, is a head without a number. */
+    uint32_t head_id;
 };
 
 /* The product's default configuration (firmware/src/config.c). */

@@ -18,6 +18,7 @@
 
 #include "firmware/app.h"
 #include "firmware/record.h"
+#include "firmware/rezero.h"
 #include "firmware/settings.h"
 #include "hal/hal_serial.h"
 #include "telemetry/tlm_frame.h"
@@ -59,6 +60,9 @@ struct tof_link {
     struct tof_record_store *records;  /* where `save` keeps the settings (NULL: nowhere) */
     struct tof_settings process_noise; /* the last accepted set-process-noise, for `save` */
     uint8_t record_state;              /* enum tof_record_state found at start, in status */
+    uint8_t cal_state;                 /* enum tof_cal_state found at start, in status */
+    struct tof_rezero rezero;          /* a re-zero collecting samples (wanted 0: none) */
+    bool rezero_raw;                   /* the raw stream the user had before it */
 };
 
 /* Start a link over `serial`. */

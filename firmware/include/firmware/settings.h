@@ -23,7 +23,8 @@
 #include "firmware/record.h"
 
 #define TOF_SECTION_SETTINGS    1u /* this header's */
-#define TOF_SECTION_CALIBRATION 2u /* reserved: the head's calibration (issue 23) */
+#define TOF_SECTION_CALIBRATION 2u /* the head's calibration (firmware/calibration_record.h) */
+#define TOF_SECTION_HEADER      4u /* u8 id, u8 version, u16 length */
 #define TOF_SETTINGS_VERSION    1u
 #define TOF_SETTINGS_LENGTH     16u
 
@@ -48,6 +49,15 @@ void tof_settings_capture(const struct tof_app *app, const struct tof_settings *
 int tof_settings_apply(struct tof_app *app, const struct tof_settings *s);
 
 /* Section id 0 is never used (a payload list check looks for it). */
+
+/* The offset of section `id` in `payload` (`len` bytes): >= 0; -1 absent; -2 the sections do
+ * not add up (a length running past the end). */
+int tof_section_find(const uint8_t *payload, uint16_t len, uint8_t id);
+
+/* Save `section` (its 4-byte header first, the length in it) into `store`'s record in place
+ * of the section with its id, every other section kept as it was. HAL_OK, HAL_ERR_STATE
+ * without storage, HAL_ERR_INVALID if they do not fit, or tof_record_save()'s error. */
+int tof_section_save(struct tof_record_store *store, const uint8_t *section);
 
 /* Find the settings section in `payload` (`len` bytes) and decode it into `out`:
  * TOF_RECORD_LOADED; NONE (no such section); VERSION (a version this firmware does not

@@ -357,7 +357,8 @@ static bool window_is_valid(uint16_t window_n, uint8_t mode) {
 
 static bool status_is_valid(const struct tlm_status *m) {
     return window_is_valid(m->window_n, m->mode) && m->estimator <= TLM_ESTIMATOR_LAST &&
-           m->record <= TLM_RECORD_STATE_LAST; /* enum tlm_record_state */
+           m->record <= TLM_RECORD_STATE_LAST && /* enum tlm_record_state */
+           m->calibration <= TLM_CAL_STATE_LAST; /* enum tlm_cal_state */
 }
 
 int tlm_encode_status(uint8_t seq, const struct tlm_status *msg, uint8_t *out, size_t cap) {
@@ -377,6 +378,7 @@ int tlm_encode_status(uint8_t seq, const struct tlm_status *msg, uint8_t *out, s
     put_u8(&w, msg->raw_stream ? 1u : 0u);
     put_u16(&w, msg->period_ms);
     put_u8(&w, msg->record);
+    put_u8(&w, msg->calibration);
     return finish_frame(TLM_TYPE_STATUS, seq, out, w.at, cap);
 }
 
@@ -400,10 +402,21 @@ static enum tlm_result parse_status(struct reader *r, struct tlm_status *m) {
     const bool raw_ok = get_bool(r, &m->raw_stream);
     m->period_ms = get_u16(r);
     m->record = get_u8(r);
+    m->calibration = get_u8(r);
     if (protocol != TLM_PROTOCOL_VERSION || !running_ok || !raw_ok || !status_is_valid(m)) {
         return TLM_RESULT_OUT_OF_RANGE;
     }
     return TLM_RESULT_OK;
+}
+
+/* --- calibration ---------------------------------------------------------- */
+
+static enum tlm_result parse_calibration(const uint8_t *p, struct tlm_calibration *m) {
+    m->state = p[0];
+    memcpy(m->section, &p[1], TLM_CAL_SECTION_LEN);
+    return m->state <= TLM_CAL_STATE_LAST && tlm_cal_section_is_valid(m->section, true)
+               ? TLM_RESULT_OK
+               : TLM_RESULT_OUT_OF_RANGE;
 }
 
 /* --- commands ------------------------------------------------------------- */
@@ -449,7 +462,20 @@ int tlm_encode_command(uint8_t seq, const struct tlm_command *cmd, uint8_t *out,
         put_u32(&w, cmd->u.process_noise.qt_um2_per_s);
         put_u8(&w, cmd->u.process_noise.flags);
         break;
-    default: /* start, stop, status request, save: no payload */
+    case TLM_TYPE_WRITE_CALIBRATION:
+        if (!tlm_cal_section_is_valid(cmd->u.cal_section, false)) {
+            return HAL_ERR_INVALID;
+        }
+        memcpy(w.buf, cmd->u.cal_section, TLM_CAL_SECTION_LEN);
+        w.at = TLM_CAL_SECTION_LEN;
+        break;
+    case TLM_TYPE_REZERO:
+        if (cmd->u.rezero_samples < TLM_REZERO_MIN || cmd->u.rezero_samples > TLM_REZERO_MAX) {
+            return HAL_ERR_INVALID;
+        }
+        put_u16(&w, cmd->u.rezero_samples);
+        break;
+    default: /* start, stop, status request, save, read-calibration: no payload */
         break;
     }
     return finish_frame(cmd->type, seq, out, w.at, cap);
@@ -494,7 +520,19 @@ enum tlm_result tlm_parse_command(const struct tlm_frame *frame, struct tlm_comm
                 result = TLM_RESULT_OUT_OF_RANGE;
             }
             break;
-        default: /* start, stop, status request, save: the length check was all */
+        case TLM_TYPE_WRITE_CALIBRATION:
+            memcpy(out->u.cal_section, frame->payload, TLM_CAL_SECTION_LEN);
+            if (!tlm_cal_section_is_valid(out->u.cal_section, false)) {
+                result = TLM_RESULT_OUT_OF_RANGE;
+            }
+            break;
+        case TLM_TYPE_REZERO:
+            out->u.rezero_samples = get_u16(&r);
+            if (out->u.rezero_samples < TLM_REZERO_MIN || out->u.rezero_samples > TLM_REZERO_MAX) {
+                result = TLM_RESULT_OUT_OF_RANGE;
+            }
+            break;
+        default: /* start, stop, status request, save, read-calibration: length only */
             break;
         }
     }
@@ -529,7 +567,10 @@ enum tlm_result tlm_parse_telemetry(const struct tlm_frame *frame, struct tlm_te
         case TLM_TYPE_ACK:
             result = parse_ack(&r, &out->u.ack);
             break;
-        default: /* TLM_TYPE_STATUS, the last telemetry type in the table */
+        case TLM_TYPE_CALIBRATION:
+            result = parse_calibration(frame->payload, &out->u.calibration);
+            break;
+        default: /* TLM_TYPE_STATUS */
             result = parse_status(&r, &out->u.status);
             break;
         }

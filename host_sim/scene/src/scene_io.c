@@ -38,8 +38,18 @@ int scene_write_config(const struct scene_config *cfg, uint64_t seed, FILE *f, c
                  gen.stretch[0].quarter_len, gen.stretch[0].offset, gen.stretch[1].offset,
                  gen.stretch[2].offset, gen.stretch[3].offset);
     }
+    /* The simulated sensors read true distance plus zero-mean noise: offsets and gains known
+     * exactly, which the trace says (DESIGN.md §5), so a replay takes the head as
+     * calibrated. The gains too: without them a reader takes gain 1 with the parts' spread
+     * (1.7 %), an sd these sensors do not have. */
+    static const char offset_kv[] = "offset_mm=0,0,0,0";
+    static const char offset_sd_kv[] = "offset_sd_mm=0,0,0,0";
+    static const char gain_kv[] = "gain=1,1,1,1";
+    static const char gain_sd_kv[] = "gain_sd=0,0,0,0";
     const char *const meta[] = {
-        scenario, seed_kv, mean_kv, window_kv, noise_kv, cfg->real_noise ? stretch_kv : NULL, NULL};
+        scenario,     seed_kv, mean_kv,    window_kv, offset_kv,
+        offset_sd_kv, gain_kv, gain_sd_kv, noise_kv,  cfg->real_noise ? stretch_kv : NULL,
+        NULL};
     int rc = 0;
     if (trace_write_header(f, cfg->arm_mm, cfg->period_ms, meta) != 0) {
         snprintf(err, errlen, "%s: cannot write the header: %s", path, strerror(errno));

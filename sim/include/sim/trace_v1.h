@@ -74,12 +74,62 @@ struct trace_timing {
     struct trace_timing_note notes[TRACE_TIMING_NOTES];
 };
 
+/* ---- the head's calibration the trace states (DESIGN.md §5, §6a) ----
+ * In estimator/calibration.h's integers and bounds (sim/ does not include the estimator;
+ * host_sim and the QEMU image check the two agree): offsets and their sd in µm, gains as
+ * ppm of deviation from 1, the offset-gain correlation in Q15. */
+#define TRACE_CAL_SENSORS           4u
+#define TRACE_CAL_OFFSET_MAX_UM     100000 /* CALIBRATION_OFFSET_MAX_UM */
+#define TRACE_CAL_GAIN_MAX_PPM      100000 /* CALIBRATION_GAIN_MAX_PPM */
+#define TRACE_CAL_UNCAL_GAIN_SD_PPM 17321u /* CALIBRATION_UNCAL_GAIN_SD_PPM */
+
+/* Which calibration keys a trace (or a HEAD.cal) holds: bits of trace_v1_cal.keys. */
+enum trace_cal_key {
+    TRACE_CAL_KEY_OFFSET = 1u << 0,    /* offset_mm */
+    TRACE_CAL_KEY_OFFSET_SD = 1u << 1, /* offset_sd_mm */
+    TRACE_CAL_KEY_GAIN = 1u << 2,      /* gain */
+    TRACE_CAL_KEY_GAIN_SD = 1u << 3,   /* gain_sd */
+    TRACE_CAL_KEY_CORR = 1u << 4,      /* offset_gain_corr (the project's key) */
+    TRACE_CAL_KEY_FILE = 1u << 5,      /* calibration=FILE (the path is the key's value) */
+    TRACE_CAL_KEY_NONE = 1u << 6,      /* calibration=none */
+};
+
+struct trace_v1_cal {
+    uint8_t keys;    /* enum trace_cal_key bits seen */
+    bool calibrated; /* after the check: the inline keys give a calibration */
+    bool has_gain;   /* gain and gain_sd given (else gain 1, sd TRACE_CAL_UNCAL_GAIN_SD_PPM) */
+    int32_t offset_um[TRACE_CAL_SENSORS];
+    int32_t gain_ppm[TRACE_CAL_SENSORS];
+    uint32_t offset_sd_um[TRACE_CAL_SENSORS];
+    uint32_t gain_sd_ppm[TRACE_CAL_SENSORS];
+    int16_t corr_q15[TRACE_CAL_SENSORS];
+    uint32_t line[7]; /* line of each key (bit order above), 0 if absent */
+};
+
+/*
+ * One key=value of a trace's metadata or of a HEAD.cal (the same keys, DESIGN.md §6a) into
+ * `cal`, exactly as decimals (rounded half away from zero to the unit, no floating point):
+ * 1 (not a calibration key: nothing done), 0 (read), or -1 with *what and *col (0-based
+ * offset in value of what is wrong). Four comma-separated decimals each; offsets within
+ * ±100 mm, gains within 0.9..1.1, sd >= 0 (offset sd <= 100 mm, gain sd <= 0.1), the
+ * correlation within -1..1; `calibration` is `none` or a file name. A repeated key is the
+ * caller's to refuse.
+ */
+int trace_v1_cal_value(struct trace_v1_cal *cal, const char *key, const char *value, uint32_t line,
+                       uint32_t *col, const char **what);
+
+/* After the last key: the keys make a whole (offset_mm with offset_sd_mm, gain with gain_sd,
+ * the correlation only with gains; inline keys, `calibration=FILE` and `calibration=none`
+ * exclusive). Sets cal->calibrated and the absent gains. 0, or -1 with *what and *line. */
+int trace_v1_cal_check(struct trace_v1_cal *cal, const char **what, uint32_t *line);
+
 /* The metadata: every "# key=value" line before the header, arm_mm and period_ms read. */
 struct trace_v1_meta {
-    int32_t arm_um;     /* required: a in µm, > 0 (saturated at INT32_MAX) */
-    bool arm_exact;     /* false: the text has digits below 1 µm or is beyond INT32_MAX µm */
-    uint32_t period_ms; /* optional, > 0; 0 when absent */
-    unsigned count;     /* every key=value line, arm_mm and period_ms included */
+    int32_t arm_um;          /* required: a in µm, > 0 (saturated at INT32_MAX) */
+    bool arm_exact;          /* false: the text has digits below 1 µm or is beyond INT32_MAX µm */
+    uint32_t period_ms;      /* optional, > 0; 0 when absent */
+    struct trace_v1_cal cal; /* the head's calibration keys, checked (DESIGN.md §5) */
+    unsigned count;          /* every key=value line, arm_mm and period_ms included */
     char key[TRACE_MAX_META][TRACE_KEY_MAX];
     char value[TRACE_MAX_META][TRACE_VALUE_MAX];
     uint32_t line[TRACE_MAX_META]; /* line of each key=value, for messages */

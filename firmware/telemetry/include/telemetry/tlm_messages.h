@@ -21,7 +21,9 @@
  * byte), and nacks the firmware's error code. */
 /* 3: the health message ends with uart_overruns (148 bytes), the status message with the
  * record state (17 bytes), and the save command (0x88). */
-#define TLM_PROTOCOL_VERSION 3u
+/* 4: the status message ends with the head calibration's state (18 bytes); write- and
+ * read-calibration (0x90, 0x91) and the calibration message (0x10). */
+#define TLM_PROTOCOL_VERSION 4u
 
 /* Frame types. Commands have the top bit set, so direction shows in a dump. */
 enum tlm_type {
@@ -30,6 +32,7 @@ enum tlm_type {
     TLM_TYPE_HEALTH = 0x03,
     TLM_TYPE_ACK = 0x04, /* ack (result 0) or nack (result != 0) of a command */
     TLM_TYPE_STATUS = 0x05,
+    TLM_TYPE_CALIBRATION = 0x10, /* the answer to read-calibration */
     TLM_TYPE_SET_WINDOW = 0x81,
     TLM_TYPE_SELECT_ESTIMATOR = 0x82,
     TLM_TYPE_START = 0x83,
@@ -38,6 +41,10 @@ enum tlm_type {
     TLM_TYPE_RAW_STREAM = 0x86,
     TLM_TYPE_SET_PROCESS_NOISE = 0x87,
     TLM_TYPE_SAVE = 0x88, /* keep the settings in force across resets (the record) */
+    /* The head's calibration (issue 23; 0x90 on, clear of the settings' commands): */
+    TLM_TYPE_WRITE_CALIBRATION = 0x90, /* a record section 2, saved and put in force */
+    TLM_TYPE_READ_CALIBRATION = 0x91,  /* answered by a calibration message */
+    TLM_TYPE_REZERO = 0x92,            /* refit the offsets at the latched position */
 };
 
 /* Fixed payload length of each type, in bytes. */
@@ -45,7 +52,7 @@ enum tlm_type {
 #define TLM_LEN_RAW_SAMPLE        17u
 #define TLM_LEN_HEALTH            148u
 #define TLM_LEN_ACK               4u
-#define TLM_LEN_STATUS            17u
+#define TLM_LEN_STATUS            18u
 #define TLM_LEN_SET_WINDOW        3u
 #define TLM_LEN_SELECT_ESTIMATOR  1u
 #define TLM_LEN_START             0u
@@ -54,6 +61,16 @@ enum tlm_type {
 #define TLM_LEN_RAW_STREAM        1u
 #define TLM_LEN_SET_PROCESS_NOISE 9u
 #define TLM_LEN_SAVE              0u
+/* The calibration travels as the record's section 2 as it is stored (firmware/
+ * calibration_record.h): u8 id 2, u8 version, u16 length 80, then the 80 bytes. */
+#define TLM_CAL_SECTION_ID        2u
+#define TLM_CAL_SECTION_LEN       84u
+#define TLM_LEN_WRITE_CALIBRATION TLM_CAL_SECTION_LEN
+#define TLM_LEN_READ_CALIBRATION  0u
+#define TLM_LEN_REZERO            2u /* u16 samples */
+#define TLM_REZERO_MIN            10u
+#define TLM_REZERO_MAX            5000u
+#define TLM_LEN_CALIBRATION       (1u + TLM_CAL_SECTION_LEN) /* state, section */
 
 #define TLM_SENSOR_COUNT    4u /* A, B, C, D; bit i of a sensor mask is sensor i */
 #define TLM_SENSOR_MASK_ALL 0x0Fu
@@ -180,8 +197,9 @@ struct tlm_status {
     uint8_t estimator; /* enum tlm_estimator */
     bool running;
     bool raw_stream;
-    uint16_t period_ms; /* sample period */
-    uint8_t record;     /* enum tlm_record_state: the saved settings at boot */
+    uint16_t period_ms;  /* sample period */
+    uint8_t record;      /* enum tlm_record_state: the saved settings at boot */
+    uint8_t calibration; /* enum tlm_cal_state: the head's calibration at boot */
 };
 
 /* The status message's `record`: what the firmware found of its saved settings at boot
@@ -196,6 +214,29 @@ enum tlm_record_state {
 };
 #define TLM_RECORD_STATE_LAST TLM_RECORD_NO_STORAGE
 
+/* The status message's `calibration`: what the firmware found of the head's calibration at
+ * boot (the values of firmware/calibration_record.h's enum tof_cal_state). Every state but
+ * applied leaves the head uncalibrated: no estimate is `ok`. */
+enum tlm_cal_state {
+    TLM_CAL_NONE = 0,       /* none stored */
+    TLM_CAL_APPLIED = 1,    /* this head's, this configuration's: in force */
+    TLM_CAL_CORRUPT = 2,    /* no valid record, or values out of range */
+    TLM_CAL_VERSION = 3,    /* a version this firmware does not read */
+    TLM_CAL_OTHER_HEAD = 4, /* made on another head */
+    TLM_CAL_OTHER_MODE = 5, /* made in another distance mode or timing budget */
+    TLM_CAL_REJECTED = 6,   /* refused by the estimator */
+    TLM_CAL_NO_STORAGE = 7, /* the board has no record storage */
+};
+#define TLM_CAL_STATE_LAST TLM_CAL_NO_STORAGE
+
+/* The calibration message (TLM_TYPE_CALIBRATION): what the firmware holds. */
+struct tlm_calibration {
+    uint8_t state; /* enum tlm_cal_state of the boot, or applied after a write */
+    /* the stored section (id 2, its version, length 80, the bytes), all zero when none is
+     * stored; the telemetry checks the header only, the firmware the content */
+    uint8_t section[TLM_CAL_SECTION_LEN];
+};
+
 /* A decoded telemetry message, tagged by `type`. */
 struct tlm_telemetry {
     uint8_t type; /* TLM_TYPE_ESTIMATE .. TLM_TYPE_STATUS */
@@ -205,6 +246,7 @@ struct tlm_telemetry {
         struct tlm_health health;
         struct tlm_ack ack;
         struct tlm_status status;
+        struct tlm_calibration calibration;
     } u;
 };
 
@@ -226,6 +268,10 @@ struct tlm_command {
             uint32_t qt_um2_per_s; /* of a·tan α and a·tan β */
             uint8_t flags;         /* TLM_PROCESS_NOISE_* bits */
         } process_noise;
+        /* TLM_TYPE_WRITE_CALIBRATION: record section 2 (header id 2, length 80; the
+         * firmware checks the version and the content) */
+        uint8_t cal_section[TLM_CAL_SECTION_LEN];
+        uint16_t rezero_samples; /* TLM_TYPE_REZERO: TLM_REZERO_MIN..TLM_REZERO_MAX */
     } u;
 };
 
@@ -263,6 +309,15 @@ int tlm_encode_health(uint8_t seq, const struct tlm_health *msg, uint8_t *out, s
 int tlm_encode_ack(uint8_t seq, const struct tlm_ack *msg, uint8_t *out, size_t cap);
 /* As tlm_encode_estimate(), for a status message. */
 int tlm_encode_status(uint8_t seq, const struct tlm_status *msg, uint8_t *out, size_t cap);
+
+/* A calibration section's header as the protocol checks it: id 2, a version other than 0,
+ * length 80 (the content is the firmware's to check); `none_ok` also takes the all-zero
+ * section of "none stored". */
+bool tlm_cal_section_is_valid(const uint8_t *section, bool none_ok);
+
+/* As tlm_encode_estimate(), for a calibration message. */
+int tlm_encode_calibration(uint8_t seq, const struct tlm_calibration *msg, uint8_t *out,
+                           size_t cap);
 /* As tlm_encode_estimate(), for a command (host side, tests). */
 int tlm_encode_command(uint8_t seq, const struct tlm_command *cmd, uint8_t *out, size_t cap);
 

@@ -1,0 +1,244 @@
+/* The head's calibration as record section 2, and applied at boot (firmware/calibration_record.h).
+ */
+#include "firmware/calibration_record.h"
+
+#include <stddef.h>
+#include <string.h>
+
+#include "firmware/settings.h"
+#include "hal/hal_err.h"
+#include "telemetry/tlm_messages.h"
+
+/* The status frame carries enum tof_cal_state as it is (link.c). */
+_Static_assert(TOF_CAL_NONE == (int)TLM_CAL_NONE && TOF_CAL_APPLIED == (int)TLM_CAL_APPLIED &&
+                   TOF_CAL_CORRUPT == (int)TLM_CAL_CORRUPT &&
+                   TOF_CAL_VERSION == (int)TLM_CAL_VERSION &&
+                   TOF_CAL_OTHER_HEAD == (int)TLM_CAL_OTHER_HEAD &&
+                   TOF_CAL_OTHER_MODE == (int)TLM_CAL_OTHER_MODE &&
+                   TOF_CAL_REJECTED == (int)TLM_CAL_REJECTED &&
+                   TOF_CAL_NO_STORAGE == (int)TLM_CAL_NO_STORAGE,
+               "calibration states are the status frame's codes");
+
+#define PER_SENSOR 18u /* i32 offset, i32 gain, u32 offset sd, u32 gain sd, i16 corr */
+#define SENSORS_AT 8u
+_Static_assert(SENSORS_AT + CALIBRATION_SENSORS * PER_SENSOR == TOF_CALIBRATION_LENGTH,
+               "section 2 version 1 is 80 bytes");
+_Static_assert(TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH + TOF_SECTION_HEADER + 16u <=
+                   TOF_RECORD_PAYLOAD_MAX,
+               "the settings and the calibration fit one record");
+
+static uint32_t get_u32(const uint8_t *p) {
+    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+}
+
+static void put_u32(uint8_t *p, uint32_t v) {
+    for (unsigned i = 0; i < 4u; ++i) {
+        p[i] = (uint8_t)(v >> (8u * i));
+    }
+}
+
+/* Two's complement from the stored bits, without relying on the conversion's behaviour. */
+static int32_t as_i32(uint32_t v) {
+    return v <= 0x7FFFFFFFu ? (int32_t)v : -(int32_t)(~v) - 1;
+}
+
+static bool within(int32_t v, int32_t max) {
+    return v >= -max && v <= max;
+}
+
+/* The bounds estimator/calibration.h states, for one sensor. */
+static bool sensor_ok(const struct calibration_head *cal, unsigned i) {
+    return within(cal->offset_um[i], CALIBRATION_OFFSET_MAX_UM) &&
+           within(cal->gain_ppm[i], CALIBRATION_GAIN_MAX_PPM) &&
+           cal->offset_sd_um[i] <= (uint32_t)CALIBRATION_OFFSET_MAX_UM &&
+           cal->gain_sd_ppm[i] <= (uint32_t)CALIBRATION_GAIN_MAX_PPM;
+}
+
+int tof_cal_encode(const struct calibration_head *cal, bool has_gain,
+                   const struct tof_cal_binding *bind, uint8_t *out) {
+    if (!cal->calibrated || bind->budget_ms == 0u ||
+        (bind->mode != (uint8_t)VL53_DISTANCE_SHORT && bind->mode != (uint8_t)VL53_DISTANCE_LONG)) {
+        return HAL_ERR_INVALID;
+    }
+    for (unsigned i = 0; i < CALIBRATION_SENSORS; ++i) {
+        if (!sensor_ok(cal, i) || (!has_gain && cal->gain_ppm[i] != 0)) {
+            return HAL_ERR_INVALID;
+        }
+    }
+    memset(out, 0, TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH);
+    out[0] = TOF_SECTION_CALIBRATION;
+    out[1] = TOF_CALIBRATION_VERSION;
+    out[2] = TOF_CALIBRATION_LENGTH;
+    uint8_t *v = &out[TOF_SECTION_HEADER];
+    put_u32(&v[0], bind->head_id);
+    v[4] = bind->mode;
+    v[5] = has_gain ? TOF_CAL_FLAG_GAINS : 0u;
+    v[6] = (uint8_t)bind->budget_ms;
+    v[7] = (uint8_t)(bind->budget_ms >> 8);
+    for (unsigned i = 0; i < CALIBRATION_SENSORS; ++i) {
+        uint8_t *s = &v[SENSORS_AT + PER_SENSOR * i];
+        put_u32(&s[0], (uint32_t)cal->offset_um[i]);
+        put_u32(&s[4], (uint32_t)cal->gain_ppm[i]);
+        put_u32(&s[8], cal->offset_sd_um[i]);
+        put_u32(&s[12], has_gain ? cal->gain_sd_ppm[i] : 0u);
+        s[16] = (uint8_t)((uint16_t)cal->offset_gain_corr_q15[i]);
+        s[17] = (uint8_t)((uint16_t)cal->offset_gain_corr_q15[i] >> 8);
+    }
+    return HAL_OK;
+}
+
+/* Sensor i of section bytes `v` into `cal`; false for a value out of bounds. */
+static bool decode_sensor(const uint8_t *v, bool has_gain, unsigned i,
+                          struct calibration_head *cal) {
+    const uint8_t *s = &v[SENSORS_AT + PER_SENSOR * i];
+    cal->offset_um[i] = as_i32(get_u32(&s[0]));
+    cal->gain_ppm[i] = as_i32(get_u32(&s[4]));
+    cal->offset_sd_um[i] = get_u32(&s[8]);
+    cal->gain_sd_ppm[i] = get_u32(&s[12]);
+    const uint16_t corr = (uint16_t)(s[16] | s[17] << 8);
+    cal->offset_gain_corr_q15[i] =
+        (int16_t)(corr <= 0x7FFFu ? (int32_t)corr : (int32_t)corr - 65536);
+    if (!has_gain) {
+        /* no gain stored: gain 1 with the parts' spread (DESIGN.md §6a) */
+        if (cal->gain_ppm[i] != 0 || cal->gain_sd_ppm[i] != 0u) {
+            return false;
+        }
+        cal->gain_sd_ppm[i] = CALIBRATION_UNCAL_GAIN_SD_PPM;
+    }
+    return sensor_ok(cal, i);
+}
+
+enum tof_cal_state tof_cal_decode(const uint8_t *payload, uint16_t len,
+                                  struct calibration_head *cal, struct tof_cal_binding *bind) {
+    const int at = tof_section_find(payload, len, TOF_SECTION_CALIBRATION);
+    if (at < 0) {
+        return at == -1 ? TOF_CAL_NONE : TOF_CAL_CORRUPT;
+    }
+    const uint8_t *p = &payload[at];
+    if (p[1] != TOF_CALIBRATION_VERSION) {
+        return TOF_CAL_VERSION;
+    }
+    const uint8_t *v = &p[TOF_SECTION_HEADER];
+    if ((uint16_t)(p[2] | p[3] << 8) != TOF_CALIBRATION_LENGTH ||
+        (v[5] & (uint8_t)~TOF_CAL_FLAG_GAINS) != 0u) {
+        return TOF_CAL_CORRUPT;
+    }
+    struct calibration_head c;
+    memset(&c, 0, sizeof c);
+    c.calibrated = true;
+    const bool has_gain = (v[5] & TOF_CAL_FLAG_GAINS) != 0u;
+    for (unsigned i = 0; i < CALIBRATION_SENSORS; ++i) {
+        if (!decode_sensor(v, has_gain, i, &c)) {
+            return TOF_CAL_CORRUPT;
+        }
+    }
+    const struct tof_cal_binding b = {
+        .head_id = get_u32(&v[0]), .mode = v[4], .budget_ms = (uint16_t)(v[6] | v[7] << 8)};
+    if ((b.mode != (uint8_t)VL53_DISTANCE_SHORT && b.mode != (uint8_t)VL53_DISTANCE_LONG) ||
+        b.budget_ms == 0u) {
+        return TOF_CAL_CORRUPT;
+    }
+    *cal = c;
+    *bind = b;
+    return TOF_CAL_APPLIED;
+}
+
+struct tof_cal_binding tof_cal_binding_of(const struct tof_app_config *cfg) {
+    const struct tof_cal_binding b = {.head_id = cfg->head_id,
+                                      .mode = (uint8_t)cfg->timing.mode,
+                                      .budget_ms = cfg->timing.budget_ms};
+    return b;
+}
+
+enum tof_cal_state tof_cal_check(const struct tof_cal_binding *bind,
+                                 const struct tof_app_config *cfg) {
+    const struct tof_cal_binding mine = tof_cal_binding_of(cfg);
+    if (bind->head_id != mine.head_id) {
+        return TOF_CAL_OTHER_HEAD;
+    }
+    return bind->mode == mine.mode && bind->budget_ms == mine.budget_ms ? TOF_CAL_APPLIED
+                                                                        : TOF_CAL_OTHER_MODE;
+}
+
+enum tof_cal_state tof_cal_boot(struct tof_record_store *store, struct tof_app *app) {
+    if (store == NULL || store->storage.ops == NULL) {
+        return TOF_CAL_NO_STORAGE;
+    }
+    switch (tof_record_load(store)) {
+    case TOF_RECORD_LOADED:
+        break;
+    case TOF_RECORD_NONE:
+        return TOF_CAL_NONE;
+    case TOF_RECORD_VERSION:
+        return TOF_CAL_VERSION;
+    default:
+        return TOF_CAL_CORRUPT;
+    }
+    struct calibration_head cal;
+    struct tof_cal_binding bind;
+    enum tof_cal_state state = tof_cal_decode(store->payload, store->length, &cal, &bind);
+    if (state == TOF_CAL_APPLIED) {
+        state = tof_cal_check(&bind, app->cfg);
+    }
+    if (state == TOF_CAL_APPLIED && tof_app_set_calibration(app, &cal) != 0) {
+        state = TOF_CAL_REJECTED;
+    }
+    return state;
+}
+
+enum tof_cal_state tof_cal_write(struct tof_record_store *store, struct tof_app *app,
+                                 const uint8_t *section, int *error) {
+    *error = 0;
+    struct calibration_head cal;
+    struct tof_cal_binding bind;
+    enum tof_cal_state state = tof_cal_decode(
+        section, (uint16_t)(TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH), &cal, &bind);
+    if (state == TOF_CAL_APPLIED) {
+        state = tof_cal_check(&bind, app->cfg);
+    }
+    if (state == TOF_CAL_NONE) {
+        state = TOF_CAL_CORRUPT; /* not a calibration section at all */
+    }
+    if (state != TOF_CAL_APPLIED) {
+        return state;
+    }
+    /* Saved first: a calibration in force that the next boot would not find is worse
+     * than one refused now. */
+    *error = tof_section_save(store, section);
+    if (*error != HAL_OK) {
+        return TOF_CAL_NO_STORAGE;
+    }
+    *error = tof_app_set_calibration(app, &cal);
+    return *error == 0 ? TOF_CAL_APPLIED : TOF_CAL_REJECTED;
+}
+
+void tof_cal_read(const struct tof_record_store *store, uint8_t *section) {
+    memset(section, 0, TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH);
+    if (store == NULL || store->current < 0) {
+        return;
+    }
+    const int at = tof_section_find(store->payload, store->length, TOF_SECTION_CALIBRATION);
+    if (at >= 0) {
+        const uint32_t size =
+            TOF_SECTION_HEADER + (uint32_t)(store->payload[at + 2] | store->payload[at + 3] << 8);
+        if (size == TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH) {
+            memcpy(section, &store->payload[at], size);
+        }
+    }
+}
+
+enum tof_cal_state tof_cal_write_head(struct tof_record_store *store, struct tof_app *app,
+                                      const struct calibration_head *cal, int *error) {
+    bool has_gain = false;
+    for (unsigned i = 0; i < CALIBRATION_SENSORS; ++i) {
+        has_gain = has_gain || cal->gain_ppm[i] != 0 ||
+                   cal->gain_sd_ppm[i] != CALIBRATION_UNCAL_GAIN_SD_PPM;
+    }
+    const struct tof_cal_binding bind = tof_cal_binding_of(app->cfg);
+    uint8_t section[TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH];
+    *error = 0;
+    if (tof_cal_encode(cal, has_gain, &bind, section) != HAL_OK) {
+        return TOF_CAL_CORRUPT;
+    }
+    return tof_cal_write(store, app, section, error);
+}

@@ -1,0 +1,89 @@
+/* The re-zero at the latched position: offsets refitted from N samples, gains kept
+ * (firmware/rezero.h). */
+#include "firmware/rezero.h"
+
+#include <string.h>
+
+bool tof_rezero_start(struct tof_rezero *z, uint16_t samples) {
+    if (samples < TOF_REZERO_MIN || samples > TOF_REZERO_MAX) {
+        return false;
+    }
+    memset(z, 0, sizeof *z);
+    z->wanted = samples;
+    return true;
+}
+
+bool tof_rezero_add(struct tof_rezero *z, const struct tof_sample *sample) {
+    if (z->wanted == 0u || z->seen >= z->wanted) {
+        return false;
+    }
+    for (unsigned i = 0; i < CALIBRATION_SENSORS; ++i) {
+        if ((sample->present_mask & (1u << i)) != 0u && sample->status[i] == 0u) {
+            const uint64_t r = sample->range_mm[i];
+            ++z->n[i];
+            z->sum[i] += r;
+            z->sum2[i] += r * r;
+        }
+    }
+    ++z->seen;
+    return z->seen == z->wanted;
+}
+
+/* ⌊√v⌋, bit by bit: 32 bounded steps. */
+static uint32_t isqrt64(uint64_t v) {
+    uint64_t root = 0;
+    for (int bit = 31; bit >= 0; --bit) {
+        const uint64_t trial = root | (1ull << (unsigned)bit);
+        if (trial * trial <= v) {
+            root = trial;
+        }
+    }
+    return (uint32_t)root;
+}
+
+/* Sensor i's mean reading in µm and the variance of that mean in µm². */
+static void mean_and_var(const struct tof_rezero *z, unsigned i, int64_t *mean_um,
+                         uint64_t *var_um2) {
+    const uint64_t n = z->n[i];
+    *mean_um = (int64_t)((z->sum[i] * 1000u + n / 2u) / n);
+    /* (Σr² − (Σr)²/n) / (n − 1) in mm², times 10^6 for µm², over n for the mean */
+    const uint64_t ss = z->sum2[i] * n - z->sum[i] * z->sum[i]; /* n·Σ(r − m)² ≥ 0 */
+    uint64_t var = ss * 1000000u / (n * (n - 1u)) / n;
+    const uint64_t floor = 1000000u / 12u / n; /* (1 mm)²/12 per reading */
+    *var_um2 = var > floor ? var : floor;
+}
+
+bool tof_rezero_fit(const struct tof_rezero *z, const struct calibration_head *cal,
+                    struct calibration_head *out) {
+    if (!cal->calibrated || z->wanted == 0u || z->seen < z->wanted) {
+        return false;
+    }
+    int64_t m[CALIBRATION_SENSORS];
+    uint64_t var_m[CALIBRATION_SENSORS];
+    int64_t num = 0, g_sum = 0;
+    uint64_t var_m_sum = 0, var_o_sum = 0;
+    for (unsigned i = 0; i < CALIBRATION_SENSORS; ++i) {
+        if (z->n[i] < 2u || 2u * z->n[i] < z->seen) {
+            return false;
+        }
+        mean_and_var(z, i, &m[i], &var_m[i]);
+        num += m[i] - cal->offset_um[i];
+        g_sum += 1000000 + cal->gain_ppm[i];
+        var_m_sum += var_m[i];
+        var_o_sum += (uint64_t)cal->offset_sd_um[i] * cal->offset_sd_um[i];
+    }
+    /* x̂ in µm, rounded to nearest (num ≥ 0 at any distance a VL53 reports) */
+    const int64_t x_um = (num * 1000000 + g_sum / 2) / g_sum;
+    struct calibration_head next = *cal;
+    for (unsigned i = 0; i < CALIBRATION_SENSORS; ++i) {
+        const int64_t gx = x_um + (x_um * cal->gain_ppm[i]) / 1000000; /* g_i · x̂ */
+        const int64_t o = m[i] - gx;
+        if (o < -CALIBRATION_OFFSET_MAX_UM || o > CALIBRATION_OFFSET_MAX_UM) {
+            return false;
+        }
+        next.offset_um[i] = (int32_t)o;
+        next.offset_sd_um[i] = isqrt64(var_m[i] / 2u + var_m_sum / 16u + var_o_sum / 16u);
+    }
+    *out = next;
+    return true;
+}

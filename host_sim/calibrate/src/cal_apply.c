@@ -1,0 +1,178 @@
+/* A replay's head calibration: from the option or the trace, preloaded as a record
+ * (calibrate/cal_apply.h). */
+#include "calibrate/cal_apply.h"
+
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "calibrate/head_cal.h"
+#include "estimator/calibration.h"
+#include "firmware/calibration_record.h"
+#include "firmware/settings.h"
+#include "hal/hal_err.h"
+
+_Static_assert(TRACE_CAL_SENSORS == CALIBRATION_SENSORS &&
+                   TRACE_CAL_OFFSET_MAX_UM == CALIBRATION_OFFSET_MAX_UM &&
+                   TRACE_CAL_GAIN_MAX_PPM == CALIBRATION_GAIN_MAX_PPM &&
+                   TRACE_CAL_UNCAL_GAIN_SD_PPM == CALIBRATION_UNCAL_GAIN_SD_PPM,
+               "the trace reader's calibration integers are the estimator's");
+
+/* The binding keys of `hc` (head_id, distance_mode, timing_budget_ms). 0, or -1 (err). */
+static int read_binding(const struct head_cal *hc, const char *path, struct cal_apply_binding *b,
+                        char *err, size_t errlen) {
+    memset(b, 0, sizeof *b);
+    const char *v = head_cal_extra(hc, "head_id");
+    char *end = NULL;
+    if (v != NULL) {
+        const unsigned long long id = strtoull(v, &end, 10);
+        if (end == v || *end != '\0' || v[0] == '-' || id > UINT32_MAX) {
+            snprintf(err, errlen, "%s: head_id '%s' is not an integer 0..4294967295", path, v);
+            return -1;
+        }
+        b->has_head = true;
+        b->head_id = (uint32_t)id;
+    }
+    if ((v = head_cal_extra(hc, "distance_mode")) != NULL) {
+        b->has_mode = strcmp(v, "short") == 0 || strcmp(v, "long") == 0;
+        if (!b->has_mode) {
+            snprintf(err, errlen, "%s: distance_mode '%s' is not short or long", path, v);
+            return -1;
+        }
+        b->mode = strcmp(v, "long") == 0 ? 2u : 1u; /* enum vl53_distance_mode */
+    }
+    if ((v = head_cal_extra(hc, "timing_budget_ms")) != NULL) {
+        const unsigned long ms = strtoul(v, &end, 10);
+        if (end == v || *end != '\0' || v[0] == '-' || ms == 0u || ms > UINT16_MAX) {
+            snprintf(err, errlen, "%s: timing_budget_ms '%s' is not an integer 1..65535", path, v);
+            return -1;
+        }
+        b->has_budget = true;
+        b->budget_ms = (uint16_t)ms;
+    }
+    return 0;
+}
+
+int cal_apply_load(const char *path, struct trace_v1_cal *out, struct cal_apply_binding *made_in,
+                   char *err, size_t errlen) {
+    static struct head_cal hc; /* ~6 KB of keys */
+    struct cal_apply_binding ignored;
+    if (head_cal_load(path, &hc, err, errlen) != 0 ||
+        read_binding(&hc, path, made_in != NULL ? made_in : &ignored, err, errlen) != 0) {
+        return -1;
+    }
+    /* The file's text through the trace reader's exact conversion: a HEAD.cal and the same
+     * keys inline give the same integers. */
+    memset(out, 0, sizeof *out);
+    for (unsigned k = 0; k < hc.count; ++k) {
+        uint32_t col = 0;
+        const char *what = NULL;
+        const int rc = trace_v1_cal_value(out, hc.key[k], hc.value[k], hc.line[k], &col, &what);
+        if (rc < 0 || (rc == 0 && strcmp(hc.key[k], "calibration") == 0)) {
+            snprintf(err, errlen, "%s:%u: %s: %s", path, hc.line[k], hc.key[k],
+                     rc < 0 ? what : "not a key of a head-calibration file");
+            return -1;
+        }
+    }
+    const char *what = NULL;
+    uint32_t line = 0;
+    if (trace_v1_cal_check(out, &what, &line) != 0 || !out->calibrated) {
+        snprintf(err, errlen, "%s:%u: %s", path, line,
+                 what != NULL ? what : "no offset_mm and offset_sd_mm");
+        return -1;
+    }
+    return 0;
+}
+
+/* The path of `file` relative to the directory of `trace_path`. */
+static void beside(const char *trace_path, const char *file, char *out, size_t cap) {
+    const char *slash = strrchr(trace_path, '/');
+    if (file[0] == '/' || slash == NULL) {
+        snprintf(out, cap, "%s", file);
+    } else {
+        snprintf(out, cap, "%.*s/%s", (int)(slash - trace_path), trace_path, file);
+    }
+}
+
+int cal_apply_resolve(const char *prog, const char *option, const struct trace_v1_meta *meta,
+                      const char *trace_path, struct cal_apply *out) {
+    memset(out, 0, sizeof *out);
+    char path[256];
+    const char *file = option;
+    if (file == NULL && (meta->cal.keys & TRACE_CAL_KEY_FILE) != 0u) {
+        for (unsigned k = 0; k < meta->count; ++k) {
+            if (strcmp(meta->key[k], "calibration") == 0) {
+                beside(trace_path, meta->value[k], path, sizeof path);
+                file = path;
+            }
+        }
+    }
+    if (file != NULL) {
+        char err[HEAD_CAL_ERR_MAX];
+        if (cal_apply_load(file, &out->cal, &out->made_in, err, sizeof err) != 0) {
+            fprintf(stderr, "%s: %s%s\n", prog, option != NULL ? "--calibration: " : "", err);
+            return -1;
+        }
+        snprintf(out->source, sizeof out->source, "%s", file);
+        return 0;
+    }
+    out->cal = meta->cal; /* inline keys, calibration=none, or nothing: uncalibrated */
+    snprintf(out->source, sizeof out->source, "%s",
+             out->cal.calibrated ? "the trace's keys" : "none (uncalibrated)");
+    return 0;
+}
+
+void cal_apply_head(const struct trace_v1_cal *cal, struct calibration_head *out) {
+    memset(out, 0, sizeof *out);
+    out->calibrated = cal->calibrated;
+    for (unsigned i = 0; i < CALIBRATION_SENSORS; ++i) {
+        out->offset_um[i] = cal->offset_um[i];
+        out->gain_ppm[i] = cal->gain_ppm[i];
+        out->offset_sd_um[i] = cal->offset_sd_um[i];
+        out->gain_sd_ppm[i] = cal->gain_sd_ppm[i];
+        out->offset_gain_corr_q15[i] = cal->corr_q15[i];
+    }
+}
+
+int cal_apply_preload(const struct trace_v1_cal *cal, const struct tof_app_config *cfg,
+                      const struct cal_apply_binding *made_in, const uint8_t *pages_in,
+                      struct sim_flash *flash, struct tof_record_store *store) {
+    if (sim_flash_init(flash, 2u, CAL_APPLY_PAGE_SIZE) != HAL_OK) {
+        fprintf(stderr, "internal: the simulated record storage\n");
+        return -1;
+    }
+    for (unsigned p = 0; p < 2u && pages_in != NULL; ++p) {
+        memcpy(flash->mem[p], &pages_in[p * CAL_APPLY_PAGE_SIZE], CAL_APPLY_PAGE_SIZE);
+    }
+    if (tof_record_init(store, sim_flash_hal(flash), 0u, 1u) != HAL_OK) {
+        fprintf(stderr, "internal: the simulated record storage\n");
+        return -1;
+    }
+    if (!cal->calibrated) {
+        return 0; /* nothing written: the firmware boots with what the pages hold */
+    }
+    (void)tof_record_load(store); /* the record in use, whose other sections are kept */
+    struct calibration_head head;
+    cal_apply_head(cal, &head);
+    struct tof_cal_binding bind = tof_cal_binding_of(cfg);
+    if (made_in != NULL) {
+        bind.head_id = made_in->has_head ? made_in->head_id : bind.head_id;
+        bind.mode = made_in->has_mode ? made_in->mode : bind.mode;
+        bind.budget_ms = made_in->has_budget ? made_in->budget_ms : bind.budget_ms;
+    }
+    uint8_t section[TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH];
+    uint8_t stored[TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH];
+    tof_cal_read(store, stored);
+    if (tof_cal_encode(&head, cal->has_gain, &bind, section) == HAL_OK &&
+        memcmp(stored, section, sizeof section) == 0) {
+        return 0; /* already there (pages kept from a run before): left as they are */
+    }
+    if (tof_cal_encode(&head, cal->has_gain, &bind, section) != HAL_OK ||
+        tof_section_save(store, section) != HAL_OK) {
+        fprintf(stderr, "internal: the calibration does not make a record\n");
+        return -1;
+    }
+    sim_flash_power_on(flash); /* the record is in place before the firmware boots */
+    return tof_record_init(store, sim_flash_hal(flash), 0u, 1u) == HAL_OK ? 0 : -1;
+}

@@ -1,0 +1,243 @@
+/*
+ * The head's calibration as record section 2 (firmware/calibration_record.h) on the
+ * simulated flash: what boot puts in attitude_config.calibration for a matching section,
+ * and that a missing, damaged, other-version, other-head or other-mode one leaves the head
+ * uncalibrated and says why; the settings and the calibration keep each other's section.
+ */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <string.h>
+#include <cmocka.h>
+
+#include "firmware/calibration_record.h"
+#include "firmware/config.h"
+#include "firmware/settings.h"
+#include "hal/hal_err.h"
+#include "sim/sim_flash.h"
+
+static struct sim_flash flash;
+static struct tof_record_store store;
+static struct tof_app_config cfg;
+static struct tof_app app;
+
+/* A head as calibrate writes one: offsets, gains, their sd and correlation. */
+static struct calibration_head a_head(void) {
+    const struct calibration_head cal = {
+        .calibrated = true,
+        .offset_um = {-3105, 7882, 516, -12340},
+        .gain_ppm = {4100, -8130, 12020, -3450},
+        .offset_sd_um = {28, 29, 28, 30},
+        .gain_sd_ppm = {190, 200, 190, 210},
+        .offset_gain_corr_q15 = {-30474, -30500, -30000, -32768},
+    };
+    return cal;
+}
+
+static int setup(void **state) {
+    (void)state;
+    assert_int_equal(sim_flash_init(&flash, 2u, 2048u), HAL_OK);
+    assert_int_equal(tof_record_init(&store, sim_flash_hal(&flash), 0u, 1u), HAL_OK);
+    cfg = tof_app_default_config;
+    memset(&app, 0, sizeof app);
+    app.cfg = &cfg; /* tof_cal_boot() needs the configuration and the estimator only */
+    assert_int_equal(attitude_init(&app.estimator, &cfg.estimator), ATTITUDE_ERR_NONE);
+    return 0;
+}
+
+static struct tof_cal_binding mine(void) {
+    return tof_cal_binding_of(&cfg);
+}
+
+static void save_cal(const struct calibration_head *cal, bool has_gain,
+                     const struct tof_cal_binding *bind) {
+    uint8_t section[TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH];
+    assert_int_equal(tof_cal_encode(cal, has_gain, bind, section), HAL_OK);
+    assert_int_equal(tof_section_save(&store, section), HAL_OK);
+}
+
+/* Boot on a fresh store over the same flash, as after a reset. */
+static enum tof_cal_state boot(void) {
+    sim_flash_power_on(&flash);
+    static struct tof_record_store s2;
+    assert_int_equal(tof_record_init(&s2, sim_flash_hal(&flash), 0u, 1u), HAL_OK);
+    return tof_cal_boot(&s2, &app);
+}
+
+/* Field by field: the struct has padding after `calibrated`. */
+static void assert_same_cal(const struct calibration_head *a, const struct calibration_head *b) {
+    assert_int_equal(a->calibrated, b->calibrated);
+    assert_memory_equal(a->offset_um, b->offset_um, sizeof a->offset_um);
+    assert_memory_equal(a->gain_ppm, b->gain_ppm, sizeof a->gain_ppm);
+    assert_memory_equal(a->offset_sd_um, b->offset_sd_um, sizeof a->offset_sd_um);
+    assert_memory_equal(a->gain_sd_ppm, b->gain_sd_ppm, sizeof a->gain_sd_ppm);
+    assert_memory_equal(a->offset_gain_corr_q15, b->offset_gain_corr_q15,
+                        sizeof a->offset_gain_corr_q15);
+}
+
+static void assert_uncalibrated(void) {
+    assert_false(app.estimator.cfg.calibration.calibrated);
+}
+
+static void test_a_matching_section_reaches_the_estimator(void **state) {
+    (void)state;
+    const struct calibration_head cal = a_head();
+    const struct tof_cal_binding b = mine();
+    save_cal(&cal, true, &b);
+    assert_int_equal(boot(), TOF_CAL_APPLIED);
+    assert_same_cal(&app.estimator.cfg.calibration, &cal);
+}
+
+static void test_without_gains_the_gain_sd_is_the_parts_spread(void **state) {
+    (void)state;
+    struct calibration_head cal = a_head();
+    memset(cal.gain_ppm, 0, sizeof cal.gain_ppm);
+    const struct tof_cal_binding b = mine();
+    save_cal(&cal, false, &b);
+    assert_int_equal(boot(), TOF_CAL_APPLIED);
+    for (unsigned i = 0; i < 4u; ++i) {
+        assert_int_equal(app.estimator.cfg.calibration.gain_ppm[i], 0);
+        assert_int_equal(app.estimator.cfg.calibration.gain_sd_ppm[i],
+                         CALIBRATION_UNCAL_GAIN_SD_PPM);
+        assert_int_equal(app.estimator.cfg.calibration.offset_um[i], cal.offset_um[i]);
+    }
+    /* a gain where none was fitted is refused at encoding */
+    cal.gain_ppm[2] = 1;
+    uint8_t section[TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH];
+    assert_int_equal(tof_cal_encode(&cal, false, &b, section), HAL_ERR_INVALID);
+}
+
+static void test_nothing_stored_is_uncalibrated(void **state) {
+    (void)state;
+    assert_int_equal(boot(), TOF_CAL_NONE);
+    assert_uncalibrated();
+    /* a record with the settings only: none either */
+    const struct tof_settings s = {.window = 50, .running = true};
+    assert_int_equal(tof_settings_save(&store, &s), HAL_OK);
+    assert_int_equal(boot(), TOF_CAL_NONE);
+    assert_uncalibrated();
+    assert_int_equal(tof_cal_boot(NULL, &app), TOF_CAL_NO_STORAGE);
+}
+
+static void test_a_damaged_record_is_not_applied(void **state) {
+    (void)state;
+    const struct calibration_head cal = a_head();
+    const struct tof_cal_binding b = mine();
+    save_cal(&cal, true, &b);
+    sim_flash_poke(&flash, 0u, 12u + 4u + 9u, 0x04u); /* an offset bit: the CRC fails */
+    assert_int_equal(boot(), TOF_CAL_CORRUPT);
+    assert_uncalibrated();
+}
+
+static void test_another_section_version_is_not_applied(void **state) {
+    (void)state;
+    const struct calibration_head cal = a_head();
+    const struct tof_cal_binding b = mine();
+    uint8_t section[TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH];
+    assert_int_equal(tof_cal_encode(&cal, true, &b, section), HAL_OK);
+    section[1] = 2u; /* a later firmware's layout */
+    assert_int_equal(tof_section_save(&store, section), HAL_OK);
+    assert_int_equal(boot(), TOF_CAL_VERSION);
+    assert_uncalibrated();
+}
+
+static void test_another_head_is_not_applied(void **state) {
+    (void)state;
+    const struct calibration_head cal = a_head();
+    struct tof_cal_binding b = mine();
+    b.head_id = 17u;
+    save_cal(&cal, true, &b);
+    assert_int_equal(boot(), TOF_CAL_OTHER_HEAD);
+    assert_uncalibrated();
+    cfg.head_id = 17u; /* the image of that head */
+    assert_int_equal(boot(), TOF_CAL_APPLIED);
+    assert_true(app.estimator.cfg.calibration.calibrated);
+}
+
+static void test_another_mode_or_budget_is_not_applied(void **state) {
+    (void)state;
+    const struct calibration_head cal = a_head();
+    struct tof_cal_binding b = mine();
+    b.mode = cfg.timing.mode == VL53_DISTANCE_SHORT ? (uint8_t)VL53_DISTANCE_LONG
+                                                    : (uint8_t)VL53_DISTANCE_SHORT;
+    save_cal(&cal, true, &b);
+    assert_int_equal(boot(), TOF_CAL_OTHER_MODE);
+    assert_uncalibrated();
+    b = mine();
+    b.budget_ms = (uint16_t)(b.budget_ms + 1u);
+    save_cal(&cal, true, &b);
+    assert_int_equal(boot(), TOF_CAL_OTHER_MODE);
+    assert_uncalibrated();
+}
+
+/* A section the CRC cannot catch (written so by a defect): decoded values are checked. */
+static void test_values_out_of_bounds_are_corrupt(void **state) {
+    (void)state;
+    const struct calibration_head cal = a_head();
+    const struct tof_cal_binding b = mine();
+    struct calibration_head out;
+    struct tof_cal_binding bo;
+    uint8_t s[TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH];
+    const struct {
+        unsigned at;
+        uint8_t value;
+    } bad[] = {
+        {4u + 5u, 0x02u},            /* a reserved flag */
+        {4u + 4u, 0u},               /* distance mode 0 */
+        {4u + 6u, 0u},               /* with the next byte: budget 0 */
+        {4u + 8u + 3u, 0x7Fu},       /* offset A beyond ±100 mm */
+        {4u + 8u + 18u + 7u, 0x80u}, /* gain B beyond ±10 % */
+        {2u, 79u},                   /* a section length other than 80 */
+    };
+    for (size_t k = 0; k < sizeof bad / sizeof bad[0]; ++k) {
+        assert_int_equal(tof_cal_encode(&cal, true, &b, s), HAL_OK);
+        assert_int_equal(tof_cal_decode(s, sizeof s, &out, &bo), TOF_CAL_APPLIED);
+        s[bad[k].at] = bad[k].value;
+        if (bad[k].at == 4u + 6u) {
+            s[bad[k].at + 1u] = 0u;
+        }
+        const uint16_t len = bad[k].at == 2u ? (uint16_t)(sizeof s - 1u) : (uint16_t)sizeof s;
+        assert_int_equal(tof_cal_decode(s, len, &out, &bo), TOF_CAL_CORRUPT);
+    }
+    /* an uncalibrated head or one out of bounds is never encoded */
+    struct calibration_head u = cal;
+    u.calibrated = false;
+    assert_int_equal(tof_cal_encode(&u, true, &b, s), HAL_ERR_INVALID);
+    u = cal;
+    u.offset_um[3] = CALIBRATION_OFFSET_MAX_UM + 1;
+    assert_int_equal(tof_cal_encode(&u, true, &b, s), HAL_ERR_INVALID);
+}
+
+static void test_settings_and_calibration_keep_each_other(void **state) {
+    (void)state;
+    const struct calibration_head cal = a_head();
+    const struct tof_cal_binding b = mine();
+    save_cal(&cal, true, &b);
+    const struct tof_settings s = {.window = 50, .sliding = true, .running = true};
+    assert_int_equal(tof_settings_save(&store, &s), HAL_OK);
+    assert_int_equal(boot(), TOF_CAL_APPLIED);
+    assert_same_cal(&app.estimator.cfg.calibration, &cal);
+    struct tof_settings back;
+    assert_int_equal(tof_settings_decode(store.payload, store.length, &back), TOF_RECORD_LOADED);
+    assert_int_equal(back.window, 50);
+    save_cal(&cal, true, &b); /* again: the settings stay */
+    assert_int_equal(tof_settings_decode(store.payload, store.length, &back), TOF_RECORD_LOADED);
+    assert_true(back.sliding);
+    assert_int_equal(store.length, 2u * TOF_SECTION_HEADER + 16u + TOF_CALIBRATION_LENGTH);
+}
+
+int main(void) {
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test_setup(test_a_matching_section_reaches_the_estimator, setup),
+        cmocka_unit_test_setup(test_without_gains_the_gain_sd_is_the_parts_spread, setup),
+        cmocka_unit_test_setup(test_nothing_stored_is_uncalibrated, setup),
+        cmocka_unit_test_setup(test_a_damaged_record_is_not_applied, setup),
+        cmocka_unit_test_setup(test_another_section_version_is_not_applied, setup),
+        cmocka_unit_test_setup(test_another_head_is_not_applied, setup),
+        cmocka_unit_test_setup(test_another_mode_or_budget_is_not_applied, setup),
+        cmocka_unit_test_setup(test_values_out_of_bounds_are_corrupt, setup),
+        cmocka_unit_test_setup(test_settings_and_calibration_keep_each_other, setup),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

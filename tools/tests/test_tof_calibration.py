@@ -1,0 +1,160 @@
+"""Unit tests of tools/tof_calibration.py and tof_telemetry.py's calibration options
+(run: /usr/bin/python3 -m unittest discover -s tools/tests -p "test_tof_calibration.py").
+
+The section bytes are the firmware's own (tof_cal_encode() of the same head, dumped once);
+the decimal conversions are the C trace reader's test values (tests/scene/test_trace_v1_cal.c).
+"""
+
+import io
+import os
+import struct
+import sys
+import tempfile
+import unittest
+from contextlib import redirect_stdout
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+import tof_calibration as c  # noqa: E402
+import tof_telemetry as t  # noqa: E402
+
+HEAD_CAL = """# tof-head-cal v1
+# offset_mm=-3.105,7.882,0.516,-12.340
+# offset_sd_mm=0.028,0.029,0.028,0.030
+# gain=1.00410,0.99187,1.01202,0.99655
+# gain_sd=0.00019,0.00020,0.00019,0.00021
+# offset_gain_corr=-0.93,-0.93,-0.93,-0.93
+# head_id=7
+# fit=offsets+gains
+"""
+# firmware/src/calibration_record.c's tof_cal_encode() of this head, head 7, short, 15 ms
+FIRMWARE_SECTION = bytes.fromhex(
+    "020150000700000001010f00dff3ffff041000001c000000be000000f688ca1e00003ee0ffff1d000000"
+    "c8000000f68804020000f42e00001c000000be000000f688cccfffff86f2ffff1e000000d2000000f688")
+
+
+def sensor(section, i):
+    return struct.unpack_from("<iiIIh", section, 12 + 18 * i)
+
+
+class SectionTest(unittest.TestCase):
+    def test_the_firmware_bytes(self):
+        self.assertEqual(c.head_cal_to_section(HEAD_CAL), FIRMWARE_SECTION)
+
+    def test_exact_decimals_as_the_trace_reader(self):
+        text = ("# tof-head-cal v1\n# offset_mm=-3.105,7.882,0.5165,-12.3404\n"
+                "# offset_sd_mm=0.028,0.029,0.0285,0\n"
+                "# gain=1.00410,0.99187,1.0000005,0.9999995\n"
+                "# gain_sd=0.00019,0.0002,1e-4,0.0000215\n"
+                "# offset_gain_corr=-0.93,1,-1,0.5\n")
+        s = c.head_cal_to_section(text)
+        self.assertEqual([sensor(s, i) for i in range(4)],
+                         [(-3105, 4100, 28, 190, -30474), (7882, -8130, 29, 200, 32767),
+                          (517, 1, 29, 100, -32768), (-12340, -1, 0, 22, 16384)])
+
+    def test_round_trip(self):
+        text = c.section_to_head_cal(FIRMWARE_SECTION)
+        self.assertIn("# head_id=7", text)
+        self.assertIn("# distance_mode=short", text)
+        self.assertEqual(c.head_cal_to_section(text), FIRMWARE_SECTION)
+
+    def test_offsets_only(self):
+        s = c.head_cal_to_section("# tof-head-cal v1\n# offset_mm=1,2,3,4\n"
+                                  "# offset_sd_mm=0,0,0,0\n", mode="long", budget_ms=33)
+        self.assertEqual(struct.unpack_from("<IBBH", s, 4), (0, 2, 0, 33))
+        self.assertEqual(sensor(s, 3), (4000, 0, 0, 0, 0))
+        back = c.section_to_head_cal(s)
+        self.assertNotIn("gain", back)
+        self.assertEqual(c.head_cal_to_section(back), s)
+
+    def test_bad_files_say_where(self):
+        bad = [("# tof-trace v1\n", "first line"),
+               ("# tof-head-cal v1\n# offset_mm=1,2,3\n# offset_sd_mm=0,0,0,0\n",
+                "HEAD.cal:2: offset_mm: four values"),
+               ("# tof-head-cal v1\n# offset_mm=1,2,3,nan\n# offset_sd_mm=0,0,0,0\n",
+                "not a plain decimal"),
+               ("# tof-head-cal v1\n# offset_mm=1,2,3,4\n# offset_sd_mm=0,0,0,0\n"
+                "# gain=1,1,1.2,1\n# gain_sd=0,0,0,0\n", "HEAD.cal:4: gain: a gain within"),
+               ("# tof-head-cal v1\n# offset_mm=1,2,3,4\n# offset_sd_mm=0,0,0,0\n# gain=1,1,1,1\n",
+                "together"),
+               ("# tof-head-cal v1\n# offset_sd_mm=0,0,0,0\n", "no offset_mm")]
+        for text, what in bad:
+            with self.assertRaises(c.CalibrationError) as e:
+                c.head_cal_to_section(text)
+            self.assertIn(what, str(e.exception))
+        with self.assertRaises(c.CalibrationError):
+            c.section_to_head_cal(bytes(84))  # none stored
+
+
+class TelemetryTest(unittest.TestCase):
+    def test_messages(self):
+        ftype, payload = t.command_payload("write-calibration " + FIRMWARE_SECTION.hex())
+        self.assertEqual((ftype, payload), (t.T_WRITE_CALIBRATION, FIRMWARE_SECTION))
+        self.assertEqual(t.command_payload("read-calibration"), (t.T_READ_CALIBRATION, b""))
+        self.assertEqual(t.command_payload("re-zero 500"), (t.T_REZERO, b"\xf4\x01"))
+        for bad in ("re-zero 9", "re-zero 5001", "re-zero x"):
+            with self.assertRaises(t.ProtocolError):
+                t.command_payload(bad)
+        with self.assertRaises(t.ProtocolError):
+            t.command_payload("write-calibration 0201")
+        fields, result = t.parse(t.T_CALIBRATION, bytes([1]) + FIRMWARE_SECTION)
+        self.assertEqual((result, fields["state"]), (t.R_OK, 1))
+        self.assertEqual(t.parse(t.T_CALIBRATION, bytes([0]) + bytes(84))[1], t.R_OK)
+        self.assertEqual(t.parse(t.T_CALIBRATION, bytes([8]) + bytes(84))[1], t.R_OUT_OF_RANGE)
+        self.assertEqual(t.parse(t.T_WRITE_CALIBRATION, bytes(84))[1], t.R_OUT_OF_RANGE)
+        status, result = t.parse(t.T_STATUS, bytes([0, 1, 0, 4]) + struct.pack(
+            "<IHBBBBHBB", 1000, 100, 0, 0, 1, 0, 20, 0, 5))
+        self.assertEqual((result, t.CAL_STATES[status["calibration"]]), (t.R_OK, "other-mode"))
+
+    def run_main(self, argv):
+        out = io.StringIO()
+        with redirect_stdout(out):
+            rc = t.main(argv)
+        return rc, out.getvalue()
+
+    def test_read_cal_from_a_capture(self):
+        with tempfile.TemporaryDirectory() as d:
+            cap, out = os.path.join(d, "cap.bin"), os.path.join(d, "out.cal")
+            with open(cap, "wb") as f:
+                f.write(t.encode_frame(t.T_CALIBRATION, 3, bytes([1]) + FIRMWARE_SECTION))
+            rc, text = self.run_main(["--file", cap, "--read-cal", out])
+            self.assertEqual(rc, 0)
+            self.assertIn("state=applied", text)
+            with open(out) as f:
+                self.assertEqual(c.head_cal_to_section(f.read()), FIRMWARE_SECTION)
+
+    def test_send_cal_commands(self):
+        with tempfile.TemporaryDirectory() as d:
+            cal, cmds = os.path.join(d, "head.cal"), os.path.join(d, "cmds.bin")
+            with open(cal, "w") as f:
+                f.write(HEAD_CAL)
+            self.assertEqual(self.run_main(["--write-commands", cmds, "--send-cal", cal,
+                                            "--first-seq", "0"])[0], 0)
+            with open(cmds, "rb") as f:
+                data = f.read()
+            self.assertEqual(data, t.encode_frame(t.T_WRITE_CALIBRATION, 0, FIRMWARE_SECTION)
+                             + t.encode_frame(t.T_READ_CALIBRATION, 1, b""))
+
+    def test_record_stations_into_a_calibration_trace(self):
+        with tempfile.TemporaryDirectory() as d:
+            cap, trace = os.path.join(d, "cap.bin"), os.path.join(d, "cal.csv")
+            with open(cap, "wb") as f:
+                for k in range(5):
+                    f.write(t.encode_frame(t.T_RAW_SAMPLE, k, struct.pack(
+                        "<I4H4BB", 20 * k, 100 + k, 101, 102, 0, 0, 0, 4, 0, 0x07)))
+            for station in ("5,0,60", "-5.5,2,200.25"):
+                # --station=... : a negative angle would read as an option otherwise
+                rc, _ = self.run_main(["--file", cap, "--record-station", trace,
+                                       "--station=" + station, "--readings", "3"])
+                self.assertEqual(rc, 0)
+            with open(trace) as f:
+                lines = f.read().splitlines()
+            self.assertEqual(lines[:4], ["# tof-trace v1", "# arm_mm=30", "# period_ms=20",
+                                         c.TRACE_HEADER])
+            self.assertEqual(lines[4], "0,100,101,102,0,0,0,4,255,5,0,60")
+            # the second station's capture restarts at t_ms 0: it continues the trace's time
+            self.assertEqual(lines[-1], "100,102,101,102,0,0,0,4,255,-5.5,2,200.25")
+            self.assertEqual(len(lines), 4 + 6)
+
+
+if __name__ == "__main__":
+    unittest.main()

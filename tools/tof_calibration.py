@@ -1,0 +1,224 @@
+#!/usr/bin/python3
+"""The head's calibration between its two forms (docs/calibration.md, issue 23).
+
+- HEAD.cal text (DESIGN.md section 6a) <-> the flight unit's record section 2 version 1
+  (firmware/calibration_record.h), which travels as it is stored in the telemetry's
+  write-calibration command and calibration message (docs/telemetry.md). The decimal
+  conversion is the trace reader's (sim/src/trace_v1_cal.c), exactly: offsets and their sd
+  to 1 um, gains read to 1e-9 then to 1 ppm of (gain - 1), gain sd to 1 ppm, the
+  offset-gain correlation to Q15, each rounded half away from zero; a section read back
+  and written again as HEAD.cal gives the same bytes.
+- a fixture station recorder: raw readings (the firmware's raw-sample messages) with the
+  station's stated reference (alpha, beta, x-bar) appended as rows of a calibration trace
+  (trace v1 with the truth columns, docs/calibration.md "The calibration trace").
+
+Used by tof_telemetry.py (--send-cal, --read-cal, --record-station).
+"""
+
+import decimal
+import os
+import struct
+
+SECTION_ID = 2
+SECTION_VERSION = 1
+SECTION_LEN = 80                 # the section's bytes after its 4-byte header
+FLAG_GAINS = 0x01
+OFFSET_MAX_UM = 100000           # estimator/calibration.h CALIBRATION_OFFSET_MAX_UM
+GAIN_MAX_PPM = 100000            # CALIBRATION_GAIN_MAX_PPM
+UNCAL_GAIN_SD_PPM = 17321        # CALIBRATION_UNCAL_GAIN_SD_PPM
+MODES = {"short": 1, "long": 2}  # enum vl53_distance_mode
+# The flight image's configuration (firmware/src/config.c): what a HEAD.cal without
+# distance_mode / timing_budget_ms keys is taken to have been made in.
+DEFAULT_MODE = "short"
+DEFAULT_BUDGET_MS = 15
+SENSORS = "ABCD"
+
+_CTX = decimal.Context(prec=60, rounding=decimal.ROUND_HALF_UP)  # half away from zero
+
+
+class CalibrationError(Exception):
+    """A HEAD.cal or a section that cannot be converted: the message names what and where."""
+
+
+def _units(text, decimals):
+    """A plain decimal in units of 10^-decimals, rounded half away from zero (None: not one)."""
+    t = text.strip()
+    if not t or any(c not in "0123456789+-.eE" for c in t):
+        return None
+    try:
+        d = decimal.Decimal(t)
+    except decimal.InvalidOperation:
+        return None
+    if not d.is_finite():
+        return None
+    return int(d.scaleb(decimals, _CTX).quantize(decimal.Decimal(1), context=_CTX))
+
+
+def _div_round(num, den):
+    """Half away from zero of num / den, den > 0 (trace_v1_cal.c's div_round)."""
+    q, r = divmod(abs(num), den)
+    q += 2 * r >= den
+    return q if num >= 0 else -q
+
+
+# key -> (decimals, largest |units|, non-negative, what the message says)
+_KEYS = {
+    "offset_mm": (3, OFFSET_MAX_UM, False, "an offset within -100..100 mm"),
+    "offset_sd_mm": (3, OFFSET_MAX_UM, True, "an sd within 0..100 mm"),
+    "gain": (9, 1100000000, True, "a gain within 0.9..1.1"),
+    "gain_sd": (6, GAIN_MAX_PPM, True, "an sd within 0..0.1"),
+    "offset_gain_corr": (9, 1000000000, False, "a correlation within -1..1"),
+}
+
+
+def _values(key, text, where):
+    decimals, limit, non_negative, what = _KEYS[key]
+    parts = text.split(",")
+    if len(parts) != 4:
+        raise CalibrationError("%s: %s: four values (sensors A, B, C, D), got %d"
+                               % (where, key, len(parts)))
+    out = []
+    for part in parts:
+        v = _units(part, decimals)
+        if v is None:
+            raise CalibrationError("%s: %s: not a plain decimal, got '%s'" % (where, key, part))
+        if abs(v) > limit or (non_negative and v < 0):
+            raise CalibrationError("%s: %s: %s, got '%s'" % (where, key, what, part))
+        if key == "gain":
+            v = _div_round(v - 1000000000, 1000)  # (gain - 1) in ppm
+            if abs(v) > GAIN_MAX_PPM:
+                raise CalibrationError("%s: gain: %s, got '%s'" % (where, what, part))
+        elif key == "offset_gain_corr":
+            v = min(_div_round(v * 32768, 1000000000), 32767)
+        out.append(v)
+    return out
+
+
+def read_head_cal(text, name="HEAD.cal"):
+    """The keys of a HEAD.cal text: {key: value string} and {key: line}; checks the
+    version line and the line syntax (the full rules are head_cal.c's)."""
+    lines = text.lstrip("\ufeff").splitlines()
+    if not lines or lines[0].strip() != "# tof-head-cal v1":
+        raise CalibrationError("%s:1: the first line must be '# tof-head-cal v1'" % name)
+    keys, where = {}, {}
+    for n, line in enumerate(lines[1:], start=2):
+        if not line.strip():
+            continue
+        if not line.startswith("#"):
+            raise CalibrationError("%s:%d: not a '# key=value' line" % (name, n))
+        body = line[1:].strip()
+        if "=" not in body:
+            continue  # a comment
+        key, value = body.split("=", 1)
+        key = key.strip()
+        if key in keys:
+            raise CalibrationError("%s:%d: %s given twice" % (name, n, key))
+        keys[key], where[key] = value.strip(), "%s:%d" % (name, n)
+    return keys, where
+
+
+def head_cal_to_section(text, name="HEAD.cal", mode=None, budget_ms=None, head_id=None):
+    """The 84 bytes of record section 2 (header included) of a HEAD.cal. Its binding: the
+    keys head_id, distance_mode and timing_budget_ms when the file has them, else the
+    arguments, else head 0 and the flight image's configuration (short, 15 ms)."""
+    keys, where = read_head_cal(text, name)
+    for need in ("offset_mm", "offset_sd_mm"):
+        if need not in keys:
+            raise CalibrationError("%s: no %s" % (name, need))
+    if ("gain" in keys) != ("gain_sd" in keys):
+        raise CalibrationError("%s: gain and gain_sd come together or not at all" % name)
+    has_gain = "gain" in keys
+    if "offset_gain_corr" in keys and not has_gain:
+        raise CalibrationError("%s: offset_gain_corr without gain and gain_sd" % name)
+    vals = {k: _values(k, keys[k], where[k]) for k in _KEYS if k in keys}
+    zeros = [0, 0, 0, 0]
+    head = int(keys.get("head_id", head_id if head_id is not None else 0))
+    mode_name = keys.get("distance_mode", mode or DEFAULT_MODE)
+    if mode_name not in MODES:
+        raise CalibrationError("%s: distance_mode must be short or long, got '%s'"
+                               % (name, mode_name))
+    budget = int(keys.get("timing_budget_ms", budget_ms or DEFAULT_BUDGET_MS))
+    if not 0 < head < 2 ** 32 and head != 0 or not 0 < budget < 2 ** 16:
+        raise CalibrationError("%s: head_id or timing_budget_ms out of range" % name)
+    out = struct.pack("<BBH", SECTION_ID, SECTION_VERSION, SECTION_LEN)
+    out += struct.pack("<IBBH", head, MODES[mode_name], FLAG_GAINS if has_gain else 0, budget)
+    for i in range(4):
+        out += struct.pack("<iiIIh", vals["offset_mm"][i],
+                           vals.get("gain", zeros)[i], vals["offset_sd_mm"][i],
+                           vals.get("gain_sd", zeros)[i], vals.get("offset_gain_corr", zeros)[i])
+    return out
+
+
+def _exact(units, decimals):
+    """units * 10^-decimals as an exact decimal text."""
+    return format(decimal.Decimal(units).scaleb(-decimals), "f")
+
+
+def section_to_head_cal(section, source="the flight unit"):
+    """HEAD.cal text of record section 2 (84 bytes). Raises CalibrationError for a section
+    that is not one (all zero: none stored)."""
+    if len(section) != 4 + SECTION_LEN or not any(section):
+        raise CalibrationError("no calibration stored")
+    sid, version, length = struct.unpack_from("<BBH", section, 0)
+    if sid != SECTION_ID or version != SECTION_VERSION or length != SECTION_LEN:
+        raise CalibrationError("section id %d version %d length %d: not a calibration this "
+                               "tool reads (id 2 version 1 length 80)" % (sid, version, length))
+    head, mode, flags, budget = struct.unpack_from("<IBBH", section, 4)
+    sensors = [struct.unpack_from("<iiIIh", section, 12 + 18 * i) for i in range(4)]
+    mode_name = {v: k for k, v in MODES.items()}.get(mode, str(mode))
+    col = lambda k: [s[k] for s in sensors]
+    lines = ["# tof-head-cal v1",
+             "# offset_mm=" + ",".join(_exact(v, 3) for v in col(0)),
+             "# offset_sd_mm=" + ",".join(_exact(v, 3) for v in col(2))]
+    if flags & FLAG_GAINS:
+        lines += ["# gain=" + ",".join(_exact(1000000 + v, 6) for v in col(1)),
+                  "# gain_sd=" + ",".join(_exact(v, 6) for v in col(3)),
+                  "# offset_gain_corr=" + ",".join(
+                      format(decimal.Decimal(v) / 32768, "f") for v in col(4))]
+    lines += ["# head_id=%d" % head, "# distance_mode=%s" % mode_name,
+              "# timing_budget_ms=%d" % budget, "# source=%s" % source]
+    return "\n".join(lines) + "\n"
+
+
+# --- the fixture station recorder ---------------------------------------------
+
+TRACE_HEADER = "t_ms,a_mm,b_mm,c_mm,d_mm,a_st,b_st,c_st,d_st,alpha_deg,beta_deg,distance_mm"
+
+
+def station_rows(raw_samples, alpha_deg, beta_deg, distance_mm):
+    """Rows of a calibration trace: each raw sample (dicts of tof_telemetry's raw message)
+    with the station's stated reference. An absent reading is status 255 (no reading)."""
+    ref = "%s,%s,%s" % (alpha_deg, beta_deg, distance_mm)
+    for s in raw_samples:
+        ranges = [s["range_mm"][i] if s["present"] & (1 << i) else 0 for i in range(4)]
+        status = [s["range_status"][i] if s["present"] & (1 << i) else 255 for i in range(4)]
+        yield "%d,%s,%s,%s" % (s["t_ms"], ",".join(map(str, ranges)),
+                               ",".join(map(str, status)), ref)
+
+
+def append_station(path, raw_samples, alpha_deg, beta_deg, distance_mm, arm_mm=30.0,
+                   period_ms=20):
+    """Append a station's rows to the calibration trace at path (created with its header
+    when new). The reference values are checked as numbers. Returns the rows written."""
+    for v in (alpha_deg, beta_deg, distance_mm):
+        if _units(str(v), 6) is None:
+            raise CalibrationError("station reference '%s' is not a plain decimal" % v)
+    new = not os.path.exists(path) or os.path.getsize(path) == 0
+    shift = 0
+    if not new and raw_samples:
+        # t_ms must not go back (trace v1): a station recorded after a restart of the unit
+        # (or from another capture) continues one period after the trace's last row
+        with open(path) as f:
+            last = [line for line in f.read().splitlines() if line[:1].isdigit()]
+        last_t = int(last[-1].split(",", 1)[0]) if last else -period_ms
+        if raw_samples[0]["t_ms"] <= last_t:
+            shift = last_t + period_ms - raw_samples[0]["t_ms"]
+    samples = [dict(s, t_ms=s["t_ms"] + shift) for s in raw_samples]
+    rows = list(station_rows(samples, alpha_deg, beta_deg, distance_mm))
+    with open(path, "a") as f:
+        if new:
+            f.write("# tof-trace v1\n# arm_mm=%s\n# period_ms=%d\n%s\n"
+                    % (arm_mm, period_ms, TRACE_HEADER))
+        for row in rows:
+            f.write(row + "\n")
+    return len(rows)
