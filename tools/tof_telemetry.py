@@ -652,6 +652,7 @@ ATTITUDE_ERRORS = {
     -71: "ATTITUDE_ERR_KALMAN_MEASUREMENT_NOISE", -72: "ATTITUDE_ERR_KALMAN_WARMUP",
     -73: "ATTITUDE_ERR_KALMAN_NOISE_SHIFT", -74: "ATTITUDE_ERR_NULL",
     -75: "ATTITUDE_ERR_INTEGRITY", -76: "ATTITUDE_ERR_BUFFER",
+    -77: "ATTITUDE_ERR_CALIBRATION",
 }
 
 # An answer comes within 50 ms of a command's last byte (the firmware drains its receiver

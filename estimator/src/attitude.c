@@ -60,6 +60,35 @@ static bool calibration_prepare(const struct calibration_head *c, struct window_
     return spread;
 }
 
+/* The Kalman filter's configuration from cfg, checked: ATTITUDE_ERR_NONE or the attitude
+ * error of the refused field. */
+static int kalman_config_from(const struct attitude_config *cfg, struct kalman_config *kcfg) {
+    (void)memset(kcfg, 0, sizeof *kcfg);
+    for (unsigned i = 0; i < KALMAN_STATES; ++i) {
+        kcfg->process_noise_mm2[i] = um2_to_q32_mm2(cfg->kalman_process_noise_um2[i]);
+    }
+    for (unsigned s = 0; s < ATTITUDE_SENSORS; ++s) {
+        kcfg->initial_noise_mm2[s] = um2_to_q32_mm2(cfg->kalman_initial_noise_um2[s]);
+    }
+    kcfg->gate_sigmas_q8 = cfg->kalman_gate_sigmas_q8;
+    kcfg->gate_floor_mm = cfg->gate_floor_mm;
+    kcfg->warmup_rows = cfg->kalman_warmup_rows;
+    kcfg->noise_shift = cfg->kalman_noise_shift;
+    kcfg->process_noise_auto = cfg->kalman_process_noise_auto;
+    switch (kalman_config_check(kcfg)) {
+    case KALMAN_OK:
+        return ATTITUDE_ERR_NONE;
+    case KALMAN_ERR_PROCESS_NOISE:
+        return ATTITUDE_ERR_KALMAN_PROCESS_NOISE;
+    case KALMAN_ERR_MEASUREMENT_NOISE:
+        return ATTITUDE_ERR_KALMAN_MEASUREMENT_NOISE;
+    case KALMAN_ERR_WARMUP:
+        return ATTITUDE_ERR_KALMAN_WARMUP;
+    default:
+        return ATTITUDE_ERR_KALMAN_NOISE_SHIFT;
+    }
+}
+
 int attitude_init(struct attitude_state *st, const struct attitude_config *cfg) {
     if (st == NULL || cfg == NULL) {
         return ATTITUDE_ERR_NULL;
@@ -85,6 +114,8 @@ int attitude_init(struct attitude_state *st, const struct attitude_config *cfg) 
     if (!calibration_valid(&cfg->calibration)) {
         return ATTITUDE_ERR_CALIBRATION;
     }
+    /* every check before the state is touched: a refusal changes nothing (a run-time
+     * command re-initialising with a new setting keeps the old one) */
     struct integrity_config icfg = {.arm_um = cfg->arm_um,
                                     .range_max_mm = cfg->range_max_mm,
                                     .parity_sigmas_q8 = cfg->parity_sigmas_q8,
@@ -98,31 +129,9 @@ int attitude_init(struct attitude_state *st, const struct attitude_config *cfg) 
         return ATTITUDE_ERR_INTEGRITY;
     }
     struct kalman_config kcfg;
-    (void)memset(&kcfg, 0, sizeof kcfg);
-    for (unsigned i = 0; i < KALMAN_STATES; ++i) {
-        kcfg.process_noise_mm2[i] = um2_to_q32_mm2(cfg->kalman_process_noise_um2[i]);
-    }
-    for (unsigned s = 0; s < ATTITUDE_SENSORS; ++s) {
-        kcfg.initial_noise_mm2[s] = um2_to_q32_mm2(cfg->kalman_initial_noise_um2[s]);
-    }
-    kcfg.gate_sigmas_q8 = cfg->kalman_gate_sigmas_q8;
-    kcfg.gate_floor_mm = cfg->gate_floor_mm;
-    kcfg.warmup_rows = cfg->kalman_warmup_rows;
-    kcfg.noise_shift = cfg->kalman_noise_shift;
-    kcfg.process_noise_auto = cfg->kalman_process_noise_auto;
-    /* every check before the state is touched: a refusal changes nothing (a run-time
-     * command re-initialising with a new setting keeps the old one) */
-    switch (kalman_config_check(&kcfg)) {
-    case KALMAN_OK:
-        break;
-    case KALMAN_ERR_PROCESS_NOISE:
-        return ATTITUDE_ERR_KALMAN_PROCESS_NOISE;
-    case KALMAN_ERR_MEASUREMENT_NOISE:
-        return ATTITUDE_ERR_KALMAN_MEASUREMENT_NOISE;
-    case KALMAN_ERR_WARMUP:
-        return ATTITUDE_ERR_KALMAN_WARMUP;
-    default:
-        return ATTITUDE_ERR_KALMAN_NOISE_SHIFT;
+    const int kerr = kalman_config_from(cfg, &kcfg);
+    if (kerr != ATTITUDE_ERR_NONE) {
+        return kerr;
     }
     struct window_config wcfg = {.arm_um = cfg->arm_um,
                                  .length = cfg->window,

@@ -33,11 +33,8 @@ struct replay_args {
      * µm²/s (given in mm²/s); --process-noise auto: learned by the filter */
     uint32_t process_noise_um2_per_s[2];
     bool process_noise_auto;
-    bool process_noise_given; /* --process-noise given: else the mode's default (sliding:
-                                 auto, tumbling: 0; tof_estimator_mode_process_noise) */
-    const char *i2c_log_path; /* --i2c-log BUS.csv: every bus transaction (NULL: none) */
-    unsigned distance_mode;   /* --distance-mode: 0 unset (the trace's, else from its
-                                 readings), else enum vl53_distance_mode */
+    bool process_noise_given;     /* --process-noise given: else the mode's default (sliding:
+                                     auto, tumbling: 0; tof_estimator_mode_process_noise) */
     const char *i2c_log_path;     /* --i2c-log BUS.csv: every bus transaction (NULL: none) */
     unsigned distance_mode;       /* --distance-mode: 0 unset (the trace's, else from its
                                      readings), else enum vl53_distance_mode */

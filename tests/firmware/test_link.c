@@ -196,14 +196,16 @@ static void test_default_windows_report_a_parallel_plate(void **state) {
     assert_int_equal(t.estimates, 2 * 4); /* four estimators per window */
     assert_int_equal(t.health, 2);
     const struct tlm_estimate *e = &t.last_estimate[TLM_ESTIMATOR_CONSENSUS];
-    assert_int_equal(e->status, TLM_STATUS_OK);
+    /* The default image has no head calibration (issue 23): never ok, and `uncalibrated`
+     * is the only reason for the perfect readings of a parallel plate. */
+    assert_int_equal(e->status, TLM_STATUS_DEGRADED);
     assert_int_equal(e->alpha_udeg, 0);
     assert_int_equal(e->beta_udeg, 0);
     assert_int_equal(e->distance_um, 100000);
     assert_int_equal(e->window_index, 1);
-    /* Each value with its sd (>= 1 um or udeg, never a claimed 0), why empty when ok, and
-     * the estimator's own figures unchanged on the wire. */
-    assert_true(e->why == 0u);
+    /* Each value with its sd (>= 1 um or udeg, never a claimed 0), why naming only the
+     * missing calibration, and the estimator's own figures unchanged on the wire. */
+    assert_true(e->why == ATTITUDE_WHY_UNCALIBRATED);
     assert_true(e->alpha_sd_udeg >= 1 && e->beta_sd_udeg >= 1 && e->distance_sd_um >= 1);
     assert_int_equal(t.link.tx_dropped, 0); /* every estimate encoded */
     for (unsigned i = 0; i < 4; ++i) {
