@@ -36,6 +36,8 @@ struct replay_args {
     const char *i2c_log_path; /* --i2c-log BUS.csv: every bus transaction (NULL: none) */
     unsigned distance_mode;   /* --distance-mode: 0 unset (the trace's, else from its
                                  readings), else enum vl53_distance_mode */
+    const char *commands[16]; /* --command ROW:TEXT, in order (replay_commands.h parses) */
+    unsigned command_count;
 };
 
 struct scenario_args {

@@ -13,6 +13,7 @@
 #include "firmware/app.h"
 #include "i2c_log.h"
 #include "replay_mode.h"
+#include "replay_commands.h"
 #include "replay_plot.h"
 #include "replay_stats.h"
 #include "scene/row_source.h"
@@ -45,6 +46,7 @@ struct replay {
     int failed;            /* an output or data error: stop and report */
     uint64_t partial_rows; /* tumbling: rows after the last whole window (no estimate) */
     struct replay_mode distance;
+    struct replay_commands commands; /* --command: a host's commands through the link */
 };
 
 #endif /* HOST_SIM_REPLAY_STATE_H */

@@ -13,12 +13,14 @@ if(NOT EXISTS "${HOST_SIM}")
                       "(cmake --preset host-release && cmake --build --preset host-release)")
 endif()
 file(MAKE_DIRECTORY ${OUT})
-execute_process(COMMAND ${HOST_SIM} replay ${TRACE} --estimator ${EST} --out ${OUT}/host_sim.csv
+# CMDS: "--command;ROW:TEXT;..." given to both (DESIGN.md §6): a host's commands at a row.
+execute_process(COMMAND ${HOST_SIM} replay ${TRACE} --estimator ${EST} ${CMDS}
+                        --out ${OUT}/host_sim.csv
                 RESULT_VARIABLE rc OUTPUT_QUIET)
 if(NOT rc EQUAL 0)
   message(FATAL_ERROR "host_sim replay failed (${rc})")
 endif()
-execute_process(COMMAND ${TWIN} ${ELF} ${TRACE} --estimator ${EST} --strict ${TWIN_ARGS}
+execute_process(COMMAND ${TWIN} ${ELF} ${TRACE} --estimator ${EST} --strict ${TWIN_ARGS} ${CMDS}
                         --out ${OUT}/twin.csv --report ${OUT}/report.json
                 RESULT_VARIABLE rc ERROR_VARIABLE err)
 message("${err}")
@@ -77,4 +79,18 @@ if(TWIN_ARGS MATCHES "spurious-berr")
     message(FATAL_ERROR "${CMAKE_MATCH_1} bus recoveries after spurious BERR")
   endif()
 endif()
-message(STATUS "twin == host_sim: ${na} rows (${EST} ${TWIN_ARGS})")
+if(CMDS)
+  # Every command sent was acknowledged, and the loop kept its budget while they ran.
+  file(READ ${OUT}/report.json rep)
+  string(REGEX MATCH "\"commands_sent\": ([0-9]+)" m "${rep}")
+  set(sent ${CMAKE_MATCH_1})
+  string(REGEX MATCH "\"commands_acked\": ([0-9]+)" m "${rep}")
+  if(NOT sent GREATER 0 OR NOT CMAKE_MATCH_1 EQUAL sent)
+    message(FATAL_ERROR "commands: ${sent} sent, ${CMAKE_MATCH_1} acknowledged")
+  endif()
+  string(REGEX MATCH "\"loop_max_us\": ([0-9]+)" m "${rep}")
+  if(CMAKE_MATCH_1 GREATER 10000)
+    message(FATAL_ERROR "worst loop ${CMAKE_MATCH_1} us, over half the 20 ms period")
+  endif()
+endif()
+message(STATUS "twin == host_sim: ${na} rows (${EST} ${TWIN_ARGS} ${CMDS})")
