@@ -160,13 +160,14 @@ static void encode(const struct tof_settings *s, uint8_t *out) {
     put_u32(&v[12], s->qt_um2_per_s);
 }
 
-int tof_settings_save(struct tof_record_store *store, const struct tof_settings *s) {
-    if (store == NULL || store->storage.ops == NULL) {
-        return HAL_ERR_STATE;
-    }
+/* The record's new payload (off the stack: the main loop's frame is the deepest). */
+static uint8_t save_payload[TOF_RECORD_PAYLOAD_MAX];
+
+/* The record's new payload with `s` in `payload`: its length, or 0 and *rc. */
+static uint32_t new_payload(const struct tof_record_store *store, const struct tof_settings *s,
+                            uint8_t *payload, int *rc) {
     /* The new payload: this section first, then every other section of the record in use,
      * as it was (a damaged list is dropped: nothing of it can be trusted). */
-    static uint8_t payload[TOF_RECORD_PAYLOAD_MAX];
     encode(s, payload);
     uint32_t len = SECTION_HEADER + TOF_SETTINGS_LENGTH;
     const uint8_t *old = store->payload;
@@ -176,7 +177,8 @@ int tof_settings_save(struct tof_record_store *store, const struct tof_settings 
             const uint32_t size = SECTION_HEADER + (uint32_t)(old[at + 2u] | old[at + 3u] << 8);
             if (old[at] != TOF_SECTION_SETTINGS) {
                 if (len + size > TOF_RECORD_PAYLOAD_MAX) {
-                    return HAL_ERR_INVALID;
+                    *rc = HAL_ERR_INVALID;
+                    return 0u;
                 }
                 memcpy(&payload[len], &old[at], size);
                 len += size;
@@ -184,5 +186,24 @@ int tof_settings_save(struct tof_record_store *store, const struct tof_settings 
             at += size;
         }
     }
-    return tof_record_save(store, payload, (uint16_t)len);
+    *rc = HAL_OK;
+    return len;
+}
+
+int tof_settings_save(struct tof_record_store *store, const struct tof_settings *s) {
+    if (store == NULL || store->storage.ops == NULL) {
+        return HAL_ERR_STATE;
+    }
+    int rc = HAL_OK;
+    const uint32_t len = new_payload(store, s, save_payload, &rc);
+    return rc != HAL_OK ? rc : tof_record_save(store, save_payload, (uint16_t)len);
+}
+
+int tof_settings_save_begin(struct tof_record_store *store, const struct tof_settings *s) {
+    if (store == NULL || store->storage.ops == NULL) {
+        return HAL_ERR_STATE;
+    }
+    int rc = HAL_OK;
+    const uint32_t len = new_payload(store, s, save_payload, &rc);
+    return rc != HAL_OK ? rc : tof_record_save_begin(store, save_payload, (uint16_t)len);
 }

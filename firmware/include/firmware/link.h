@@ -59,6 +59,10 @@ struct tof_link {
     struct tof_record_store *records;  /* where `save` keeps the settings (NULL: nowhere) */
     struct tof_settings process_noise; /* the last accepted set-process-noise, for `save` */
     uint8_t record_state;              /* enum tof_record_state found at start, in status */
+    /* A `save` under way (its record written in steps across polls, tof_record_step): its
+     * answer goes out once the new copy is in use. */
+    bool save_pending;
+    uint8_t save_seq;
 };
 
 /* Start a link over `serial`. */

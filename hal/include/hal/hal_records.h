@@ -37,6 +37,13 @@ struct hal_records_ops {
      * granules must be erased: a granule that is not fails with HAL_ERR_DEVICE, as the
      * memory reports it (granules before it are programmed). HAL_ERR_TIMEOUT as erase. */
     int (*program)(void *ctx, uint16_t page, uint32_t offset, const uint8_t *data, size_t len);
+    /* Optional (NULL: only the blocking erase above). Start erasing `page` and return at
+     * once: HAL_OK, or erase's errors (nothing started). erase_poll() then returns
+     * HAL_ERR_NOT_READY while it runs, HAL_OK once it ended well, erase's errors else (and
+     * HAL_OK when no erase was started). No other op may be called in between. What lets
+     * a record save go on across main-loop iterations instead of blocking ~22 ms a page. */
+    int (*erase_start)(void *ctx, uint16_t page);
+    int (*erase_poll)(void *ctx);
 };
 
 struct hal_records {
