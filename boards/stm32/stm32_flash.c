@@ -132,17 +132,6 @@ static int flash_erase_poll(void *ctx) {
     return finish(flash, HAL_OK);
 }
 
-static int flash_erase(void *ctx, uint16_t page) {
-    struct stm32_flash *flash = ctx;
-    int rc = flash_erase_start(ctx, page);
-    if (rc == HAL_OK) {
-        rc = wait_not_busy(flash->cfg, flash->cfg->erase_budget_us) ? HAL_OK : HAL_ERR_TIMEOUT;
-        flash->erasing = false;
-        rc = finish(flash, rc);
-    }
-    return rc;
-}
-
 static int flash_program(void *ctx, uint16_t page, uint32_t offset, const uint8_t *data,
                          size_t len) {
     struct stm32_flash *flash = ctx;
@@ -216,7 +205,7 @@ bool stm32_flash_nmi(uintptr_t regs) {
 }
 
 const struct hal_records_ops stm32_flash_ops = {.read = flash_read,
-                                                .erase = flash_erase,
+                                                .erase = NULL, /* erase_start + poll */
                                                 .program = flash_program,
                                                 .erase_start = flash_erase_start,
                                                 .erase_poll = flash_erase_poll};
