@@ -82,17 +82,39 @@ def load(root, matches):
 
 
 def linked_functions(map_path):
-    """Names of the functions the linker kept (-ffunction-sections: .text.<name>)."""
-    kept, in_map = set(), False
+    """The functions the linker kept (-ffunction-sections: .text.<name>), each with the
+    source files (basenames, from the object `X.c.obj` named on the section's line or the
+    next) it was kept from: two static functions of one name in two files (the flight
+    flash driver's and the simulated one's) are told apart."""
+    kept, in_map, pending = {}, False, None
     with open(map_path, encoding="utf-8", errors="replace") as f:
         for line in f:
             if line.startswith("Linker script and memory map"):
                 in_map = True
-            elif in_map:
-                m = re.match(r"\s+\.text\.(?:startup\.|unlikely\.|hot\.)?([A-Za-z_]\w*)", line)
-                if m:
-                    kept.add(m.group(1))
+                continue
+            if not in_map:
+                continue
+            m = re.match(r"\s+\.text\.(?:startup\.|unlikely\.|hot\.)?([A-Za-z_]\w*)", line)
+            if m:
+                pending = m.group(1)
+                kept.setdefault(pending, set())
+            o = re.search(r"([\w.+-]+)\.obj\)?\s*$", line)
+            if pending is not None and o:
+                kept[pending].add(o.group(1))
+                pending = None
+            elif not m:
+                pending = None
     return kept
+
+
+def is_linked(frame, sources, kept):
+    """A call-graph node the image holds: its name kept and, for a static function (title
+    path:name), kept from its own file (when the map names the file)."""
+    name = frame.split(":")[-1].split(".")[0]
+    if name not in kept:
+        return False
+    files = kept[name]
+    return ":" not in frame or not files or os.path.basename(sources.get(frame, "")) in files
 
 
 def address_taken(elf):
@@ -300,7 +322,7 @@ def main():
         return 2
     if a.map:
         kept = linked_functions(a.map)
-        frames = {f: v for f, v in frames.items() if f.split(":")[-1].split(".")[0] in kept}
+        frames = {f: v for f, v in frames.items() if is_linked(f, sources, kept)}
     taken = address_taken(a.elf) if a.elf else None
     stores = member_stores({sources[f] for f in frames if f in sources}) if a.narrow else None
     callables = inline_functions(SOURCE_ROOT) if a.narrow else frozenset()

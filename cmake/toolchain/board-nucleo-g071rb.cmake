@@ -3,3 +3,6 @@
 include(${CMAKE_CURRENT_LIST_DIR}/core-cortex-m0plus.cmake)
 set(TOF_BOARDS nucleo-g071rb)
 set(TOF_BOARD_DIRS nucleo-g071rb)
+# The same flight image as the NUCLEO-L476RG's (board-nucleo-l476rg.cmake): the product's two
+# estimators only; the paper's rule and the plain mean are host_sim's and QEMU's baselines.
+set(TOF_ESTIMATORS_DEFAULT consensus kalman)

@@ -51,6 +51,28 @@ def run(table_source, narrow=True, driver_text=DRIVER, static_deep=False):
         return thread["main"][0]
 
 
+MAP = """Linker script and memory map
+
+ .text.flash_read
+                0x08000eac       0xb8 boards/x/CMakeFiles/fw.dir/__/stm32/stm32_flash.c.obj
+ .text.window_end  0x08001000   0x40 estimator/libestimator_cortex-m4f.a(attitude.c.obj)
+"""
+
+
+def map_filter():
+    """Two static functions of one name (the flight flash driver's and the simulated one's):
+    only the one the map names the file of is in the image; a global name stays."""
+    with tempfile.TemporaryDirectory() as d:
+        path = os.path.join(d, "image.map")
+        with open(path, "w") as f:
+            f.write(MAP)
+        kept = stack_check.linked_functions(path)
+        sources = {"/s/boards/stm32/stm32_flash.c:flash_read": "/s/boards/stm32/stm32_flash.c",
+                   "/s/sim/src/sim_flash.c:flash_read": "/s/sim/src/sim_flash.c",
+                   "window_end": "/s/estimator/src/attitude.c"}
+        return sorted(f for f in sources if stack_check.is_linked(f, sources, kept))
+
+
 def main():
     named = ("static const struct time_ops ops = {.now_us = clock_now};\n"
              "static const struct out_ops out = {.on_sample = deep_callback};\n")
@@ -71,6 +93,8 @@ def main():
         ("static function stored only under its name in another file",
          run(named, static_deep=True), 16 + 8 + 1000),
     ]
+    cases.append(("the map tells same-named static functions apart", map_filter(),
+                  ["/s/boards/stm32/stm32_flash.c:flash_read", "window_end"]))
     failed = 0
     for name, got, want in cases:
         ok = got == want

@@ -1,0 +1,85 @@
+#!/usr/bin/env python3
+"""A recording seen through a simulated head as built (the demo, issue 23).
+
+    tools/head_trace.py FIXTURE.csv RECORDING.csv OUT.csv
+
+FIXTURE.csv is a `host_sim scenario fixture...` trace: its `sim_offset_mm` and `sim_gain`
+keys say what the simulated head truly is. RECORDING.csv is a trace of an exactly known
+head (`offset_mm=0,...`, e.g. traces/demo/realnoise_demo.csv). OUT.csv is the recording
+as that head reports it, raw = gain * reading + offset rounded to whole mm (DESIGN.md §2;
+the recording's own noise is scaled by the gain too, as a real part's would be), with the
+recording's calibration keys removed: an uncalibrated head, as a logger writes it. The
+truth columns are kept. Readings a part never gives as a distance (0, 8190 and above)
+are kept as they are.
+"""
+import math
+import sys
+
+CAL_KEYS = ("offset_mm", "offset_sd_mm", "gain", "gain_sd", "offset_gain_corr", "calibration")
+
+
+def fail(msg):
+    sys.exit("head_trace.py: " + msg)
+
+
+def head_of(path):
+    keys = {}
+    with open(path) as f:
+        for n, line in enumerate(f, 1):
+            if not line.startswith("#"):
+                break
+            if "=" in line:
+                k, v = line[1:].strip().split("=", 1)
+                keys[k] = (v, n)
+    try:
+        off = [float(x) for x in keys["sim_offset_mm"][0].split(",")]
+        gain = [float(x) for x in keys["sim_gain"][0].split(",")]
+    except KeyError as e:
+        fail("%s: no %s key (not a host_sim fixture trace)" % (path, e.args[0]))
+    except ValueError:
+        fail("%s: sim_offset_mm / sim_gain are not four numbers" % path)
+    if len(off) != 4 or len(gain) != 4:
+        fail("%s: sim_offset_mm / sim_gain need four values (A, B, C, D)" % path)
+    return off, gain
+
+
+def main():
+    if len(sys.argv) != 4:
+        fail("usage: head_trace.py FIXTURE.csv RECORDING.csv OUT.csv")
+    off, gain = head_of(sys.argv[1])
+    out = []
+    cols = None
+    with open(sys.argv[2]) as f:
+        for n, line in enumerate(f, 1):
+            line = line.rstrip("\n")
+            if line.startswith("#"):
+                key = line[1:].strip().split("=", 1)[0]
+                if key not in CAL_KEYS:
+                    out.append(line)
+                continue
+            if cols is None:
+                cols = line.split(",")
+                try:
+                    idx = [cols.index(c) for c in ("a_mm", "b_mm", "c_mm", "d_mm")]
+                except ValueError:
+                    fail("%s:%d: header lacks a_mm..d_mm" % (sys.argv[2], n))
+                out.append("# head=simulated, from %s: sim_offset_mm=%s sim_gain=%s" % (
+                    sys.argv[1], ",".join("%.6f" % o for o in off),
+                    ",".join("%.8f" % g for g in gain)))
+                out.append(line)
+                continue
+            v = line.split(",")
+            for k, i in enumerate(idx):
+                try:
+                    r = int(v[i])
+                except ValueError:
+                    fail("%s:%d: column %d: not an integer range '%s'" % (sys.argv[2], n, i + 1, v[i]))
+                if 0 < r < 8190:
+                    v[i] = str(max(1, int(math.floor(gain[k] * r + off[k] + 0.5))))
+            out.append(",".join(v))
+    with open(sys.argv[3], "w") as f:
+        f.write("\n".join(out) + "\n")
+
+
+if __name__ == "__main__":
+    main()
