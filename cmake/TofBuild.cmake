@@ -68,11 +68,12 @@ function(tof_name out name core)
   endif()
 endfunction()
 
-# tof_image(NAME CORE LINKER_SCRIPT DEPS ... SOURCES ... [NO_FLOAT])
+# tof_image(NAME CORE LINKER_SCRIPT DEPS ... SOURCES ... [NO_FLOAT] [FLIGHT])
 # A firmware ELF with a map file, a .bin, a size report and the image checks:
-# no heap function may be linked; with NO_FLOAT, no floating-point helper.
+# no heap function may be linked; with NO_FLOAT, no floating-point helper; with FLIGHT,
+# the flight budget (issue 22's decision: 64 KiB of flash, 16 KiB of RAM with the stack).
 function(tof_image name)
-  cmake_parse_arguments(ARG "NO_FLOAT" "CORE;LINKER_SCRIPT" "SOURCES;DEPS" ${ARGN})
+  cmake_parse_arguments(ARG "NO_FLOAT;FLIGHT" "CORE;LINKER_SCRIPT" "SOURCES;DEPS" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
   set_target_properties(${name} PROPERTIES SUFFIX ".elf")
   target_link_libraries(${name} PRIVATE tof_core_${ARG_CORE} tof_warnings)
@@ -88,6 +89,9 @@ function(tof_image name)
   set(float_flag "")
   if(ARG_NO_FLOAT)
     set(float_flag -DNO_FLOAT=1)
+  endif()
+  if(ARG_FLIGHT)
+    list(APPEND float_flag -DSIZE=${CMAKE_SIZE} -DFLIGHT_BUDGET=1)
   endif()
   # The stack the linker script reserves, for the worst-case stack check.
   file(READ ${ARG_LINKER_SCRIPT} ld_text)

@@ -1,7 +1,9 @@
 # Image checks, run after every firmware link (cmake -P):
 #   no heap: malloc/free/... or _sbrk linked in  -> build fails
 #   NO_FLOAT: any soft-float or FPU helper linked -> build fails
-# Usage: cmake -DNM=... -DELF=... [-DNO_FLOAT=1] -P check_image.cmake
+#   FLIGHT_BUDGET: flash (text + data) above 64 KiB or RAM (data + bss, the stack the
+#   linker script reserves included) above 16 KiB -> build fails (DESIGN.md §7, issue 22)
+# Usage: cmake -DNM=... -DELF=... [-DNO_FLOAT=1] [-DSIZE=... -DFLIGHT_BUDGET=1] -P check_image.cmake
 execute_process(COMMAND ${NM} --defined-only --format=posix ${ELF}
                 OUTPUT_VARIABLE syms RESULT_VARIABLE rc)
 if(NOT rc EQUAL 0)
@@ -26,4 +28,17 @@ if(bad)
   list(JOIN bad "\n  " msg)
   message(FATAL_ERROR "check_image: ${ELF} links forbidden code:\n  ${msg}\n"
           "Firmware images use no heap; NO_FLOAT images use no floating point.")
+endif()
+if(FLIGHT_BUDGET)
+  execute_process(COMMAND ${SIZE} -B ${ELF} OUTPUT_VARIABLE out RESULT_VARIABLE rc)
+  if(NOT rc EQUAL 0)
+    message(FATAL_ERROR "check_image: ${SIZE} failed on ${ELF}")
+  endif()
+  string(REGEX MATCH "\n[ \t]*([0-9]+)[ \t]+([0-9]+)[ \t]+([0-9]+)" m "${out}")
+  math(EXPR flash "${CMAKE_MATCH_1} + ${CMAKE_MATCH_2}")
+  math(EXPR ram "${CMAKE_MATCH_2} + ${CMAKE_MATCH_3}")
+  if(flash GREATER 65536 OR ram GREATER 16384)
+    message(FATAL_ERROR "check_image: ${ELF} is over the flight budget: flash ${flash} B "
+            "(at most 65536), RAM ${ram} B with the stack (at most 16384)")
+  endif()
 endif()

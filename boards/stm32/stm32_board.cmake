@@ -22,7 +22,7 @@ function(tof_stm32_board board core irqs openocd_cfg ld)
     if(variant)
       set(name ${image}-${variant})
     endif()
-    tof_image(${name} CORE ${core} ${no_float}
+    tof_image(${name} CORE ${core} ${no_float} FLIGHT
       LINKER_SCRIPT ${CMAKE_CURRENT_SOURCE_DIR}/${ld}
       SOURCES ${PROJECT_SOURCE_DIR}/boards/cortex-m/startup.c
               ${stm32}/stm32_usart.c ${stm32}/stm32_gpio.c ${stm32}/stm32_i2c.c
