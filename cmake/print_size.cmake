@@ -1,16 +1,11 @@
 # Print flash (text + data) and RAM (data + bss, stack included) per image.
 # Usage: cmake -DSIZE=arm-none-eabi-size -DDIR=<build dir> -P print_size.cmake
+include(${CMAKE_CURRENT_LIST_DIR}/image_size.cmake)
 file(GLOB_RECURSE elfs ${DIR}/*.elf)
 list(SORT elfs)
 message("image                                 flash_bytes  ram_bytes")
 foreach(elf IN LISTS elfs)
-  execute_process(COMMAND ${SIZE} -B ${elf} OUTPUT_VARIABLE out RESULT_VARIABLE rc)
-  if(NOT rc EQUAL 0)
-    message(FATAL_ERROR "size failed on ${elf}")
-  endif()
-  string(REGEX MATCH "\n[ \t]*([0-9]+)[ \t]+([0-9]+)[ \t]+([0-9]+)" m "${out}")
-  math(EXPR flash "${CMAKE_MATCH_1} + ${CMAKE_MATCH_2}")
-  math(EXPR ram "${CMAKE_MATCH_2} + ${CMAKE_MATCH_3}")
+  tof_image_size(${SIZE} ${elf} flash ram)
   get_filename_component(name ${elf} NAME)
   string(LENGTH "${name}" n)
   math(EXPR pad "38 - ${n}")

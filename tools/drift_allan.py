@@ -19,30 +19,16 @@ Pure Python (no numpy): prefix sums, O(n) per tau.
 Usage: drift_allan.py LOG.csv [--duration SECONDS] [--split SECONDS]
 """
 import math
+import os
 import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from real_traces import load  # noqa: E402  the one reader of a one-column log
 
 
 def fail(msg):
     print(f"drift_allan: {msg}", file=sys.stderr)
     sys.exit(2)
-
-
-def load(path):
-    values = []
-    try:
-        with open(path, encoding="utf-8-sig") as f:
-            for line_no, line in enumerate(f, start=1):
-                text = line.strip()
-                if not text:
-                    continue
-                try:
-                    values.append(float(text))
-                except ValueError:
-                    if values:
-                        fail(f"{path}:{line_no}: '{text}' is not a reading")
-    except OSError as e:
-        fail(str(e))
-    return values
 
 
 def allan(x, m):

@@ -73,6 +73,9 @@ def write(path, source, noise, truth, seed):
     with open(path, "w") as f:
         f.write("# tof-trace v1\n")
         f.write(f"# arm_mm={ARM_MM:.1f}\n# period_ms={PERIOD_MS}\n")
+        # each stretch is centred on its own mean and added to the ideal distances: the
+        # head is known exactly (DESIGN.md §5), so the trace says so (else: uncalibrated)
+        f.write("# offset_mm=0,0,0,0\n# offset_sd_mm=0,0,0,0\n# gain=1,1,1,1\n# gain_sd=0,0,0,0\n")
         f.write(f"# source=real noise of {os.path.basename(source)} (tools/real_traces.py)\n")
         f.write("t_ms,a_mm,b_mm,c_mm,d_mm,a_st,b_st,c_st,d_st,alpha_deg,beta_deg\n")
         for i, (a, b) in enumerate(truth):
