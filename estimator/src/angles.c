@@ -81,7 +81,7 @@ static fix_udeg_t pair_far(int64_t diff_fine, int32_t arm_um, unsigned span) {
 FIX_INLINE fix_udeg_t pair_angle(int32_t x_hi, int32_t x_lo, const struct angles_arm *arm,
                                  unsigned span) {
     const bool neg = x_hi < x_lo;
-    const uint32_t m = neg ? (uint32_t)(x_lo - x_hi) : (uint32_t)(x_hi - x_lo);
+    const uint32_t m = neg ? (uint32_t)x_lo - (uint32_t)x_hi : (uint32_t)x_hi - (uint32_t)x_lo;
     const unsigned sh = arm->fine_shift + (span - 1u); /* 11..21 */
     const uint64_t p = (uint64_t)m * arm->inv;
     const uint32_t lo = (uint32_t)p;

@@ -54,7 +54,10 @@ static bool calibration_prepare(const struct calibration_head *c, struct window_
             c->calibrated ? c->offset_sd_um[k] : CALIBRATION_UNCAL_OFFSET_SD_UM;
         icfg->cal_gain_sd_ppm[k] =
             c->calibrated ? c->gain_sd_ppm[k] : CALIBRATION_UNCAL_GAIN_SD_PPM;
-        icfg->cal_corr_q15[k] = c->calibrated ? c->offset_gain_corr_q15[k] : 0;
+        icfg->cal_corr_q15[k] = 0; /* uncalibrated: the spread has no correlation */
+        if (c->calibrated) {
+            icfg->cal_corr_q15[k] = c->offset_gain_corr_q15[k];
+        }
         spread = spread || icfg->cal_offset_sd_um[k] != 0u || icfg->cal_gain_sd_ppm[k] != 0u;
     }
     return spread;

@@ -164,7 +164,7 @@ static int32_t lag_beyond_noise(const struct attitude_state *st, int64_t delta, 
 static int32_t learnt_lag(struct attitude_state *st, const struct kalman_cmp *c, unsigned axis,
                           bool learn, bool *moved) {
     if (learn) {
-        const int64_t b = st->kalman_lag_blocks + 1;
+        const int64_t b = (int64_t)st->kalman_lag_blocks + 1;
         const int64_t m = st->kalman_lag_udeg[axis];
         st->kalman_lag_udeg[axis] = m + (c->delta - m) / b;
         /* V = ((b − 1)² V + var)/b² (exact 128-bit intermediate, saturating) */

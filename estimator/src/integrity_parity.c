@@ -66,8 +66,9 @@ fix_q32_t integrity_drift_var(const struct integrity_state *st) {
 static bool beyond_allowance(const struct integrity_state *st, const struct integrity_config *cfg) {
     const fix_q32_t allowance =
         fix_sat_add_s64(integrity_um2_to_q32(cfg->offset_stability_um), st->walk_mm2);
-    const uint32_t k = INTEGRITY_RECALIBRATE_SIGMAS_Q8;
-    const fix_q32_t limit = fix_mul_shr_s64(allowance, (int64_t)(k * k), 16u, NULL);
+    const uint32_t k_q8 = INTEGRITY_RECALIBRATE_SIGMAS_Q8;
+    const int64_t k = (int64_t)k_q8;
+    const fix_q32_t limit = fix_mul_shr_s64(allowance, k * k, 16u, NULL);
     return st->shown_mm2 > limit &&
            integrity_beyond(st->shown_mm2, st->drift_var_mm4, INTEGRITY_DRIFT_SIGNIFICANCE_Q8);
 }

@@ -16,8 +16,8 @@
  * (offset 0, r 0) gives raw · 1024 exactly. */
 FIX_INLINE int32_t window_correct_one(const struct window_state *w, unsigned k, uint16_t raw) {
     const int32_t d = (int32_t)raw * ANGLES_FINE_ONE - w->cal_offset_fine[k];
-    const uint64_t acc = (((uint64_t)(uint32_t)d << 32) | 0x80000000u) +
-                         (uint64_t)((int64_t)d * w->cal_inv_gain_q32[k]);
+    const int64_t prod = (int64_t)d * w->cal_inv_gain_q32[k];
+    const uint64_t acc = (((uint64_t)(uint32_t)d << 32) | 0x80000000u) + (uint64_t)prod;
     return (int32_t)(uint32_t)(acc >> 32);
 }
 
