@@ -8,6 +8,7 @@
 #include "firmware/settings.h"
 #include "hal/hal_err.h"
 #include "telemetry/tlm_messages.h"
+#include "le_bytes.h"
 
 /* The status frame carries enum tof_cal_state as it is (link.c). */
 _Static_assert(TOF_CAL_NONE == (int)TLM_CAL_NONE && TOF_CAL_APPLIED == (int)TLM_CAL_APPLIED &&
@@ -26,16 +27,6 @@ _Static_assert(SENSORS_AT + CALIBRATION_SENSORS * PER_SENSOR == TOF_CALIBRATION_
 _Static_assert(TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH + TOF_SECTION_HEADER + 16u <=
                    TOF_RECORD_PAYLOAD_MAX,
                "the settings and the calibration fit one record");
-
-static uint32_t get_u32(const uint8_t *p) {
-    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
-}
-
-static void put_u32(uint8_t *p, uint32_t v) {
-    for (unsigned i = 0; i < 4u; ++i) {
-        p[i] = (uint8_t)(v >> (8u * i));
-    }
-}
 
 /* Two's complement from the stored bits, without relying on the conversion's behaviour. */
 static int32_t as_i32(uint32_t v) {
@@ -70,17 +61,17 @@ int tof_cal_encode(const struct calibration_head *cal, bool has_gain,
     out[1] = TOF_CALIBRATION_VERSION;
     out[2] = TOF_CALIBRATION_LENGTH;
     uint8_t *v = &out[TOF_SECTION_HEADER];
-    put_u32(&v[0], bind->head_id);
+    le_put_u32(&v[0], bind->head_id);
     v[4] = bind->mode;
     v[5] = has_gain ? TOF_CAL_FLAG_GAINS : 0u;
     v[6] = (uint8_t)bind->budget_ms;
     v[7] = (uint8_t)(bind->budget_ms >> 8);
     for (unsigned i = 0; i < CALIBRATION_SENSORS; ++i) {
         uint8_t *s = &v[SENSORS_AT + PER_SENSOR * i];
-        put_u32(&s[0], (uint32_t)cal->offset_um[i]);
-        put_u32(&s[4], (uint32_t)cal->gain_ppm[i]);
-        put_u32(&s[8], cal->offset_sd_um[i]);
-        put_u32(&s[12], has_gain ? cal->gain_sd_ppm[i] : 0u);
+        le_put_u32(&s[0], (uint32_t)cal->offset_um[i]);
+        le_put_u32(&s[4], (uint32_t)cal->gain_ppm[i]);
+        le_put_u32(&s[8], cal->offset_sd_um[i]);
+        le_put_u32(&s[12], has_gain ? cal->gain_sd_ppm[i] : 0u);
         s[16] = (uint8_t)((uint16_t)cal->offset_gain_corr_q15[i]);
         s[17] = (uint8_t)((uint16_t)cal->offset_gain_corr_q15[i] >> 8);
     }
@@ -91,10 +82,10 @@ int tof_cal_encode(const struct calibration_head *cal, bool has_gain,
 static bool decode_sensor(const uint8_t *v, bool has_gain, unsigned i,
                           struct calibration_head *cal) {
     const uint8_t *s = &v[SENSORS_AT + PER_SENSOR * i];
-    cal->offset_um[i] = as_i32(get_u32(&s[0]));
-    cal->gain_ppm[i] = as_i32(get_u32(&s[4]));
-    cal->offset_sd_um[i] = get_u32(&s[8]);
-    cal->gain_sd_ppm[i] = get_u32(&s[12]);
+    cal->offset_um[i] = as_i32(le_get_u32(&s[0]));
+    cal->gain_ppm[i] = as_i32(le_get_u32(&s[4]));
+    cal->offset_sd_um[i] = le_get_u32(&s[8]);
+    cal->gain_sd_ppm[i] = le_get_u32(&s[12]);
     const uint16_t corr = (uint16_t)(s[16] | s[17] << 8);
     cal->offset_gain_corr_q15[i] =
         (int16_t)(corr <= 0x7FFFu ? (int32_t)corr : (int32_t)corr - 65536);
@@ -133,7 +124,7 @@ enum tof_cal_state tof_cal_decode(const uint8_t *payload, uint16_t len,
         }
     }
     const struct tof_cal_binding b = {
-        .head_id = get_u32(&v[0]), .mode = v[4], .budget_ms = (uint16_t)(v[6] | v[7] << 8)};
+        .head_id = le_get_u32(&v[0]), .mode = v[4], .budget_ms = (uint16_t)(v[6] | v[7] << 8)};
     if ((b.mode != (uint8_t)VL53_DISTANCE_SHORT && b.mode != (uint8_t)VL53_DISTANCE_LONG) ||
         b.budget_ms == 0u) {
         return TOF_CAL_CORRUPT;

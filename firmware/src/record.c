@@ -7,19 +7,10 @@
 
 #include "hal/hal_err.h"
 #include "telemetry/tlm_crc.h"
+#include "le_bytes.h"
 
 /* What one page holds. */
 enum copy_kind { COPY_EMPTY, COPY_VALID, COPY_VERSION, COPY_CORRUPT };
-
-static uint32_t get_u32(const uint8_t *p) {
-    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
-}
-
-static void put_u32(uint8_t *p, uint32_t v) {
-    for (unsigned i = 0; i < 4u; ++i) {
-        p[i] = (uint8_t)(v >> (8u * i));
-    }
-}
 
 /* Bytes a copy with `len` payload bytes takes on its page. */
 static uint32_t image_size(uint16_t len) {
@@ -64,8 +55,8 @@ static enum copy_kind read_copy(struct tof_record_store *store, unsigned i, uint
         return COPY_EMPTY;
     }
     *len = (uint16_t)(im[6] | im[7] << 8);
-    *seq = get_u32(&im[8]);
-    if (get_u32(im) != TOF_RECORD_MAGIC || im[5] != 0u || *len > TOF_RECORD_PAYLOAD_MAX) {
+    *seq = le_get_u32(&im[8]);
+    if (le_get_u32(im) != TOF_RECORD_MAGIC || im[5] != 0u || *len > TOF_RECORD_PAYLOAD_MAX) {
         return COPY_CORRUPT;
     }
     if (im[4] != TOF_RECORD_FORMAT) {
@@ -114,11 +105,11 @@ static uint32_t build_image(struct tof_record_store *store, const uint8_t *paylo
     uint8_t *im = store->image;
     const uint32_t size = image_size(len);
     memset(im, 0, size);
-    put_u32(im, TOF_RECORD_MAGIC);
+    le_put_u32(im, TOF_RECORD_MAGIC);
     im[4] = TOF_RECORD_FORMAT;
     im[6] = (uint8_t)len;
     im[7] = (uint8_t)(len >> 8);
-    put_u32(&im[8], seq);
+    le_put_u32(&im[8], seq);
     if (len > 0u) {
         memcpy(&im[TOF_RECORD_HEADER], payload, len);
     }

@@ -8,6 +8,7 @@
 #include "hal/hal_err.h"
 
 #include "telemetry/tlm_messages.h"
+#include "le_bytes.h"
 
 /* The status frame carries enum tof_record_state as it is (link.c). */
 _Static_assert(TOF_RECORD_NONE == (int)TLM_RECORD_NONE &&
@@ -21,16 +22,6 @@ _Static_assert(TOF_RECORD_NONE == (int)TLM_RECORD_NONE &&
 #define SECTION_HEADER TOF_SECTION_HEADER
 #define FLAG_PN_SET    0x01u
 #define FLAG_PN_AUTO   0x02u
-
-static uint32_t get_u32(const uint8_t *p) {
-    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
-}
-
-static void put_u32(uint8_t *p, uint32_t v) {
-    for (unsigned i = 0; i < 4u; ++i) {
-        p[i] = (uint8_t)(v >> (8u * i));
-    }
-}
 
 void tof_settings_capture(const struct tof_app *app, const struct tof_settings *pn,
                           struct tof_settings *out) {
@@ -110,8 +101,8 @@ enum tof_record_state tof_settings_decode(const uint8_t *payload, uint16_t len,
         .raw_output = v[5] == 1u,
         .process_noise_set = (v[6] & FLAG_PN_SET) != 0u,
         .process_noise_auto = (v[6] & FLAG_PN_AUTO) != 0u,
-        .qd_um2_per_s = get_u32(&v[8]),
-        .qt_um2_per_s = get_u32(&v[12]),
+        .qd_um2_per_s = le_get_u32(&v[8]),
+        .qt_um2_per_s = le_get_u32(&v[12]),
     };
     return TOF_RECORD_LOADED;
 }
@@ -155,8 +146,8 @@ static void encode(const struct tof_settings *s, uint8_t *out) {
     v[5] = s->raw_output ? 1u : 0u;
     v[6] = (uint8_t)((s->process_noise_set ? FLAG_PN_SET : 0u) |
                      (s->process_noise_auto ? FLAG_PN_AUTO : 0u));
-    put_u32(&v[8], s->qd_um2_per_s);
-    put_u32(&v[12], s->qt_um2_per_s);
+    le_put_u32(&v[8], s->qd_um2_per_s);
+    le_put_u32(&v[12], s->qt_um2_per_s);
 }
 
 int tof_section_save(struct tof_record_store *store, const uint8_t *section) {
