@@ -102,7 +102,12 @@ static bool transact(struct twin *t, uint8_t *rx, size_t rx_len) {
     struct twin_i2c *i = &t->i2c;
     int rc = HAL_ERR_ADDR_NACK;
     if (t->world != NULL) {
-        twin_world_sync(t->world, twin_svc_now_us(&t->svc));
+        /* At its START, not now: a write is carried out at its end (its bytes are known only
+         * then), after the core has spent its wire time, and sim_i2c adds that time again.
+         * Synced to now, each write put the world's clock its length ahead of the core's
+         * (2.1 ms after a sensor's configuration write), and a sensor released then booted
+         * in the world's time while the firmware's boot window ran out in the core's. */
+        twin_world_sync(t->world, i->start_ps / 1000000u);
         rc = twin_world_transfer(t->world, i->addr7, i->tx, i->tx_len, rx, rx_len);
     }
     i->tx_len = 0;
@@ -288,6 +293,9 @@ static void start(struct twin *t, uint32_t cr2) {
         /* A repeated START that is not the read of the same device: the write so far is a
          * transaction of its own. */
         (void)transact(t, NULL, 0u);
+    }
+    if (!i->active || !read || addr7 != i->addr7 || i->done) {
+        i->start_ps = twin_svc_now_ps(&t->svc); /* a new transaction begins */
     }
     i->isr &= ~(ISR_TC | ISR_NACKF);
     i->active = true;

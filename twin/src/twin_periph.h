@@ -89,6 +89,10 @@ struct twin_i2c {
     bool active;  /* START sent, STOP not yet */
     bool reading; /* current phase direction */
     uint8_t addr7;
+    /* When the transaction on the simulated bus began: its first START (a repeated START
+     * that reads the device just written continues it). The world takes the transaction
+     * at this time and adds its own wire time (sim_i2c), as host_sim's bus does. */
+    uint64_t start_ps;
     uint32_t nbytes; /* bytes left in this NBYTES chunk */
     uint8_t tx[TWIN_I2C_BUF];
     uint32_t tx_len;
