@@ -17,6 +17,7 @@
 #include <cmocka.h>
 
 #include "estimator/attitude.h"
+#include "test_rand.h"
 #include "test_calibration.h"
 
 #define TEST_PI 3.14159265358979323846
@@ -34,21 +35,13 @@
 static struct attitude_state st;
 static struct attitude_output out;
 
-static uint64_t rs = 0x2545F4914F6CDD1Du;
+/* the tests' one generator (tests/common/test_rand.h): the same sequences as before */
+static struct test_rng rng = {0x2545F4914F6CDD1Du};
 static double urand(void) {
-    rs ^= rs << 13;
-    rs ^= rs >> 7;
-    rs ^= rs << 17;
-    return (double)(rs >> 11) / 9007199254740992.0;
+    return test_urand(&rng);
 }
 static double gauss(void) {
-    double u, v, s;
-    do {
-        u = 2 * urand() - 1;
-        v = 2 * urand() - 1;
-        s = u * u + v * v;
-    } while (s >= 1 || s == 0);
-    return u * sqrt(-2 * log(s) / s);
+    return test_gauss(&rng);
 }
 
 static const uint8_t all_ok[4] = {0, 0, 0, 0};
@@ -517,7 +510,7 @@ static double level(unsigned row) {
  * variance. */
 static void test_steady_ramp_learnt(void **state) {
     (void)state;
-    rs = RAMP_SEED; /* its own noise, whatever ran before */
+    rng.state = RAMP_SEED; /* its own noise, whatever ran before */
     const struct calibration ramp = alpha_calibration(slow_ramp, 44, 4);
     print_message("slow ramp: rms err/sd %.2f, max %.2f, steady lag² %.2f of white\n", ramp.rms_z,
                   ramp.max_z, ramp.steady_share);
@@ -541,7 +534,7 @@ static double jumps(unsigned row) {
 }
 static void test_jumps_are_not_steady_motion(void **state) {
     (void)state;
-    rs = JUMP_SEED; /* its own noise, whatever ran before */
+    rng.state = JUMP_SEED; /* its own noise, whatever ran before */
     for (unsigned w = 0; w < JUMP_WINDOWS; ++w) {
         jump_alpha[w] = -4.0 + 8.0 * urand();
     }
@@ -556,7 +549,7 @@ static void test_jumps_are_not_steady_motion(void **state) {
  * said (flag lowered to 300 µm here) and the sd grows to cover it. */
 static void test_drift_learnt(void **state) {
     (void)state;
-    rs = DRIFT_SEED; /* its own noise, whatever ran before */
+    rng.state = DRIFT_SEED; /* its own noise, whatever ran before */
     struct attitude_config cfg;
     attitude_config_default(&cfg);
     test_calibration_exact(&cfg.calibration); /* ideal sensors: an exact calibration */
