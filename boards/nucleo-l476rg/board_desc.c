@@ -3,13 +3,12 @@
  * (boards/stm32/stm32_board.c): pins, addresses, alternate functions and clocks (docs/boards.md has
  * the pin map, clock choice, I2C timing and watchdog figures).
  *
- * Clock: SYSCLK = HSI16 = 16 MHz (AHB and APB prescalers left at /1). The
- * application needs well under 1 MIPS (four sensors at tens of Hz, ~15k
- * instructions per consensus solve), so 16 MHz leaves ample margin, keeps
- * flash at 0 wait states in voltage range 1 (RM0351 "Embedded Flash memory",
- * "Read access latency" table: 0 WS up to 16 MHz) with no PLL, and gives both NUCLEO boards the
- * same core clock, SysTick reload, USART BRR and I2C TIMINGR. I2C1 takes
- * HSI16 directly as its kernel clock, so its timing does not depend on SYSCLK.
+ * Clock: SYSCLK = 64 MHz from the main PLL fed by HSI16 (AHB and APB prescalers left
+ * at /1), 3 flash wait states: a window's end at N = 255 takes 220k-370k instructions
+ * depending on the data, which at 16 MHz made the worst loop 19.5 ms against a 20 ms
+ * period, and 11.7 ms at 32 MHz on a held-out trace (docs/boards.md "Clock tree").
+ * I2C1 takes HSI16 directly as its kernel clock, so its timing does not depend on SYSCLK;
+ * SysTick and the USART divisor follow the clock the RCC reports (stm32_board_sysclk_hz).
  */
 #include "hal/hal_err.h"
 #include "stm32_board.h"
@@ -51,28 +50,58 @@ const struct stm32_board_desc stm32_board_desc = {
     .dbg_freeze_bit = L476_DBGMCU_APB1FZR1_DBG_IWDG_STOP,
 };
 
-/* SYSCLK from MSI 4 MHz (reset) to HSI16. No flash latency change is needed
- * at 16 MHz in range 1, and the AHB/APB prescalers stay /1. */
+/* SYSCLK = HSI16 / M x N / R from the main PLL (RM0351 §6.2.5 "PLL"): 16 MHz / 1 x 8 / 2 =
+ * 64 MHz, the VCO at 128 MHz (input 4..16 MHz, VCO 64..344 MHz: RM0351 §6.4.4). Why 64 MHz
+ * (the worst loop against the power): docs/boards.md "Clock tree". */
+#define L476_PLL_N      8u
+#define L476_PLL_R_DIV  2u
+#define L476_PLL_R_BITS ((L476_PLL_R_DIV / 2u - 1u) << L476_RCC_PLLCFGR_PLLR_SHIFT)
+#define L476_SYSCLK_HZ  (16000000u * L476_PLL_N / L476_PLL_R_DIV)
+/* RM0351 §3.3.3 Table 12, voltage range 1 (the reset range): one wait state per 16 MHz
+ * above the first 16 (3 WS up to 64 MHz). */
+#define L476_FLASH_LATENCY ((L476_SYSCLK_HZ - 1u) / 16000000u)
+
+/* SYSCLK from MSI 4 MHz (reset) to the PLL fed by HSI16. The order is the reference
+ * manual's: the flash wait states raised and read back before the clock rises (RM0351
+ * §3.3.3 "Increasing the CPU frequency"); the PLL configured while it is off (it is after
+ * any reset), then PLLON, PLLRDY, PLLREN (§6.2.5); then the switch, confirmed by SWS
+ * (§6.2.6). The AHB/APB prescalers stay /1: PCLK1 = SYSCLK clocks USART2. */
 int stm32_board_clock_init(void) {
     stm32_reg_modify(L476_RCC_CR, 0u, L476_RCC_CR_HSION);
     if (!stm32_board_poll_bits(L476_RCC_CR, L476_RCC_CR_HSIRDY, L476_RCC_CR_HSIRDY,
                                STM32_BOARD_CLOCK_READY_POLLS)) {
         return HAL_ERR_TIMEOUT;
     }
-    stm32_reg_modify(L476_RCC_CFGR, L476_RCC_CFGR_SW_MASK, L476_RCC_CFGR_SW_HSI16);
-    if (!stm32_board_poll_bits(L476_RCC_CFGR, L476_RCC_CFGR_SWS_MASK, L476_RCC_CFGR_SWS_HSI16,
+    stm32_reg_modify(L476_FLASH_ACR, L476_FLASH_ACR_LATENCY_MASK, L476_FLASH_LATENCY);
+    if (!stm32_board_poll_bits(L476_FLASH_ACR, L476_FLASH_ACR_LATENCY_MASK, L476_FLASH_LATENCY,
+                               STM32_BOARD_CLOCK_READY_POLLS)) {
+        return HAL_ERR_TIMEOUT;
+    }
+    stm32_reg_write(L476_RCC_PLLCFGR, L476_RCC_PLLCFGR_PLLSRC_HSI16 |
+                                          (L476_PLL_N << L476_RCC_PLLCFGR_PLLN_SHIFT) |
+                                          L476_PLL_R_BITS); /* PLLM = 0: / 1 */
+    stm32_reg_modify(L476_RCC_CR, 0u, L476_RCC_CR_PLLON);
+    if (!stm32_board_poll_bits(L476_RCC_CR, L476_RCC_CR_PLLRDY, L476_RCC_CR_PLLRDY,
+                               STM32_BOARD_CLOCK_READY_POLLS)) {
+        return HAL_ERR_TIMEOUT;
+    }
+    stm32_reg_modify(L476_RCC_PLLCFGR, 0u, L476_RCC_PLLCFGR_PLLREN);
+    stm32_reg_modify(L476_RCC_CFGR, L476_RCC_CFGR_SW_MASK, L476_RCC_CFGR_SW_PLL);
+    if (!stm32_board_poll_bits(L476_RCC_CFGR, L476_RCC_CFGR_SWS_MASK, L476_RCC_CFGR_SWS_PLL,
                                STM32_BOARD_CLOCK_READY_POLLS)) {
         return HAL_ERR_TIMEOUT;
     }
     return HAL_OK;
 }
 
-/* RCC_CFGR.SWS: 01 = HSI16; anything else here is the reset clock, MSI range 6 = 4 MHz
- * (RM0351 §6.2.3 "MSI clock": 4 MHz after reset; the firmware never changes the range). */
+/* RCC_CFGR.SWS: 11 = the PLL, 01 = HSI16; anything else here is the reset clock, MSI range
+ * 6 = 4 MHz (RM0351 §6.2.3 "MSI clock": 4 MHz after reset; the firmware never changes the
+ * range). */
 uint32_t stm32_board_sysclk_hz(void) {
-    return (stm32_reg_read(L476_RCC_CFGR) & L476_RCC_CFGR_SWS_MASK) == L476_RCC_CFGR_SWS_HSI16
-               ? 16000000u
-               : 4000000u;
+    const uint32_t sws = stm32_reg_read(L476_RCC_CFGR) & L476_RCC_CFGR_SWS_MASK;
+    return sws == L476_RCC_CFGR_SWS_PLL     ? L476_SYSCLK_HZ
+           : sws == L476_RCC_CFGR_SWS_HSI16 ? 16000000u
+                                            : 4000000u;
 }
 
 void stm32_board_peripheral_clocks_init(void) {

@@ -16,16 +16,30 @@
 #define L476_I2C1_BASE   0x40005400u
 #define L476_IWDG_BASE   0x40003000u
 
-/* RCC_CR: HSI16 on / ready. */
+/* RCC_CR: HSI16 and the main PLL on / ready. */
 #define L476_RCC_CR        (L476_RCC_BASE + 0x00u)
 #define L476_RCC_CR_HSION  (1u << 8)
 #define L476_RCC_CR_HSIRDY (1u << 10)
-/* RCC_CFGR: SW[1:0] selects SYSCLK, SWS[3:2] reports it; 01 = HSI16. */
+#define L476_RCC_CR_PLLON  (1u << 24)
+#define L476_RCC_CR_PLLRDY (1u << 25)
+/* RCC_CFGR: SW[1:0] selects SYSCLK, SWS[3:2] reports it; 01 = HSI16, 11 = PLL. */
 #define L476_RCC_CFGR           (L476_RCC_BASE + 0x08u)
 #define L476_RCC_CFGR_SW_MASK   (3u << 0)
 #define L476_RCC_CFGR_SW_HSI16  (1u << 0)
+#define L476_RCC_CFGR_SW_PLL    (3u << 0)
 #define L476_RCC_CFGR_SWS_MASK  (3u << 2)
 #define L476_RCC_CFGR_SWS_HSI16 (1u << 2)
+#define L476_RCC_CFGR_SWS_PLL   (3u << 2)
+/* RCC_PLLCFGR (RM0351 §6.4.4): PLLSRC[1:0] (10 = HSI16), PLLM[6:4] (/ PLLM + 1), PLLN[14:8],
+ * PLLREN (24) enables PLLCLK, PLLR[26:25] (00 /2, 01 /4, 10 /6, 11 /8). */
+#define L476_RCC_PLLCFGR              (L476_RCC_BASE + 0x0Cu)
+#define L476_RCC_PLLCFGR_PLLSRC_HSI16 (2u << 0)
+#define L476_RCC_PLLCFGR_PLLN_SHIFT   8u
+#define L476_RCC_PLLCFGR_PLLREN       (1u << 24)
+#define L476_RCC_PLLCFGR_PLLR_SHIFT   25u
+/* FLASH_ACR (RM0351 §3.7.1): LATENCY[2:0], the flash wait states. */
+#define L476_FLASH_ACR              0x40022000u
+#define L476_FLASH_ACR_LATENCY_MASK 7u
 /* RCC_AHB2ENR: GPIO port clocks. */
 #define L476_RCC_AHB2ENR         (L476_RCC_BASE + 0x4Cu)
 #define L476_RCC_AHB2ENR_GPIOAEN (1u << 0)

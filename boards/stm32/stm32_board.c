@@ -57,7 +57,7 @@ static void log_uart_init(uint32_t core_hz) {
     log_usart = (struct stm32_usart){
         .base = d->usart_base,
         .brr = (core_hz + STM32_BOARD_LOG_BAUD / 2u) / STM32_BOARD_LOG_BAUD,
-        .spin_max = 20000u,    /* one byte is 87 us = 1390 cycles at 16 MHz: >> the polls */
+        .spin_max = 20000u,    /* one byte is 87 us = 6950 cycles at 80 MHz: >> the polls */
         .irq = BOARD_UART_IRQ, /* from the build: the vector table has the same entry */
     };
     stm32_gpio_set_af(d->usart_port, d->usart_tx_pin, d->usart_af);
@@ -74,14 +74,15 @@ int board_hal_init(void) {
         return err; /* the UART comes up at the reset clock if board_fault() reports this */
     }
     stm32_board_peripheral_clocks_init();
-    log_uart_init(STM32_BOARD_CORE_HZ);
+    const uint32_t core_hz = stm32_board_sysclk_hz(); /* the board's clock (docs/boards.md) */
+    log_uart_init(core_hz);
 
     board_gpio = (struct stm32_gpio){d->sensor_pins, 2u * BOARD_HAL_SENSOR_COUNT};
     i2c_config = (struct stm32_i2c_config){
         .base = d->i2c_base,
         .timingr = STM32_I2C_TIMINGR_400KHZ_AT_16MHZ,
         .byte_time_us = 23u, /* 9 bits x 2.5 us = 22.5 us */
-        .core_cycles_per_us = STM32_BOARD_CORE_HZ / 1000000u,
+        .core_cycles_per_us = core_hz / 1000000u,
         .recovery_half_period_us = 5u,
         .scl = d->i2c_scl,
         .sda = d->i2c_sda,
@@ -91,7 +92,7 @@ int board_hal_init(void) {
      * The LSI RC tolerance (datasheet "LSI oscillator characteristics") scales it. */
     iwdg_config = (struct stm32_iwdg_config){d->iwdg_base, 3u, 399u};
 
-    err = stm32_systick_time_init(&board_time, STM32_BOARD_CORE_HZ);
+    err = stm32_systick_time_init(&board_time, core_hz);
     if (err == HAL_OK) {
         err = stm32_gpio_configure(&board_gpio);
     }

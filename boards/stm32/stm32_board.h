@@ -16,9 +16,8 @@
 #include "hal/hal_time.h"
 #include "stm32_i2c.h"
 
-/* Both boards run from HSI16 at 16 MHz (docs/boards.md): one SysTick reload, USART
- * divisor and I2C TIMINGR serve them all. */
-#define STM32_BOARD_CORE_HZ  16000000u
+/* The boards' I2C kernel clock is HSI16 (one TIMINGR for all); the core clock is each
+ * board's (stm32_board_sysclk_hz; docs/boards.md "Clock"). */
 #define STM32_BOARD_LOG_BAUD 115200u
 
 struct stm32_board_desc {
@@ -35,7 +34,8 @@ struct stm32_board_desc {
 
 extern const struct stm32_board_desc stm32_board_desc;
 
-/* Switch SYSCLK to HSI16 (16 MHz). HAL_OK or HAL_ERR_TIMEOUT (bounded polls). */
+/* Switch SYSCLK to the board's core clock (docs/boards.md "Clock"). HAL_OK or
+ * HAL_ERR_TIMEOUT (bounded polls). */
 int stm32_board_clock_init(void);
 
 /* The core clock now (reset clock before a successful stm32_board_clock_init), from the

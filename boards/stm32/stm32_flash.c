@@ -89,24 +89,47 @@ static bool in_range(const struct stm32_flash *flash, uint16_t page, uint32_t of
            offset <= STM32_FLASH_PAGE_SIZE && len <= STM32_FLASH_PAGE_SIZE - offset;
 }
 
-static int flash_erase(void *ctx, uint16_t page) {
+/* §3.3.6 "Page erase" up to STRT: PER, the page (PNB) and its bank (BKER), then STRT. The
+ * records' bank is not the one the code runs from, so the core goes on meanwhile (§3.3.8
+ * read-while-write). */
+static int flash_erase_start(void *ctx, uint16_t page) {
     struct stm32_flash *flash = ctx;
-    if (!in_range(flash, page, 0u, 0u)) {
+    if (!in_range(flash, page, 0u, 0u) || flash->erasing) {
         return HAL_ERR_INVALID;
     }
     const struct stm32_flash_config *cfg = flash->cfg;
-    int rc = begin(flash);
-    if (rc == HAL_OK) {
-        /* §3.3.6 "Page erase": PER, the page (PNB) and its bank (BKER), then STRT. */
-        const uint32_t pnb = (uint32_t)(cfg->first_page + page) << STM32_FLASH_CR_PNB_SHIFT;
-        stm32_reg_modify(cfg->regs + STM32_FLASH_CR,
-                         STM32_FLASH_CR_PNB_MASK | STM32_FLASH_CR_BKER | STM32_FLASH_CR_PG,
-                         STM32_FLASH_CR_PER | pnb | (cfg->bank2 ? STM32_FLASH_CR_BKER : 0u));
-        stm32_reg_modify(cfg->regs + STM32_FLASH_CR, 0u, STM32_FLASH_CR_STRT);
-        rc = wait_not_busy(cfg, cfg->erase_budget_us) ? HAL_OK : HAL_ERR_TIMEOUT;
-        rc = finish(flash, rc);
+    const int rc = begin(flash);
+    if (rc != HAL_OK) {
+        return rc;
     }
-    return rc;
+    const uint32_t pnb = (uint32_t)(cfg->first_page + page) << STM32_FLASH_CR_PNB_SHIFT;
+    stm32_reg_modify(cfg->regs + STM32_FLASH_CR,
+                     STM32_FLASH_CR_PNB_MASK | STM32_FLASH_CR_BKER | STM32_FLASH_CR_PG,
+                     STM32_FLASH_CR_PER | pnb | (cfg->bank2 ? STM32_FLASH_CR_BKER : 0u));
+    stm32_reg_modify(cfg->regs + STM32_FLASH_CR, 0u, STM32_FLASH_CR_STRT);
+    flash->erasing = true;
+    flash->erase_start_us = cfg->time.ops->now_us(cfg->time.ctx);
+    return HAL_OK;
+}
+
+/* The started erase: BSY still set (within its budget), or its end: error flags, PER
+ * cleared, CR locked (finish). */
+static int flash_erase_poll(void *ctx) {
+    struct stm32_flash *flash = ctx;
+    if (flash == NULL || !flash->erasing) {
+        return HAL_OK;
+    }
+    const struct stm32_flash_config *cfg = flash->cfg;
+    if ((stm32_reg_read(cfg->regs + STM32_FLASH_SR) & STM32_FLASH_SR_BSY) != 0u) {
+        const uint32_t now = cfg->time.ops->now_us(cfg->time.ctx);
+        if (hal_time_elapsed_us(now, flash->erase_start_us) <= cfg->erase_budget_us) {
+            return HAL_ERR_NOT_READY;
+        }
+        flash->erasing = false;
+        return finish(flash, HAL_ERR_TIMEOUT);
+    }
+    flash->erasing = false;
+    return finish(flash, HAL_OK);
 }
 
 static int flash_program(void *ctx, uint16_t page, uint32_t offset, const uint8_t *data,
@@ -181,8 +204,11 @@ bool stm32_flash_nmi(uintptr_t regs) {
     return false;
 }
 
-const struct hal_records_ops stm32_flash_ops = {
-    .read = flash_read, .erase = flash_erase, .program = flash_program};
+const struct hal_records_ops stm32_flash_ops = {.read = flash_read,
+                                                .erase = NULL, /* erase_start + poll */
+                                                .program = flash_program,
+                                                .erase_start = flash_erase_start,
+                                                .erase_poll = flash_erase_poll};
 
 struct hal_records stm32_flash_hal(struct stm32_flash *flash) {
     const struct hal_records rec = {

@@ -36,6 +36,8 @@ struct stm32_flash {
     const struct stm32_flash_config *cfg;
     uint32_t last_sr_errors; /* SR error bits of the last failed operation (0: none) */
     uint32_t ecc_errors;     /* uncorrectable ECC errors seen on read */
+    bool erasing;            /* an erase_start()ed erase not yet polled to its end */
+    uint32_t erase_start_us; /* when it started (its budget runs from there) */
 };
 
 /* Bind `flash` to `cfg`. HAL_ERR_INVALID when the pages leave their bank or a budget or the

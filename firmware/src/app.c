@@ -41,14 +41,8 @@ static void emit_event(struct tof_app *app, enum tof_event_kind kind, unsigned s
     out->ops->event(out->ctx, &ev);
 }
 
-/* Assembled samples flow here: raw output, then the estimators. */
-static void on_sample(void *ctx, const struct tof_sample *sample) {
-    struct tof_app *app = ctx;
-    ++app->counters.samples;
-    if (app->slot_first_us < app->assembler_cfg.period_us) {
-        app->phase_us = app->slot_first_us; /* when the sensors report within a slot */
-    }
-    app->slot_first_us = app->assembler_cfg.period_us;
+/* A sample's raw output, then the estimators. */
+static void process_sample(struct tof_app *app, const struct tof_sample *sample) {
     const struct tof_output *out = &app->platform->output;
     if (app->raw_output && out->ops != NULL && out->ops->sample != NULL) {
         out->ops->sample(out->ctx, sample);
@@ -69,6 +63,36 @@ static void on_sample(void *ctx, const struct tof_sample *sample) {
             out->ops->estimate(out->ctx, &record);
         }
     }
+}
+
+/* Assembled samples flow here, during the sensor reads: held for the next iteration (see
+ * struct tof_app, deferred), or processed at once when the ring is full (none is lost). */
+static void on_sample(void *ctx, const struct tof_sample *sample) {
+    struct tof_app *app = ctx;
+    ++app->counters.samples;
+    if (app->slot_first_us < app->assembler_cfg.period_us) {
+        app->phase_us = app->slot_first_us; /* when the sensors report within a slot */
+    }
+    app->slot_first_us = app->assembler_cfg.period_us;
+    if (app->deferred_count < TOF_APP_DEFERRED) {
+        const unsigned at = (app->deferred_head + app->deferred_count) % TOF_APP_DEFERRED;
+        app->deferred[at] = *sample;
+        ++app->deferred_count;
+        return;
+    }
+    process_sample(app, sample);
+}
+
+/* The oldest held-back sample, if any: processed now; true if there was one. */
+static bool process_deferred(struct tof_app *app) {
+    if (app->deferred_count == 0u) {
+        return false;
+    }
+    const struct tof_sample sample = app->deferred[app->deferred_head];
+    app->deferred_head = (uint8_t)((app->deferred_head + 1u) % TOF_APP_DEFERRED);
+    --app->deferred_count;
+    process_sample(app, &sample);
+    return true;
 }
 
 /* Slot boundaries are multiples of the period on the firmware timeline. */
@@ -255,6 +279,9 @@ static void start_pending_sensors(struct tof_app *app) {
  * over it slot after slot (seen in the twin: no start for 60 ms, then a re-init).
  */
 static uint32_t idle_time_us(const struct tof_app *app, uint64_t now_us) {
+    if (app->deferred_count != 0u) {
+        return 0u; /* a held-back sample: its iteration comes at once */
+    }
     const uint32_t lead =
         app->phase_us > app->cfg->idle_us ? app->phase_us - app->cfg->idle_us : 0u;
     const uint64_t next_slot = app->assembler.origin_us +
@@ -359,9 +386,8 @@ int tof_app_init(struct tof_app *app, const struct tof_platform *platform,
     return HAL_OK;
 }
 
-void tof_app_step(struct tof_app *app, bool idle) {
-    const uint64_t begin = tof_app_now_us(app);
-    ++app->counters.iterations;
+/* An iteration's bus work: sensor starts and reads, the fault manager, the assembler. */
+static void acquire(struct tof_app *app) {
     start_pending_sensors(app);
     for (unsigned i = 0; i < TOF_SENSORS; ++i) {
         poll_sensor(app, i);
@@ -375,6 +401,16 @@ void tof_app_step(struct tof_app *app, bool idle) {
     }
     const struct tof_sample_sink sink = {.emit = on_sample, .ctx = app};
     tof_assembler_poll(&app->assembler, &app->assembler_cfg, tof_app_now_us(app), &sink);
+}
+
+void tof_app_step(struct tof_app *app, bool idle) {
+    const uint64_t begin = tof_app_now_us(app);
+    ++app->counters.iterations;
+    /* A held-back sample is the iteration's work (its estimate, its telemetry); the
+     * sensors are read in the next one (a reading stays in the sensor for a period). */
+    if (!process_deferred(app)) {
+        acquire(app);
+    }
     const uint64_t end = tof_app_now_us(app);
     const uint64_t took = end - begin;
     if (took > app->counters.max_iteration_us) {

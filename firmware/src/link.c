@@ -284,10 +284,16 @@ static uint8_t apply(struct tof_link *link, const struct tlm_command *cmd, int *
     case TLM_TYPE_REZERO:
         return start_rezero(link, cmd->u.rezero_samples);
     case TLM_TYPE_SAVE: {
+        /* Begun here, advanced by each poll (a page erase outlasts a loop iteration); the
+         * first step now: with the other page blank, the copy is written and in use at once. */
         struct tof_settings now;
         tof_settings_capture(app, &link->process_noise, &now);
-        *error = tof_settings_save(link->records, &now); /* a hal_err: storage's own */
-        return *error == HAL_OK ? TLM_RESULT_OK : TLM_RESULT_STATE;
+        *error = tof_settings_save_begin(link->records, &now); /* a hal_err: storage's own */
+        if (*error == HAL_OK) {
+            *error = tof_record_step(link->records);
+            link->save_pending = *error == HAL_ERR_NOT_READY;
+        }
+        return *error == HAL_OK || link->save_pending ? TLM_RESULT_OK : TLM_RESULT_STATE;
     }
     default:
         return TLM_RESULT_UNKNOWN_TYPE;
@@ -323,6 +329,11 @@ static void on_frame(void *ctx, const struct tlm_frame *frame) {
     int error = 0;
     if (result == TLM_RESULT_OK) {
         result = apply(link, &cmd, &error);
+        if (link->save_pending && frame->type == TLM_TYPE_SAVE) {
+            link->save_seq = frame->seq; /* answered by save_poll() when the copy is in use */
+            link->last_valid = false;
+            return;
+        }
         if (result == TLM_RESULT_OK) {
             ++link->commands_ok;
         } else {
@@ -366,10 +377,30 @@ void tof_link_bind(struct tof_link *link, struct tof_app *app) {
     link->app = app;
 }
 
+/* The record save under way, one step a poll; a pending `save` answered when it ends. */
+static void save_poll(struct tof_link *link) {
+    if (link->records == NULL || !tof_record_busy(link->records)) {
+        return;
+    }
+    const int rc = tof_record_step(link->records);
+    if (!link->save_pending || rc == HAL_ERR_NOT_READY) {
+        return; /* still writing, or the old page's erase after the answer */
+    }
+    link->save_pending = false;
+    const uint8_t result = rc == HAL_OK ? TLM_RESULT_OK : TLM_RESULT_STATE;
+    answer(link, link->save_seq, TLM_TYPE_SAVE, result, rc);
+    if (result == TLM_RESULT_OK) {
+        ++link->commands_ok;
+    } else {
+        ++link->commands_refused;
+    }
+}
+
 void tof_link_poll(struct tof_link *link) {
     if (link->serial.ops == NULL || link->app == NULL) {
         return;
     }
+    save_poll(link);
     uint8_t buf[TOF_LINK_RX_PER_POLL];
     const struct tlm_frame_sink sink = {.on_frame = on_frame, .on_reject = on_reject, .ctx = link};
     for (unsigned chunk = 0; chunk < TOF_LINK_RX_CHUNKS; ++chunk) {

@@ -136,33 +136,135 @@ static int verify(const struct tof_record_store *store, uint16_t page, uint32_t 
     return HAL_OK;
 }
 
-int tof_record_save(struct tof_record_store *store, const uint8_t *payload, uint16_t len) {
+/* The steps of a save (struct tof_record_store, step). */
+enum save_step {
+    STEP_IDLE = 0,
+    STEP_CHECK_TARGET, /* the target page blank? else start its erase */
+    STEP_ERASE_TARGET, /* its erase running */
+    STEP_PROGRAM,      /* program and verify the new copy */
+    STEP_ERASE_OLD,    /* the new copy in use; the old page's erase running */
+};
+
+/* Start erasing page[i]: in the background if the storage can, else at once (then the
+ * erase is over when this returns). HAL_OK or the storage's error. */
+static int erase_begin(struct tof_record_store *store, unsigned i, bool *background) {
+    const struct hal_records *s = &store->storage;
+    *background = s->ops->erase_start != NULL && s->ops->erase_poll != NULL;
+    return *background ? s->ops->erase_start(s->ctx, store->page[i])
+                       : s->ops->erase(s->ctx, store->page[i]);
+}
+
+/* page[i] reads erased, all of it (the end of the previous save's erase, or a page never
+ * written): it can be programmed without an erase. A marginal cell of an interrupted erase
+ * that reads erased is caught by the verify after programming (the save then fails, the old
+ * copy stays, and the next save erases the page first). */
+static bool blank(struct tof_record_store *store, unsigned i) {
+    const struct hal_records *s = &store->storage;
+    for (uint32_t at = 0; at < s->geometry.page_size; at += 8u) {
+        uint8_t b[8];
+        const uint32_t n = s->geometry.page_size - at < 8u ? s->geometry.page_size - at : 8u;
+        if (s->ops->read(s->ctx, store->page[i], at, b, n) != HAL_OK) {
+            return false;
+        }
+        for (unsigned k = 0; k < n; ++k) {
+            if (b[k] != s->geometry.erased_byte) {
+                return false;
+            }
+        }
+    }
+    return true;
+}
+
+int tof_record_save_begin(struct tof_record_store *store, const uint8_t *payload, uint16_t len) {
     if (len > TOF_RECORD_PAYLOAD_MAX || store->storage.ops == NULL ||
         (len > 0u && payload == NULL)) {
         return HAL_ERR_INVALID;
     }
-    const struct hal_records *s = &store->storage;
-    /* The new copy goes where the one in use is not; with none in use, to page[0]. */
-    const unsigned target = store->current == 0 ? 1u : 0u;
-    const uint32_t seq = store->current < 0 ? 0u : store->sequence + 1u;
-    const uint32_t size = build_image(store, payload, len, seq);
-    int rc = s->ops->erase(s->ctx, store->page[target]);
-    if (rc == HAL_OK) {
-        rc = s->ops->program(s->ctx, store->page[target], 0u, store->image, size);
+    if (store->step != STEP_IDLE && store->step != STEP_ERASE_OLD) {
+        return HAL_ERR_STATE; /* a new copy is being written: one save at a time */
     }
+    /* The new copy goes where the one in use is not; with none in use, to page[0]. */
+    store->target = store->current == 0 ? 1u : 0u;
+    store->save_seq = store->current < 0 ? 0u : store->sequence + 1u;
+    store->save_len = len;
+    store->save_size = build_image(store, payload, len, store->save_seq);
+    /* The old page's erase still running is the target's: wait for it, then program. */
+    store->step = store->step == STEP_ERASE_OLD ? STEP_ERASE_TARGET : STEP_CHECK_TARGET;
+    return HAL_OK;
+}
+
+/* Program and verify the new copy; make it the one in use and start erasing the old page
+ * (firmware/record.h: only now may it go). */
+static int program_step(struct tof_record_store *store) {
+    const struct hal_records *s = &store->storage;
+    int rc =
+        s->ops->program(s->ctx, store->page[store->target], 0u, store->image, store->save_size);
     if (rc == HAL_OK) {
-        rc = verify(store, store->page[target], size);
+        rc = verify(store, store->page[store->target], store->save_size);
     }
     if (rc != HAL_OK) {
+        store->step = STEP_IDLE;
         return rc; /* the old copy, untouched, stays the one in use */
     }
-    store->current = (int8_t)target;
-    store->sequence = seq;
-    store->length = len;
-    if (len > 0u) {
-        memmove(store->payload, payload, len); /* payload may be store->payload itself */
+    store->current = (int8_t)store->target;
+    store->sequence = store->save_seq;
+    store->length = store->save_len;
+    memcpy(store->payload, &store->image[TOF_RECORD_HEADER], store->save_len);
+    /* A failed erase leaves an older valid copy behind, which load ranks below the new one:
+     * the save stands all the same (the error is still returned). */
+    bool background = false;
+    rc = erase_begin(store, 1u - store->target, &background);
+    store->step = rc == HAL_OK && background ? STEP_ERASE_OLD : STEP_IDLE;
+    return rc;
+}
+
+int tof_record_step(struct tof_record_store *store) {
+    const struct hal_records *s = &store->storage;
+    bool background = false;
+    int rc = HAL_OK;
+    switch (store->step) {
+    case STEP_CHECK_TARGET:
+        if (blank(store, store->target)) {
+            store->step = STEP_PROGRAM;
+            return HAL_ERR_NOT_READY;
+        }
+        rc = erase_begin(store, store->target, &background);
+        store->step = rc != HAL_OK ? STEP_IDLE : background ? STEP_ERASE_TARGET : STEP_PROGRAM;
+        return rc != HAL_OK ? rc : HAL_ERR_NOT_READY;
+    case STEP_ERASE_TARGET:
+        rc = s->ops->erase_poll(s->ctx);
+        if (rc == HAL_ERR_NOT_READY) {
+            return rc;
+        }
+        store->step = rc == HAL_OK ? STEP_PROGRAM : STEP_IDLE;
+        return rc == HAL_OK ? HAL_ERR_NOT_READY : rc;
+    case STEP_PROGRAM:
+        return program_step(store);
+    case STEP_ERASE_OLD:
+        rc = s->ops->erase_poll(s->ctx);
+        if (rc == HAL_ERR_NOT_READY) {
+            return HAL_OK; /* the new copy is in use: the save is done for the caller */
+        }
+        store->step = STEP_IDLE; /* over; a failure leaves an older copy, ranked below */
+        return rc;
+    default:
+        return HAL_OK;
     }
-    /* The new copy is verified: only now may the old one go (firmware/record.h). A failed
-     * erase leaves an older valid copy behind, which load ranks below the new one. */
-    return s->ops->erase(s->ctx, store->page[1u - target]);
+}
+
+bool tof_record_busy(const struct tof_record_store *store) {
+    return store->step != STEP_IDLE;
+}
+
+/* Upper bound on the steps of one blocking save: each poll of an erase is one step, and an
+ * erase's own budget ends it (HAL_ERR_TIMEOUT) long before. */
+#define SAVE_STEPS_MAX 10000000u
+
+int tof_record_save(struct tof_record_store *store, const uint8_t *payload, uint16_t len) {
+    int rc = tof_record_save_begin(store, payload, len);
+    for (uint32_t n = 0; rc == HAL_OK && tof_record_busy(store); ++n) {
+        rc = n < SAVE_STEPS_MAX ? tof_record_step(store) : HAL_ERR_TIMEOUT;
+        rc = rc == HAL_ERR_NOT_READY ? HAL_OK : rc;
+    }
+    return rc;
 }

@@ -150,16 +150,19 @@ static void encode(const struct tof_settings *s, uint8_t *out) {
     le_put_u32(&v[12], s->qt_um2_per_s);
 }
 
-int tof_section_save(struct tof_record_store *store, const uint8_t *section) {
-    if (store == NULL || store->storage.ops == NULL) {
-        return HAL_ERR_STATE;
-    }
+/* The record's new payload (off the stack: the main loop's frame is the deepest). */
+static uint8_t save_payload[TOF_RECORD_PAYLOAD_MAX];
+
+/* The record's new payload with `section` (id, version, length, bytes) in `payload`: its
+ * length, or 0 and *rc. */
+static uint32_t new_payload(const struct tof_record_store *store, const uint8_t *section,
+                            uint8_t *payload, int *rc) {
     /* The new payload: this section first, then every other section of the record in use,
      * as it was (a damaged list is dropped: nothing of it can be trusted). */
-    static uint8_t payload[TOF_RECORD_PAYLOAD_MAX];
     uint32_t len = SECTION_HEADER + (uint32_t)(section[2] | section[3] << 8);
     if (len > TOF_RECORD_PAYLOAD_MAX) {
-        return HAL_ERR_INVALID;
+        *rc = HAL_ERR_INVALID;
+        return 0u;
     }
     memcpy(payload, section, len);
     const uint8_t *old = store->payload;
@@ -169,7 +172,8 @@ int tof_section_save(struct tof_record_store *store, const uint8_t *section) {
             const uint32_t size = SECTION_HEADER + (uint32_t)(old[at + 2u] | old[at + 3u] << 8);
             if (old[at] != section[0]) {
                 if (len + size > TOF_RECORD_PAYLOAD_MAX) {
-                    return HAL_ERR_INVALID;
+                    *rc = HAL_ERR_INVALID;
+                    return 0u;
                 }
                 memcpy(&payload[len], &old[at], size);
                 len += size;
@@ -177,11 +181,32 @@ int tof_section_save(struct tof_record_store *store, const uint8_t *section) {
             at += size;
         }
     }
-    return tof_record_save(store, payload, (uint16_t)len);
+    *rc = HAL_OK;
+    return len;
+}
+
+int tof_section_save(struct tof_record_store *store, const uint8_t *section) {
+    if (store == NULL || store->storage.ops == NULL) {
+        return HAL_ERR_STATE;
+    }
+    int rc = HAL_OK;
+    const uint32_t len = new_payload(store, section, save_payload, &rc);
+    return rc != HAL_OK ? rc : tof_record_save(store, save_payload, (uint16_t)len);
 }
 
 int tof_settings_save(struct tof_record_store *store, const struct tof_settings *s) {
     uint8_t section[SECTION_HEADER + TOF_SETTINGS_LENGTH];
     encode(s, section);
     return tof_section_save(store, section);
+}
+
+int tof_settings_save_begin(struct tof_record_store *store, const struct tof_settings *s) {
+    if (store == NULL || store->storage.ops == NULL) {
+        return HAL_ERR_STATE;
+    }
+    uint8_t section[SECTION_HEADER + TOF_SETTINGS_LENGTH];
+    encode(s, section);
+    int rc = HAL_OK;
+    const uint32_t len = new_payload(store, section, save_payload, &rc);
+    return rc != HAL_OK ? rc : tof_record_save_begin(store, save_payload, (uint16_t)len);
 }

@@ -1,5 +1,6 @@
 /* host_sim's command line: subcommands, their options and their --help (cli.h). */
 #include "cli.h"
+#include "telemetry/tlm_command_text.h"
 
 #include <errno.h>
 #include <stdio.h>
@@ -131,6 +132,10 @@ static const char replay_help[] =
     "                       above 1360 mm and its period admits long mode, else short\n"
     "  --calibration F      the head's calibration, a HEAD.cal (docs/calibration.md); wins\n"
     "                       over the trace's keys; neither: an uncalibrated head, never ok\n"
+    "  --command ROW:TEXT   a host's command (tools/tof_telemetry.py --send syntax: set-window\n"
+    "                       50 sliding, estimator kalman, process-noise auto, raw on, ...)\n"
+    "                       to the firmware's link at 115200 Bd when row ROW's slot is half\n"
+    "                       over; repeatable, in order (DESIGN.md section 6)\n"
     "  --quiet              no summary table on stdout\n"
     "  --help, -h           this text\n"
     "exit status: 0 done, 1 bad input or a failed run, 2 bad command line\n";
@@ -277,6 +282,20 @@ int cli_parse_replay(int argc, char **argv, struct replay_args *out) {
                 return usage_error(cmd, "--distance-mode: expected short or long", v);
             }
             out->distance_mode = (unsigned)mode;
+        } else if (strcmp(arg, "--command") == 0) {
+            if ((v = option_value(cmd, argc, argv, &i)) == NULL) {
+                return -1;
+            }
+            if (out->command_count == sizeof out->commands / sizeof out->commands[0]) {
+                return usage_error(cmd, "--command: 16 at most", v);
+            }
+            uint32_t row = 0;
+            struct tlm_command parsed;
+            const char *why = tlm_command_from_arg(v, &row, &parsed);
+            if (why != NULL) {
+                return usage_error(cmd, why, v);
+            }
+            out->commands[out->command_count++] = v; /* encoded by the replay */
         } else if (strcmp(arg, "--quiet") == 0) {
             out->quiet = true;
         } else if (arg[0] == '-' && arg[1] != '\0') {

@@ -39,6 +39,8 @@ struct replay_args {
     unsigned distance_mode;       /* --distance-mode: 0 unset (the trace's, else from its
                                      readings), else enum vl53_distance_mode */
     const char *calibration_path; /* --calibration HEAD.cal (wins over the trace's keys) */
+    const char *commands[16]; /* --command ROW:TEXT, in order (replay_commands.h parses) */
+    unsigned command_count;
 };
 
 struct scenario_args {

@@ -25,10 +25,14 @@ static void on_estimate(void *ctx, const struct tof_estimate_record *record) {
     struct replay *r = ctx;
     const struct attitude_output *out = &record->output;
     int rc = 0;
-    const struct scene_row *row = scene_row_stream_get(&r->stream, out->last_row, &rc);
+    /* The window's last sample from its time (the end of its slot, firmware/src/assembler.c),
+     * not from the estimator's row count: a set-window command starts that again. */
+    const uint64_t period_us = r->app.assembler_cfg.period_us;
+    const uint64_t index = (record->t_us - r->app.assembler.origin_us) / period_us - 1u;
+    const struct scene_row *row = scene_row_stream_get(&r->stream, index, &rc);
     if (row == NULL) {
-        fprintf(stderr, "host_sim replay: internal: trace row %u no longer available\n",
-                out->last_row);
+        fprintf(stderr, "host_sim replay: internal: trace row %llu no longer available\n",
+                (unsigned long long)index);
         r->failed = 1;
         return;
     }
@@ -254,9 +258,21 @@ static int run(struct replay *r) {
         return -1;
     }
     sim_replay_set_origin(&r->sim, r->app.assembler.origin_us);
+    for (unsigned k = 0; k < r->args->command_count; ++k) {
+        (void)replay_commands_add(&r->commands, r->args->commands[k]); /* checked by the cli */
+    }
+    replay_commands_start(&r->commands, &r->app, &r->sim.rig.clock, r->app.assembler.origin_us,
+                          r->app.assembler_cfg.period_us);
     r->recovery_us = -1;
     for (;;) {
         tof_app_step(&r->app, true);
+        replay_commands_poll(&r->commands);
+        if (!r->app.raw_output) {
+            /* `raw off` by --command: the samples no longer reach on_sample (nor the
+             * statistics); count those the firmware has processed. */
+            const uint64_t done = r->app.counters.samples - r->app.deferred_count;
+            r->samples_done = done > r->samples_done ? done : r->samples_done;
+        }
         track_fault_stop(r);
         if (r->stream.end < 0) {
             /* The reader's message names file, line and column; the stream's says where

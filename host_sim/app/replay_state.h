@@ -14,6 +14,7 @@
 #include "i2c_log.h"
 #include "calibrate/cal_apply.h"
 #include "replay_mode.h"
+#include "replay_commands.h"
 #include "replay_plot.h"
 #include "replay_stats.h"
 #include "scene/row_source.h"
@@ -50,6 +51,7 @@ struct replay {
     struct sim_flash flash;          /* the simulated record storage, the calibration in it */
     struct tof_record_store records; /* over it, what the firmware's boot reads */
     int cal_state;                   /* enum tof_cal_state the boot found */
+    struct replay_commands commands; /* --command: a host's commands through the link */
 };
 
 #endif /* HOST_SIM_REPLAY_STATE_H */

@@ -44,10 +44,23 @@ static bool locked(void) {
     return (fake_flash.regs[STM32_FLASH_CR / 4u] & STM32_FLASH_CR_LOCK) != 0u;
 }
 
+/* A page erase as a user of the driver waits for one: started, then polled to its end (the
+ * driver has no blocking erase: the firmware never waits ~22 ms for one). */
+static int erase(uint16_t page) {
+    int rc = rec.ops->erase_start(rec.ctx, page);
+    for (unsigned n = 0; rc == HAL_OK && n < 1000000u; ++n) {
+        const int p = rec.ops->erase_poll(rec.ctx);
+        if (p != HAL_ERR_NOT_READY) {
+            return p;
+        }
+    }
+    return rc == HAL_OK ? HAL_ERR_TIMEOUT : rc;
+}
+
 static void test_erase_follows_the_sequence(void **state) {
     (void)state;
     memset(fake_flash.mem[1], 0x00, FAKE_FLASH_PAGE_SIZE);
-    assert_int_equal(rec.ops->erase(rec.ctx, 1u), HAL_OK);
+    assert_int_equal(erase(1u), HAL_OK);
     assert_int_equal(fake_flash.erases, 1u);
     const uint32_t cr = fake_flash.last_erase_cr;
     assert_true((cr & STM32_FLASH_CR_PER) != 0u);
@@ -61,8 +74,19 @@ static void test_erase_follows_the_sequence(void **state) {
     assert_true(fake_flash.dcache_reset);
     assert_int_equal(fake_flash.regs[STM32_FLASH_SR / 4u], 0u); /* EOP cleared */
     assert_int_equal(fake_flash.violations, 0u);
-    assert_int_equal(rec.ops->erase(rec.ctx, 2u), HAL_ERR_INVALID);
-    assert_int_equal(fake_flash.erases, 1u);
+    assert_int_equal(erase(2u), HAL_ERR_INVALID);
+    /* started, the erase runs while the caller goes on: BSY polled, one erase at a time */
+    assert_int_equal(rec.ops->erase_start(rec.ctx, 0u), HAL_OK);
+    assert_int_equal(rec.ops->erase_poll(rec.ctx), HAL_ERR_NOT_READY);
+    assert_int_equal(rec.ops->erase_start(rec.ctx, 1u), HAL_ERR_INVALID);
+    int rc = HAL_ERR_NOT_READY;
+    for (unsigned n = 0; rc == HAL_ERR_NOT_READY && n < 100u; ++n) {
+        rc = rec.ops->erase_poll(rec.ctx);
+    }
+    assert_int_equal(rc, HAL_OK);
+    assert_true(locked());
+    assert_int_equal(rec.ops->erase_poll(rec.ctx), HAL_OK); /* nothing started */
+    assert_int_equal(fake_flash.erases, 2u);
 }
 
 static void test_program_then_read_back(void **state) {
@@ -107,9 +131,9 @@ static void test_stale_flags_are_cleared_and_new_ones_reported(void **state) {
     (void)state;
     /* an earlier operation's PGSERR would block the next one on the part: cleared first */
     fake_flash.regs[STM32_FLASH_SR / 4u] = STM32_FLASH_SR_PGSERR | STM32_FLASH_SR_EOP;
-    assert_int_equal(rec.ops->erase(rec.ctx, 0u), HAL_OK);
+    assert_int_equal(erase(0u), HAL_OK);
     fake_flash.inject_sr = STM32_FLASH_SR_WRPERR; /* the page is write protected */
-    assert_int_equal(rec.ops->erase(rec.ctx, 0u), HAL_ERR_DEVICE);
+    assert_int_equal(erase(0u), HAL_ERR_DEVICE);
     assert_int_equal(flash.last_sr_errors, STM32_FLASH_SR_WRPERR);
     assert_int_equal(fake_flash.regs[STM32_FLASH_SR / 4u], 0u);
     const uint8_t data[8] = {0};
@@ -123,7 +147,7 @@ static void test_busy_for_ever_times_out(void **state) {
     (void)state;
     fake_flash.busy_reads = UINT32_MAX;
     const uint32_t t0 = fake.time.now;
-    assert_int_equal(rec.ops->erase(rec.ctx, 0u), HAL_ERR_TIMEOUT);
+    assert_int_equal(erase(0u), HAL_ERR_TIMEOUT);
     assert_true(fake.time.now - t0 <= 2u * 40000u + 10u); /* its budget, not for ever */
     assert_int_equal(fake_flash.violations, 0u);          /* CR left alone while busy */
 }
@@ -131,7 +155,7 @@ static void test_busy_for_ever_times_out(void **state) {
 static void test_wrong_key_leaves_it_locked(void **state) {
     (void)state;
     fake_flash.locked_until_reset = true; /* a stray KEYR write earlier */
-    assert_int_equal(rec.ops->erase(rec.ctx, 0u), HAL_ERR_DEVICE);
+    assert_int_equal(erase(0u), HAL_ERR_DEVICE);
     assert_int_equal(fake_flash.erases, 0u);
 }
 

@@ -23,7 +23,14 @@
 #define FLIGHT_ARM_UM    30000
 #define FLIGHT_PERIOD_MS 20u
 
-#define TOF_TWIN_COMMANDS 16u
+#define TOF_TWIN_COMMANDS      32u
+#define TOF_TWIN_USER_COMMANDS 16u /* --command ROW:TEXT */
+
+/* A --command: its row and the command its TEXT parsed into (telemetry/tlm_command_text.h). */
+struct user_command {
+    uint32_t row;
+    struct tlm_command cmd;
+};
 
 /* One command the host sends and its answer. */
 struct host_command {
@@ -47,6 +54,8 @@ struct args {
     const char *calibration; /* --calibration HEAD.cal: preloaded as the record's section 2 */
     uint32_t spurious_berr_ppm;
     double max_sim_s;
+    struct user_command commands[TOF_TWIN_USER_COMMANDS]; /* --command, in order */
+    unsigned ncommands;
 };
 
 struct run {
@@ -71,12 +80,14 @@ struct run {
      * rate (again after a reset if the boot's settings differ), with --save a `save` once that
      * is acknowledged, and with --late-command a status request halfway through the trace. */
     struct host_command cmds[TOF_TWIN_COMMANDS];
-    unsigned ncmds;    /* queued or sent */
-    unsigned nsent;    /* of them sent */
-    unsigned next_ack; /* the command whose answer comes next if they come in order */
-    uint8_t next_seq;  /* sequence number of the next command */
-    bool mid_sent;     /* the status request halfway through the trace */
-    uint64_t now_ps;   /* when the byte being decoded ended */
+    unsigned ncmds;       /* queued or sent */
+    unsigned nsent;       /* of them sent */
+    unsigned next_ack;    /* the command whose answer comes next if they come in order */
+    uint8_t next_seq;     /* sequence number of the next command */
+    bool mid_sent;        /* the status request halfway through the trace */
+    unsigned user_queued; /* --command commands queued so far */
+    uint64_t slot0_fw_us; /* the boot's slot 0 on the firmware's timeline (start_boot) */
+    uint64_t now_ps;      /* when the byte being decoded ended */
     uint32_t commands_sent, commands_acked, commands_out_of_order, commands_unmatched;
     uint32_t commands_lost;      /* sent, unanswered when the MCU reset (a power cut in `save`) */
     uint64_t ack_latency_max_ps; /* last byte of a command to the end of its answer */

@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "telemetry/tlm_command_text.h"
 #include "tof_twin.h"
 
 static void usage(FILE *f) {
@@ -14,7 +15,7 @@ static void usage(FILE *f) {
           "                [--coverage FILE] [--report FILE.json] [--hsi-fail]\n"
           "                [--spurious-berr PPM] [--max-sim-s S] [--late-command]\n"
           "                [--save] [--flash-cut N] [--flash-in FILE] [--flash-out FILE]\n"
-          "                [--calibration HEAD.cal]\n",
+          "                [--calibration HEAD.cal] [--command ROW:TEXT]...\n",
           f);
 }
 
@@ -51,6 +52,15 @@ static int value_option(const char *o, char **argv, int *i, struct args *a) {
             return -1;
         }
         a->sliding = strcmp(m, "sliding") == 0;
+    } else if (strcmp(o, "--command") == 0) {
+        const char *why = a->ncommands == TOF_TWIN_USER_COMMANDS ? "too many --command" : NULL;
+        struct user_command *c = &a->commands[a->ncommands];
+        why = why != NULL ? why : tlm_command_from_arg(argv[++*i], &c->row, &c->cmd);
+        if (why != NULL) {
+            fprintf(stderr, "tof_twin: --command '%s': %s\n", argv[*i], why);
+            return -1;
+        }
+        ++a->ncommands;
     } else if (strcmp(o, "--faults") == 0) {
         a->faults = argv[++*i];
     } else if (strcmp(o, "--seed") == 0) {
@@ -116,8 +126,8 @@ static int check_settings(const struct args *a) {
         fprintf(stderr,
                 "tof_twin: --window %u --mode %s: the flight image starts with window %u, "
                 "tumbling; other settings arrive by command after boot, and its rows would not "
-                "be host_sim's (docs/boards.md). Replay them with host_sim, or pass "
-                "--late-command to run the command path anyway\n",
+                "be host_sim's (docs/boards.md). Send them as a host would, to both tools: "
+                "--command 0:'set-window N MODE' (DESIGN.md §6), or pass --late-command\n",
                 a->window, a->sliding ? "sliding" : "tumbling", FLIGHT_WINDOW);
         return -1;
     }

@@ -117,9 +117,14 @@ static void on_estimate(struct run *r, const struct tlm_estimate *m) {
         return;
     }
     ++r->estimates;
-    const unsigned n = r->a.window;
-    const int64_t fw_row =
-        r->a.sliding ? (int64_t)m->window_index : ((int64_t)m->window_index + 1) * (int64_t)n - 1;
+    /* The window's last sample from its time (the end of its slot on the firmware's
+     * timeline, firmware/src/assembler.c), not from its index: a set-window command starts
+     * the count again, the slots go on. */
+    const uint64_t t_us = (uint64_t)m->t_ms * 1000u;
+    if (t_us < r->slot0_fw_us + r->w.period_us) {
+        return;
+    }
+    const int64_t fw_row = (int64_t)((t_us - r->slot0_fw_us) / r->w.period_us) - 1;
     const int64_t row = fw_row + r->w.boot_row;
     if (row < 0 || (uint64_t)row >= r->row_count) {
         return; /* about samples past the end of the trace */
@@ -153,8 +158,10 @@ static void on_estimate(struct run *r, const struct tlm_estimate *m) {
         exit(1);
     }
     ++r->written;
-    /* host_sim's check: an ok estimate more than 5x its window's bound from the truth. */
-    if (e.status == ATTITUDE_OK && !r->a.sliding) {
+    /* host_sim's check: an ok estimate more than 5x its window's bound from the truth (the
+     * options' window: not after a --command, which may have changed it). */
+    if (e.status == ATTITUDE_OK && !r->a.sliding && r->user_queued == 0u) {
+        const unsigned n = r->a.window;
         ++r->ok_rows;
         double sd_a = 0, sd_b = 0;
         const struct scene_row *lr = &r->rows[row];
@@ -188,6 +195,7 @@ static void start_boot(struct run *r, const struct tlm_status *st) {
         return;
     }
     const uint64_t slot0_fw_us = ((uint64_t)st->uptime_ms / period_ms + 2u) * period_ms * 1000u;
+    r->slot0_fw_us = slot0_fw_us;
     twin_world_start_boot(&r->w, r->t.scs.syst_enabled_ps / 1000000u + slot0_fw_us);
 }
 
@@ -225,6 +233,9 @@ static void on_frame(void *ctx, const struct tlm_frame *frame) {
     switch (msg.type) {
     case TLM_TYPE_STATUS: {
         const struct tlm_status *st = &msg.u.status;
+        if (r->t.stats.resets == r->status_resets && r->user_queued > 0u) {
+            break; /* after a --command the settings are the user's: nothing to compare */
+        }
         if (r->t.stats.resets == r->status_resets) {
             /* A status request's answer: are the settings the options' now? */
             const bool same = st->window_n == r->a.window &&
@@ -287,6 +298,15 @@ void tof_twin_host_poll(void *ctx) {
         const struct tlm_command cmd = {.type = TLM_TYPE_STATUS_REQUEST};
         queue_command(r, &cmd);
         r->mid_sent = true;
+    }
+    /* --command ROW:TEXT: when row ROW's slot is half over (its readings taken, row ROW + 1's
+     * not yet: host_sim's replay_commands.c sends them at the same instant), every command
+     * due then in one write. */
+    while (r->user_queued < r->a.ncommands && r->w.origin_set &&
+           twin_now_us(&r->t) >= r->w.origin_us +
+                                     (uint64_t)r->a.commands[r->user_queued].row * r->w.period_us +
+                                     r->w.period_us / 2u) {
+        queue_command(r, &r->a.commands[r->user_queued++].cmd);
     }
     if (r->nsent < r->ncmds) {
         send_queued(r);

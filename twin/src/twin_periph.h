@@ -27,6 +27,8 @@ struct twin_rcc {
     uint32_t cr, icscr, cfgr, pllcfgr, ahb1enr, ahb2enr, ahb3enr, apb1enr1, apb1enr2, apb2enr;
     uint32_t ccipr, bdcr, csr;
     uint64_t hsi_ready_ps; /* HSIRDY rises then (UINT64_MAX: HSI off) */
+    uint64_t pll_ready_ps; /* PLLRDY rises then (UINT64_MAX: PLL off or not locking) */
+    uint32_t pll_r_hz;     /* PLLCLK (the R output) of the configuration locked last */
     bool hsi_broken;       /* test hook: HSI16 never becomes ready */
 };
 struct twin_flash_if {

@@ -10,7 +10,7 @@ set(runs
   "--strict --spurious-berr 20000"
   "--strict --window 50 --mode sliding --late-command"
   "--strict --window 50 --mode sliding --late-command --save --max-sim-s 3"
-  "--strict --window 60 --late-command --save --flash-cut 5 --max-sim-s 3"
+  "--strict --window 60 --late-command --save --flash-cut 4 --max-sim-s 3"
   "--strict --hsi-fail --max-sim-s 0.3")
 set(files "")
 set(k 0)

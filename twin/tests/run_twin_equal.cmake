@@ -30,13 +30,14 @@ if(DEFINED TRACE_META)
   file(WRITE ${OUT}/trace.csv "${text}")
   set(TRACE ${OUT}/trace.csv)
 endif()
-execute_process(COMMAND ${HOST_SIM} replay ${TRACE} --estimator ${EST} --out ${OUT}/host_sim.csv
-                        ${HOST_ARGS}
+# CMDS: "--command;ROW:TEXT;..." given to both (DESIGN.md §6): a host's commands at a row.
+execute_process(COMMAND ${HOST_SIM} replay ${TRACE} --estimator ${EST} ${CMDS}
+                        --out ${OUT}/host_sim.csv ${HOST_ARGS}
                 RESULT_VARIABLE rc OUTPUT_QUIET)
 if(NOT rc EQUAL 0)
   message(FATAL_ERROR "host_sim replay failed (${rc})")
 endif()
-execute_process(COMMAND ${TWIN} ${ELF} ${TRACE} --estimator ${EST} --strict ${TWIN_ARGS}
+execute_process(COMMAND ${TWIN} ${ELF} ${TRACE} --estimator ${EST} --strict ${TWIN_ARGS} ${CMDS}
                         --out ${OUT}/twin.csv --report ${OUT}/report.json
                 RESULT_VARIABLE rc ERROR_VARIABLE err)
 message("${err}")
@@ -110,4 +111,24 @@ if(DEFINED EXPECT_CAL)
     message(FATAL_ERROR "EST.csv files differ byte for byte")
   endif()
 endif()
-message(STATUS "twin == host_sim: ${na} rows (${EST} ${TWIN_ARGS})")
+if(CMDS)
+  # Every command sent was acknowledged, and the loop kept its budget while they ran.
+  file(READ ${OUT}/report.json rep)
+  string(REGEX MATCH "\"commands_sent\": ([0-9]+)" m "${rep}")
+  set(sent ${CMAKE_MATCH_1})
+  string(REGEX MATCH "\"commands_acked\": ([0-9]+)" m "${rep}")
+  if(NOT sent GREATER 0 OR NOT CMAKE_MATCH_1 EQUAL sent)
+    message(FATAL_ERROR "commands: ${sent} sent, ${CMAKE_MATCH_1} acknowledged")
+  endif()
+  string(REGEX MATCH "\"loop_max_us\": ([0-9]+)" m "${rep}")
+  if(CMAKE_MATCH_1 GREATER 10000)
+    message(FATAL_ERROR "worst loop ${CMAKE_MATCH_1} us, over half the 20 ms period")
+  endif()
+  foreach(key loop_overruns tx_dropped uart_overruns rows_missing watchdog_resets)
+    string(REGEX MATCH "\"${key}\": ([0-9]+)" m "${rep}")
+    if(NOT CMAKE_MATCH_1 EQUAL 0)
+      message(FATAL_ERROR "${key} = ${CMAKE_MATCH_1}, expected 0")
+    endif()
+  endforeach()
+endif()
+message(STATUS "twin == host_sim: ${na} rows (${EST} ${TWIN_ARGS} ${CMDS})")

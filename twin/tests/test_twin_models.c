@@ -173,6 +173,57 @@ static void test_clock_switch_waits_for_ready(void) {
     CHECK(T.sysclk_hz == TWIN_HSI16_HZ);
 }
 
+#define RCC_PLLCFGR (TWIN_RCC_BASE + 0x0Cu)
+#define FLASH_ACR   0x40022000u
+#define PLL_32MHZ   (2u | (8u << 8) | (1u << 25)) /* HSI16 / 1 x 8 / 4 */
+#define PLLREN      (1u << 24)
+
+/* Bring HSI16 up and the PLL to lock with `cfg` (RM0351 §6.2.5). */
+static void pll_lock(uint32_t cfg) {
+    w32(RCC_CR, r32(RCC_CR) | (1u << 8));
+    (void)r32(RCC_CR); /* HSIRDY */
+    w32(RCC_PLLCFGR, cfg);
+    w32(RCC_CR, r32(RCC_CR) | (1u << 24));
+    CHECK((r32(RCC_CR) & (1u << 25)) != 0u); /* the lock poll jumps to PLLRDY */
+    w32(RCC_PLLCFGR, cfg | PLLREN);
+}
+
+/* The PLL as the RM0351 sequence has it: locked, R output enabled, wait states first. */
+static void test_pll_sequence(void) {
+    fresh(true);
+    pll_lock(PLL_32MHZ);
+    CHECK(T.stop == TWIN_RUNNING);
+    w32(FLASH_ACR, 0x600u | 1u); /* 1 WS up to 32 MHz (RM0351 Table 12) */
+    w32(RCC_CFGR, 3u);
+    CHECK((r32(RCC_CFGR) & 0xCu) == 0xCu);
+    CHECK(T.sysclk_hz == 32000000u);
+    CHECK(T.stop == TWIN_RUNNING);
+    w32(RCC_PLLCFGR, PLL_32MHZ | PLLREN | (1u << 4)); /* M changed with the PLL on */
+    CHECK(T.stop == TWIN_STOP_VIOLATION);
+    /* Raising the clock before the wait states. */
+    fresh(true);
+    pll_lock(PLL_32MHZ);
+    w32(RCC_CFGR, 3u);
+    CHECK(T.stop == TWIN_STOP_VIOLATION && strstr(T.stop_msg, "LATENCY") != NULL);
+    /* Selected without PLLREN: no switch, a violation. */
+    fresh(true);
+    w32(RCC_CR, r32(RCC_CR) | (1u << 8));
+    (void)r32(RCC_CR);
+    w32(RCC_PLLCFGR, PLL_32MHZ);
+    w32(RCC_CR, r32(RCC_CR) | (1u << 24));
+    (void)r32(RCC_CR);
+    w32(FLASH_ACR, 0x601u);
+    w32(RCC_CFGR, 3u);
+    CHECK(T.stop == TWIN_STOP_VIOLATION && T.sysclk_hz == TWIN_MSI_HZ);
+    /* A VCO below 64 MHz (16 x 2) never locks. */
+    fresh(true);
+    w32(RCC_CR, r32(RCC_CR) | (1u << 8));
+    (void)r32(RCC_CR);
+    w32(RCC_PLLCFGR, 2u | (2u << 8));
+    w32(RCC_CR, r32(RCC_CR) | (1u << 24));
+    CHECK(T.stop == TWIN_STOP_VIOLATION && (r32(RCC_CR) & (1u << 25)) == 0u);
+}
+
 #define USART_CR1 (TWIN_USART2_BASE + 0x00u)
 #define USART_BRR (TWIN_USART2_BASE + 0x0Cu)
 #define USART_ISR (TWIN_USART2_BASE + 0x1Cu)
@@ -294,6 +345,7 @@ int main(void) {
     test_world_clock_follows_a_write();
     test_systick_counts_cycles();
     test_clock_switch_waits_for_ready();
+    test_pll_sequence();
     test_reserved_address_is_a_violation();
     test_usart_interrupts_and_overrun();
     test_flash_rules();

@@ -69,6 +69,9 @@ struct tof_app_counters {
     uint32_t estimates; /* estimate records emitted */
 };
 
+/* Assembled samples one iteration can hold back for the next (struct tof_app, deferred). */
+#define TOF_APP_DEFERRED 4u
+
 struct tof_app {
     const struct tof_platform *platform;
     const struct tof_app_config *cfg;
@@ -87,6 +90,11 @@ struct tof_app {
     uint64_t uptime_us;     /* 64-bit extension of the platform's 32-bit microsecond clock */
     uint32_t last_raw_us;
     bool raw_output;
+    /* Samples assembled during the sensor reads, estimated in the iterations after them
+     * (tof_app_step): the reads and a window's end (~200k instructions at N = 255) are
+     * never one iteration. A ring; when full, a sample is estimated at once. */
+    struct tof_sample deferred[TOF_APP_DEFERRED];
+    uint8_t deferred_head, deferred_count;
     int estimator_error; /* attitude_error of the estimator's last refusal at init, or 0 */
     struct tof_app_counters counters;
 };

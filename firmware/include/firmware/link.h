@@ -63,6 +63,10 @@ struct tof_link {
     uint8_t cal_state;                 /* enum tof_cal_state found at start, in status */
     struct tof_rezero rezero;          /* a re-zero collecting samples (wanted 0: none) */
     bool rezero_raw;                   /* the raw stream the user had before it */
+    /* A `save` under way (its record written in steps across polls, tof_record_step): its
+     * answer goes out once the new copy is in use. */
+    bool save_pending;
+    uint8_t save_seq;
 };
 
 /* Start a link over `serial`. */

@@ -49,6 +49,11 @@ struct tof_record_store {
     uint16_t length;   /* payload bytes of the copy in use */
     uint8_t payload[TOF_RECORD_PAYLOAD_MAX];
     uint8_t image[TOF_RECORD_IMAGE_MAX]; /* a copy being read or written */
+    /* A save in steps (tof_record_save_begin, tof_record_step): */
+    uint8_t step;   /* what the next tof_record_step() does (record.c; 0: nothing) */
+    uint8_t target; /* index into page[] of the copy being written */
+    uint16_t save_len;
+    uint32_t save_seq, save_size;
 };
 
 /*
@@ -71,5 +76,28 @@ enum tof_record_state tof_record_load(struct tof_record_store *store);
  * (erasing the old copy), the new record then in use all the same.
  */
 int tof_record_save(struct tof_record_store *store, const uint8_t *payload, uint16_t len);
+
+/*
+ * The same save in steps, so that no main-loop iteration waits for a page erase (~22 ms on
+ * the STM32L4, longer than a sample period) when the storage can erase in the background
+ * (hal_records erase_start). Begin copies `payload` (the caller's buffer is free at once);
+ * each tof_record_step() then does one thing: look whether the other page is blank, start
+ * or poll its erase, program and verify the copy (~1.5 ms), start or poll the old page's
+ * erase. HAL_OK from begin, or HAL_ERR_INVALID as tof_record_save (HAL_ERR_STATE while a
+ * new copy is still being written). A begin while the previous save's old page is still
+ * being erased waits for that erase: it is the page the new copy goes to.
+ */
+int tof_record_save_begin(struct tof_record_store *store, const uint8_t *payload, uint16_t len);
+
+/*
+ * Advance the save under way. HAL_ERR_NOT_READY while its new copy is not yet in use;
+ * HAL_OK once it is (also when no save is under way; the old page's erase may still go on:
+ * keep calling while tof_record_busy()); a storage error once, the save then abandoned
+ * with the old copy still in use (or, for the old page's erase, the new one in use).
+ */
+int tof_record_step(struct tof_record_store *store);
+
+/* A save or its old page's erase is still under way. */
+bool tof_record_busy(const struct tof_record_store *store);
 
 #endif /* FIRMWARE_RECORD_H */

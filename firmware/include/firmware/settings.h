@@ -77,4 +77,8 @@ enum tof_record_state tof_settings_boot(struct tof_record_store *store, struct t
  * storage, HAL_ERR_INVALID if they do not fit, or tof_record_save()'s error. */
 int tof_settings_save(struct tof_record_store *store, const struct tof_settings *s);
 
+/* As tof_settings_save(), in steps: begins the record's save (tof_record_save_begin), which
+ * the caller then advances with tof_record_step() from its main loop. */
+int tof_settings_save_begin(struct tof_record_store *store, const struct tof_settings *s);
+
 #endif /* FIRMWARE_SETTINGS_H */

@@ -30,13 +30,21 @@ struct hal_records_ops {
     int (*read)(void *ctx, uint16_t page, uint32_t offset, uint8_t *out, size_t len);
     /* Erase `page` to erased_byte. HAL_OK; HAL_ERR_INVALID for a page out of range;
      * HAL_ERR_TIMEOUT when the memory stayed busy past its bound; HAL_ERR_DEVICE when it
-     * reported an error (write protection, sequence error). */
+     * reported an error (write protection, sequence error). NULL when erase_start and
+     * erase_poll below are given (a user then waits by polling). */
     int (*erase)(void *ctx, uint16_t page);
     /* Program `len` bytes of `data` at `offset` of `page`. `offset` and `len` must be
      * multiples of program_granule (HAL_ERR_INVALID otherwise, nothing written), and the
      * granules must be erased: a granule that is not fails with HAL_ERR_DEVICE, as the
      * memory reports it (granules before it are programmed). HAL_ERR_TIMEOUT as erase. */
     int (*program)(void *ctx, uint16_t page, uint32_t offset, const uint8_t *data, size_t len);
+    /* Optional (NULL: only the blocking erase above; one of the two ways is given). Start erasing
+     * `page` and return at once: HAL_OK, or erase's errors (nothing started). erase_poll() then
+     * returns HAL_ERR_NOT_READY while it runs, HAL_OK once it ended well, erase's errors else (and
+     * HAL_OK when no erase was started). No other op may be called in between. What lets
+     * a record save go on across main-loop iterations instead of blocking ~22 ms a page. */
+    int (*erase_start)(void *ctx, uint16_t page);
+    int (*erase_poll)(void *ctx);
 };
 
 struct hal_records {

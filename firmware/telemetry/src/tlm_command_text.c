@@ -1,0 +1,184 @@
+/* A host's command text into a struct tlm_command (telemetry/tlm_command_text.h). */
+#include "telemetry/tlm_command_text.h"
+
+#include <stdbool.h>
+#include <stdint.h>
+#include <string.h>
+
+#define MAX_WORDS 4u
+#define WORD_MAX  24u
+
+struct words {
+    char w[MAX_WORDS][WORD_MAX];
+    unsigned n;
+};
+
+/* Split `text` at spaces into lower-case words; false if too many or one too long. */
+static bool split(const char *text, struct words *out) {
+    out->n = 0;
+    size_t len = 0;
+    for (const char *p = text;; ++p) {
+        const char c = *p;
+        if (c == ' ' || c == '\t' || c == '\0') {
+            if (len > 0u) {
+                out->w[out->n - 1u][len] = '\0';
+                len = 0;
+            }
+            if (c == '\0') {
+                return true;
+            }
+            continue;
+        }
+        if (len == 0u) {
+            if (out->n == MAX_WORDS) {
+                return false;
+            }
+            ++out->n;
+        }
+        if (len + 1u >= WORD_MAX) {
+            return false;
+        }
+        out->w[out->n - 1u][len++] = (c >= 'A' && c <= 'Z') ? (char)(c - 'A' + 'a') : c;
+    }
+}
+
+static bool is(const char *word, const char *a, const char *b) {
+    return strcmp(word, a) == 0 || (b != NULL && strcmp(word, b) == 0);
+}
+
+/* Decimal mm²/s with at most 6 places into um²/s; false if malformed or > UINT32_MAX. */
+static bool intensity(const char *s, size_t len, uint32_t *out) {
+    uint64_t v = 0;
+    unsigned places = 0;
+    bool dot = false, digit = false;
+    for (size_t i = 0; i < len; ++i) {
+        if (s[i] == '.' && !dot) {
+            dot = true;
+            continue;
+        }
+        if (s[i] < '0' || s[i] > '9' || (dot && places == 6u) || v > UINT32_MAX) {
+            return false;
+        }
+        v = v * 10u + (uint64_t)(s[i] - '0');
+        places += dot ? 1u : 0u;
+        digit = true;
+    }
+    for (; places < 6u; ++places) {
+        v *= 10u;
+    }
+    *out = (uint32_t)v;
+    return digit && v <= UINT32_MAX;
+}
+
+static const char *set_window(const struct words *w, struct tlm_command *out) {
+    if (w->n < 2u || w->n > 3u) {
+        return "usage: set-window N [tumbling|sliding]";
+    }
+    unsigned n = 0;
+    for (const char *p = w->w[1]; *p != '\0'; ++p) {
+        if (*p < '0' || *p > '9' || n > TLM_WINDOW_MAX) {
+            return "set-window: N is not an integer 2..255";
+        }
+        n = n * 10u + (unsigned)(*p - '0');
+    }
+    if (n < TLM_WINDOW_MIN || n > TLM_WINDOW_MAX) {
+        return "set-window: N is not an integer 2..255";
+    }
+    out->type = TLM_TYPE_SET_WINDOW;
+    out->u.set_window.window_n = (uint16_t)n;
+    out->u.set_window.mode = TLM_WINDOW_TUMBLING;
+    if (w->n == 3u && strcmp(w->w[2], "sliding") == 0) {
+        out->u.set_window.mode = TLM_WINDOW_SLIDING;
+    } else if (w->n == 3u && strcmp(w->w[2], "tumbling") != 0) {
+        return "set-window: the mode is tumbling or sliding";
+    }
+    return NULL;
+}
+
+static const char *estimator(const struct words *w, struct tlm_command *out) {
+    static const char *const names[] = {"consensus", "consensus-paper", "kalman", "mean"};
+    if (w->n != 2u) {
+        return "usage: estimator consensus|consensus-paper|kalman|mean";
+    }
+    for (unsigned e = 0; e < sizeof names / sizeof names[0]; ++e) {
+        if (strcmp(w->w[1], names[e]) == 0) {
+            out->type = TLM_TYPE_SELECT_ESTIMATOR;
+            out->u.estimator = (uint8_t)e; /* enum tlm_estimator, in this order */
+            return NULL;
+        }
+    }
+    return "estimator: one of consensus, consensus-paper, kalman, mean";
+}
+
+static const char *process_noise(const struct words *w, struct tlm_command *out) {
+    if (w->n != 2u) {
+        return "usage: process-noise QD,QT|auto";
+    }
+    out->type = TLM_TYPE_SET_PROCESS_NOISE;
+    out->u.process_noise.qd_um2_per_s = 0u;
+    out->u.process_noise.qt_um2_per_s = 0u;
+    out->u.process_noise.flags = 0u;
+    if (strcmp(w->w[1], "auto") == 0) {
+        out->u.process_noise.flags = TLM_PROCESS_NOISE_AUTO;
+        return NULL;
+    }
+    const char *comma = strchr(w->w[1], ',');
+    if (comma == NULL ||
+        !intensity(w->w[1], (size_t)(comma - w->w[1]), &out->u.process_noise.qd_um2_per_s) ||
+        !intensity(comma + 1, strlen(comma + 1), &out->u.process_noise.qt_um2_per_s)) {
+        return "process-noise: QD,QT in mm^2/s (at most 6 decimals, <= 4294.967295) or auto";
+    }
+    return NULL;
+}
+
+const char *tlm_command_from_text(const char *text, struct tlm_command *out) {
+    struct words w;
+    memset(out, 0, sizeof *out);
+    if (text == NULL || !split(text, &w) || w.n == 0u) {
+        return "empty or overlong command";
+    }
+    const char *verb = w.w[0];
+    if (is(verb, "set-window", NULL)) {
+        return set_window(&w, out);
+    }
+    if (is(verb, "estimator", "select-estimator")) {
+        return estimator(&w, out);
+    }
+    if (is(verb, "process-noise", "set-process-noise")) {
+        return process_noise(&w, out);
+    }
+    if (is(verb, "raw", "raw-stream")) {
+        out->type = TLM_TYPE_RAW_STREAM;
+        out->u.raw_enable = w.n == 2u && strcmp(w.w[1], "on") == 0;
+        return w.n == 2u && (out->u.raw_enable || strcmp(w.w[1], "off") == 0) ? NULL
+                                                                              : "usage: raw on|off";
+    }
+    static const struct {
+        const char *a, *b;
+        uint8_t type;
+    } plain[] = {{"start", NULL, TLM_TYPE_START},
+                 {"stop", NULL, TLM_TYPE_STOP},
+                 {"status", "status-request", TLM_TYPE_STATUS_REQUEST},
+                 {"save", NULL, TLM_TYPE_SAVE}};
+    for (unsigned k = 0; k < sizeof plain / sizeof plain[0]; ++k) {
+        if (is(verb, plain[k].a, plain[k].b)) {
+            out->type = plain[k].type;
+            return w.n == 1u ? NULL : "this command takes no argument";
+        }
+    }
+    return "unknown command (set-window, estimator, start, stop, status, raw, process-noise, "
+           "save)";
+}
+
+const char *tlm_command_from_arg(const char *arg, uint32_t *row, struct tlm_command *out) {
+    uint64_t v = 0;
+    const char *p = arg;
+    for (; p != NULL && *p >= '0' && *p <= '9' && v <= UINT32_MAX; ++p) {
+        v = v * 10u + (uint64_t)(*p - '0');
+    }
+    if (p == NULL || p == arg || *p != ':' || v > UINT32_MAX) {
+        return "expected ROW:TEXT, ROW a trace row number";
+    }
+    *row = (uint32_t)v;
+    return tlm_command_from_text(p + 1, out);
+}
