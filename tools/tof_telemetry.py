@@ -44,7 +44,7 @@ HEADER_SIZE = 5
 CRC_SIZE = 2
 FRAME_OVERHEAD = HEADER_SIZE + CRC_SIZE
 MAX_PAYLOAD = 192
-PROTOCOL_VERSION = 4
+PROTOCOL_VERSION = 5
 
 ACCEPT_COMMANDS = 1
 ACCEPT_TELEMETRY = 2
@@ -63,6 +63,10 @@ T_STATUS_REQUEST = 0x85
 T_RAW_STREAM = 0x86
 T_SET_PROCESS_NOISE = 0x87
 T_SAVE = 0x88
+T_SET_ARM = 0x89              # u32 arm_um: the head's arm a (issue 22)
+T_SET_PERIOD = 0x8A           # u16 period_ms: the sample period (issue 22)
+ARM_MIN_UM, ARM_MAX_UM = 1000, 1000000
+PERIOD_MIN_MS, PERIOD_MAX_MS = 1, 10000
 T_CALIBRATION = 0x10          # the answer to read-calibration
 T_WRITE_CALIBRATION = 0x90    # record section 2, saved and put in force
 T_READ_CALIBRATION = 0x91
@@ -76,7 +80,7 @@ TYPES = {
     T_RAW_SAMPLE: ("raw", ACCEPT_TELEMETRY, 17),
     T_HEALTH: ("health", ACCEPT_TELEMETRY, 148),
     T_ACK: ("ack", ACCEPT_TELEMETRY, 4),
-    T_STATUS: ("status", ACCEPT_TELEMETRY, 18),
+    T_STATUS: ("status", ACCEPT_TELEMETRY, 22),
     T_SET_WINDOW: ("set-window", ACCEPT_COMMANDS, 3),
     T_SELECT_ESTIMATOR: ("select-estimator", ACCEPT_COMMANDS, 1),
     T_START: ("start", ACCEPT_COMMANDS, 0),
@@ -85,6 +89,8 @@ TYPES = {
     T_RAW_STREAM: ("raw-stream", ACCEPT_COMMANDS, 1),
     T_SET_PROCESS_NOISE: ("set-process-noise", ACCEPT_COMMANDS, 9),
     T_SAVE: ("save", ACCEPT_COMMANDS, 0),
+    T_SET_ARM: ("set-arm", ACCEPT_COMMANDS, 4),
+    T_SET_PERIOD: ("set-period", ACCEPT_COMMANDS, 2),
     T_CALIBRATION: ("calibration", ACCEPT_TELEMETRY, 1 + CAL_SECTION_LEN),
     T_WRITE_CALIBRATION: ("write-calibration", ACCEPT_COMMANDS, CAL_SECTION_LEN),
     T_READ_CALIBRATION: ("read-calibration", ACCEPT_COMMANDS, 0),
@@ -335,14 +341,15 @@ def _ack(p):
 
 def _status(p):
     (major, minor, patch, protocol, uptime, window_n, mode, estimator, running, raw,
-     period, record, cal) = struct.unpack("<BBBBIHBBBBHBB", p)
+     period, record, cal, arm) = struct.unpack("<BBBBIHBBBBHBBI", p)
     valid = (protocol == PROTOCOL_VERSION and WINDOW_MIN <= window_n <= WINDOW_MAX
              and mode < len(MODES) and estimator < len(ESTIMATORS) and running <= 1 and raw <= 1
-             and record < len(RECORD_STATES) and cal < len(CAL_STATES))
+             and record < len(RECORD_STATES) and cal < len(CAL_STATES)
+             and ARM_MIN_UM <= arm <= ARM_MAX_UM and PERIOD_MIN_MS <= period <= PERIOD_MAX_MS)
     return valid, {"fw": (major, minor, patch), "protocol": protocol, "uptime_ms": uptime,
                    "window_n": window_n, "mode": mode, "estimator": estimator,
                    "running": running, "raw_stream": raw, "period_ms": period,
-                   "record": record, "calibration": cal}
+                   "record": record, "calibration": cal, "arm_um": arm}
 
 
 def _set_window(p):
@@ -363,6 +370,16 @@ def _set_process_noise(p):
     qd, qt, flags = struct.unpack("<IIB", p)
     return (flags & ~PROCESS_NOISE_AUTO) == 0, {"qd_um2_per_s": qd, "qt_um2_per_s": qt,
                                                 "auto": flags & PROCESS_NOISE_AUTO}
+
+
+def _set_arm(p):
+    arm = struct.unpack("<I", p)[0]
+    return ARM_MIN_UM <= arm <= ARM_MAX_UM, {"arm_um": arm}
+
+
+def _set_period(p):
+    period = struct.unpack("<H", p)[0]
+    return PERIOD_MIN_MS <= period <= PERIOD_MAX_MS, {"period_ms": period}
 
 
 def _empty(_p):
@@ -397,7 +414,8 @@ PARSERS = {T_ESTIMATE: _estimate, T_RAW_SAMPLE: _raw, T_HEALTH: _health, T_ACK: 
            T_STATUS_REQUEST: _empty, T_RAW_STREAM: _raw_stream,
            T_SET_PROCESS_NOISE: _set_process_noise, T_SAVE: _empty,
            T_CALIBRATION: _calibration, T_WRITE_CALIBRATION: _write_calibration,
-           T_READ_CALIBRATION: _empty, T_REZERO: _rezero}
+           T_READ_CALIBRATION: _empty, T_REZERO: _rezero, T_SET_ARM: _set_arm,
+           T_SET_PERIOD: _set_period}
 
 
 def parse(ftype, payload):
@@ -512,11 +530,12 @@ def format_message(ftype, seq, m):
     if ftype == T_STATUS:
         return head + (
             "status fw=%d.%d.%d protocol=%d uptime_ms=%d window_n=%d mode=%s estimator=%s "
-            "running=%s raw_stream=%s period_ms=%d record=%s calibration=%s" % (
+            "running=%s raw_stream=%s period_ms=%d record=%s calibration=%s arm_um=%d" % (
                 m["fw"][0], m["fw"][1], m["fw"][2], m["protocol"], m["uptime_ms"],
                 m["window_n"], MODES[m["mode"]], ESTIMATORS[m["estimator"]],
                 "yes" if m["running"] else "no", "yes" if m["raw_stream"] else "no",
-                m["period_ms"], RECORD_STATES[m["record"]], CAL_STATES[m["calibration"]]))
+                m["period_ms"], RECORD_STATES[m["record"]], CAL_STATES[m["calibration"]],
+                m["arm_um"]))
     if ftype == T_CALIBRATION:
         return head + "calibration state=%s section=%s" % (CAL_STATES[m["state"]],
                                                            m["section"].hex())
@@ -524,6 +543,10 @@ def format_message(ftype, seq, m):
         return head + "write-calibration section=%s" % m["section"].hex()
     if ftype == T_REZERO:
         return head + "re-zero samples=%d" % m["samples"]
+    if ftype == T_SET_ARM:
+        return head + "set-arm arm_um=%d" % m["arm_um"]
+    if ftype == T_SET_PERIOD:
+        return head + "set-period period_ms=%d" % m["period_ms"]
     if ftype == T_SET_WINDOW:
         return head + "set-window window_n=%d mode=%s" % (m["window_n"], MODES[m["mode"]])
     if ftype == T_SELECT_ESTIMATOR:
@@ -553,17 +576,23 @@ def format_intensity(um2_per_s):
 
 # --- commands from text (--send) ---------------------------------------------
 
-def parse_intensity(text):
-    """mm^2/s text ("0.5", "12", "0.000001") as whole um^2/s, or None: exact decimal,
-    at most six places, at most 4294.967295 (a u32 of um^2/s on the wire)."""
+def parse_fixed(text, places):
+    """Decimal text as whole 10^-places units, or None: exact decimal, at most `places`
+    places, at most 0xFFFFFFFF units (a u32 on the wire)."""
     whole, point, frac = text.partition(".")
     if not whole.isdigit() or (point and not frac.isdigit()) or not text.isascii():
         return None
     frac = frac.rstrip("0")
-    if len(frac) > 6:
-        return None  # finer than 1 um^2/s
-    value = int(whole, 10) * UM2_PER_MM2 + int((frac or "0").ljust(6, "0"), 10)
+    if len(frac) > places:
+        return None  # finer than one unit
+    value = int(whole, 10) * 10 ** places + int((frac or "0").ljust(places, "0") or "0", 10)
     return value if value <= 0xFFFFFFFF else None
+
+
+def parse_intensity(text):
+    """mm^2/s text ("0.5", "12", "0.000001") as whole um^2/s, or None: at most six places,
+    at most 4294.967295 (a u32 of um^2/s on the wire)."""
+    return parse_fixed(text, 6)
 
 
 def command_payload(text):
@@ -623,6 +652,17 @@ def command_payload(text):
             raise ProtocolError("'%s': not the 84 bytes of a calibration section in hex"
                                 % text[:60])
         return T_WRITE_CALIBRATION, section
+    if verb in ("set-arm", "set-period"):
+        arm = verb == "set-arm"
+        expect(1, 1, "set-arm MM (1..1000, at most 3 decimals)" if arm
+               else "set-period MS (whole ms, 1..10000)")
+        value = parse_fixed(args[0], 3 if arm else 0)
+        low, high = (ARM_MIN_UM, ARM_MAX_UM) if arm else (PERIOD_MIN_MS, PERIOD_MAX_MS)
+        if value is None or not low <= value <= high:
+            raise ProtocolError("'%s': %s" % (text, "the arm is 1..1000 mm, at most 3 decimals"
+                                              if arm else "the period is 1..10000 whole ms"))
+        return (T_SET_ARM, struct.pack("<I", value)) if arm else (T_SET_PERIOD,
+                                                                   struct.pack("<H", value))
     if verb in ("raw", "raw-stream"):
         expect(1, 1, "raw on|off")
         if args[0].lower() not in ("on", "off"):
@@ -639,8 +679,8 @@ def command_payload(text):
                                 "most 6 places) or auto, got '%s'" % (text, args[0]))
         return T_SET_PROCESS_NOISE, struct.pack("<IIB", values[0], values[1], 0)
     raise ProtocolError("unknown command '%s' (set-window, estimator, start, stop, status, raw, "
-                        "process-noise, save, write-calibration, read-calibration, re-zero)"
-                        % verb)
+                        "process-noise, set-arm, set-period, save, write-calibration, "
+                        "read-calibration, re-zero)" % verb)
 
 
 # The firmware's own codes behind a nack (the ack's `error`): estimator/attitude.h's

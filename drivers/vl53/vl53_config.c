@@ -401,6 +401,17 @@ int vl53_set_timing(struct vl53_dev *dev, const struct vl53_timing *timing) {
     return err;
 }
 
+int vl53_set_timing_next(struct vl53_dev *dev, const struct vl53_timing *timing) {
+    if (!dev_ok(dev) || vl53_timing_check(timing) != HAL_OK) {
+        return HAL_ERR_INVALID;
+    }
+    if (dev->ranging) {
+        return HAL_ERR_STATE;
+    }
+    dev->timing = *timing; /* written by the next vl53_configure_finish() */
+    return HAL_OK;
+}
+
 int vl53_set_distance_mode(struct vl53_dev *dev, enum vl53_distance_mode mode) {
     if (!dev_ok(dev)) {
         return HAL_ERR_INVALID;

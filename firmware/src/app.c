@@ -123,7 +123,7 @@ static void note_error(struct tof_app *app, unsigned sensor, int err) {
     const enum tof_error_scope scope = bus_wide                ? TOF_ERROR_BUS
                                        : err == HAL_ERR_DEVICE ? TOF_ERROR_DEVICE
                                                                : TOF_ERROR_SENSOR;
-    tof_health_on_error(&app->health[sensor], &app->cfg->health, (uint32_t)(app->uptime_us / 1000u),
+    tof_health_on_error(&app->health[sensor], &app->cfg.health, (uint32_t)(app->uptime_us / 1000u),
                         scope);
     if (app->health[sensor].state != before) {
         emit_event(app, TOF_EVENT_HEALTH, sensor, before, app->health[sensor].state, err);
@@ -137,7 +137,7 @@ static void note_error(struct tof_app *app, unsigned sensor, int err) {
 
 static void note_good(struct tof_app *app, unsigned sensor) {
     const enum tof_health_state before = app->health[sensor].state;
-    tof_health_on_good(&app->health[sensor], &app->cfg->health, (uint32_t)(app->uptime_us / 1000u));
+    tof_health_on_good(&app->health[sensor], &app->cfg.health, (uint32_t)(app->uptime_us / 1000u));
     if (app->health[sensor].state != before) {
         emit_event(app, TOF_EVENT_HEALTH, sensor, before, app->health[sensor].state, HAL_OK);
     }
@@ -192,7 +192,7 @@ static void reinit_done(struct tof_app *app, unsigned sensor, int rc) {
         }
     }
     const enum tof_health_state lost = app->health[sensor].state;
-    tof_health_on_reinit_done(&app->health[sensor], &app->cfg->health,
+    tof_health_on_reinit_done(&app->health[sensor], &app->cfg.health,
                               (uint32_t)(app->uptime_us / 1000u), rc == HAL_OK);
     emit_event(app, TOF_EVENT_REINIT, sensor, lost, app->health[sensor].state, rc);
 }
@@ -214,7 +214,7 @@ static bool manage_sensor(struct tof_app *app, unsigned sensor) {
     const uint32_t now_ms = (uint32_t)(app->uptime_us / 1000u);
     const enum tof_health_state before = app->health[sensor].state;
     const enum tof_health_action action =
-        tof_health_poll(&app->health[sensor], &app->cfg->health, now_ms);
+        tof_health_poll(&app->health[sensor], &app->cfg.health, now_ms);
     if (app->health[sensor].state != before) {
         emit_event(app, TOF_EVENT_HEALTH, sensor, before, app->health[sensor].state,
                    HAL_ERR_TIMEOUT);
@@ -244,7 +244,7 @@ static bool manage_sensor(struct tof_app *app, unsigned sensor) {
 
 static uint32_t start_offset_us(const struct tof_app *app) {
     const uint32_t period_us = app->assembler_cfg.period_us;
-    const uint32_t budget_us = (uint32_t)app->cfg->timing.budget_ms * 1000u % period_us;
+    const uint32_t budget_us = (uint32_t)app->cfg.timing.budget_ms * 1000u % period_us;
     return (period_us - budget_us + FIRST_READING_US) % period_us;
 }
 
@@ -253,7 +253,7 @@ static void start_pending_sensors(struct tof_app *app) {
     /* Start only in the idle_us after the start offset, so every sensor's readings end in the
      * same early part of a slot (see start_offset_us). */
     const uint64_t shifted = app->uptime_us + period_us - start_offset_us(app);
-    if (shifted % period_us > app->cfg->idle_us) {
+    if (shifted % period_us > app->cfg.idle_us) {
         return;
     }
     for (unsigned i = 0; i < TOF_SENSORS; ++i) {
@@ -282,8 +282,7 @@ static uint32_t idle_time_us(const struct tof_app *app, uint64_t now_us) {
     if (app->deferred_count != 0u) {
         return 0u; /* a held-back sample: its iteration comes at once */
     }
-    const uint32_t lead =
-        app->phase_us > app->cfg->idle_us ? app->phase_us - app->cfg->idle_us : 0u;
+    const uint32_t lead = app->phase_us > app->cfg.idle_us ? app->phase_us - app->cfg.idle_us : 0u;
     const uint64_t next_slot = app->assembler.origin_us +
                                (uint64_t)app->assembler.next_index * app->assembler_cfg.period_us +
                                lead;
@@ -298,20 +297,20 @@ static uint32_t idle_time_us(const struct tof_app *app, uint64_t now_us) {
     if (waiting) {
         const uint32_t period_us = app->assembler_cfg.period_us;
         const uint32_t into = (uint32_t)((now_us + period_us - start_offset_us(app)) % period_us);
-        if (into <= app->cfg->idle_us) {
+        if (into <= app->cfg.idle_us) {
             return 0u; /* in the window now: start in the next iteration */
         }
         const uint32_t to_window = period_us - into;
-        return to_window < app->cfg->idle_us ? to_window : app->cfg->idle_us;
+        return to_window < app->cfg.idle_us ? to_window : app->cfg.idle_us;
     }
-    return app->cfg->idle_us;
+    return app->cfg.idle_us;
 }
 
 int tof_app_init(struct tof_app *app, const struct tof_platform *platform,
                  const struct tof_app_config *cfg) {
     memset(app, 0, sizeof *app);
     app->platform = platform;
-    app->cfg = cfg;
+    app->cfg = *cfg;
     if (tof_app_config_check(cfg) != NULL || platform->time.ops == NULL) {
         return HAL_ERR_INVALID;
     }
@@ -416,7 +415,7 @@ void tof_app_step(struct tof_app *app, bool idle) {
     if (took > app->counters.max_iteration_us) {
         app->counters.max_iteration_us = took > UINT32_MAX ? UINT32_MAX : (uint32_t)took;
     }
-    if (took > app->cfg->loop_budget_us) {
+    if (took > app->cfg.loop_budget_us) {
         ++app->counters.overruns;
         emit_event(app, TOF_EVENT_OVERRUN, 0xFFu, TOF_HEALTH_HEALTHY, TOF_HEALTH_HEALTHY,
                    HAL_ERR_TIMEOUT);
@@ -433,87 +432,47 @@ void tof_app_idle(struct tof_app *app) {
                                       idle_time_us(app, tof_app_now_us(app)));
 }
 
-int tof_app_set_window(struct tof_app *app, uint16_t window, bool sliding) {
-    struct attitude_config next = app->estimator.cfg;
-    next.window = window;
-    next.mode = sliding ? ATTITUDE_SLIDING : ATTITUDE_TUMBLING;
-    tof_estimator_mode_process_noise(&next); /* Q = 0: auto when sliding (issue 24) */
-    /* attitude_init() checks window and mode before it touches the state, and the rest
-     * of the configuration was accepted at init: a refusal changes nothing. */
-    return attitude_init(&app->estimator, &next);
-}
-
-int tof_app_set_process_noise(struct tof_app *app, uint32_t qd_um2_per_s, uint32_t qt_um2_per_s,
-                              bool automatic) {
-    struct attitude_config next = app->estimator.cfg;
-    const int rc = tof_estimator_process_noise(&next, app->assembler_cfg.period_us, qd_um2_per_s,
-                                               qt_um2_per_s, automatic);
+int tof_app_set_period(struct tof_app *app, uint32_t period_ms) {
+    struct tof_app_config next = app->cfg;
+    if (tof_app_config_period(&next, period_ms) != HAL_OK) {
+        return HAL_ERR_INVALID;
+    }
+    struct attitude_config est = app->estimator.cfg;
+    int rc = tof_estimator_period(&est, next.estimator.period_us);
+    if (rc == ATTITUDE_ERR_NONE) {
+        rc = attitude_init(&app->estimator, &est); /* checked first: a refusal changes nothing */
+    }
     if (rc != ATTITUDE_ERR_NONE) {
         return rc;
     }
-    /* attitude_init() checks the whole configuration before it touches the state (the
-     * Kalman filter's Q included): a refusal changes nothing. */
-    return attitude_init(&app->estimator, &next);
-}
-
-int tof_app_set_calibration(struct tof_app *app, const struct calibration_head *cal) {
-    struct attitude_config next = app->estimator.cfg;
-    next.calibration = *cal;
-    /* as tof_app_set_window(): checked before the state is touched, a refusal changes nothing */
-    return attitude_init(&app->estimator, &next);
-}
-
-void tof_app_get_calibration(const struct tof_app *app, struct calibration_head *out) {
-    *out = app->estimator.cfg.calibration;
-}
-
-int tof_app_set_primary(struct tof_app *app, enum attitude_estimator primary) {
-    /* only an estimator that runs (selected in the configuration, built into the image) */
-    if ((unsigned)primary >= (unsigned)ATTITUDE_EST_COUNT ||
-        (app->estimator.cfg.estimators & ATTITUDE_EST_BIT(primary)) == 0u) {
-        return ATTITUDE_ERR_ESTIMATORS;
-    }
-    app->primary = primary;
-    return ATTITUDE_ERR_NONE;
-}
-
-void tof_app_set_running(struct tof_app *app, bool running) {
-    app->running = running;
-}
-
-void tof_app_set_raw_output(struct tof_app *app, bool on) {
-    app->raw_output = on;
-}
-
-void tof_app_get_status(const struct tof_app *app, struct tof_app_status *out) {
-    *out = (struct tof_app_status){
-        .uptime_us = app->uptime_us,
-        .window = app->estimator.cfg.window,
-        .sliding = app->estimator.cfg.mode == ATTITUDE_SLIDING,
-        .primary = app->primary,
-        .running = app->running,
-        .raw_output = app->raw_output,
-        .period_us = app->assembler_cfg.period_us,
-    };
-}
-
-void tof_app_get_health(const struct tof_app *app, struct tof_app_health *out) {
-    memset(out, 0, sizeof *out);
-    out->uptime_us = app->uptime_us;
+    app->cfg = next;
     for (unsigned i = 0; i < TOF_SENSORS; ++i) {
-        out->state[i] = app->health[i].state;
-        out->losses[i] = app->health[i].losses;
-        out->read_errors[i] = app->counters.read_errors[i];
+        app->sensor_cfg[i].timing = next.timing;
+        struct vl53_dev *dev = vl53_array_sensor(&app->array, i);
+        /* A configured part (ranging, or parked for its start) is stopped and given the new
+         * timing, then started at the new period's next slot. Any other (off, failed, between
+         * the halves of a re-init) takes it at its next configuration; so does a part whose
+         * write failed, kept from starting until the fault manager re-initialises it. */
+        const bool configured = vl53_array_report(&app->array, i)->state == VL53_SENSOR_RANGING;
+        if (configured) {
+            park_until_boundary(app, i);
+        }
+        (void)vl53_set_timing_next(dev, &next.timing); /* checked above; the part is stopped */
+        if (configured) {
+            rc = vl53_set_timing(dev, &next.timing);
+            app->start_pending[i] = rc == HAL_OK;
+            if (rc != HAL_OK) {
+                note_error(app, i, rc);
+            }
+        }
     }
-    memcpy(out->errors_by_code, app->counters.errors_by_code, sizeof out->errors_by_code);
-    out->bus_recoveries = app->counters.bus_recoveries;
-    out->overruns = app->counters.overruns;
-    out->max_iteration_us = app->counters.max_iteration_us;
-}
-
-const char *tof_app_error_message(const struct tof_app *app, int err) {
-    (void)app;
-    return err < HAL_ERR_BLOCK_END ? attitude_error_message(err) : hal_err_name(err);
+    app->assembler_cfg.period_us = vl53_period_us(&next.timing);
+    app->assembler_cfg.max_skew_us = next.max_skew_us;
+    app->slot_first_us = app->assembler_cfg.period_us;
+    app->phase_us = 0u;
+    const uint64_t start = next_boundary(tof_app_now_us(app), app->assembler_cfg.period_us);
+    tof_assembler_init(&app->assembler, start + app->assembler_cfg.period_us);
+    return HAL_OK;
 }
 
 /* Not inlined: its line buffer stays off the main loop's stack (tools/stack_check.py). */

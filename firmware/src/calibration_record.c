@@ -165,14 +165,25 @@ enum tof_cal_state tof_cal_boot(struct tof_record_store *store, struct tof_app *
     default:
         return TOF_CAL_CORRUPT;
     }
+    return tof_cal_recheck(store, app);
+}
+
+enum tof_cal_state tof_cal_recheck(const struct tof_record_store *store, struct tof_app *app) {
     struct calibration_head cal;
     struct tof_cal_binding bind;
-    enum tof_cal_state state = tof_cal_decode(store->payload, store->length, &cal, &bind);
+    enum tof_cal_state state = TOF_CAL_NO_STORAGE;
+    if (store != NULL && store->storage.ops != NULL) {
+        state = store->current < 0 ? TOF_CAL_NONE
+                                   : tof_cal_decode(store->payload, store->length, &cal, &bind);
+    }
     if (state == TOF_CAL_APPLIED) {
-        state = tof_cal_check(&bind, app->cfg);
+        state = tof_cal_check(&bind, &app->cfg);
     }
     if (state == TOF_CAL_APPLIED && tof_app_set_calibration(app, &cal) != 0) {
         state = TOF_CAL_REJECTED;
+    }
+    if (state != TOF_CAL_APPLIED) { /* the configuration's own (uncalibrated unless it says) */
+        (void)tof_app_set_calibration(app, &app->cfg.estimator.calibration);
     }
     return state;
 }
@@ -185,7 +196,7 @@ enum tof_cal_state tof_cal_write(struct tof_record_store *store, struct tof_app 
     enum tof_cal_state state = tof_cal_decode(
         section, (uint16_t)(TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH), &cal, &bind);
     if (state == TOF_CAL_APPLIED) {
-        state = tof_cal_check(&bind, app->cfg);
+        state = tof_cal_check(&bind, &app->cfg);
     }
     if (state == TOF_CAL_NONE) {
         state = TOF_CAL_CORRUPT; /* not a calibration section at all */
@@ -225,7 +236,7 @@ enum tof_cal_state tof_cal_write_head(struct tof_record_store *store, struct tof
         has_gain = has_gain || cal->gain_ppm[i] != 0 ||
                    cal->gain_sd_ppm[i] != CALIBRATION_UNCAL_GAIN_SD_PPM;
     }
-    const struct tof_cal_binding bind = tof_cal_binding_of(app->cfg);
+    const struct tof_cal_binding bind = tof_cal_binding_of(&app->cfg);
     uint8_t section[TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH];
     *error = 0;
     if (tof_cal_encode(cal, has_gain, &bind, section) != HAL_OK) {

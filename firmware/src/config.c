@@ -91,24 +91,33 @@ bool tof_app_replay_mode_fits(uint32_t period_ms, enum vl53_distance_mode mode) 
     return replay_timing(period_ms, mode, &t);
 }
 
-int tof_app_config_for_replay(struct tof_app_config *cfg, int32_t arm_um, uint32_t period_ms,
-                              uint16_t window, bool sliding, enum vl53_distance_mode mode) {
-    *cfg = tof_app_default_config;
-    const bool found = replay_timing(period_ms, mode, &cfg->timing);
-    if (!found) {
+int tof_app_config_period(struct tof_app_config *cfg, uint32_t period_ms) {
+    struct vl53_timing timing;
+    if (period_ms == 0u || !replay_timing(period_ms, cfg->timing.mode, &timing)) {
         return HAL_ERR_INVALID;
     }
     const uint32_t period_us = period_ms * 1000u;
+    cfg->timing = timing;
     cfg->max_skew_us = period_us / 4u;
     cfg->idle_us = period_us / 20u < TOF_IDLE_US ? period_us / 20u : TOF_IDLE_US;
     cfg->health.silence_to_lost_ms = 3u * period_ms;
     cfg->health.recovery_timeout_ms = 5u * period_ms;
     cfg->health.suspect_timeout_ms = 10u * period_ms;
+    cfg->estimator.period_us = period_us; /* the drift allowance's clock (issue 23) */
+    return HAL_OK;
+}
+
+int tof_app_config_for_replay(struct tof_app_config *cfg, int32_t arm_um, uint32_t period_ms,
+                              uint16_t window, bool sliding, enum vl53_distance_mode mode) {
+    *cfg = tof_app_default_config;
+    cfg->timing.mode = mode;
+    if (tof_app_config_period(cfg, period_ms) != HAL_OK) {
+        return HAL_ERR_INVALID;
+    }
     cfg->estimator.arm_um = arm_um;
     cfg->estimator.window = window;
     cfg->estimator.mode = sliding ? ATTITUDE_SLIDING : ATTITUDE_TUMBLING;
     tof_estimator_mode_process_noise(&cfg->estimator);
-    cfg->estimator.period_us = period_us; /* the drift allowance's clock (issue 23) */
     cfg->raw_output = true;
     return tof_app_config_check(cfg) == NULL ? HAL_OK : HAL_ERR_INVALID;
 }
@@ -143,4 +152,23 @@ int tof_app_config_process_noise(struct tof_app_config *cfg, uint32_t qd_um2_per
     const int rc = tof_estimator_process_noise(&cfg->estimator, vl53_period_us(&cfg->timing),
                                                qd_um2_per_s, qt_um2_per_s, automatic);
     return rc == ATTITUDE_ERR_NONE ? HAL_OK : HAL_ERR_INVALID;
+}
+
+int tof_estimator_period(struct attitude_config *est, uint32_t period_us) {
+    uint32_t per_row[3];
+    for (unsigned i = 0; i < 3u; ++i) {
+        const uint32_t q = est->kalman_process_noise_um2[i];
+        /* the same intensity (Q per row / old period) at the new period, rounded */
+        const uint32_t old_us = est->period_us != 0u ? est->period_us : 1u; /* init checks it */
+        const uint64_t row = ((uint64_t)q * period_us + old_us / 2u) / old_us;
+        if (row > UINT32_MAX || (q != 0u && row == 0u)) {
+            return ATTITUDE_ERR_KALMAN_PROCESS_NOISE; /* never a silent Q = 0 */
+        }
+        per_row[i] = (uint32_t)row;
+    }
+    for (unsigned i = 0; i < 3u; ++i) {
+        est->kalman_process_noise_um2[i] = per_row[i];
+    }
+    est->period_us = period_us;
+    return ATTITUDE_ERR_NONE;
 }

@@ -176,6 +176,7 @@ void tof_link_send_status(struct tof_link *link) {
         .period_ms = (uint16_t)(st.period_us / 1000u),
         .record = link->record_state,   /* enum tof_record_state == enum tlm_record_state */
         .calibration = link->cal_state, /* enum tof_cal_state == enum tlm_cal_state */
+        .arm_um = (uint32_t)st.arm_um,  /* the estimator keeps it in 1..1000 mm */
     };
     uint8_t frame[TLM_FRAME_MAX];
     send(link, frame, tlm_encode_status(link->seq, &msg, frame, sizeof frame));
@@ -197,7 +198,7 @@ static uint8_t estimator_result(int err) {
         return TLM_RESULT_OK;
     }
     return err == ATTITUDE_ERR_WINDOW || err == ATTITUDE_ERR_MODE ||
-                   err == ATTITUDE_ERR_KALMAN_PROCESS_NOISE
+                   err == ATTITUDE_ERR_KALMAN_PROCESS_NOISE || err == ATTITUDE_ERR_ARM
                ? TLM_RESULT_OUT_OF_RANGE
                : TLM_RESULT_STATE;
 }
@@ -238,6 +239,24 @@ static void send_calibration(struct tof_link *link) {
     tof_cal_read(link->records, msg.section);
     uint8_t frame[TLM_FRAME_MAX];
     send(link, frame, tlm_encode_calibration(link->seq, &msg, frame, sizeof frame));
+}
+
+/* set-arm and set-period (issue 22: geometry and rate at run time). A new period changes the
+ * timing budget, which the stored calibration is bound to: it is checked again, and the
+ * status frame says whether it still holds. */
+static uint8_t apply_geometry(struct tof_link *link, const struct tlm_command *cmd, int *error) {
+    if (cmd->type == TLM_TYPE_SET_ARM) {
+        *error = tof_app_set_arm(link->app, (int32_t)cmd->u.arm_um);
+        return estimator_result(*error);
+    }
+    *error = tof_app_set_period(link->app, cmd->u.period_ms);
+    if (*error == HAL_ERR_INVALID) {
+        return TLM_RESULT_OUT_OF_RANGE; /* no timing of the distance mode fits: a hal code */
+    }
+    if (*error == 0) {
+        link->cal_state = (uint8_t)tof_cal_recheck(link->records, link->app);
+    }
+    return estimator_result(*error);
 }
 
 /* Apply a validated command; returns the result code to answer with and sets *error to
@@ -283,6 +302,9 @@ static uint8_t apply(struct tof_link *link, const struct tlm_command *cmd, int *
         return TLM_RESULT_OK; /* the calibration message follows the ack */
     case TLM_TYPE_REZERO:
         return start_rezero(link, cmd->u.rezero_samples);
+    case TLM_TYPE_SET_ARM:
+    case TLM_TYPE_SET_PERIOD:
+        return apply_geometry(link, cmd, error);
     case TLM_TYPE_SAVE: {
         /* Begun here, advanced by each poll (a page erase outlasts a loop iteration); the
          * first step now: with the other page blank, the copy is written and in use at once. */

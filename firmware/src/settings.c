@@ -33,6 +33,8 @@ void tof_settings_capture(const struct tof_app *app, const struct tof_settings *
         .primary = (uint8_t)st.primary,
         .running = st.running,
         .raw_output = st.raw_output,
+        .arm_um = st.arm_um,
+        .period_ms = (uint16_t)(st.period_us / 1000u),
     };
     if (pn != NULL && pn->process_noise_set) {
         out->process_noise_set = true;
@@ -43,7 +45,19 @@ void tof_settings_capture(const struct tof_app *app, const struct tof_settings *
 }
 
 int tof_settings_apply(struct tof_app *app, const struct tof_settings *s) {
-    int rc = tof_app_set_window(app, s->window, s->sliding);
+    struct tof_app_status st;
+    tof_app_get_status(app, &st);
+    int rc = 0;
+    /* the rate first: it restarts the sensors and rescales Q; then what the estimators take */
+    if (s->period_ms != 0u && (uint32_t)s->period_ms * 1000u != st.period_us) {
+        rc = tof_app_set_period(app, s->period_ms);
+    }
+    if (rc == 0 && s->arm_um != 0) {
+        rc = tof_app_set_arm(app, s->arm_um);
+    }
+    if (rc == 0) {
+        rc = tof_app_set_window(app, s->window, s->sliding);
+    }
     if (rc == 0 && s->process_noise_set) {
         rc =
             tof_app_set_process_noise(app, s->qd_um2_per_s, s->qt_um2_per_s, s->process_noise_auto);
@@ -85,11 +99,13 @@ enum tof_record_state tof_settings_decode(const uint8_t *payload, uint16_t len,
     }
     const uint8_t *p = &payload[at];
     const uint16_t size = (uint16_t)(p[2] | p[3] << 8);
-    if (p[1] != TOF_SETTINGS_VERSION) {
+    if (p[1] != TOF_SETTINGS_VERSION && p[1] != 1u) {
         return TOF_RECORD_VERSION;
     }
     const uint8_t *v = &p[SECTION_HEADER];
-    if (size != TOF_SETTINGS_LENGTH || v[2] > 1u || v[4] > 1u || v[5] > 1u ||
+    const bool v2 = p[1] == TOF_SETTINGS_VERSION;
+    if (size != (v2 ? TOF_SETTINGS_LENGTH : TOF_SETTINGS_V1_LENGTH) ||
+        (v2 && (v[22] != 0u || v[23] != 0u)) || v[2] > 1u || v[4] > 1u || v[5] > 1u ||
         (v[6] & ~(FLAG_PN_SET | FLAG_PN_AUTO)) != 0u || v[7] != 0u) {
         return TOF_RECORD_CORRUPT;
     }
@@ -103,6 +119,8 @@ enum tof_record_state tof_settings_decode(const uint8_t *payload, uint16_t len,
         .process_noise_auto = (v[6] & FLAG_PN_AUTO) != 0u,
         .qd_um2_per_s = le_get_u32(&v[8]),
         .qt_um2_per_s = le_get_u32(&v[12]),
+        .arm_um = v2 ? (int32_t)le_get_u32(&v[16]) : 0,
+        .period_ms = (uint16_t)(v2 ? (v[20] | v[21] << 8) : 0),
     };
     return TOF_RECORD_LOADED;
 }
@@ -148,6 +166,9 @@ static void encode(const struct tof_settings *s, uint8_t *out) {
                      (s->process_noise_auto ? FLAG_PN_AUTO : 0u));
     le_put_u32(&v[8], s->qd_um2_per_s);
     le_put_u32(&v[12], s->qt_um2_per_s);
+    le_put_u32(&v[16], (uint32_t)s->arm_um);
+    v[20] = (uint8_t)s->period_ms;
+    v[21] = (uint8_t)(s->period_ms >> 8);
 }
 
 /* The record's new payload (off the stack: the main loop's frame is the deepest). */

@@ -41,7 +41,7 @@ static int setup(void **state) {
     assert_int_equal(tof_record_init(&store, sim_flash_hal(&flash), 0u, 1u), HAL_OK);
     cfg = tof_app_default_config;
     memset(&app, 0, sizeof app);
-    app.cfg = &cfg; /* tof_cal_boot() needs the configuration and the estimator only */
+    app.cfg = cfg; /* tof_cal_boot() needs the configuration and the estimator only */
     assert_int_equal(attitude_init(&app.estimator, &cfg.estimator), ATTITUDE_ERR_NONE);
     return 0;
 }
@@ -150,7 +150,7 @@ static void test_another_head_is_not_applied(void **state) {
     save_cal(&cal, true, &b);
     assert_int_equal(boot(), TOF_CAL_OTHER_HEAD);
     assert_uncalibrated();
-    cfg.head_id = 17u; /* the image of that head */
+    app.cfg.head_id = 17u; /* the image of that head */
     assert_int_equal(boot(), TOF_CAL_APPLIED);
     assert_true(app.estimator.cfg.calibration.calibrated);
 }
@@ -224,7 +224,7 @@ static void test_settings_and_calibration_keep_each_other(void **state) {
     save_cal(&cal, true, &b); /* again: the settings stay */
     assert_int_equal(tof_settings_decode(store.payload, store.length, &back), TOF_RECORD_LOADED);
     assert_true(back.sliding);
-    assert_int_equal(store.length, 2u * TOF_SECTION_HEADER + 16u + TOF_CALIBRATION_LENGTH);
+    assert_int_equal(store.length, 2u * TOF_SECTION_HEADER + TOF_SETTINGS_LENGTH + TOF_CALIBRATION_LENGTH);
 }
 
 int main(void) {

@@ -694,6 +694,87 @@ static void test_save_then_reset_brings_the_settings_back(void **state) {
     assert_int_equal(t.app.estimator.cfg.kalman_process_noise_um2[0], 0u);
 }
 
+/* set-arm and set-period (issue 22): in force at once (the sensors re-timed and read at the
+ * new rate with no sample missing, Q per row rescaled to keep its intensity, the calibration
+ * bound to the old timing budget no longer applied, and the status frame says so), refused
+ * where no timing fits, kept by `save` and in force after a reset. */
+static void test_arm_and_period_by_command_and_kept(void **state) {
+    (void)state;
+    assert_int_equal(sim_flash_init(&saved_flash, 2u, 2048u), HAL_OK);
+    assert_int_equal(tof_record_init(&saved_store, sim_flash_hal(&saved_flash), 0u, 1u), HAL_OK);
+    const struct calibration_head cal = {.calibrated = true,
+                                         .offset_um = {1500, -800, -1200, 600},
+                                         .offset_sd_um = {30, 30, 30, 30}};
+    const struct tof_cal_binding b = tof_cal_binding_of(&t.app.cfg); /* budget 15 ms */
+    uint8_t section[TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH];
+    assert_int_equal(tof_cal_encode(&cal, false, &b, section), HAL_OK);
+    assert_int_equal(tof_section_save(&saved_store, section), HAL_OK);
+    boot_with_records();
+    assert_int_equal(t.last_status.calibration, TLM_CAL_APPLIED);
+    assert_int_equal(t.last_status.arm_um, 30000u);
+    assert_int_equal(t.last_status.period_ms, 20u);
+
+    struct tlm_command cmd = {.type = TLM_TYPE_SET_PROCESS_NOISE};
+    cmd.u.process_noise.qd_um2_per_s = 2000000u; /* 40000 um² per 20 ms row */
+    cmd.u.process_noise.qt_um2_per_s = 500000u;
+    push_command(&cmd, 1);
+    cmd = (struct tlm_command){.type = TLM_TYPE_SET_ARM, .u.arm_um = 45250u};
+    push_command(&cmd, 2);
+    cmd = (struct tlm_command){.type = TLM_TYPE_SET_PERIOD, .u.period_ms = 33u};
+    push_command(&cmd, 3);
+    cmd = (struct tlm_command){.type = TLM_TYPE_STATUS_REQUEST};
+    push_command(&cmd, 4);
+    run_ms(400);
+    decode_output();
+    assert_int_equal(t.nacks, 0);
+    assert_int_equal(t.acks, 4);
+    assert_int_equal(t.last_status.arm_um, 45250u);
+    assert_int_equal(t.last_status.period_ms, 33u);
+    assert_int_equal(t.last_status.calibration, TLM_CAL_OTHER_MODE); /* made at budget 15 */
+    assert_false(t.app.estimator.cfg.calibration.calibrated);
+    assert_int_equal(t.app.estimator.cfg.arm_um, 45250);
+    assert_int_equal(t.app.estimator.cfg.period_us, 33000u);
+    assert_int_equal(t.app.estimator.cfg.kalman_process_noise_um2[0], 66000u); /* 2 mm²/s */
+    assert_int_equal(t.app.estimator.cfg.kalman_process_noise_um2[1], 16500u);
+    assert_int_equal(t.app.cfg.timing.budget_ms, 20u); /* the longest short-mode fit */
+    assert_int_equal(t.app.cfg.timing.inter_measurement_ms, 33u);
+    for (unsigned i = 0; i < 4u; ++i) {
+        assert_int_equal(vl53_array_sensor(&t.app.array, i)->timing.inter_measurement_ms, 33u);
+    }
+    /* the sensors run at the new rate: 3.3 s is 100 slots, every one assembled complete */
+    const uint32_t samples = t.app.counters.samples;
+    const uint32_t incomplete = t.app.assembler.counters.incomplete;
+    run_ms(3300);
+    assert_in_range(t.app.counters.samples - samples, 99u, 101u);
+    assert_int_equal(t.app.assembler.counters.incomplete, incomplete);
+
+    /* no short-mode timing fits 18 ms (15 ms budget + 4 ms margin): refused, nothing changed */
+    t.serial.tx_len = 0;
+    t.acks = t.nacks = 0;
+    cmd = (struct tlm_command){.type = TLM_TYPE_SET_PERIOD, .u.period_ms = 18u};
+    push_command(&cmd, 5);
+    run_ms(50);
+    decode_output();
+    assert_int_equal(t.nacks, 1);
+    assert_int_equal(t.last_nack_result, TLM_RESULT_OUT_OF_RANGE);
+    assert_int_equal(t.app.cfg.timing.inter_measurement_ms, 33u);
+
+    cmd = (struct tlm_command){.type = TLM_TYPE_SAVE};
+    push_command(&cmd, 6);
+    run_ms(100);
+    setup(NULL); /* a reset: the compiled defaults, then the saved settings */
+    assert_int_equal(t.app.cfg.timing.inter_measurement_ms, 20u);
+    boot_with_records();
+    assert_int_equal(t.last_status.record, TLM_RECORD_LOADED);
+    assert_int_equal(t.last_status.arm_um, 45250u);
+    assert_int_equal(t.last_status.period_ms, 33u);
+    assert_int_equal(t.last_status.calibration, TLM_CAL_OTHER_MODE);
+    assert_int_equal(t.app.estimator.cfg.kalman_process_noise_um2[0], 66000u);
+    const uint32_t after_boot = t.app.counters.samples;
+    run_ms(3300);
+    assert_in_range(t.app.counters.samples - after_boot, 98u, 101u);
+}
+
 static void test_settings_the_image_refuses_fall_back_to_defaults(void **state) {
     (void)state;
     assert_int_equal(sim_flash_init(&saved_flash, 2u, 2048u), HAL_OK);
@@ -716,7 +797,7 @@ static void test_a_saved_calibration_is_applied_at_boot(void **state) {
     const struct calibration_head cal = {.calibrated = true,
                                          .offset_um = {1500, -800, -1200, 600},
                                          .offset_sd_um = {30, 30, 30, 30}};
-    struct tof_cal_binding b = tof_cal_binding_of(t.app.cfg);
+    struct tof_cal_binding b = tof_cal_binding_of(&t.app.cfg);
     uint8_t section[TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH];
     assert_int_equal(tof_cal_encode(&cal, false, &b, section), HAL_OK);
     assert_int_equal(tof_section_save(&saved_store, section), HAL_OK);
@@ -758,13 +839,13 @@ static void test_write_and_read_calibration_by_command(void **state) {
                                          .offset_sd_um = {30, 31, 32, 33},
                                          .gain_sd_ppm = {100, 100, 100, 100},
                                          .offset_gain_corr_q15 = {-30000, -30000, 0, 5}};
-    struct tof_cal_binding b = tof_cal_binding_of(t.app.cfg);
+    struct tof_cal_binding b = tof_cal_binding_of(&t.app.cfg);
     b.mode = (uint8_t)(b.mode == 1u ? 2u : 1u); /* another mode: refused */
     cmd = (struct tlm_command){.type = TLM_TYPE_WRITE_CALIBRATION};
     assert_int_equal(tof_cal_encode(&cal, true, &b, cmd.u.cal_section), HAL_OK);
     t.serial.tx_len = 0;
     push_command(&cmd, 2);
-    b = tof_cal_binding_of(t.app.cfg);
+    b = tof_cal_binding_of(&t.app.cfg);
     assert_int_equal(tof_cal_encode(&cal, true, &b, cmd.u.cal_section), HAL_OK);
     cmd.u.cal_section[4u + 8u + 3u] = 0x7Fu; /* offset A out of bounds: refused */
     push_command(&cmd, 3);
@@ -821,7 +902,7 @@ static void test_rezero_refits_the_offsets(void **state) {
                                          .offset_sd_um = {40, 40, 40, 40},
                                          .gain_sd_ppm = {300, 300, 300, 300}};
     cmd = (struct tlm_command){.type = TLM_TYPE_WRITE_CALIBRATION};
-    const struct tof_cal_binding b = tof_cal_binding_of(t.app.cfg);
+    const struct tof_cal_binding b = tof_cal_binding_of(&t.app.cfg);
     assert_int_equal(tof_cal_encode(&cal, true, &b, cmd.u.cal_section), HAL_OK);
     push_command(&cmd, 2);
     cmd = (struct tlm_command){.type = TLM_TYPE_REZERO, .u.rezero_samples = 50};
@@ -885,6 +966,7 @@ int main(void) {
         cmocka_unit_test_setup(test_set_process_noise_changes_the_filters_q, setup),
         cmocka_unit_test_setup(test_refused_process_noise_changes_nothing, setup),
         cmocka_unit_test_setup(test_save_then_reset_brings_the_settings_back, setup),
+        cmocka_unit_test_setup(test_arm_and_period_by_command_and_kept, setup),
         cmocka_unit_test_setup(test_settings_the_image_refuses_fall_back_to_defaults, setup),
         cmocka_unit_test_setup(test_a_saved_calibration_is_applied_at_boot, setup),
         cmocka_unit_test_setup(test_write_and_read_calibration_by_command, setup),

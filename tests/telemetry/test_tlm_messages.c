@@ -89,7 +89,8 @@ static struct tlm_status sample_status(void) {
                                .raw_stream = false,
                                .period_ms = 20,
                                .record = TLM_RECORD_CORRUPT,
-                               .calibration = TLM_CAL_OTHER_MODE};
+                               .calibration = TLM_CAL_OTHER_MODE,
+                               .arm_um = 30000u};
 }
 
 /* Decode exactly one accepted frame from `bytes` through a real decoder. */
@@ -139,7 +140,7 @@ static void test_every_type_has_its_documented_length(void **state) {
     assert_int_equal(tlm_encode_raw_sample(0, &raw, out, sizeof out), 17 + 7);
     assert_int_equal(tlm_encode_health(0, &health, out, sizeof out), 148 + 7);
     assert_int_equal(tlm_encode_ack(0, &ack, out, sizeof out), 4 + 7);
-    assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 18 + 7);
+    assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 22 + 7);
     assert_int_equal(tlm_type_payload_length(TLM_TYPE_HEALTH, TLM_ACCEPT_TELEMETRY), 148);
     assert_int_equal(tlm_type_payload_length(TLM_TYPE_HEALTH, TLM_ACCEPT_COMMANDS), -1);
     assert_int_equal(tlm_type_payload_length(TLM_TYPE_SET_WINDOW, TLM_ACCEPT_ALL), 3);
@@ -147,7 +148,9 @@ static void test_every_type_has_its_documented_length(void **state) {
     assert_int_equal(tlm_type_payload_length(TLM_TYPE_SET_PROCESS_NOISE, TLM_ACCEPT_COMMANDS), 9);
     assert_int_equal(tlm_type_payload_length(TLM_TYPE_SET_PROCESS_NOISE, TLM_ACCEPT_TELEMETRY), -1);
     assert_int_equal(tlm_type_payload_length(TLM_TYPE_SAVE, TLM_ACCEPT_COMMANDS), 0);
-    assert_int_equal(tlm_type_payload_length(0x89, TLM_ACCEPT_ALL), -1);
+    assert_int_equal(tlm_type_payload_length(TLM_TYPE_SET_ARM, TLM_ACCEPT_COMMANDS), 4);
+    assert_int_equal(tlm_type_payload_length(TLM_TYPE_SET_PERIOD, TLM_ACCEPT_COMMANDS), 2);
+    assert_int_equal(tlm_type_payload_length(0x8B, TLM_ACCEPT_ALL), -1);
     assert_true(tlm_type_is_command(TLM_TYPE_RAW_STREAM));
     assert_true(tlm_type_is_command(TLM_TYPE_SET_PROCESS_NOISE));
     assert_false(tlm_type_is_command(TLM_TYPE_ACK));
@@ -157,11 +160,22 @@ static void test_status_layout(void **state) {
     (void)state;
     const struct tlm_status status = sample_status();
     uint8_t out[TLM_FRAME_MAX];
-    assert_int_equal(tlm_encode_status(3, &status, out, sizeof out), 25);
+    assert_int_equal(tlm_encode_status(3, &status, out, sizeof out), 29);
     const uint8_t *p = &out[TLM_HEADER_SIZE];
-    const uint8_t expected[] = {
-        0, 1, 2, TLM_PROTOCOL_VERSION, 0x40, 0xE2, 0x01, 0x00, 100, 0, 1, 2, 1, 0, 20, 0, 2, 5};
+    const uint8_t expected[] = {0,    1,    2,    TLM_PROTOCOL_VERSION,
+                                0x40, 0xE2, 0x01, 0x00,
+                                100,  0,    1,    2,
+                                1,    0,    20,   0,
+                                2,    5,    0x30, 0x75,
+                                0x00, 0x00}; /* arm 30000 um */
     assert_memory_equal(p, expected, sizeof expected);
+    /* an arm or a period outside the protocol's ranges is not encoded */
+    struct tlm_status bad = status;
+    bad.arm_um = TLM_ARM_MIN_UM - 1u;
+    assert_int_equal(tlm_encode_status(3, &bad, out, sizeof out), HAL_ERR_INVALID);
+    bad = status;
+    bad.period_ms = 0u;
+    assert_int_equal(tlm_encode_status(3, &bad, out, sizeof out), HAL_ERR_INVALID);
 }
 
 /* --- round trips ---------------------------------------------------------- */
@@ -527,18 +541,18 @@ static void test_raw_health_ack_status_validation(void **state) {
     const struct tlm_ack ack_with_error = {.result = 0, .error = -1};
     assert_int_equal(tlm_encode_ack(0, &ack_with_error, out, sizeof out), HAL_ERR_INVALID);
 
-    const size_t status_bytes[] = {3, 10, 11, 12, 13, 16, 17};
-    const uint8_t status_bad[] = {TLM_PROTOCOL_VERSION + 1u, 2, 4, 2, 2, 6, 8}; /* protocol,
-                                 mode, estimator, bools, record state, calibration state */
-    for (size_t i = 0; i < 7; ++i) {
+    const size_t status_bytes[] = {3, 10, 11, 12, 13, 16, 17, 20};
+    const uint8_t status_bad[] = {TLM_PROTOCOL_VERSION + 1u, 2, 4, 2, 2, 6, 8, 0x10}; /* protocol,
+                   mode, estimator, bools, record state, calibration state, arm > 1000 mm */
+    for (size_t i = 0; i < 8; ++i) {
         status = sample_status();
-        assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 25);
+        assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 29);
         out[5 + status_bytes[i]] = status_bad[i];
         frame = raw_frame(TLM_TYPE_STATUS, &out[5], TLM_LEN_STATUS);
         assert_int_equal(tlm_parse_telemetry(&frame, &msg, NULL), TLM_RESULT_OUT_OF_RANGE);
     }
     status = sample_status();
-    assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 25);
+    assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 29);
     out[5 + 8] = 1; /* window_n = 1 */
     frame = raw_frame(TLM_TYPE_STATUS, &out[5], TLM_LEN_STATUS);
     assert_int_equal(tlm_parse_telemetry(&frame, &msg, NULL), TLM_RESULT_OUT_OF_RANGE);
@@ -721,6 +735,50 @@ static void test_set_process_noise_command(void **state) {
     assert_int_equal(tlm_encode_command(7, &cmd, out, 9 + 6), HAL_ERR_INVALID); /* no room */
 }
 
+/* set-arm (u32 µm, 1..1000 mm) and set-period (u16 ms, 1..10000): exact layouts, the
+ * protocol's ranges refused both ways. */
+static void test_set_arm_and_set_period_commands(void **state) {
+    (void)state;
+    struct tlm_command cmd;
+    struct tlm_rx_counters c;
+    memset(&c, 0, sizeof c);
+    const uint8_t arm[4] = {0xC2, 0xB0, 0x00, 0x00}; /* 45250 um */
+    assert_int_equal(parse_bytes(TLM_TYPE_SET_ARM, arm, 4, &cmd, &c), TLM_RESULT_OK);
+    assert_int_equal(cmd.u.arm_um, 45250u);
+    const uint8_t period[2] = {0x21, 0x00}; /* 33 ms */
+    assert_int_equal(parse_bytes(TLM_TYPE_SET_PERIOD, period, 2, &cmd, &c), TLM_RESULT_OK);
+    assert_int_equal(cmd.u.period_ms, 33u);
+    const uint8_t arm_small[4] = {0xE7, 0x03, 0, 0};     /* 999 um */
+    const uint8_t arm_big[4] = {0x41, 0x42, 0x0F, 0x00}; /* 1000001 um */
+    const uint8_t period_zero[2] = {0, 0};
+    const uint8_t period_big[2] = {0x11, 0x27}; /* 10001 ms */
+    assert_int_equal(parse_bytes(TLM_TYPE_SET_ARM, arm_small, 4, &cmd, &c),
+                     TLM_RESULT_OUT_OF_RANGE);
+    assert_int_equal(parse_bytes(TLM_TYPE_SET_ARM, arm_big, 4, &cmd, &c), TLM_RESULT_OUT_OF_RANGE);
+    assert_int_equal(parse_bytes(TLM_TYPE_SET_PERIOD, period_zero, 2, &cmd, &c),
+                     TLM_RESULT_OUT_OF_RANGE);
+    assert_int_equal(parse_bytes(TLM_TYPE_SET_PERIOD, period_big, 2, &cmd, &c),
+                     TLM_RESULT_OUT_OF_RANGE);
+    assert_int_equal(parse_bytes(TLM_TYPE_SET_ARM, arm, 3, &cmd, &c), TLM_RESULT_BAD_LENGTH);
+    assert_int_equal(c.out_of_range, 4);
+    assert_int_equal(c.bad_length, 1);
+    uint8_t out[TLM_FRAME_MAX];
+    memset(&cmd, 0, sizeof cmd);
+    cmd.type = TLM_TYPE_SET_ARM;
+    cmd.u.arm_um = 45250u;
+    assert_int_equal(tlm_encode_command(1, &cmd, out, sizeof out), 4 + 7);
+    assert_memory_equal(&out[TLM_HEADER_SIZE], arm, 4);
+    cmd.u.arm_um = 999u;
+    assert_int_equal(tlm_encode_command(1, &cmd, out, sizeof out), HAL_ERR_INVALID);
+    memset(&cmd, 0, sizeof cmd);
+    cmd.type = TLM_TYPE_SET_PERIOD;
+    cmd.u.period_ms = 33u;
+    assert_int_equal(tlm_encode_command(1, &cmd, out, sizeof out), 2 + 7);
+    assert_memory_equal(&out[TLM_HEADER_SIZE], period, 2);
+    cmd.u.period_ms = 10001u;
+    assert_int_equal(tlm_encode_command(1, &cmd, out, sizeof out), HAL_ERR_INVALID);
+}
+
 /* The calibration commands and message carry record section 2 as stored; the protocol checks
  * its header (id 2, length 80; all zero for "none stored"), the firmware its content. */
 static void test_calibration_messages(void **state) {
@@ -786,12 +844,12 @@ static void test_unknown_commands(void **state) {
     struct tlm_command cmd;
     struct tlm_rx_counters c;
     memset(&c, 0, sizeof c);
-    /* Every byte that is not one of the eleven command types is an unknown command,
+    /* Every byte that is not one of the thirteen command types is an unknown command,
      * telemetry types included. */
     unsigned unknown = 0;
     for (unsigned type = 0; type <= 0xFF; ++type) {
         const enum tlm_result r = parse_bytes((uint8_t)type, NULL, 0, &cmd, NULL);
-        if ((type >= TLM_TYPE_SET_WINDOW && type <= TLM_TYPE_SAVE) ||
+        if ((type >= TLM_TYPE_SET_WINDOW && type <= TLM_TYPE_SET_PERIOD) ||
             type == TLM_TYPE_WRITE_CALIBRATION || type == TLM_TYPE_READ_CALIBRATION ||
             type == TLM_TYPE_REZERO) {
             assert_int_not_equal(r, TLM_RESULT_UNKNOWN_TYPE);
@@ -800,7 +858,7 @@ static void test_unknown_commands(void **state) {
             unknown++;
         }
     }
-    assert_int_equal(unknown, 245);
+    assert_int_equal(unknown, 243);
     assert_int_equal(parse_bytes(TLM_TYPE_ESTIMATE, NULL, 0, &cmd, &c), TLM_RESULT_UNKNOWN_TYPE);
     assert_int_equal(c.unknown_type, 1);
 }
@@ -908,6 +966,7 @@ int main(void) {
         cmocka_unit_test(test_empty_commands),
         cmocka_unit_test(test_raw_stream_command),
         cmocka_unit_test(test_set_process_noise_command),
+        cmocka_unit_test(test_set_arm_and_set_period_commands),
         cmocka_unit_test(test_calibration_messages),
         cmocka_unit_test(test_unknown_commands),
         cmocka_unit_test(test_commands_round_trip_through_the_firmware_decoder),

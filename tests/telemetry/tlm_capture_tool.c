@@ -135,7 +135,8 @@ static void build(struct builder *b) {
                                           .running = true,
                                           .raw_stream = true,
                                           .period_ms = 20,
-                                          .record = TLM_RECORD_LOADED};
+                                          .record = TLM_RECORD_LOADED,
+                                          .arm_um = 30000u};
     add_telemetry(b, &status);
 
     /* Estimates of every estimator, signs and sizes across the range. */
@@ -335,6 +336,14 @@ static void build(struct builder *b) {
     cmd.u.process_noise.qt_um2_per_s = 10000u;      /* 0.01 mm²/s */
     add_command(b, &cmd);
     cmd.u.process_noise.flags = TLM_PROCESS_NOISE_AUTO;
+    add_command(b, &cmd);
+    memset(&cmd, 0, sizeof cmd);
+    cmd.type = TLM_TYPE_SET_ARM;
+    cmd.u.arm_um = 45250u;
+    add_command(b, &cmd);
+    memset(&cmd, 0, sizeof cmd);
+    cmd.type = TLM_TYPE_SET_PERIOD;
+    cmd.u.period_ms = 33u;
     add_command(b, &cmd);
     memset(&cmd, 0, sizeof cmd);
     cmd.type = TLM_TYPE_WRITE_CALIBRATION;

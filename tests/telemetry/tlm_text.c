@@ -104,6 +104,10 @@ static const char *command_name(uint8_t type) {
         return "read-calibration";
     case TLM_TYPE_REZERO:
         return "re-zero";
+    case TLM_TYPE_SET_ARM:
+        return "set-arm";
+    case TLM_TYPE_SET_PERIOD:
+        return "set-period";
     default:
         return NULL;
     }
@@ -195,11 +199,11 @@ void tlm_text_telemetry(FILE *out, uint8_t seq, const struct tlm_telemetry *msg)
         fprintf(out,
                 "status fw=%u.%u.%u protocol=%u uptime_ms=%" PRIu32
                 " window_n=%u mode=%s estimator=%s running=%s raw_stream=%s period_ms=%u"
-                " record=%s calibration=%s",
+                " record=%s calibration=%s arm_um=%" PRIu32,
                 s->fw_major, s->fw_minor, s->fw_patch, TLM_PROTOCOL_VERSION, s->uptime_ms,
                 s->window_n, mode_names[s->mode], estimator_names[s->estimator],
                 s->running ? "yes" : "no", s->raw_stream ? "yes" : "no", s->period_ms,
-                record_names[s->record], cal_names[s->calibration]);
+                record_names[s->record], cal_names[s->calibration], s->arm_um);
         break;
     }
     case TLM_TYPE_CALIBRATION:
@@ -236,6 +240,12 @@ void tlm_text_command(FILE *out, uint8_t seq, const struct tlm_command *cmd) {
                 cmd->u.process_noise.qt_um2_per_s / 1000000u,
                 cmd->u.process_noise.qt_um2_per_s % 1000000u,
                 (cmd->u.process_noise.flags & TLM_PROCESS_NOISE_AUTO) != 0u ? "yes" : "no");
+        break;
+    case TLM_TYPE_SET_ARM:
+        fprintf(out, " arm_um=%" PRIu32, cmd->u.arm_um);
+        break;
+    case TLM_TYPE_SET_PERIOD:
+        fprintf(out, " period_ms=%u", cmd->u.period_ms);
         break;
     case TLM_TYPE_REZERO:
         fprintf(out, " samples=%u", cmd->u.rezero_samples);

@@ -74,7 +74,9 @@ struct tof_app_counters {
 
 struct tof_app {
     const struct tof_platform *platform;
-    const struct tof_app_config *cfg;
+    /* The configuration in force: tof_app_init()'s copy of its `cfg`, its timing changed by
+     * tof_app_set_period() (the estimator's own in force is estimator.cfg). */
+    struct tof_app_config cfg;
     struct vl53_config sensor_cfg[TOF_SENSORS]; /* built once at init from cfg + platform */
     struct vl53_array_config array_cfg;
     struct vl53_array array;
@@ -100,7 +102,7 @@ struct tof_app {
 };
 
 /*
- * Bind the application to `platform` and `cfg` (both kept by pointer), bring the
+ * Bind the application to `platform` (kept by pointer) and `cfg` (copied), bring the
  * sensors up and schedule their phase-aligned start. Sensors that fail are
  * reported and left to the fault manager. Returns HAL_OK; HAL_ERR_INVALID for a bad
  * application configuration or platform; a hal_err from attaching the sensors; or,
@@ -154,6 +156,23 @@ int tof_app_set_calibration(struct tof_app *app, const struct calibration_head *
 /* The head's calibration in force (estimator/calibration.h) into `out`. */
 void tof_app_get_calibration(const struct tof_app *app, struct calibration_head *out);
 
+/* The head's arm a (µm) in force from the next sample: the estimators restart, as after
+ * tof_app_set_window(). ATTITUDE_ERR_NONE, or attitude_init()'s attitude_error unchanged
+ * (ATTITUDE_ERR_ARM outside 1..1000 mm) with nothing changed. */
+int tof_app_set_arm(struct tof_app *app, int32_t arm_um);
+
+/*
+ * The sample period at run time (the set-period command): the configuration's timing for
+ * `period_ms` (tof_app_config_period(): the longest budget of the distance mode that fits),
+ * each sensor stopped, given that timing and parked for the next slot of the new period,
+ * the assembler restarted on it, the estimators restarted with Q per row rescaled to keep its
+ * intensity (tof_estimator_period()). The slot in progress is not assembled. HAL_OK;
+ * HAL_ERR_INVALID (nothing changed) when no timing of the mode fits; the estimator's
+ * attitude_error (nothing changed) when it refuses the new period. A sensor whose new timing
+ * could not be written counts the error and is re-initialised by the fault manager with it.
+ */
+int tof_app_set_period(struct tof_app *app, uint32_t period_ms);
+
 /* Choose the primary estimator: ATTITUDE_ERR_NONE, or ATTITUDE_ERR_ESTIMATORS (nothing
  * changed) for an unknown one or one that does not run (not in the configuration's set,
  * or not built into the image), the estimator's own code for that. */
@@ -174,6 +193,7 @@ struct tof_app_status {
     bool running;
     bool raw_output;
     uint32_t period_us; /* sample period */
+    int32_t arm_um;     /* the head's arm a in force */
 };
 
 /* Fill `out` with the application's status (read only). */

@@ -85,6 +85,14 @@ enum tof_cal_state tof_cal_check(const struct tof_cal_binding *bind,
 enum tof_cal_state tof_cal_boot(struct tof_record_store *store, struct tof_app *app);
 
 /*
+ * The stored calibration (the record in use, `store` as loaded) checked again against the
+ * configuration in force, after it changed (the set-period command changes the timing
+ * budget): applied when it holds, else the configuration's own calibration (uncalibrated)
+ * is put in force. Returns what happened, as tof_cal_boot().
+ */
+enum tof_cal_state tof_cal_recheck(const struct tof_record_store *store, struct tof_app *app);
+
+/*
  * The write-calibration command (docs/telemetry.md): `section` (TOF_SECTION_HEADER +
  * TOF_CALIBRATION_LENGTH bytes, as stored) is decoded and checked against this image
  * (head, distance mode, budget), saved into the record (other sections kept) and put in

@@ -46,6 +46,15 @@ const char *tof_app_config_check(const struct tof_app_config *cfg);
 int tof_app_config_for_replay(struct tof_app_config *cfg, int32_t arm_um, uint32_t period_ms,
                               uint16_t window, bool sliding, enum vl53_distance_mode mode);
 
+/*
+ * `cfg` at sample period `period_ms` (its distance mode kept): the timing (the longest VL53L1X
+ * budget of the mode that leaves the inter-measurement margin), the skew, idle time and
+ * health timeouts scaled to the period, and the estimator's clock (period_us). The one rule
+ * of tof_app_config_for_replay() and of the set-period command (tof_app_set_period()).
+ * HAL_OK, or HAL_ERR_INVALID with `cfg` unchanged when no timing of the mode fits.
+ */
+int tof_app_config_period(struct tof_app_config *cfg, uint32_t period_ms);
+
 /* True when a part in distance mode `mode` has a timing budget that fits `period_ms`
  * (long mode's shortest is 20 ms, short mode's 15 ms, each plus the 4 ms margin). */
 bool tof_app_replay_mode_fits(uint32_t period_ms, enum vl53_distance_mode mode);
@@ -79,5 +88,13 @@ void tof_estimator_mode_process_noise(struct attitude_config *est);
  */
 int tof_estimator_process_noise(struct attitude_config *est, uint32_t period_us,
                                 uint32_t qd_um2_per_s, uint32_t qt_um2_per_s, bool automatic);
+
+/*
+ * The estimator configuration `est` at a new row period `period_us`: the Kalman filter's Q per
+ * row rescaled so its intensity (Q / period) is kept, rounded to whole µm², and period_us set.
+ * ATTITUDE_ERR_NONE, or ATTITUDE_ERR_KALMAN_PROCESS_NOISE with `est` unchanged when a
+ * non-zero Q would round to 0 or overflow.
+ */
+int tof_estimator_period(struct attitude_config *est, uint32_t period_us);
 
 #endif /* FIRMWARE_CONFIG_H */

@@ -7,11 +7,15 @@
  * then its bytes, so the head's calibration (issue 23) gets a section of its own
  * (TOF_SECTION_CALIBRATION) in the same record: saving the settings keeps every other
  * section as it was, and a firmware that does not know a section leaves it alone.
- * Section 1 (settings) version 1, 16 bytes, little-endian (docs/firmware.md, "Records"):
+ * Section 1 (settings) version 2, 24 bytes, little-endian (docs/firmware.md, "Records"):
  *
  *     0 u16 window   2 u8 mode (0 tumbling, 1 sliding)   3 u8 primary estimator
  *     4 u8 running   5 u8 raw stream   6 u8 flags (bit 0 process noise set, bit 1 auto)
  *     7 u8 0         8 u32 qd (um²/s)  12 u32 qt (um²/s)
+ *     16 i32 arm (um)   20 u16 period (ms)   22 u16 0
+ *
+ * Version 1 (the first 16 bytes, before arm and period were settings) is still read: its
+ * arm and period are the image's.
  */
 #ifndef FIRMWARE_SETTINGS_H
 #define FIRMWARE_SETTINGS_H
@@ -25,8 +29,9 @@
 #define TOF_SECTION_SETTINGS    1u /* this header's */
 #define TOF_SECTION_CALIBRATION 2u /* the head's calibration (firmware/calibration_record.h) */
 #define TOF_SECTION_HEADER      4u /* u8 id, u8 version, u16 length */
-#define TOF_SETTINGS_VERSION    1u
-#define TOF_SETTINGS_LENGTH     16u
+#define TOF_SETTINGS_VERSION    2u
+#define TOF_SETTINGS_LENGTH     24u
+#define TOF_SETTINGS_V1_LENGTH  16u
 
 struct tof_settings {
     uint16_t window;
@@ -37,6 +42,8 @@ struct tof_settings {
     bool process_noise_set; /* false: the image's configured process noise is kept */
     bool process_noise_auto;
     uint32_t qd_um2_per_s, qt_um2_per_s;
+    int32_t arm_um;     /* the head's arm a; 0: the image's (a version 1 record) */
+    uint16_t period_ms; /* the sample period; 0: the image's (a version 1 record) */
 };
 
 /* The settings `app` runs with now (process noise: `pn`, what the last accepted command set,

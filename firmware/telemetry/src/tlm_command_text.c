@@ -46,8 +46,9 @@ static bool is(const char *word, const char *a, const char *b) {
     return strcmp(word, a) == 0 || (b != NULL && strcmp(word, b) == 0);
 }
 
-/* Decimal mm²/s with at most 6 places into um²/s; false if malformed or > UINT32_MAX. */
-static bool intensity(const char *s, size_t len, uint32_t *out) {
+/* A decimal with at most `decimals` places into an integer of 10^-decimals units (mm²/s with
+ * 6 into um²/s, mm with 3 into um); false if malformed or > UINT32_MAX. */
+static bool fixed_decimal(const char *s, size_t len, unsigned decimals, uint32_t *out) {
     uint64_t v = 0;
     unsigned places = 0;
     bool dot = false, digit = false;
@@ -56,14 +57,14 @@ static bool intensity(const char *s, size_t len, uint32_t *out) {
             dot = true;
             continue;
         }
-        if (s[i] < '0' || s[i] > '9' || (dot && places == 6u) || v > UINT32_MAX) {
+        if (s[i] < '0' || s[i] > '9' || (dot && places == decimals) || v > UINT32_MAX) {
             return false;
         }
         v = v * 10u + (uint64_t)(s[i] - '0');
         places += dot ? 1u : 0u;
         digit = true;
     }
-    for (; places < 6u; ++places) {
+    for (; places < decimals; ++places) {
         v *= 10u;
     }
     *out = (uint32_t)v;
@@ -124,11 +125,30 @@ static const char *process_noise(const struct words *w, struct tlm_command *out)
     }
     const char *comma = strchr(w->w[1], ',');
     if (comma == NULL ||
-        !intensity(w->w[1], (size_t)(comma - w->w[1]), &out->u.process_noise.qd_um2_per_s) ||
-        !intensity(comma + 1, strlen(comma + 1), &out->u.process_noise.qt_um2_per_s)) {
+        !fixed_decimal(w->w[1], (size_t)(comma - w->w[1]), 6u,
+                       &out->u.process_noise.qd_um2_per_s) ||
+        !fixed_decimal(comma + 1, strlen(comma + 1), 6u, &out->u.process_noise.qt_um2_per_s)) {
         return "process-noise: QD,QT in mm^2/s (at most 6 decimals, <= 4294.967295) or auto";
     }
     return NULL;
+}
+
+/* set-arm MM (up to 3 decimals) and set-period MS (whole milliseconds). */
+static const char *arm_or_period(const struct words *w, bool arm, struct tlm_command *out) {
+    uint32_t v = 0;
+    const bool ok = w->n == 2u && fixed_decimal(w->w[1], strlen(w->w[1]), arm ? 3u : 0u, &v);
+    if (arm) {
+        out->type = TLM_TYPE_SET_ARM;
+        out->u.arm_um = v;
+        return ok && v >= TLM_ARM_MIN_UM && v <= TLM_ARM_MAX_UM
+                   ? NULL
+                   : "usage: set-arm MM, the arm in mm (1..1000, at most 3 decimals)";
+    }
+    out->type = TLM_TYPE_SET_PERIOD;
+    out->u.period_ms = (uint16_t)(v <= TLM_PERIOD_MAX_MS ? v : 0u);
+    return ok && v >= TLM_PERIOD_MIN_MS && v <= TLM_PERIOD_MAX_MS
+               ? NULL
+               : "usage: set-period MS, the sample period in whole ms (1..10000)";
 }
 
 const char *tlm_command_from_text(const char *text, struct tlm_command *out) {
@@ -146,6 +166,9 @@ const char *tlm_command_from_text(const char *text, struct tlm_command *out) {
     }
     if (is(verb, "process-noise", "set-process-noise")) {
         return process_noise(&w, out);
+    }
+    if (is(verb, "set-arm", NULL) || is(verb, "set-period", NULL)) {
+        return arm_or_period(&w, strcmp(verb, "set-arm") == 0, out);
     }
     if (is(verb, "raw", "raw-stream")) {
         out->type = TLM_TYPE_RAW_STREAM;
@@ -167,7 +190,7 @@ const char *tlm_command_from_text(const char *text, struct tlm_command *out) {
         }
     }
     return "unknown command (set-window, estimator, start, stop, status, raw, process-noise, "
-           "save)";
+           "set-arm, set-period, save)";
 }
 
 const char *tlm_command_from_arg(const char *arg, uint32_t *row, struct tlm_command *out) {

@@ -1,101 +1,12 @@
-/* Telemetry messages and commands: encoders and validating parsers (types: tlm_types.c). */
+/* Telemetry messages: encoders and validating parsers (commands: tlm_commands.c; types:
+ * tlm_types.c). */
 #include "telemetry/tlm_messages.h"
 
 #include <string.h>
 
 #include "hal/hal_err.h"
-#include "telemetry/tlm_crc.h"
 
-/* --- little-endian byte order helpers ------------------------------------ */
-
-struct writer {
-    uint8_t *buf;
-    size_t at;
-};
-
-static void put_u8(struct writer *w, uint8_t value) {
-    w->buf[w->at] = value;
-    w->at += 1u;
-}
-
-static void put_u16(struct writer *w, uint16_t value) {
-    put_u8(w, (uint8_t)(value & 0xFFu));
-    put_u8(w, (uint8_t)(value >> 8));
-}
-
-static void put_u32(struct writer *w, uint32_t value) {
-    put_u16(w, (uint16_t)(value & 0xFFFFu));
-    put_u16(w, (uint16_t)(value >> 16));
-}
-
-static void put_i32(struct writer *w, int32_t value) {
-    put_u32(w, (uint32_t)value); /* two's complement by definition of the conversion */
-}
-
-struct reader {
-    const uint8_t *buf;
-    size_t at;
-};
-
-static uint8_t get_u8(struct reader *r) {
-    uint8_t value = r->buf[r->at];
-    r->at += 1u;
-    return value;
-}
-
-static uint16_t get_u16(struct reader *r) {
-    uint16_t low = get_u8(r);
-    uint16_t high = get_u8(r);
-    return (uint16_t)(low | (uint16_t)(high << 8));
-}
-
-static uint32_t get_u32(struct reader *r) {
-    uint32_t low = get_u16(r);
-    uint32_t high = get_u16(r);
-    return low | (high << 16);
-}
-
-static int32_t get_i32(struct reader *r) {
-    uint32_t value = get_u32(r);
-    if (value <= (uint32_t)INT32_MAX) {
-        return (int32_t)value;
-    }
-    /* value - 2^32 without implementation-defined unsigned-to-signed conversion. */
-    return (int32_t)(value - 0x80000000u) + INT32_MIN;
-}
-
-/*
- * Write the header and CRC around a payload already built at out +
- * TLM_HEADER_SIZE. The caller checked the capacity.
- */
-static int finish_frame(uint8_t type, uint8_t seq, uint8_t *out, size_t payload_len, size_t cap) {
-    return tlm_frame_encode(type, seq, &out[TLM_HEADER_SIZE], payload_len, out, cap);
-}
-
-static bool has_room(const uint8_t *out, size_t cap, size_t payload_len) {
-    return out != NULL && cap >= payload_len + TLM_FRAME_OVERHEAD;
-}
-
-static void count_result(struct tlm_rx_counters *counters, enum tlm_result result) {
-    if (counters == NULL) {
-        return;
-    }
-    switch (result) {
-    case TLM_RESULT_UNKNOWN_TYPE:
-        counters->unknown_type += 1u;
-        break;
-    case TLM_RESULT_BAD_LENGTH:
-        counters->bad_length += 1u;
-        break;
-    case TLM_RESULT_OUT_OF_RANGE:
-        counters->out_of_range += 1u;
-        break;
-    case TLM_RESULT_OK:
-    case TLM_RESULT_STATE:
-    default:
-        break;
-    }
-}
+#include "tlm_wire.h"
 
 /* --- estimate ------------------------------------------------------------- */
 
@@ -351,14 +262,11 @@ static enum tlm_result parse_ack(struct reader *r, struct tlm_ack *m) {
 
 /* --- status --------------------------------------------------------------- */
 
-static bool window_is_valid(uint16_t window_n, uint8_t mode) {
-    return window_n >= TLM_WINDOW_MIN && window_n <= TLM_WINDOW_MAX && mode <= TLM_WINDOW_MODE_LAST;
-}
-
 static bool status_is_valid(const struct tlm_status *m) {
     return window_is_valid(m->window_n, m->mode) && m->estimator <= TLM_ESTIMATOR_LAST &&
-           m->record <= TLM_RECORD_STATE_LAST && /* enum tlm_record_state */
-           m->calibration <= TLM_CAL_STATE_LAST; /* enum tlm_cal_state */
+           m->record <= TLM_RECORD_STATE_LAST &&   /* enum tlm_record_state */
+           m->calibration <= TLM_CAL_STATE_LAST && /* enum tlm_cal_state */
+           arm_is_valid(m->arm_um) && period_is_valid(m->period_ms);
 }
 
 int tlm_encode_status(uint8_t seq, const struct tlm_status *msg, uint8_t *out, size_t cap) {
@@ -379,14 +287,8 @@ int tlm_encode_status(uint8_t seq, const struct tlm_status *msg, uint8_t *out, s
     put_u16(&w, msg->period_ms);
     put_u8(&w, msg->record);
     put_u8(&w, msg->calibration);
+    put_u32(&w, msg->arm_um);
     return finish_frame(TLM_TYPE_STATUS, seq, out, w.at, cap);
-}
-
-/* A wire boolean is 0 or 1; anything else is out of range, not "true". */
-static bool get_bool(struct reader *r, bool *value) {
-    uint8_t raw = get_u8(r);
-    *value = raw == 1u;
-    return raw <= 1u;
 }
 
 static enum tlm_result parse_status(struct reader *r, struct tlm_status *m) {
@@ -403,6 +305,7 @@ static enum tlm_result parse_status(struct reader *r, struct tlm_status *m) {
     m->period_ms = get_u16(r);
     m->record = get_u8(r);
     m->calibration = get_u8(r);
+    m->arm_um = get_u32(r);
     if (protocol != TLM_PROTOCOL_VERSION || !running_ok || !raw_ok || !status_is_valid(m)) {
         return TLM_RESULT_OUT_OF_RANGE;
     }
@@ -417,127 +320,6 @@ static enum tlm_result parse_calibration(const uint8_t *p, struct tlm_calibratio
     return m->state <= TLM_CAL_STATE_LAST && tlm_cal_section_is_valid(m->section, true)
                ? TLM_RESULT_OK
                : TLM_RESULT_OUT_OF_RANGE;
-}
-
-/* --- commands ------------------------------------------------------------- */
-
-/* The protocol's range of set-process-noise: only the defined flag bits. The intensities
- * are any uint32; what Q per row they give at the sample period is the estimator's to
- * accept or refuse (the nack then carries its code). */
-static bool process_noise_is_valid(uint8_t flags) {
-    return (flags & ~TLM_PROCESS_NOISE_AUTO) == 0u;
-}
-
-int tlm_encode_command(uint8_t seq, const struct tlm_command *cmd, uint8_t *out, size_t cap) {
-    if (cmd == NULL || out == NULL) {
-        return HAL_ERR_INVALID;
-    }
-    const int length = tlm_type_payload_length(cmd->type, TLM_ACCEPT_COMMANDS);
-    if (length < 0 || !has_room(out, cap, (size_t)length)) {
-        return HAL_ERR_INVALID;
-    }
-    struct writer w = {.buf = &out[TLM_HEADER_SIZE], .at = 0};
-    switch (cmd->type) {
-    case TLM_TYPE_SET_WINDOW:
-        if (!window_is_valid(cmd->u.set_window.window_n, cmd->u.set_window.mode)) {
-            return HAL_ERR_INVALID;
-        }
-        put_u16(&w, cmd->u.set_window.window_n);
-        put_u8(&w, cmd->u.set_window.mode);
-        break;
-    case TLM_TYPE_SELECT_ESTIMATOR:
-        if (cmd->u.estimator > TLM_ESTIMATOR_LAST) {
-            return HAL_ERR_INVALID;
-        }
-        put_u8(&w, cmd->u.estimator);
-        break;
-    case TLM_TYPE_RAW_STREAM:
-        put_u8(&w, cmd->u.raw_enable ? 1u : 0u);
-        break;
-    case TLM_TYPE_SET_PROCESS_NOISE:
-        if (!process_noise_is_valid(cmd->u.process_noise.flags)) {
-            return HAL_ERR_INVALID;
-        }
-        put_u32(&w, cmd->u.process_noise.qd_um2_per_s);
-        put_u32(&w, cmd->u.process_noise.qt_um2_per_s);
-        put_u8(&w, cmd->u.process_noise.flags);
-        break;
-    case TLM_TYPE_WRITE_CALIBRATION:
-        if (!tlm_cal_section_is_valid(cmd->u.cal_section, false)) {
-            return HAL_ERR_INVALID;
-        }
-        memcpy(w.buf, cmd->u.cal_section, TLM_CAL_SECTION_LEN);
-        w.at = TLM_CAL_SECTION_LEN;
-        break;
-    case TLM_TYPE_REZERO:
-        if (cmd->u.rezero_samples < TLM_REZERO_MIN || cmd->u.rezero_samples > TLM_REZERO_MAX) {
-            return HAL_ERR_INVALID;
-        }
-        put_u16(&w, cmd->u.rezero_samples);
-        break;
-    default: /* start, stop, status request, save, read-calibration: no payload */
-        break;
-    }
-    return finish_frame(cmd->type, seq, out, w.at, cap);
-}
-
-enum tlm_result tlm_parse_command(const struct tlm_frame *frame, struct tlm_command *out,
-                                  struct tlm_rx_counters *counters) {
-    enum tlm_result result = TLM_RESULT_OK;
-    const int length = tlm_type_payload_length(frame->type, TLM_ACCEPT_COMMANDS);
-    memset(out, 0, sizeof *out);
-    if (length < 0) {
-        result = TLM_RESULT_UNKNOWN_TYPE;
-    } else if (frame->length != (size_t)length || (frame->length > 0u && frame->payload == NULL)) {
-        result = TLM_RESULT_BAD_LENGTH;
-    } else {
-        struct reader r = {.buf = frame->payload, .at = 0};
-        out->type = frame->type;
-        switch (frame->type) {
-        case TLM_TYPE_SET_WINDOW:
-            out->u.set_window.window_n = get_u16(&r);
-            out->u.set_window.mode = get_u8(&r);
-            if (!window_is_valid(out->u.set_window.window_n, out->u.set_window.mode)) {
-                result = TLM_RESULT_OUT_OF_RANGE;
-            }
-            break;
-        case TLM_TYPE_SELECT_ESTIMATOR:
-            out->u.estimator = get_u8(&r);
-            if (out->u.estimator > TLM_ESTIMATOR_LAST) {
-                result = TLM_RESULT_OUT_OF_RANGE;
-            }
-            break;
-        case TLM_TYPE_RAW_STREAM:
-            if (!get_bool(&r, &out->u.raw_enable)) {
-                result = TLM_RESULT_OUT_OF_RANGE;
-            }
-            break;
-        case TLM_TYPE_SET_PROCESS_NOISE:
-            out->u.process_noise.qd_um2_per_s = get_u32(&r);
-            out->u.process_noise.qt_um2_per_s = get_u32(&r);
-            out->u.process_noise.flags = get_u8(&r);
-            if (!process_noise_is_valid(out->u.process_noise.flags)) {
-                result = TLM_RESULT_OUT_OF_RANGE;
-            }
-            break;
-        case TLM_TYPE_WRITE_CALIBRATION:
-            memcpy(out->u.cal_section, frame->payload, TLM_CAL_SECTION_LEN);
-            if (!tlm_cal_section_is_valid(out->u.cal_section, false)) {
-                result = TLM_RESULT_OUT_OF_RANGE;
-            }
-            break;
-        case TLM_TYPE_REZERO:
-            out->u.rezero_samples = get_u16(&r);
-            if (out->u.rezero_samples < TLM_REZERO_MIN || out->u.rezero_samples > TLM_REZERO_MAX) {
-                result = TLM_RESULT_OUT_OF_RANGE;
-            }
-            break;
-        default: /* start, stop, status request, save, read-calibration: length only */
-            break;
-        }
-    }
-    count_result(counters, result);
-    return result;
 }
 
 /* --- telemetry parse ------------------------------------------------------ */

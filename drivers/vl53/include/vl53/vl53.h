@@ -268,6 +268,11 @@ int vl53_configure(struct vl53_dev *dev);
 /* Change the timing (ranging must be stopped: HAL_ERR_STATE). Invalid combos: HAL_ERR_INVALID
  * before any bus access. */
 int vl53_set_timing(struct vl53_dev *dev, const struct vl53_timing *timing);
+/* The timing the next configuration writes (vl53_configure_finish(), a re-initialisation),
+ * without a bus transfer: for a part that is off, failed or between the halves of its
+ * configuration. HAL_ERR_INVALID for a timing the part cannot run, HAL_ERR_STATE while
+ * ranging. */
+int vl53_set_timing_next(struct vl53_dev *dev, const struct vl53_timing *timing);
 /* Same, changing one parameter of the active timing. */
 int vl53_set_distance_mode(struct vl53_dev *dev, enum vl53_distance_mode mode);
 int vl53_set_timing_budget(struct vl53_dev *dev, uint16_t budget_ms);

@@ -9,6 +9,8 @@
  *     start | stop | status | status-request | save
  *     raw|raw-stream on|off
  *     process-noise|set-process-noise QD,QT|auto   mm²/s, up to 6 decimals, <= 4294.967295
+ *     set-arm MM                               the arm a in mm, up to 3 decimals, 1..1000
+ *     set-period MS                            the sample period in whole ms, 1..10000
  *
  * Words are separated by spaces; verbs and names in any case.
  */

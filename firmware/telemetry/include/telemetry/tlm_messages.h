@@ -23,7 +23,8 @@
  * record state (17 bytes), and the save command (0x88). */
 /* 4: the status message ends with the head calibration's state (18 bytes); write- and
  * read-calibration (0x90, 0x91) and the calibration message (0x10). */
-#define TLM_PROTOCOL_VERSION 4u
+/* 5: the status message ends with the arm (22 bytes); set-arm and set-period (0x89, 0x8A). */
+#define TLM_PROTOCOL_VERSION 5u
 
 /* Frame types. Commands have the top bit set, so direction shows in a dump. */
 enum tlm_type {
@@ -40,7 +41,9 @@ enum tlm_type {
     TLM_TYPE_STATUS_REQUEST = 0x85,
     TLM_TYPE_RAW_STREAM = 0x86,
     TLM_TYPE_SET_PROCESS_NOISE = 0x87,
-    TLM_TYPE_SAVE = 0x88, /* keep the settings in force across resets (the record) */
+    TLM_TYPE_SAVE = 0x88,       /* keep the settings in force across resets (the record) */
+    TLM_TYPE_SET_ARM = 0x89,    /* the head's arm a (issue 22: geometry at run time) */
+    TLM_TYPE_SET_PERIOD = 0x8A, /* the sample period (issue 22: rate at run time) */
     /* The head's calibration (issue 23; 0x90 on, clear of the settings' commands): */
     TLM_TYPE_WRITE_CALIBRATION = 0x90, /* a record section 2, saved and put in force */
     TLM_TYPE_READ_CALIBRATION = 0x91,  /* answered by a calibration message */
@@ -52,7 +55,7 @@ enum tlm_type {
 #define TLM_LEN_RAW_SAMPLE        17u
 #define TLM_LEN_HEALTH            148u
 #define TLM_LEN_ACK               4u
-#define TLM_LEN_STATUS            18u
+#define TLM_LEN_STATUS            22u
 #define TLM_LEN_SET_WINDOW        3u
 #define TLM_LEN_SELECT_ESTIMATOR  1u
 #define TLM_LEN_START             0u
@@ -61,6 +64,16 @@ enum tlm_type {
 #define TLM_LEN_RAW_STREAM        1u
 #define TLM_LEN_SET_PROCESS_NOISE 9u
 #define TLM_LEN_SAVE              0u
+#define TLM_LEN_SET_ARM           4u /* u32 arm_um */
+#define TLM_LEN_SET_PERIOD        2u /* u16 period_ms */
+/* The protocol's ranges of set-arm and set-period: the estimator's arm range (estimator/
+ * attitude.h, ATTITUDE_ERR_ARM) and the VL53L1X inter-measurement period's (vl53/vl53.h:
+ * up to 10 s; the shortest a part can run is its distance mode's shortest budget plus 4 ms,
+ * which the firmware checks and nacks). */
+#define TLM_ARM_MIN_UM    1000u
+#define TLM_ARM_MAX_UM    1000000u
+#define TLM_PERIOD_MIN_MS 1u
+#define TLM_PERIOD_MAX_MS 10000u
 /* The calibration travels as the record's section 2 as it is stored (firmware/
  * calibration_record.h): u8 id 2, u8 version, u16 length 80, then the 80 bytes. */
 #define TLM_CAL_SECTION_ID        2u
@@ -197,9 +210,10 @@ struct tlm_status {
     uint8_t estimator; /* enum tlm_estimator */
     bool running;
     bool raw_stream;
-    uint16_t period_ms;  /* sample period */
+    uint16_t period_ms;  /* sample period, TLM_PERIOD_MIN_MS..TLM_PERIOD_MAX_MS */
     uint8_t record;      /* enum tlm_record_state: the saved settings at boot */
     uint8_t calibration; /* enum tlm_cal_state: the head's calibration at boot */
+    uint32_t arm_um;     /* the head's arm a in force, TLM_ARM_MIN_UM..TLM_ARM_MAX_UM */
 };
 
 /* The status message's `record`: what the firmware found of its saved settings at boot
@@ -272,6 +286,8 @@ struct tlm_command {
          * firmware checks the version and the content) */
         uint8_t cal_section[TLM_CAL_SECTION_LEN];
         uint16_t rezero_samples; /* TLM_TYPE_REZERO: TLM_REZERO_MIN..TLM_REZERO_MAX */
+        uint32_t arm_um;         /* TLM_TYPE_SET_ARM: TLM_ARM_MIN_UM..TLM_ARM_MAX_UM */
+        uint16_t period_ms;      /* TLM_TYPE_SET_PERIOD: TLM_PERIOD_MIN_MS..TLM_PERIOD_MAX_MS */
     } u;
 };
 
