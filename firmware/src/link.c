@@ -64,7 +64,9 @@ static void send_estimates(struct tof_link *link, const struct tof_estimate_reco
     }
 }
 
-static void send_health(struct tof_link *link) {
+/* Not inlined: its message and frame stay off tof_link_poll()'s frame, under which the
+ * decoder's callbacks run (tools/stack_check.py). */
+static __attribute__((noinline)) void send_health(struct tof_link *link) {
     struct tof_app_health h;
     tof_app_get_health(link->app, &h);
     struct tlm_health msg;
@@ -306,14 +308,17 @@ static uint8_t apply(struct tof_link *link, const struct tlm_command *cmd, int *
     case TLM_TYPE_SET_PERIOD:
         return apply_geometry(link, cmd, error);
     case TLM_TYPE_SAVE: {
-        /* Begun here, advanced by each poll (a page erase outlasts a loop iteration); the
-         * first step now: with the other page blank, the copy is written and in use at once. */
+        /* Begun here, advanced by each poll (a page erase outlasts a loop iteration). */
         struct tof_settings now;
         tof_settings_capture(app, &link->process_noise, &now);
         *error = tof_settings_save_begin(link->records, &now); /* a hal_err: storage's own */
-        if (*error == HAL_OK) {
+        /* Two steps now: the blank check, then the program when the page was blank (a
+         * millisecond or two), so the answer goes out with this poll; when it was not, the
+         * second step finds its erase running and the answer waits for it in save_poll(). */
+        for (unsigned n = 0; n < 2u && *error == HAL_OK; ++n) {
             *error = tof_record_step(link->records);
             link->save_pending = *error == HAL_ERR_NOT_READY;
+            *error = link->save_pending ? HAL_OK : *error;
         }
         return *error == HAL_OK || link->save_pending ? TLM_RESULT_OK : TLM_RESULT_STATE;
     }
@@ -400,7 +405,7 @@ void tof_link_bind(struct tof_link *link, struct tof_app *app) {
 }
 
 /* The record save under way, one step a poll; a pending `save` answered when it ends. */
-static void save_poll(struct tof_link *link) {
+static __attribute__((noinline)) void save_poll(struct tof_link *link) {
     if (link->records == NULL || !tof_record_busy(link->records)) {
         return;
     }
@@ -422,7 +427,7 @@ void tof_link_poll(struct tof_link *link) {
     if (link->serial.ops == NULL || link->app == NULL) {
         return;
     }
-    save_poll(link);
+    save_poll(link); /* not inlined for the same reason as send_health() */
     uint8_t buf[TOF_LINK_RX_PER_POLL];
     const struct tlm_frame_sink sink = {.on_frame = on_frame, .on_reject = on_reject, .ctx = link};
     for (unsigned chunk = 0; chunk < TOF_LINK_RX_CHUNKS; ++chunk) {

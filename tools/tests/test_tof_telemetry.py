@@ -85,6 +85,13 @@ class EncodeTest(unittest.TestCase):
         self.assertEqual(t.format_message(ftype, 4, fields),
                          "seq=4 set-process-noise qd_mm2_per_s=1.250000 "
                          "qt_mm2_per_s=0.010000 auto=no")
+        # set-arm in mm (3 decimals) as u32 um; set-period in whole ms as u16 (issue 22)
+        self.assertEqual(t.command_payload("set-arm 45.25"), (t.T_SET_ARM, struct.pack("<I", 45250)))
+        self.assertEqual(t.command_payload("set-period 33"), (t.T_SET_PERIOD, b"\x21\x00"))
+        ftype, payload = t.command_payload("set-arm 1000")
+        fields, result = t.parse(ftype, payload)
+        self.assertEqual(result, t.R_OK)
+        self.assertEqual(t.format_message(ftype, 2, fields), "seq=2 set-arm arm_um=1000000")
 
     def test_bad_commands_name_the_problem(self):
         cases = {"set-window 1": "2..255", "set-window 256": "2..255",
@@ -94,7 +101,11 @@ class EncodeTest(unittest.TestCase):
                  "process-noise 1": "QD,QT", "process-noise 1,2,3": "QD,QT",
                  "process-noise 0.0000001,1": "QD,QT", "process-noise 4294.967296,0": "QD,QT",
                  "process-noise -1,0": "QD,QT", "process-noise 1e3,0": "QD,QT",
-                 "process-noise ,1": "QD,QT", "process-noise": "usage"}
+                 "process-noise ,1": "QD,QT", "process-noise": "usage",
+                 "set-arm 0.999": "1..1000 mm", "set-arm 1000.001": "1..1000 mm",
+                 "set-arm 30.0001": "1..1000 mm", "set-arm": "usage",
+                 "set-period 0": "1..10000", "set-period 10001": "1..10000",
+                 "set-period 20.5": "1..10000", "set-period 20 30": "usage"}
         for text, fragment in cases.items():
             with self.assertRaises(t.ProtocolError, msg=text) as ctx:
                 t.command_payload(text)

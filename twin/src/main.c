@@ -19,7 +19,10 @@
 #include <time.h>
 
 #include "calibrate/cal_apply.h"
+#include "firmware/config.h"
 #include "firmware/est_csv.h"
+#include "firmware/settings.h"
+#include "hal/hal_err.h"
 #include "sim/sim_fault.h"
 #include "tof_twin.h"
 #include "twin_elf.h"
@@ -45,8 +48,9 @@ static int select_estimator(struct run *r) {
     return 0;
 }
 
-/* The trace, which must match the flight image's compiled-in arm and period. Its period
- * (ms) into *period_ms. 0, or -1 after a message. */
+/* The trace and its period (ms) into *period_ms; the firmware configuration the flight image
+ * runs it in (r->cfg: its defaults at the trace's arm and period, which the boot takes from
+ * the saved settings, preload_records()). 0, or -1 after a message. */
 static int load_trace(struct run *r, uint32_t *period_ms) {
     char err[512];
     if (trace_load_file(r->a.trace, 10000000u, &r->rows, &r->row_count, &r->meta, err,
@@ -55,15 +59,20 @@ static int load_trace(struct run *r, uint32_t *period_ms) {
         return -1;
     }
     *period_ms = r->meta.period_ms != 0u ? r->meta.period_ms : 20u;
-    /* The flight image's configuration is compiled in (firmware/src/config.c): arm and
-     * period cannot be changed by command, so a trace must match them. */
-    if (lround(r->meta.arm_mm * 1000.0) != FLIGHT_ARM_UM || *period_ms != FLIGHT_PERIOD_MS) {
+    const int32_t arm_um = (int32_t)lround(r->meta.arm_mm * 1000.0);
+    const struct tof_app_config *image = &tof_app_default_config;
+    if (tof_app_config_for_replay(&r->cfg, arm_um, *period_ms, image->estimator.window,
+                                  image->estimator.mode == ATTITUDE_SLIDING,
+                                  image->timing.mode) != HAL_OK) {
         fprintf(stderr,
-                "tof_twin: %s: arm_mm %.3f, period_ms %u: the flight image is built for arm_mm "
-                "%.1f and period_ms %u (firmware/src/config.c); replay this trace with host_sim\n",
-                r->a.trace, r->meta.arm_mm, *period_ms, FLIGHT_ARM_UM / 1000.0, FLIGHT_PERIOD_MS);
+                "tof_twin: %s: arm_mm %.3f, period_ms %u: the flight image cannot run them (%s "
+                "mode: the shortest period is a %u ms budget + %u ms margin; the arm 1..1000 "
+                "mm)\n",
+                r->a.trace, r->meta.arm_mm, *period_ms, vl53_distance_mode_name(image->timing.mode),
+                (unsigned)vl53_shortest_budget_ms(image->timing.mode), VL53_IMP_MARGIN_MS);
         return -1;
     }
+    r->cfg.raw_output = image->raw_output; /* the image's, not the replay's raw stream */
     return 0;
 }
 
@@ -105,10 +114,13 @@ static int load_firmware(struct run *r) {
     return r->a.flash_in != NULL ? records_file(r, r->a.flash_in, false) : 0;
 }
 
-/* The head's calibration (--calibration, else the trace's keys, DESIGN.md §5) written into
- * the image's record pages as section 2, as host_sim replay preloads it, so the flight
- * firmware's boot finds it where a flight unit keeps it. 0, or -1 (message on stderr). */
-static int preload_calibration(struct run *r) {
+/* The record pages as a user leaves them for this trace: the settings section with the
+ * trace's arm and period when they are not the image's own (set-arm, set-period, `save`: the
+ * boot applies them), and the head's calibration (--calibration, else the trace's keys,
+ * DESIGN.md §5) as section 2, made in the configuration the boot arrives at, as host_sim
+ * replay preloads it. The flight firmware's boot finds both where a flight unit keeps them.
+ * 0, or -1 (message on stderr). */
+static int preload_records(struct run *r) {
     static struct trace_v1_meta m; /* the trace's keys, checked by its reader already */
     memset(&m, 0, sizeof m);
     for (unsigned k = 0; k < r->meta.count && k < TRACE_MAX_META; ++k) {
@@ -135,9 +147,26 @@ static int preload_calibration(struct run *r) {
     uint8_t *mem = &r->t.flash[TWIN_RECORDS_BASE - TWIN_FLASH_BASE];
     /* bound as the HEAD.cal states (head, mode, budget): the flight image's boot refuses
      * what a flight unit would, and the report's calibration_state says so */
-    if (cal_apply_preload(&cal.cal, &tof_app_default_config, &cal.made_in, mem, &flash, &store) !=
-        0) {
+    if (cal_apply_preload(&cal.cal, &r->cfg, &cal.made_in, mem, &flash, &store) != 0) {
         return -1;
+    }
+    const struct tof_app_config *image = &tof_app_default_config;
+    if (r->cfg.estimator.arm_um != image->estimator.arm_um ||
+        r->cfg.timing.inter_measurement_ms != image->timing.inter_measurement_ms) {
+        const struct tof_settings s = {
+            .window = image->estimator.window,
+            .sliding = image->estimator.mode == ATTITUDE_SLIDING,
+            .primary = (uint8_t)ATTITUDE_EST_CONSENSUS,
+            .running = true,
+            .raw_output = image->raw_output,
+            .arm_um = r->cfg.estimator.arm_um,
+            .period_ms = (uint16_t)r->cfg.timing.inter_measurement_ms,
+        };
+        (void)tof_record_load(&store); /* the record in use, whose other sections are kept */
+        if (tof_settings_save(&store, &s) != HAL_OK) {
+            fprintf(stderr, "tof_twin: internal: the settings do not make a record\n");
+            return -1;
+        }
     }
     memcpy(mem, flash.mem[0], CAL_APPLY_PAGE_SIZE);
     memcpy(mem + CAL_APPLY_PAGE_SIZE, flash.mem[1], CAL_APPLY_PAGE_SIZE);
@@ -286,7 +315,7 @@ int main(int argc, char **argv) {
         }
     }
     faults.seed = (uint32_t)(r->a.seed ^ (r->a.seed >> 32));
-    if (load_firmware(r) != 0 || preload_calibration(r) != 0 || open_outputs(r) != 0) {
+    if (load_firmware(r) != 0 || preload_records(r) != 0 || open_outputs(r) != 0) {
         return 1;
     }
     wire(r, period_ms, &faults);

@@ -13,15 +13,14 @@
 #include <stdio.h>
 
 #include "estimator/attitude.h"
+#include "firmware/config.h"
 #include "scene/trace.h"
 #include "telemetry/tlm_frame.h"
 #include "telemetry/tlm_messages.h"
 #include "twin.h"
 #include "twin_world.h"
 
-#define FLIGHT_WINDOW    100u /* tof_app_default_config: ATTITUDE_CONFIG_DEFAULT window */
-#define FLIGHT_ARM_UM    30000
-#define FLIGHT_PERIOD_MS 20u
+#define FLIGHT_WINDOW 100u /* tof_app_default_config: ATTITUDE_CONFIG_DEFAULT window */
 
 #define TOF_TWIN_COMMANDS      32u
 #define TOF_TWIN_USER_COMMANDS 16u /* --command ROW:TEXT */
@@ -60,6 +59,7 @@ struct args {
 
 struct run {
     struct args a;
+    struct tof_app_config cfg; /* the flight image's configuration for the trace (main.c) */
     struct twin t;
     struct twin_world w;
     struct scene_row *rows;

@@ -30,6 +30,40 @@ if(DEFINED TRACE_META)
   file(WRITE ${OUT}/trace.csv "${text}")
   set(TRACE ${OUT}/trace.csv)
 endif()
+# GEOMETRY (optional): "ARM_MM;PERIOD_MS;ROWS": the trace's first ROWS rows as a head with
+# that arm recorded at that period (t_ms re-spaced, arm_mm and period_ms replaced): the flight
+# image boots into them from its saved settings (issue 22), host_sim configures them directly.
+if(DEFINED GEOMETRY)
+  list(GET GEOMETRY 0 arm)
+  list(GET GEOMETRY 1 period)
+  list(GET GEOMETRY 2 rows)
+  find_package(Python3 REQUIRED COMPONENTS Interpreter)
+  execute_process(COMMAND ${Python3_EXECUTABLE} -c "
+import sys
+src, dst, arm, period, rows = sys.argv[1], sys.argv[2], sys.argv[3], int(sys.argv[4]), int(sys.argv[5])
+out, n, header = [], 0, False
+for line in open(src):
+    if line.startswith('# arm_mm='):
+        line = '# arm_mm=%s\\n' % arm
+    elif line.startswith('# period_ms='):
+        line = '# period_ms=%d\\n' % period
+    elif line.startswith('t_ms,'):
+        header = True
+    elif header and not line.startswith('#'):
+        if n == rows:
+            break
+        f = line.split(',')
+        f[0] = str(n * period)
+        line = ','.join(f)
+        n += 1
+    out.append(line)
+open(dst, 'w').write(''.join(out))
+" ${TRACE} ${OUT}/geometry.csv ${arm} ${period} ${rows} RESULT_VARIABLE rc)
+  if(NOT rc EQUAL 0)
+    message(FATAL_ERROR "could not write the re-timed trace (${rc})")
+  endif()
+  set(TRACE ${OUT}/geometry.csv)
+endif()
 # CMDS: "--command;ROW:TEXT;..." given to both (DESIGN.md §6): a host's commands at a row.
 execute_process(COMMAND ${HOST_SIM} replay ${TRACE} --estimator ${EST} ${CMDS}
                         --out ${OUT}/host_sim.csv ${HOST_ARGS}

@@ -46,9 +46,10 @@ message(STATUS "saved settings back after the reset: window 50 sliding")
 set(seen_old 0)
 set(seen_new 0)
 # one save of the settings record: the other page is blank (the first save's last step
-# erased it), so no erase before the copy: 5 double-words (12 + 20 + 2 bytes), then the old
-# page's erase, in the background over the loop iterations after the answer
-foreach(k RANGE 0 5)
+# erased it), so no erase before the copy: 6 double-words (12 + 28 + 2 bytes: header, the
+# settings section v2, CRC), then the old page's erase, in the background over the loop
+# iterations after the answer
+foreach(k RANGE 0 6)
   twin_run(cut${k} --window 60 --save --flash-in ${OUT}/pages.bin --flash-cut ${k})
   if(NOT flash_cuts EQUAL 1 OR NOT boots EQUAL 2 OR NOT hardfaults EQUAL 0)
     message(FATAL_ERROR "cut ${k}: cuts ${flash_cuts}, boots ${boots}, hardfaults ${hardfaults}")
