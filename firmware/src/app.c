@@ -437,6 +437,10 @@ int tof_app_set_period(struct tof_app *app, uint32_t period_ms) {
     if (tof_app_config_period(&next, period_ms) != HAL_OK) {
         return HAL_ERR_INVALID;
     }
+    if (next.timing.budget_ms == app->cfg.timing.budget_ms &&
+        next.timing.inter_measurement_ms == app->cfg.timing.inter_measurement_ms) {
+        return HAL_OK; /* the period in force: nothing to re-time, nothing restarted */
+    }
     struct attitude_config est = app->estimator.cfg;
     int rc = tof_estimator_period(&est, next.estimator.period_us);
     if (rc == ATTITUDE_ERR_NONE) {

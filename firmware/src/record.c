@@ -260,11 +260,23 @@ bool tof_record_busy(const struct tof_record_store *store) {
  * erase's own budget ends it (HAL_ERR_TIMEOUT) long before. */
 #define SAVE_STEPS_MAX 10000000u
 
-int tof_record_save(struct tof_record_store *store, const uint8_t *payload, uint16_t len) {
+/* The steps of a save until it is over, or (`in_use`) until the new copy is in use. */
+static int save_steps(struct tof_record_store *store, const uint8_t *payload, uint16_t len,
+                      bool in_use) {
     int rc = tof_record_save_begin(store, payload, len);
-    for (uint32_t n = 0; rc == HAL_OK && tof_record_busy(store); ++n) {
+    for (uint32_t n = 0;
+         rc == HAL_OK && tof_record_busy(store) && !(in_use && store->step == STEP_ERASE_OLD);
+         ++n) {
         rc = n < SAVE_STEPS_MAX ? tof_record_step(store) : HAL_ERR_TIMEOUT;
         rc = rc == HAL_ERR_NOT_READY ? HAL_OK : rc;
     }
     return rc;
+}
+
+int tof_record_save(struct tof_record_store *store, const uint8_t *payload, uint16_t len) {
+    return save_steps(store, payload, len, false);
+}
+
+int tof_record_save_in_use(struct tof_record_store *store, const uint8_t *payload, uint16_t len) {
+    return save_steps(store, payload, len, true);
 }

@@ -212,7 +212,7 @@ int tof_section_save(struct tof_record_store *store, const uint8_t *section) {
     }
     int rc = HAL_OK;
     const uint32_t len = new_payload(store, section, save_payload, &rc);
-    return rc != HAL_OK ? rc : tof_record_save(store, save_payload, (uint16_t)len);
+    return rc != HAL_OK ? rc : tof_record_save_in_use(store, save_payload, (uint16_t)len);
 }
 
 int tof_settings_save(struct tof_record_store *store, const struct tof_settings *s) {

@@ -23,6 +23,9 @@ static struct replay R;
 
 static void on_estimate(void *ctx, const struct tof_estimate_record *record) {
     struct replay *r = ctx;
+    if (r->commands.count > 0u) { /* the link as the flight image has it (--command) */
+        tof_link_output_ops.estimate(&r->commands.link, record);
+    }
     const struct attitude_output *out = &record->output;
     int rc = 0;
     /* The window's last sample from its time (the end of its slot, firmware/src/assembler.c),
@@ -53,6 +56,9 @@ static void on_estimate(void *ctx, const struct tof_estimate_record *record) {
 
 static void on_sample(void *ctx, const struct tof_sample *sample) {
     struct replay *r = ctx;
+    if (r->commands.count > 0u) { /* a re-zero's samples reach the link (--command) */
+        tof_link_output_ops.sample(&r->commands.link, sample);
+    }
     int rc = 0;
     r->samples_done = (uint64_t)sample->index + 1u;
     const struct scene_row *row = scene_row_stream_get(&r->stream, sample->index, &rc);
@@ -261,12 +267,23 @@ static int run(struct replay *r) {
     for (unsigned k = 0; k < r->args->command_count; ++k) {
         (void)replay_commands_add(&r->commands, r->args->commands[k]); /* checked by the cli */
     }
-    replay_commands_start(&r->commands, &r->app, &r->sim.rig.clock, r->app.assembler.origin_us,
-                          r->app.assembler_cfg.period_us);
+    replay_commands_start(&r->commands, &r->app, &r->records, r->cal_state, &r->sim.rig.clock,
+                          r->app.assembler.origin_us, r->app.assembler_cfg.period_us);
     r->recovery_us = -1;
     for (;;) {
-        tof_app_step(&r->app, true);
+        /* The flight image's loop (tof_app_main): the work, the link's poll, then the sleep, so
+         * a command is taken at the instant the firmware takes it. */
+        tof_app_step(&r->app, false);
         replay_commands_poll(&r->commands);
+        tof_app_idle(&r->app);
+        if (r->app.assembler_cfg.period_us != r->period_ms * 1000u) {
+            fprintf(stderr,
+                    "host_sim replay: --command set-period: the firmware now samples every %u ms, "
+                    "the trace's rows are %u ms apart (%s): replay a trace recorded at that "
+                    "period instead\n",
+                    r->app.assembler_cfg.period_us / 1000u, r->period_ms, r->args->trace_path);
+            return -1;
+        }
         if (!r->app.raw_output) {
             /* `raw off` by --command: the samples no longer reach on_sample (nor the
              * statistics); count those the firmware has processed. */

@@ -3,6 +3,7 @@
 
 #include <string.h>
 
+#include "firmware/settings.h"
 #include "telemetry/tlm_command_text.h"
 #include "telemetry/tlm_messages.h"
 
@@ -59,6 +60,7 @@ static size_t serial_write(void *ctx, const uint8_t *data, size_t len) {
 static const struct hal_serial_ops serial_ops = {.write = serial_write, .read = serial_read};
 
 void replay_commands_start(struct replay_commands *c, struct tof_app *app,
+                           struct tof_record_store *records, int cal_state,
                            const struct sim_clock *clock, uint64_t origin_us, uint32_t period_us) {
     c->clock = clock;
     c->origin_us = origin_us;
@@ -66,6 +68,14 @@ void replay_commands_start(struct replay_commands *c, struct tof_app *app,
     tlm_decoder_init(&c->answers, tlm_message_types(TLM_ACCEPT_TELEMETRY));
     tof_link_init(&c->link, (struct hal_serial){.ops = &serial_ops, .ctx = c});
     tof_link_bind(&c->link, app);
+    /* the flight unit's record storage and what its boot found (service_start's) */
+    tof_link_set_records(&c->link, records);
+    struct tof_settings none;
+    c->link.record_state =
+        (uint8_t)(records->current < 0
+                      ? TOF_RECORD_NONE
+                      : tof_settings_decode(records->payload, records->length, &none));
+    c->link.cal_state = (uint8_t)cal_state;
 }
 
 void replay_commands_poll(struct replay_commands *c) {

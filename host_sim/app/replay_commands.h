@@ -14,6 +14,7 @@
 
 #include "firmware/app.h"
 #include "firmware/link.h"
+#include "firmware/record.h"
 #include "sim/sim_clock.h"
 #include "telemetry/tlm_frame.h"
 
@@ -42,9 +43,12 @@ struct replay_commands {
 /* Parse `arg` ("ROW:TEXT") and add it, in order. NULL, or a message naming what is wrong. */
 const char *replay_commands_add(struct replay_commands *c, const char *arg);
 
-/* Start the link on `app` (after tof_app_init), slot 0 at `origin_us`, rows `period_us`
- * apart, time from `clock`. */
+/* Start the link on `app` (after tof_app_init and the calibration's boot, whose state is
+ * `cal_state`), with the replay's record storage `records` (the flight unit's: save,
+ * write-calibration and re-zero keep what they write there), slot 0 at `origin_us`, rows
+ * `period_us` apart, time from `clock`. */
 void replay_commands_start(struct replay_commands *c, struct tof_app *app,
+                           struct tof_record_store *records, int cal_state,
                            const struct sim_clock *clock, uint64_t origin_us, uint32_t period_us);
 
 /* After each main-loop iteration: the bytes due on the line, then the link's poll (as the

@@ -301,6 +301,92 @@ static void test_settings_section_round_trip_and_other_sections_kept(void **stat
     assert_int_equal(tof_settings_save(NULL, &s), HAL_ERR_STATE);
 }
 
+/* A storage that erases in the background as the STM32L4 does (hal_records erase_start and
+ * erase_poll): the sim's blocking erase, carried out on the third poll after its start. */
+static struct {
+    struct hal_records inner;
+    struct hal_records_ops ops;
+    int erasing; /* the page being erased, or -1 */
+    unsigned polls;
+} bg;
+
+static int bg_read(void *ctx, uint16_t page, uint32_t offset, uint8_t *out, size_t len) {
+    (void)ctx;
+    assert_int_equal(bg.erasing, -1); /* no other op while an erase runs */
+    return bg.inner.ops->read(bg.inner.ctx, page, offset, out, len);
+}
+
+static int bg_program(void *ctx, uint16_t page, uint32_t offset, const uint8_t *data, size_t len) {
+    (void)ctx;
+    assert_int_equal(bg.erasing, -1);
+    return bg.inner.ops->program(bg.inner.ctx, page, offset, data, len);
+}
+
+static int bg_erase_start(void *ctx, uint16_t page) {
+    (void)ctx;
+    assert_int_equal(bg.erasing, -1);
+    bg.erasing = page;
+    bg.polls = 0;
+    return HAL_OK;
+}
+
+static int bg_erase_poll(void *ctx) {
+    (void)ctx;
+    if (bg.erasing < 0) {
+        return HAL_OK;
+    }
+    if (++bg.polls < 3u) {
+        return HAL_ERR_NOT_READY;
+    }
+    const int rc = bg.inner.ops->erase(bg.inner.ctx, (uint16_t)bg.erasing);
+    bg.erasing = -1;
+    return rc;
+}
+
+/* tof_record_save_in_use() (write-calibration, re-zero: issue 22) returns with the new copy in
+ * use and the old page's erase still running; steps end it; a save while it runs waits for
+ * it and keeps the rules (the old copy goes only once the new one is verified). */
+static void test_save_in_use_leaves_the_old_erase_running(void **state) {
+    (void)state;
+    bg.inner = sim_flash_hal(&flash);
+    bg.ops = (struct hal_records_ops){.read = bg_read,
+                                      .program = bg_program,
+                                      .erase_start = bg_erase_start,
+                                      .erase_poll = bg_erase_poll};
+    bg.erasing = -1;
+    struct hal_records h = bg.inner;
+    h.ops = &bg.ops;
+    assert_int_equal(tof_record_init(&store, h, 0u, 1u), HAL_OK);
+    uint8_t p[40];
+    fill(p, sizeof p, 1u);
+    assert_int_equal(tof_record_save(&store, p, sizeof p), HAL_OK); /* the first: page 0 */
+    assert_false(tof_record_busy(&store));
+    fill(p, sizeof p, 2u);
+    const uint32_t erases = flash.erases;
+    assert_int_equal(tof_record_save_in_use(&store, p, sizeof p), HAL_OK);
+    assert_true(tof_record_busy(&store)); /* the old page (0) is being erased */
+    assert_int_equal(bg.erasing, 0);
+    assert_int_equal(store.current, 1);
+    assert_memory_equal(store.payload, p, sizeof p);
+    assert_int_equal(flash.erases, erases);
+    /* a save now waits for that erase, then writes page 0 */
+    fill(p, sizeof p, 3u);
+    assert_int_equal(tof_record_save_in_use(&store, p, sizeof p), HAL_OK);
+    assert_int_equal(store.current, 0);
+    assert_int_equal(bg.erasing, 1);
+    unsigned steps = 0;
+    while (tof_record_busy(&store) && steps < 10u) {
+        assert_int_equal(tof_record_step(&store), HAL_OK); /* in use: done for the caller */
+        ++steps;
+    }
+    assert_false(tof_record_busy(&store));
+    assert_int_equal(bg.erasing, -1);
+    assert_int_equal(flash.erases, erases + 2u);
+    struct tof_record_store s2;
+    assert_int_equal(reboot(&s2), TOF_RECORD_LOADED);
+    assert_memory_equal(s2.payload, p, sizeof p);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup(test_flash_model_refuses_what_the_part_refuses, setup),
@@ -310,6 +396,7 @@ int main(void) {
         cmocka_unit_test_setup(test_sequence_number_wraps, setup),
         cmocka_unit_test_setup(test_save_erases_only_what_is_not_blank, setup),
         cmocka_unit_test_setup(test_settings_section_round_trip_and_other_sections_kept, setup),
+        cmocka_unit_test_setup(test_save_in_use_leaves_the_old_erase_running, setup),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -95,12 +95,64 @@ static void test_row_argument(void **state) {
     assert_non_null(tlm_command_from_arg("12:raw", &row, &c));
 }
 
+/* set-arm, set-period, the calibration commands (issue 22: the twin sends every type). */
+static void test_arm_period_and_calibration(void **state) {
+    (void)state;
+    assert_int_equal(parse_ok("set-arm 45.25").u.arm_um, 45250u);
+    assert_int_equal(parse_ok("set-arm 1").u.arm_um, 1000u);
+    assert_int_equal(parse_ok("SET-ARM 1000").u.arm_um, 1000000u);
+    assert_int_equal(parse_ok("set-period 33").u.period_ms, 33u);
+    assert_int_equal(parse_ok("set-period 10000").type, TLM_TYPE_SET_PERIOD);
+    assert_int_equal(parse_ok("read-calibration").type, TLM_TYPE_READ_CALIBRATION);
+    assert_int_equal(parse_ok("re-zero 50").u.rezero_samples, 50u);
+    /* twin/tests/head.cal as tools/tof_telemetry.py --send-cal sends it */
+    static const char hex[] =
+        "020150000000000001010f00e2040000d00700001e000000c8000000f68812fdffff30f8ffff1e000000c8"
+        "000000f68824faffffe80300001e000000c8000000f688f401000018fcffff1e000000c8000000f688";
+    char text[256] = "write-calibration ";
+    strcat(text, hex);
+    const struct tlm_command c = parse_ok(text);
+    assert_int_equal(c.type, TLM_TYPE_WRITE_CALIBRATION);
+    assert_int_equal(c.u.cal_section[0], 2u);
+    assert_int_equal(c.u.cal_section[2], 80u);
+    assert_int_equal(c.u.cal_section[8], 0x01u); /* distance mode short */
+    assert_int_equal(c.u.cal_section[83], 0x88u);
+    struct tlm_command bad;
+    static const char *const refused[] = {"set-arm 0.999",
+                                          "set-arm 1000.001",
+                                          "set-arm 30.0001",
+                                          "set-arm",
+                                          "set-arm x",
+                                          "set-period 0",
+                                          "set-period 10001",
+                                          "set-period 20.5",
+                                          "set-period 20 30",
+                                          "re-zero 9",
+                                          "re-zero 5001",
+                                          "re-zero",
+                                          "read-calibration now",
+                                          "write-calibration",
+                                          "write-calibration 0201",
+                                          "write-calibrationx"};
+    for (size_t i = 0; i < sizeof refused / sizeof refused[0]; ++i) {
+        if (tlm_command_from_text(refused[i], &bad) == NULL) {
+            fail_msg("'%s' accepted", refused[i]);
+        }
+    }
+    text[18] = '3'; /* section id 3: not a calibration section */
+    assert_non_null(tlm_command_from_text(text, &bad));
+    text[18] = '0';
+    strcat(text, "00"); /* a byte too many */
+    assert_non_null(tlm_command_from_text(text, &bad));
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_set_window),
         cmocka_unit_test(test_estimator_and_plain),
         cmocka_unit_test(test_process_noise),
         cmocka_unit_test(test_row_argument),
+        cmocka_unit_test(test_arm_period_and_calibration),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -166,7 +166,8 @@ int tof_app_set_arm(struct tof_app *app, int32_t arm_um);
  * `period_ms` (tof_app_config_period(): the longest budget of the distance mode that fits),
  * each sensor stopped, given that timing and parked for the next slot of the new period,
  * the assembler restarted on it, the estimators restarted with Q per row rescaled to keep its
- * intensity (tof_estimator_period()). The slot in progress is not assembled. HAL_OK;
+ * intensity (tof_estimator_period()). The slot in progress is not assembled. The period in
+ * force (the same timing) changes nothing. HAL_OK;
  * HAL_ERR_INVALID (nothing changed) when no timing of the mode fits; the estimator's
  * attitude_error (nothing changed) when it refuses the new period. A sensor whose new timing
  * could not be written counts the error and is re-initialised by the fault manager with it.

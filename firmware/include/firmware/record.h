@@ -78,6 +78,14 @@ enum tof_record_state tof_record_load(struct tof_record_store *store);
 int tof_record_save(struct tof_record_store *store, const uint8_t *payload, uint16_t len);
 
 /*
+ * As tof_record_save(), returning once the new copy is written, verified and in use: when
+ * the storage erases in the background, the old page's erase goes on, ended by
+ * tof_record_step() calls (tof_record_busy() says it runs). No wait for an erase unless the
+ * other page is not blank (after a power cut during an erase) or an earlier erase still runs.
+ */
+int tof_record_save_in_use(struct tof_record_store *store, const uint8_t *payload, uint16_t len);
+
+/*
  * The same save in steps, so that no main-loop iteration waits for a page erase (~22 ms on
  * the STM32L4, longer than a sample period) when the storage can erase in the background
  * (hal_records erase_start). Begin copies `payload` (the caller's buffer is free at once);

@@ -62,8 +62,10 @@ int tof_settings_apply(struct tof_app *app, const struct tof_settings *s);
 int tof_section_find(const uint8_t *payload, uint16_t len, uint8_t id);
 
 /* Save `section` (its 4-byte header first, the length in it) into `store`'s record in place
- * of the section with its id, every other section kept as it was. HAL_OK, HAL_ERR_STATE
- * without storage, HAL_ERR_INVALID if they do not fit, or tof_record_save()'s error. */
+ * of the section with its id, every other section kept as it was; returns once the new copy
+ * is in use (tof_record_save_in_use(): the old page's erase may go on, stepped by the link's
+ * poll). HAL_OK, HAL_ERR_STATE without storage, HAL_ERR_INVALID if they do not fit, or the
+ * save's error. */
 int tof_section_save(struct tof_record_store *store, const uint8_t *section);
 
 /* Find the settings section in `payload` (`len` bytes) and decode it into `out`:

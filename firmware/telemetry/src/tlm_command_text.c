@@ -151,9 +151,54 @@ static const char *arm_or_period(const struct words *w, bool arm, struct tlm_com
                : "usage: set-period MS, the sample period in whole ms (1..10000)";
 }
 
+/* "write-calibration HEX": the record's section 2 as 168 hex digits (tools/tof_telemetry.py
+ * --send-cal makes it from a HEAD.cal); the header checked as the protocol checks it. */
+static const char *write_calibration(const char *hex, struct tlm_command *out) {
+    static const char usage[] = "usage: write-calibration HEX (the 84 bytes of record section "
+                                "2 in hex; tools/tof_telemetry.py --send-cal makes it)";
+    while (*hex == ' ' || *hex == '\t') {
+        ++hex;
+    }
+    out->type = TLM_TYPE_WRITE_CALIBRATION;
+    for (size_t i = 0; i < 2u * TLM_CAL_SECTION_LEN; ++i) {
+        const char c = hex[i];
+        const int v = c >= '0' && c <= '9'   ? c - '0'
+                      : c >= 'a' && c <= 'f' ? c - 'a' + 10
+                      : c >= 'A' && c <= 'F' ? c - 'A' + 10
+                                             : -1;
+        if (v < 0) {
+            return usage; /* also a string that ends early */
+        }
+        out->u.cal_section[i / 2u] =
+            (uint8_t)((unsigned)out->u.cal_section[i / 2u] << 4 | (unsigned)v);
+    }
+    const char *rest = &hex[2u * TLM_CAL_SECTION_LEN];
+    while (*rest == ' ' || *rest == '\t') {
+        ++rest;
+    }
+    return *rest == '\0' && tlm_cal_section_is_valid(out->u.cal_section, false) ? NULL : usage;
+}
+
+/* "re-zero N": N samples at the latched position, TLM_REZERO_MIN..TLM_REZERO_MAX. */
+static const char *rezero(const struct words *w, struct tlm_command *out) {
+    uint32_t n = 0;
+    out->type = TLM_TYPE_REZERO;
+    if (w->n != 2u || !fixed_decimal(w->w[1], strlen(w->w[1]), 0u, &n) || n < TLM_REZERO_MIN ||
+        n > TLM_REZERO_MAX) {
+        return "usage: re-zero N, N samples 10..5000";
+    }
+    out->u.rezero_samples = (uint16_t)n;
+    return NULL;
+}
+
 const char *tlm_command_from_text(const char *text, struct tlm_command *out) {
     struct words w;
     memset(out, 0, sizeof *out);
+    static const char write_cal[] = "write-calibration";
+    if (text != NULL && strncmp(text, write_cal, sizeof write_cal - 1u) == 0 &&
+        (text[sizeof write_cal - 1u] == ' ' || text[sizeof write_cal - 1u] == '\0')) {
+        return write_calibration(&text[sizeof write_cal - 1u], out);
+    }
     if (text == NULL || !split(text, &w) || w.n == 0u) {
         return "empty or overlong command";
     }
@@ -166,6 +211,9 @@ const char *tlm_command_from_text(const char *text, struct tlm_command *out) {
     }
     if (is(verb, "process-noise", "set-process-noise")) {
         return process_noise(&w, out);
+    }
+    if (is(verb, "re-zero", NULL)) {
+        return rezero(&w, out);
     }
     if (is(verb, "set-arm", NULL) || is(verb, "set-period", NULL)) {
         return arm_or_period(&w, strcmp(verb, "set-arm") == 0, out);
@@ -182,7 +230,8 @@ const char *tlm_command_from_text(const char *text, struct tlm_command *out) {
     } plain[] = {{"start", NULL, TLM_TYPE_START},
                  {"stop", NULL, TLM_TYPE_STOP},
                  {"status", "status-request", TLM_TYPE_STATUS_REQUEST},
-                 {"save", NULL, TLM_TYPE_SAVE}};
+                 {"save", NULL, TLM_TYPE_SAVE},
+                 {"read-calibration", NULL, TLM_TYPE_READ_CALIBRATION}};
     for (unsigned k = 0; k < sizeof plain / sizeof plain[0]; ++k) {
         if (is(verb, plain[k].a, plain[k].b)) {
             out->type = plain[k].type;
@@ -190,7 +239,7 @@ const char *tlm_command_from_text(const char *text, struct tlm_command *out) {
         }
     }
     return "unknown command (set-window, estimator, start, stop, status, raw, process-noise, "
-           "set-arm, set-period, save)";
+           "set-arm, set-period, save, write-calibration, read-calibration, re-zero)";
 }
 
 const char *tlm_command_from_arg(const char *arg, uint32_t *row, struct tlm_command *out) {
