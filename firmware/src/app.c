@@ -479,14 +479,19 @@ int tof_app_set_period(struct tof_app *app, uint32_t period_ms) {
     return HAL_OK;
 }
 
-/* Not inlined: its line buffer stays off the main loop's stack (tools/stack_check.py). */
+/* Not inlined: its line buffer stays off the main loop's stack (tools/stack_check.py). The
+ * code, not its message: the messages' table (estimator/src/attitude_text.c, 1.6 KB) would be
+ * the flight image's only use of it, and the 64 KiB budget is full; docs/errors.md and
+ * tools/tof_telemetry.py name every code, and the codes' blocks are disjoint. */
 static __attribute__((noinline)) void
 log_init_failure(const struct tof_app *app, const struct tof_platform *platform, int rc) {
-    char line[128]; /* "init failed: estimator: " and the longest attitude_error_message */
+    char line[64]; /* "init failed: estimator error -" and the code */
     struct tof_text t;
     tof_text_init(&t, line, sizeof line);
-    tof_text_str(&t, app->estimator_error != 0 ? "init failed: estimator: " : "init failed: ");
-    tof_text_str(&t, tof_app_error_message(app, rc));
+    tof_text_str(&t, app->estimator_error != 0 ? "init failed: estimator error "
+                                               : "init failed: error ");
+    tof_text_i64(&t, rc);
+    tof_text_str(&t, " (docs/errors.md)");
     tof_log_line(platform, line);
 }
 
