@@ -101,8 +101,8 @@ class TelemetryTest(unittest.TestCase):
         self.assertEqual(t.parse(t.T_CALIBRATION, bytes([0]) + bytes(84))[1], t.R_OK)
         self.assertEqual(t.parse(t.T_CALIBRATION, bytes([8]) + bytes(84))[1], t.R_OUT_OF_RANGE)
         self.assertEqual(t.parse(t.T_WRITE_CALIBRATION, bytes(84))[1], t.R_OUT_OF_RANGE)
-        status, result = t.parse(t.T_STATUS, bytes([0, 1, 0, 4]) + struct.pack(
-            "<IHBBBBHBB", 1000, 100, 0, 0, 1, 0, 20, 0, 5))
+        status, result = t.parse(t.T_STATUS, bytes([0, 1, 0, t.PROTOCOL_VERSION]) + struct.pack(
+            "<IHBBBBHBBI", 1000, 100, 0, 0, 1, 0, 20, 0, 5, 30000))
         self.assertEqual((result, t.CAL_STATES[status["calibration"]]), (t.R_OK, "other-mode"))
 
     def run_main(self, argv):
