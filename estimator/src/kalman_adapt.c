@@ -38,10 +38,13 @@
 #define KALMAN_ADAPT_R_SHIFT 9u
 /* A level above 0 is used once it has this many samples (one sample of a long block is
  * a χ²₁ draw: a quarter of them are below a tenth of their mean). */
-#define KALMAN_ADAPT_MIN_N 8u
+#define KALMAN_ADAPT_MIN_N  1u
+#define KALMAN_ADAPT_MIN_N1 1u
 
 /* B(2B² + 1)/48 for B = 32·4^l (exact: B is even, 2B² + 1 a multiple of 3) */
 static const int64_t adapt_weight16[KALMAN_ADAPT_LEVELS] = {1366, 87384, 5592416, 357913984};
+/* B(B² − 1)/24 = (B(2B² + 1)/3 − B)/16 (exact) */
+static const int64_t adapt_weight16b[KALMAN_ADAPT_LEVELS] = {1364, 87376, 5592384, 357913856};
 
 /* mean += (v − mean) · gain, the gain from the samples so far (|v|, |mean| < 2^30) */
 static void adapt_mean(int32_t *mean, int32_t v, uint16_t n, unsigned max_shift) {
@@ -59,10 +62,11 @@ static int64_t adapt_noise(unsigned l, int64_t w_q32) {
     return (w_q32 >> 4) * two_b / adapt_weight16[l];
 }
 
-/* One block's sample of q_y in Q16 mm² per row: (D² − 2B w)/(B(2B² + 1)/3). */
-static int64_t adapt_q_sample(unsigned l, int32_t d, int64_t w_q32) {
-    const int64_t d2 = ((int64_t)d * d) << 12; /* |d| < 2^(15+2l): below 2^54 */
-    return d2 / adapt_weight16[l] - (adapt_noise(l, w_q32) >> 16);
+/* One block's sample of q_y in Q16 mm² per row, from D and the sum S of (Δy)² over the
+ * same 2B rows: E[(Δy)²] = 2w + q_y, so E[D² − S/2] = q_y (B(2B² + 1)/3 − B) whatever w. */
+static int64_t adapt_q_sample(unsigned l, int32_t d, uint32_t dsq) {
+    const int64_t d2 = ((int64_t)d * d - (int64_t)(dsq >> 1)) << 12; /* |d| < 2^(15+2l) */
+    return d2 / adapt_weight16b[l];
 }
 
 static int32_t adapt_bound(int64_t v) {
@@ -71,15 +75,19 @@ static int32_t adapt_bound(int64_t v) {
 }
 
 /* The end of a block of level l: samples of q from the difference to the block before. */
-static void adapt_block(struct kalman_cov *cv, unsigned l, const int64_t w[KALMAN_STATES]) {
+static void adapt_block(struct kalman_cov *cv, unsigned l) {
     int32_t d[KALMAN_STATES];
+    uint32_t dsq[KALMAN_STATES];
     bool usable = (cv->blk_prev_valid & (1u << l)) != 0u;
     const int32_t lim = (int32_t)1 << (15u + 2u * l); /* 1 024 mm a row: a jump */
     for (unsigned j = 0; j < KALMAN_STATES; ++j) {
         d[j] = cv->blk_sum[l][j] - cv->blk_prev[l][j];
         usable = usable && d[j] < lim && d[j] > -lim;
+        dsq[j] = cv->blk_dsq[l][j] + cv->blk_dsq_prev[l][j];
         cv->blk_prev[l][j] = cv->blk_sum[l][j];
         cv->blk_sum[l][j] = 0;
+        cv->blk_dsq_prev[l][j] = cv->blk_dsq[l][j];
+        cv->blk_dsq[l][j] = 0;
     }
     cv->blk_prev_valid |= (uint8_t)(1u << l);
     cv->blk_sub[l] = 0;
@@ -88,7 +96,7 @@ static void adapt_block(struct kalman_cov *cv, unsigned l, const int64_t w[KALMA
     }
     int64_t qy[KALMAN_STATES];
     for (unsigned j = 0; j < KALMAN_STATES; ++j) {
-        qy[j] = adapt_q_sample(l, d[j], w[j]);
+        qy[j] = adapt_q_sample(l, d[j], dsq[j]);
     }
     uint16_t *n = &cv->n_q[l];
     *n = *n < UINT16_MAX ? (uint16_t)(*n + 1u) : UINT16_MAX;
@@ -124,7 +132,7 @@ static int64_t adapt_choose(const struct kalman_cov *cv, unsigned g, int64_t q_n
         const unsigned n = cv->n_q[l] < cap ? (unsigned)cv->n_q[l] : cap;
         unsigned n_min = 1u;
         if (l > 0u) {
-            n_min = KALMAN_ADAPT_MIN_N;
+            n_min = l == 1u ? KALMAN_ADAPT_MIN_N1 : KALMAN_ADAPT_MIN_N;
         }
         const uint64_t sl = (s[l] >> sh) | 1u;
         wt[l] = 0u;
@@ -167,8 +175,17 @@ static bool adapt_moved(int64_t now, int64_t next) {
 
 /* A full row into the block sums of every level; the blocks that end are sampled and Q
  * set. */
-static void adapt_sums(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENSORS]) {
+static uint32_t adapt_sq(int32_t v) {
+    const int32_t lim = 512; /* a jump: the block difference says so */
+    return v < lim && v > -lim ? (uint32_t)(v * v) : (uint32_t)(lim * lim);
+}
+
+static void adapt_sums(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENSORS],
+                       const int32_t dz[ANGLES_SENSORS]) {
     struct kalman_cov *cv = &k->cov;
+    cv->blk_dsq[0][0] += adapt_sq(dz[0] + dz[1] + dz[2] + dz[3]); /* below 2^29 */
+    cv->blk_dsq[0][1] += adapt_sq(dz[ANGLES_C] - dz[ANGLES_A]);
+    cv->blk_dsq[0][2] += adapt_sq(dz[ANGLES_B] - dz[ANGLES_D]);
     const int32_t za = range_mm[ANGLES_A];
     const int32_t zb = range_mm[ANGLES_B];
     const int32_t zc = range_mm[ANGLES_C];
@@ -186,9 +203,10 @@ static void adapt_sums(struct kalman_state *k, const uint16_t range_mm[ANGLES_SE
         if (l + 1u < KALMAN_ADAPT_LEVELS) {
             for (unsigned j = 0; j < KALMAN_STATES; ++j) {
                 cv->blk_sum[l + 1u][j] += cv->blk_sum[l][j];
+                cv->blk_dsq[l + 1u][j] += cv->blk_dsq[l][j];
             }
         }
-        adapt_block(cv, l, w);
+        adapt_block(cv, l);
         if (l + 1u == KALMAN_ADAPT_LEVELS || ++cv->blk_sub[l + 1u] < KALMAN_ADAPT_FAN) {
             break;
         }
@@ -210,29 +228,34 @@ bool kalman_adapt_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SEN
                       uint8_t valid_mask) {
     struct kalman_cov *cv = &k->cov;
     const uint8_t both = (uint8_t)(valid_mask & cv->last_valid);
+    const bool follows = cv->last_valid == ANGLES_ALL_SENSORS; /* dz below is whole */
     if (both != 0u && cv->n_d < UINT16_MAX) {
         cv->n_d++;
     }
+    int32_t dz[ANGLES_SENSORS];
     for (unsigned s = 0; s < ANGLES_SENSORS; ++s) {
         const int32_t d = (int32_t)range_mm[s] - (int32_t)cv->last_mm[s];
+        dz[s] = d;
         if ((both & (1u << s)) != 0u && d < 128 && d > -128) {
             adapt_mean(&cv->mean_d[s], (d * d) << 16, cv->n_d, KALMAN_ADAPT_R_SHIFT);
         }
         cv->last_mm[s] = range_mm[s];
     }
     cv->last_valid = valid_mask;
-    if (valid_mask != ANGLES_ALL_SENSORS) {
-        /* a block is consecutive full rows: start again */
+    if (valid_mask != ANGLES_ALL_SENSORS || !follows) {
+        /* a block is consecutive full rows, each with the difference to the one before:
+         * start again */
         cv->blk_prev_valid = 0;
         for (unsigned l = 0; l < KALMAN_ADAPT_LEVELS; ++l) {
             cv->blk_sub[l] = 0;
             for (unsigned j = 0; j < KALMAN_STATES; ++j) {
                 cv->blk_sum[l][j] = 0;
+                cv->blk_dsq[l][j] = 0;
             }
         }
         return false;
     }
-    adapt_sums(k, range_mm);
+    adapt_sums(k, range_mm, dz);
     if (cv->blk_sub[0] != 0u) {
         return false;
     }

@@ -102,6 +102,10 @@ struct kalman_cov {
     int32_t mean_d[ANGLES_SENSORS];
     int32_t blk_sum[KALMAN_ADAPT_LEVELS][KALMAN_STATES];
     int32_t blk_prev[KALMAN_ADAPT_LEVELS][KALMAN_STATES];
+    /* the squares of y's consecutive differences summed over the same blocks (this block's
+     * and the one before): the white noise under each block difference, from its own rows */
+    uint32_t blk_dsq[KALMAN_ADAPT_LEVELS][KALMAN_STATES];
+    uint32_t blk_dsq_prev[KALMAN_ADAPT_LEVELS][KALMAN_STATES];
     uint16_t last_mm[ANGLES_SENSORS];     /* the previous row's readings (last_valid) */
     uint16_t n_q[KALMAN_ADAPT_LEVELS];    /* blocks sampled so far (saturating) */
     uint16_t n_d;                         /* rows sampled so far (saturating) */
