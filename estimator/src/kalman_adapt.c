@@ -39,6 +39,7 @@
 /* Q is set anew when the learnt value moves by more than a factor 12/8 (a q off by 1.5
  * costs the filter 1 % of RMS error at most; each change ends the steady state) */
 #define KALMAN_ADAPT_HYST 12
+#define KALMAN_ADAPT_ITER 2u
 
 /* B(2B² + 1)/48 for B = 32·4^l (exact: B is even, 2B² + 1 a multiple of 3) */
 static const int64_t adapt_weight16[KALMAN_ADAPT_LEVELS] = {1366, 87384, 5592416, 357913984};
@@ -216,8 +217,12 @@ static void adapt_sums(struct kalman_state *k, const uint16_t range_mm[ANGLES_SE
     fix_q32_t *q = k->cfg.process_noise_mm2;
     const int64_t nz0[KALMAN_STATES] = {adapt_noise(0, w[0]), adapt_noise(0, w[1]),
                                         adapt_noise(0, w[2])};
-    const int64_t qx = adapt_choose(cv, 0, q[0], nz0);
-    const int64_t qt = adapt_choose(cv, 1, q[1], nz0);
+    int64_t qx = q[0];
+    int64_t qt = q[1];
+    for (unsigned it = 0; it < KALMAN_ADAPT_ITER; ++it) {
+        qx = adapt_choose(cv, 0, qx, nz0);
+        qt = adapt_choose(cv, 1, qt, nz0);
+    }
     if (adapt_q_moved(q[0], qx) || adapt_q_moved(q[1], qt)) {
         q[0] = qx;
         q[1] = qt;

@@ -440,7 +440,15 @@ void trace(const Scenario &sc, uint64_t seed) {
         ra[axis - 1] =
             rms_angle(fa.x, t, axis, kBurn, kRows) / rms_angle(opt, t, axis, kBurn, kRows);
     }
-    std::printf("RMS auto/opt from row %d: %.3f %.3f\n", kBurn, ra[0], ra[1]);
+    std::printf("RMS auto/opt from row %d: %.3f %.3f", kBurn, ra[0], ra[1]);
+    for (int from : {1500, kRows / 2}) {
+        for (int axis = 1; axis <= 2; ++axis) {
+            ra[axis - 1] =
+                rms_angle(fa.x, t, axis, from, kRows) / rms_angle(opt, t, axis, from, kRows);
+        }
+        std::printf("; from row %d: %.3f %.3f", from, ra[0], ra[1]);
+    }
+    std::printf("\n");
 }
 
 } // namespace
