@@ -38,11 +38,12 @@
 #define KALMAN_ADAPT_R_SHIFT 4u
 /* Q is set anew when the learnt value moves by more than a factor 12/8 (a q off by 1.5
  * costs the filter 1 % of RMS error at most; each change ends the steady state) */
-#define KALMAN_ADAPT_HYST 12
-#define KALMAN_ADAPT_ITER 2u
+#define KALMAN_ADAPT_HYST    12
+#define KALMAN_ADAPT_ITER    2u
+#define KALMAN_ADAPT_FALL_N  16u
+#define KALMAN_ADAPT_LN16_Q8 710 /* ln 16 in Q8 */
+#define KALMAN_ADAPT_FALL_H  (10 << 8)
 
-/* B(2B² + 1)/48 for B = 32·4^l (exact: B is even, 2B² + 1 a multiple of 3) */
-static const int64_t adapt_weight16[KALMAN_ADAPT_LEVELS] = {1366, 87384, 5592416, 357913984};
 /* B(B² − 1)/24 = (B(2B² + 1)/3 − B)/16 (exact) */
 static const int64_t adapt_weight16b[KALMAN_ADAPT_LEVELS] = {1364, 87376, 5592384, 357913856};
 
@@ -55,11 +56,11 @@ static void adapt_mean(int32_t *mean, int32_t v, uint16_t n, unsigned max_shift)
     *mean += (int32_t)(sh == 0u ? step : fix_round_shr_s64(step, sh));
 }
 
-/* The white-noise part of E[D²]/(B(2B² + 1)/3) at level l: 2B·w/(B(2B² + 1)/3), Q32 mm²
- * per row (w in Q32, below 2^54). */
-static int64_t adapt_noise(unsigned l, int64_t w_q32) {
-    const int64_t two_b = (int64_t)(2u * KALMAN_ADAPT_BLOCK) << (2u * l);
-    return (w_q32 >> 4) * two_b / adapt_weight16[l];
+/* The white-noise part of E[D²]/(B(2B² + 1)/3) at level 0: 2B·w/(B(2B² + 1)/3) =
+ * 6w/2049, Q32 mm² per row (w in Q32, below 2^55), by a multiplication: 6·2^22/2049 is
+ * 12 282 to 10^-6. */
+static int64_t adapt_noise0(int64_t w_q32) {
+    return ((w_q32 >> 8) * 12282) >> 14;
 }
 
 /* One block's sample of q_y in Q16 mm² per row, from D and the sum S of (Δy)² over the
@@ -72,6 +73,52 @@ static int64_t adapt_q_sample(unsigned l, int32_t d, uint32_t dsq) {
 static int32_t adapt_bound(int64_t v) {
     const int64_t lim = (int64_t)1 << 30; /* 64 mm² in Q24 */
     return (int32_t)(v > lim ? lim : (v < -lim ? -lim : v));
+}
+
+/* A fall of q (issue 24): the running means forget at 2^-6 a sample, 2 000 rows at level
+ * 0 and 4^l times that above, so after q falls a hundredfold the old q stays in them for
+ * thousands of rows. Each level and group runs a CUSUM test of "this sample's D² is
+ * what the level's mean predicts" against "a sixteenth of it": x = D²/E[D²] with
+ * E[D²] = q̄·(c_B − B) + S/2 (q̄ the level's mean, S the sample's own (Δy)² sum), one χ²
+ * draw per axis (one for x̄, two for the slopes), log-likelihood ratio per sample
+ * k/2·(ln 16 − 15 x) for k axes. Past KALMAN_ADAPT_FALL_H (about one false alarm in
+ * 10⁴ samples) every level of the group forgets (its samples start again): 500 to 800
+ * rows after a hundredfold fall of q_t at σ 3 mm. Armed once a level has 16 samples. */
+static void adapt_fall(struct kalman_cov *cv, unsigned l, unsigned g,
+                       const int32_t d[KALMAN_STATES], const uint32_t dsq[KALMAN_STATES]) {
+    if (cv->n_q[l][g] < KALMAN_ADAPT_FALL_N) {
+        return;
+    }
+    const int64_t w = adapt_weight16b[l];
+    const int64_t m = cv->mean_q[l][g] > 0 ? cv->mean_q[l][g] : 0; /* Q24 of the state */
+    uint64_t num;
+    int64_t den;
+    if (g == 0u) {
+        num = (uint64_t)((int64_t)d[0] * d[0]);
+        den = ((m * w) >> 16) + (int64_t)(dsq[0] >> 1); /* q_y = 16 q_x̄, Q16 = m/16 */
+    } else {
+        num = (uint64_t)((int64_t)d[1] * d[1]) + (uint64_t)((int64_t)d[2] * d[2]);
+        den = ((m * w) >> 17) + (int64_t)(dsq[1] >> 1) + (int64_t)(dsq[2] >> 1); /* 2 x 4 q_t */
+    }
+    /* x in Q8 from 16-bit den (32-bit division), at most 255 (the test's step is then far
+     * below 0 anyway) */
+    const unsigned sh =
+        fix_bitlen_u64((uint64_t)den) > 16u ? fix_bitlen_u64((uint64_t)den) - 16u : 0u;
+    const uint32_t den16 = (uint32_t)((uint64_t)den >> sh) | 1u;
+    const uint64_t num_s = num >> sh;
+    const int32_t x =
+        num_s >= ((uint64_t)den16 << 8) ? 255 * 256 : (int32_t)(((uint32_t)num_s << 8) / den16);
+    const int32_t k = g == 0u ? 1 : 2;
+    int32_t c = cv->fall[l][g] + k * (KALMAN_ADAPT_LN16_Q8 - 15 * x) / 2;
+    c = c > 0 ? c : 0;
+    if (c > KALMAN_ADAPT_FALL_H) {
+        for (unsigned i = 0; i < KALMAN_ADAPT_LEVELS; ++i) {
+            cv->n_q[i][g] = 0;
+            cv->fall[i][g] = 0;
+        }
+        return;
+    }
+    cv->fall[l][g] = c;
 }
 
 /* The end of a block of level l: samples of q from the difference to the block before. */
@@ -98,11 +145,28 @@ static void adapt_block(struct kalman_cov *cv, unsigned l) {
     for (unsigned j = 0; j < KALMAN_STATES; ++j) {
         qy[j] = adapt_q_sample(l, d[j], dsq[j]);
     }
-    uint16_t *n = &cv->n_q[l];
-    *n = *n < UINT16_MAX ? (uint16_t)(*n + 1u) : UINT16_MAX;
     /* Q16 of q_y to Q24 of the state: x̄ q_y/16, slopes q_y/4 (their mean) */
-    adapt_mean(&cv->mean_q[l][0], adapt_bound(qy[0] * 16), *n, KALMAN_ADAPT_Q_SHIFT);
-    adapt_mean(&cv->mean_q[l][1], adapt_bound((qy[1] + qy[2]) * 32), *n, KALMAN_ADAPT_Q_SHIFT);
+    const int32_t v[2] = {adapt_bound(qy[0] * 16), adapt_bound((qy[1] + qy[2]) * 32)};
+    for (unsigned g = 0; g < 2u; ++g) {
+        adapt_fall(cv, l, g, d, dsq);
+        uint16_t *n = &cv->n_q[l][g];
+        *n = *n < UINT16_MAX ? (uint16_t)(*n + 1u) : UINT16_MAX;
+        adapt_mean(&cv->mean_q[l][g], v[g], *n, KALMAN_ADAPT_Q_SHIFT);
+    }
+}
+
+/* ⌊√v⌋ to within one: Newton's iteration from above (2^⌈bits/2⌉), four 32-bit divisions
+ * (the floor below needs a few digits; fix_isqrt_u64's 32 rounds cost 60 instructions a row
+ * here) */
+static uint32_t adapt_sqrt32(uint32_t v) {
+    if (v == 0u) {
+        return 0u;
+    }
+    uint32_t x = (uint32_t)1 << ((fix_bitlen_u64(v) + 1u) / 2u);
+    for (unsigned i = 0; i < 4u; ++i) {
+        x = (x + v / x) / 2u;
+    }
+    return x;
 }
 
 /* Q of state group g (0 x̄, 1 slopes), Q32 mm² per row: the levels' means weighted by
@@ -122,43 +186,32 @@ static int64_t adapt_choose(const struct kalman_cov *cv, unsigned g, int64_t q_n
         top = s[l] > top ? s[l] : top;
     }
     const unsigned bl = fix_bitlen_u64(top);
-    const unsigned sh = bl > 27u ? bl - 27u : 0u; /* s below 2^27 */
-    uint64_t wt[KALMAN_ADAPT_LEVELS];
-    uint64_t wmax = 0;
+    const unsigned sh = bl > 11u ? bl - 11u : 0u; /* s below 2^11: 32-bit divisions */
+    int64_t num = 0;
+    int64_t den = 0;
     for (unsigned l = 0; l < KALMAN_ADAPT_LEVELS; ++l) {
         /* the running mean's memory caps the samples a level counts; every level counts
          * from its first sample (waiting for 8 left slow tilt to level 0 alone, whose
          * noise is 360 x q_t at 0.01 mm²/s and σ 7 mm, for 4 600 rows) */
-        const unsigned cap = 2u << KALMAN_ADAPT_Q_SHIFT;
-        const unsigned n = cv->n_q[l] < cap ? (unsigned)cv->n_q[l] : cap;
-        const uint64_t sl = (s[l] >> sh) | 1u;
-        wt[l] = 0u;
-        if (n > 0u) {
-            wt[l] = ((uint64_t)n << 52) / (sl * sl);
-        }
-        if (wt[l] > wmax) {
-            wmax = wt[l];
-        }
-    }
-    const unsigned wb = fix_bitlen_u64(wmax);
-    const unsigned ws = wb > 30u ? wb - 30u : 0u; /* weights below 2^30: sums below 2^62 */
-    int64_t num = 0;
-    int64_t den = 0;
-    for (unsigned l = 0; l < KALMAN_ADAPT_LEVELS; ++l) {
-        const uint64_t w_shifted = wt[l] >> ws;
-        const int64_t wl = (int64_t)w_shifted;
-        num += wl * cv->mean_q[l][g];
-        den += wl;
+        const uint32_t cap = 2u << KALMAN_ADAPT_Q_SHIFT;
+        const uint32_t n = cv->n_q[l][g] < cap ? (uint32_t)cv->n_q[l][g] : cap;
+        const uint32_t sl = (uint32_t)(s[l] >> sh) | 1u;
+        const uint32_t wl = (n << 23) / (sl * sl); /* 2n to 2^30 */
+        num += (int64_t)wl * cv->mean_q[l][g];     /* sums below 2^62 */
+        den += (int64_t)wl;
     }
     if (den <= 0) {
-        return 0;
+        return 0; /* no level has a sample (the start, or all forgot a fall) */
     }
-    /* at least a quarter of the mean's sd, sqrt(2/Σ n_l/s_l²)/4: a q learnt as 0 would
-     * freeze the filter, the worst miss (its cost grows with |log q̂/q|) */
     const int64_t mean = num / den;
     const int64_t m = mean > 0 ? mean << 8 : 0;
-    const uint64_t v = ((uint64_t)1 << (61u - ws)) / (uint64_t)den; /* ws ≤ 29 */
-    const int64_t sd = ((int64_t)fix_isqrt_u64(v) << sh) >> 6;
+    /* at least a quarter of the mean's sd, sqrt(2/Σ n_l/s_l²)/4 = 2^sh·sqrt(2^24/den)/4:
+     * a q learnt as 0 would freeze the filter, the worst miss (its cost grows with
+     * |log q̂/q|) */
+    const uint64_t v = ((uint64_t)1 << 56) / (uint64_t)den; /* den below 2^32 */
+    const unsigned vb = fix_bitlen_u64(v);
+    const unsigned r = vb > 32u ? (vb - 31u) / 2u : 0u; /* v >> 2r below 2^32 */
+    const int64_t sd = ((int64_t)adapt_sqrt32((uint32_t)(v >> (2u * r))) << (sh + r)) >> 18;
     return m > sd ? m : sd;
 }
 
@@ -215,11 +268,10 @@ static void adapt_sums(struct kalman_state *k, const uint16_t range_mm[ANGLES_SE
         }
     }
     fix_q32_t *q = k->cfg.process_noise_mm2;
-    const int64_t nz0[KALMAN_STATES] = {adapt_noise(0, w[0]), adapt_noise(0, w[1]),
-                                        adapt_noise(0, w[2])};
+    const int64_t nz0[KALMAN_STATES] = {adapt_noise0(w[0]), adapt_noise0(w[1]), adapt_noise0(w[2])};
     int64_t qx = q[0];
     int64_t qt = q[1];
-    for (unsigned it = 0; it < KALMAN_ADAPT_ITER; ++it) {
+    for (unsigned it = 1; it <= KALMAN_ADAPT_ITER; ++it) {
         qx = adapt_choose(cv, 0, qx, nz0);
         qt = adapt_choose(cv, 1, qt, nz0);
     }

@@ -137,6 +137,7 @@ struct Fixed {
     uint32_t rejected = 0;
     std::array<double, 3> q_end{};
     std::vector<std::array<double, 6>> learnt; /* per row: q_x̄, q_t (mm²/s), R A..D (mm²) */
+    int falls[2] = {0, 0}; /* the fall test's alarms, x̄ and slopes */
 };
 
 Fixed run_fixed(const Scenario &sc, const Trace &t, bool automatic) {
@@ -164,7 +165,16 @@ Fixed run_fixed(const Scenario &sc, const Trace &t, bool automatic) {
             kf.cfg.process_noise_mm2[2] = kf.cfg.process_noise_mm2[1];
         }
         struct kalman_rows rows;
+        const uint16_t n_before[2] = {kf.cov.n_q[0][0], kf.cov.n_q[0][1]};
         kalman_push_row(&kf, t.z[i].data(), 0x0Fu, &rows);
+        for (int g = 0; g < 2; ++g) {
+            if (kf.cov.n_q[0][g] < n_before[g]) {
+                f.falls[g]++;
+                if (getenv("REF_TRACKING_LEVELS") != nullptr) {
+                    std::printf("row %d: group %d forgot (a fall of q)\n", i, g);
+                }
+            }
+        }
         for (unsigned r = 0; r < rows.count; ++r) {
             f.rejected += (uint32_t)__builtin_popcount(rows.rejected[r]);
         }
@@ -174,7 +184,7 @@ Fixed run_fixed(const Scenario &sc, const Trace &t, bool automatic) {
         if (automatic && getenv("REF_TRACKING_LEVELS") != nullptr && (i + 1) % 250 == 0) {
             std::printf("%5d q_t %.3g:", i + 1, (double)qn[1] / kQ32 / kPeriod);
             for (unsigned l = 0; l < KALMAN_ADAPT_LEVELS; ++l) {
-                std::printf("  L%u n %3u %.3g", l, kf.cov.n_q[l],
+                std::printf("  L%u n %3u %.3g", l, kf.cov.n_q[l][1],
                             kf.cov.mean_q[l][1] / 16777216.0 / kPeriod);
             }
             std::printf("\n");
@@ -185,7 +195,7 @@ Fixed run_fixed(const Scenario &sc, const Trace &t, bool automatic) {
     }
     if (getenv("REF_TRACKING_LEVELS") != nullptr) {
         for (unsigned l = 0; l < KALMAN_ADAPT_LEVELS; ++l) {
-            std::printf("level %u n %u mean q_x̄ %.4g q_t %.4g\n", l, kf.cov.n_q[l],
+            std::printf("level %u n %u mean q_x̄ %.4g q_t %.4g\n", l, kf.cov.n_q[l][1],
                         kf.cov.mean_q[l][0] / 16777216.0 / kPeriod,
                         kf.cov.mean_q[l][1] / 16777216.0 / kPeriod);
         }
@@ -440,6 +450,7 @@ void trace(const Scenario &sc, uint64_t seed) {
         ra[axis - 1] =
             rms_angle(fa.x, t, axis, kBurn, kRows) / rms_angle(opt, t, axis, kBurn, kRows);
     }
+    std::printf("falls detected: x̄ %d, slopes %d\n", fa.falls[0], fa.falls[1]);
     std::printf("RMS auto/opt from row %d: %.3f %.3f", kBurn, ra[0], ra[1]);
     for (int from : {1500, kRows / 2}) {
         for (int axis = 1; axis <= 2; ++axis) {
