@@ -137,7 +137,7 @@ struct Fixed {
     uint32_t rejected = 0;
     std::array<double, 3> q_end{};
     std::vector<std::array<double, 6>> learnt; /* per row: q_x̄, q_t (mm²/s), R A..D (mm²) */
-    int falls[2] = {0, 0}; /* the fall test's alarms, x̄ and slopes */
+    int falls[2] = {0, 0};                     /* the fall test's alarms, x̄ and slopes */
 };
 
 Fixed run_fixed(const Scenario &sc, const Trace &t, bool automatic) {
@@ -364,9 +364,10 @@ double sweep(const std::vector<Scenario> &scs, uint64_t from, uint64_t to, doubl
 }
 
 /* The held-out sweep as a test (seeds 6-15, never used in tuning): q_t over two decades,
- * q_x̄ over two, σ 1 and 7 mm, one sensor 3x noisier, the approach. The bound met there
- * (docs/estimator-benchmark.md): 1.10 but where slow tilt meets σ ≥ 3 mm on some sensor
- * (q_t ≤ 0.03 mm²/s): 1.35 there. With the true q: 1.05. */
+ * q_x̄ over two, σ 1 and 7 mm, one sensor 3x noisier, the approach. The bounds met there
+ * (docs/estimator-benchmark.md): 1.07 (the goal 1.10) but for the slowest tilt at the
+ * noisiest sensors (q_t 0.01 mm²/s, σ 7 mm on all four: 1.12 measured): 1.13 there. With the
+ * true q: 1.05. */
 void test_auto_sweep_held_out(void **state) {
     (void)state;
     std::vector<Scenario> scs;
@@ -378,18 +379,19 @@ void test_auto_sweep_held_out(void **state) {
     for (const Scenario &sc : scs) {
         double wt = 0;
         const double wa = sweep({sc}, 6, 15, &wt);
-        const double sigma_max =
-            std::fmax(std::fmax(sc.sigma[0], sc.sigma[1]), std::fmax(sc.sigma[2], sc.sigma[3]));
-        const double bound = sc.qt <= 0.03 && sigma_max >= 3.0 ? 1.35 : 1.10;
+        const double sigma_min =
+            std::fmin(std::fmin(sc.sigma[0], sc.sigma[1]), std::fmin(sc.sigma[2], sc.sigma[3]));
+        const double bound = sc.qt <= 0.01 && sigma_min >= 7.0 ? 1.13 : 1.07;
         assert_true(wt <= 1.05);
         assert_true(wa <= bound);
     }
 }
 
 /* A step in q halfway, up and down two decades (q_t 0.01 <-> 1 mm²/s, σ 3 mm), scored from
- * 1 000 rows after the step: auto follows a rise within 1.10; a fall it follows at the pace
- * of its memory (level 0's mean forgets 2^-6 a block of 32 rows: 2 000 rows), so 1 000 rows
- * after a hundredfold fall its q is still high: 2.04 measured (2.02 before issue 24). */
+ * 1 000 rows after the step: auto follows a rise within 1.10 (1.05 measured); a fall its
+ * levels' test for a fall detects some 500 to 800 rows after it (kalman_adapt.c), and
+ * 1 000 rows after the step the learning has not fully caught up: 1.43 measured (2.10
+ * without the test), bounded at 1.5. */
 /* auto/optimal after the step (mean over seeds [from, to] and both axes; *worst: the worst
  * seed and axis) for the rise (up) or the fall */
 double step_ratio(bool up, uint64_t from, uint64_t to, double *worst) {
@@ -424,7 +426,7 @@ void test_auto_follows_a_step(void **state) {
     (void)state;
     double worst = 0;
     assert_true(step_ratio(true, 6, 15, &worst) <= 1.10);
-    assert_true(step_ratio(false, 6, 15, &worst) <= 2.3);
+    assert_true(step_ratio(false, 6, 15, &worst) <= 1.5);
 }
 
 /* ref_tracking --trace QD QT SA SB SC SD SEED: one run of `auto`, every 250 rows the
