@@ -66,7 +66,7 @@ static int64_t adapt_noise0(int64_t w_q32) {
 /* One block's sample of q_y in Q16 mm² per row, from D and the sum S of (Δy)² over the
  * same 2B rows: E[(Δy)²] = 2w + q_y, so E[D² − S/2] = q_y (B(2B² + 1)/3 − B) whatever w. */
 static int64_t adapt_q_sample(unsigned l, int32_t d, uint32_t dsq) {
-    const int64_t d2 = ((int64_t)d * d - (int64_t)(dsq >> 1)) << 12; /* |d| < 2^(15+2l) */
+    const int64_t d2 = ((int64_t)d * d - (int64_t)(dsq >> 1)) * 4096; /* |d| < 2^(15+2l) */
     return d2 / adapt_weight16b[l];
 }
 
