@@ -11,27 +11,35 @@
  * are summed over blocks of B rows. For a random walk of intensity q_y per row plus white
  * noise of variance w_y per row, the difference D of two consecutive block sums has
  * E[D²] = q_y · B(2B² + 1)/3 + 2B · w_y (the Allan variance of the block means, times B²:
- * each increment of the walk enters D with weight min(t, 2B − t)). With w_x̄ = ΣR,
- * w_α = R_A + R_C, w_β = R_B + R_D and q_y = 16 q_x̄, 4 q_t, 4 q_t, one block gives a
- * sample of q_x̄ and of q_t (both slopes share it, as --process-noise QD,QT does).
+ * each increment of the walk enters D with weight min(t, 2B − t)), and the sum S of the
+ * squared row differences (Δy)² over the same 2B rows has E[S] = 2B(2w_y + q_y), so
+ *     q_y = E[D² − S/2] / (B(2B² + 1)/3 − B)
+ * whatever w_y: each block's noise is taken from its own rows (issue 24: subtracting the
+ * learnt R instead biased the samples by its own error, up to 25 %, times the noise/q
+ * ratio, 360 at B = 32 for q_t 0.01 mm²/s at σ 7 mm). q_y = 16 q_x̄, 4 q_t, 4 q_t: one block
+ * gives a sample of q_x̄ and of q_t (both slopes share it, as --process-noise QD,QT does).
  * Which B: a sample's sd is about its mean, q + 3w/B² per row, so a short block drowns a
- * slow walk in noise (q_t 0.01 mm²/s at σ 7 mm: noise 20 x q at B = 32) and the best B is
- * about √(3w/q) (600 rows there), while fast motion wants short blocks (more samples).
+ * slow walk in noise (there: 360 x q at B = 32, 22 x at 128, 1.4 x at 512) and the best B
+ * is about √(3w/q) (600 rows there), while fast motion wants short blocks (more samples).
  * So four lengths run at once, B = 32, 128, 512, 2 048 rows (a cascade: each level's sum
  * is four of the level below), each with its running mean (gain 1/2^⌊log2 n⌋, then 2^-6
- * a block: memory 64 blocks, i.e. it grows with B); Q is their inverse-variance mean,
- * weights n_l/(q + noise_l)² with q the current value (a level above 0 from 8 samples:
- * one long block is a χ²₁ draw), and at least a quarter of that mean's own sd (a q learnt
- * as 0 freezes the filter: the costliest miss). Set at each 32-row block's end. A sample
- * is bounded to ±64 mm² per row; a block difference of 1 024 mm a row or more, a jump,
- * not used; a row without all four readings restarts every level.
+ * a sample: memory 64 blocks, i.e. it grows with B). Q is their inverse-variance mean,
+ * weights n_l/(q + noise_l)², every level from its first sample, q from two steps of that
+ * mean's fixed point (the first from the q in use), and at least a quarter of the mean's
+ * own sd (a q learnt as 0 freezes the filter: the costliest miss); set at each 32-row
+ * block's end, when it moved by more than a factor 1.5. A hundredfold fall of q would stay
+ * in the long levels' means for thousands of rows: a test per level detects it
+ * (adapt_fall) and the group's levels start again. A sample is bounded to ±64 mm² per row;
+ * a block difference of 1 024 mm a row or more, a jump, not used; a row without all four
+ * readings restarts the blocks of every level.
  * R comes from what the motion barely touches: the difference d of a sensor's consecutive
  * readings has E[d²] = 2R + hQhᵀ = 2R + Q_x̄ + Q_t (h has entries ±1), so
  * R = (E[d²] − Q_x̄ − Q_t)/2, at least 1/12 mm² (a difference of 128 mm or more, a jump,
- * not used); running mean, gain 2^-9 per row after the first samples. Cost: about 25
- * instructions a row; every 32 rows (and rarer for longer blocks) three 64-bit divisions per
- * level that ends, and the mean's ~20 (levels' noise and weights, one square root).
- * Memory: 4 levels x (2 x 3 sums + 2 means) words. */
+ * not used); the d² summed over 32 differences, then a running mean of those sums (gain
+ * 1/2^⌊log2 n⌋, then 2^-4: 512 rows). Cost: about 40 instructions a row; every 32 rows
+ * (and rarer for longer blocks) three 64-bit divisions and the fall test per level that
+ * ends, and the levels' mean twice per group (32-bit divisions, two 64-bit ones, a square
+ * root by Newton). Memory: 4 levels x (4 x 3 block sums + 2 means + 2 tests) words. */
 #define KALMAN_ADAPT_BLOCK   32u
 #define KALMAN_ADAPT_FAN     4u /* sub-blocks per block above level 0 */
 #define KALMAN_ADAPT_Q_SHIFT 6u
@@ -39,8 +47,8 @@
 /* Q is set anew when the learnt value moves by more than a factor 12/8 (a q off by 1.5
  * costs the filter 1 % of RMS error at most; each change ends the steady state) */
 #define KALMAN_ADAPT_HYST    12
-#define KALMAN_ADAPT_ITER    2u
-#define KALMAN_ADAPT_FALL_N  16u
+#define KALMAN_ADAPT_ITER    2u  /* steps of the levels' mean per block (adapt_choose) */
+#define KALMAN_ADAPT_FALL_N  16u /* the fall test (adapt_fall): armed from this many samples */
 #define KALMAN_ADAPT_LN16_Q8 710 /* ln 16 in Q8 */
 #define KALMAN_ADAPT_FALL_H  (10 << 8)
 
@@ -77,13 +85,14 @@ static int32_t adapt_bound(int64_t v) {
 
 /* A fall of q (issue 24): the running means forget at 2^-6 a sample, 2 000 rows at level
  * 0 and 4^l times that above, so after q falls a hundredfold the old q stays in them for
- * thousands of rows. Each level and group runs a CUSUM test of "this sample's D² is
- * what the level's mean predicts" against "a sixteenth of it": x = D²/E[D²] with
+ * thousands of rows. Each level and group runs a CUSUM test of "this sample's D² is what
+ * the level's mean predicts" against "a sixteenth of it": x = D²/E[D²] with
  * E[D²] = q̄·(c_B − B) + S/2 (q̄ the level's mean, S the sample's own (Δy)² sum), one χ²
  * draw per axis (one for x̄, two for the slopes), log-likelihood ratio per sample
- * k/2·(ln 16 − 15 x) for k axes. Past KALMAN_ADAPT_FALL_H (about one false alarm in
- * 10⁴ samples) every level of the group forgets (its samples start again): 500 to 800
- * rows after a hundredfold fall of q_t at σ 3 mm. Armed once a level has 16 samples. */
+ * k/2·(ln 16 − 15 x) for k axes, summed and floored at 0. Past 10 every level of the group
+ * forgets (its samples start again). Measured (ref_tracking --trace, issue 24): after
+ * q_t 1 -> 0.01 mm²/s at σ 3 mm, found 580 to 1 350 rows later; on stationary walks, one
+ * false alarm in 18 runs of 20 000 rows. Armed once a level has 16 samples. */
 static void adapt_fall(struct kalman_cov *cv, unsigned l, unsigned g,
                        const int32_t d[KALMAN_STATES], const uint32_t dsq[KALMAN_STATES]) {
     if (cv->n_q[l][g] < KALMAN_ADAPT_FALL_N) {

@@ -429,7 +429,8 @@ void test_auto_follows_a_step(void **state) {
     assert_true(step_ratio(false, 6, 15, &worst) <= 1.5);
 }
 
-/* ref_tracking --trace QD QT SA SB SC SD SEED: one run of `auto`, every 250 rows the
+/* ref_tracking --trace QD QT SA SB SC SD SEED [ROWS [QT_AFTER]]: one run of `auto` (q_t
+ * QT_AFTER from the middle on), every 250 rows the
  * learnt q and R and auto/optimal (the MSE ratio over those rows, α and β). */
 void trace(const Scenario &sc, uint64_t seed) {
     const Trace t = make_trace(sc, seed * 7919u + 11u);
@@ -489,7 +490,7 @@ int main(int argc, char **argv) {
             "trace",
             std::stod(argv[2]),
             std::stod(argv[3]),
-            std::stod(argv[3]),
+            argc >= 11 ? std::stod(argv[10]) : std::stod(argv[3]),
             {std::stod(argv[4]), std::stod(argv[5]), std::stod(argv[6]), std::stod(argv[7])},
             false};
         trace(sc, std::stoull(argv[8]));
