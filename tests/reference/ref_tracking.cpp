@@ -26,6 +26,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <random>
 #include <string>
 #include <vector>
@@ -51,7 +52,7 @@ namespace {
 constexpr double kQ32 = 4294967296.0;
 constexpr double kArm = 30.0;
 constexpr double kPeriod = 0.020;
-constexpr int kRows = 6000;
+int kRows = 6000; /* rows per run: ref_tracking --sweep A B ROWS changes it */
 constexpr int kBurn = 500;
 constexpr double kPi = 3.14159265358979323846;
 
@@ -135,6 +136,8 @@ struct Fixed {
     std::vector<std::array<double, 3>> x;
     uint32_t rejected = 0;
     std::array<double, 3> q_end{};
+    std::vector<std::array<double, 6>> learnt; /* per row: q_x̄, q_t (mm²/s), R A..D (mm²) */
+    int falls[2] = {0, 0};                     /* the fall test's alarms, x̄ and slopes */
 };
 
 Fixed run_fixed(const Scenario &sc, const Trace &t, bool automatic) {
@@ -162,11 +165,40 @@ Fixed run_fixed(const Scenario &sc, const Trace &t, bool automatic) {
             kf.cfg.process_noise_mm2[2] = kf.cfg.process_noise_mm2[1];
         }
         struct kalman_rows rows;
+        const uint16_t n_before[2] = {kf.cov.n_q[0][0], kf.cov.n_q[0][1]};
         kalman_push_row(&kf, t.z[i].data(), 0x0Fu, &rows);
+        for (int g = 0; g < 2; ++g) {
+            if (kf.cov.n_q[0][g] < n_before[g]) {
+                f.falls[g]++;
+                if (getenv("REF_TRACKING_LEVELS") != nullptr) {
+                    std::printf("row %d: group %d forgot (a fall of q)\n", i, g);
+                }
+            }
+        }
         for (unsigned r = 0; r < rows.count; ++r) {
             f.rejected += (uint32_t)__builtin_popcount(rows.rejected[r]);
         }
         f.x.push_back({(double)kf.x[0] / kQ32, (double)kf.x[1] / kQ32, (double)kf.x[2] / kQ32});
+        fix_q32_t qn[3];
+        kalman_process_noise(&kf, qn);
+        if (automatic && getenv("REF_TRACKING_LEVELS") != nullptr && (i + 1) % 250 == 0) {
+            std::printf("%5d q_t %.3g:", i + 1, (double)qn[1] / kQ32 / kPeriod);
+            for (unsigned l = 0; l < KALMAN_ADAPT_LEVELS; ++l) {
+                std::printf("  L%u n %3u %.3g", l, kf.cov.n_q[l][1],
+                            kf.cov.mean_q[l][1] / 16777216.0 / kPeriod);
+            }
+            std::printf("\n");
+        }
+        f.learnt.push_back({(double)qn[0] / kQ32 / kPeriod, (double)qn[1] / kQ32 / kPeriod,
+                            (double)kf.r[0] / kQ32, (double)kf.r[1] / kQ32, (double)kf.r[2] / kQ32,
+                            (double)kf.r[3] / kQ32});
+    }
+    if (getenv("REF_TRACKING_LEVELS") != nullptr) {
+        for (unsigned l = 0; l < KALMAN_ADAPT_LEVELS; ++l) {
+            std::printf("level %u n %u mean q_x̄ %.4g q_t %.4g\n", l, kf.cov.n_q[l][1],
+                        kf.cov.mean_q[l][0] / 16777216.0 / kPeriod,
+                        kf.cov.mean_q[l][1] / 16777216.0 / kPeriod);
+        }
     }
     fix_q32_t q[3];
     kalman_process_noise(&kf, q);
@@ -263,15 +295,19 @@ void test_auto_converges_after_a_q_change(void **state) {
  * three times noisier and the approach; auto/optimal and true-q/optimal per scenario, the
  * mean over seeds [from, to] of each axis' ratio. Seeds 1-5 tuned the learning; 6-15 are
  * held out. Returns the worst auto ratio (α or β, mean over the seeds). */
-std::vector<Scenario> sweep_scenarios(bool full) {
+std::vector<Scenario> sweep_scenarios(bool full, const std::vector<double> &qts_only = {}) {
     static const double qts_full[] = {0.01, 0.03, 0.1, 0.3, 1.0};
     static const double qts_short[] = {0.01, 0.1, 1.0};
     static const double qds[] = {0.5, 5.0, 50.0};
     static const double sigmas_full[] = {1.0, 3.0, 7.0};
     static const double sigmas_short[] = {1.0, 7.0};
     std::vector<Scenario> out;
-    for (double qt : full ? std::vector<double>(qts_full, qts_full + 5)
-                          : std::vector<double>(qts_short, qts_short + 3)) {
+    std::vector<double> qts = full ? std::vector<double>(qts_full, qts_full + 5)
+                                   : std::vector<double>(qts_short, qts_short + 3);
+    if (!qts_only.empty()) {
+        qts = qts_only;
+    }
+    for (double qt : qts) {
         for (double qd : qds) {
             for (double sg : full ? std::vector<double>(sigmas_full, sigmas_full + 3)
                                   : std::vector<double>(sigmas_short, sigmas_short + 2)) {
@@ -328,9 +364,10 @@ double sweep(const std::vector<Scenario> &scs, uint64_t from, uint64_t to, doubl
 }
 
 /* The held-out sweep as a test (seeds 6-15, never used in tuning): q_t over two decades,
- * q_x̄ over two, σ 1 and 7 mm, one sensor 3x noisier, the approach. The bound met there
- * (docs/estimator-benchmark.md): 1.10 but where slow tilt meets σ ≥ 3 mm on some sensor
- * (q_t ≤ 0.03 mm²/s): 1.35 there. With the true q: 1.05. */
+ * q_x̄ over two, σ 1 and 7 mm, one sensor 3x noisier, the approach. The bounds met there
+ * (docs/estimator-benchmark.md): 1.07 (the goal 1.10) but for the slowest tilt at the
+ * noisiest sensors (q_t 0.01 mm²/s, σ 7 mm on all four: 1.12 measured): 1.13 there. With the
+ * true q: 1.05. */
 void test_auto_sweep_held_out(void **state) {
     (void)state;
     std::vector<Scenario> scs;
@@ -342,50 +379,125 @@ void test_auto_sweep_held_out(void **state) {
     for (const Scenario &sc : scs) {
         double wt = 0;
         const double wa = sweep({sc}, 6, 15, &wt);
-        const double sigma_max =
-            std::fmax(std::fmax(sc.sigma[0], sc.sigma[1]), std::fmax(sc.sigma[2], sc.sigma[3]));
-        const double bound = sc.qt <= 0.03 && sigma_max >= 3.0 ? 1.35 : 1.10;
+        const double sigma_min =
+            std::fmin(std::fmin(sc.sigma[0], sc.sigma[1]), std::fmin(sc.sigma[2], sc.sigma[3]));
+        const double bound = sc.qt <= 0.01 && sigma_min >= 7.0 ? 1.13 : 1.07;
         assert_true(wt <= 1.05);
         assert_true(wa <= bound);
     }
 }
 
 /* A step in q halfway, up and down two decades (q_t 0.01 <-> 1 mm²/s, σ 3 mm), scored from
- * 1 000 rows after the step: auto follows a rise within 1.10; a fall it follows at the pace
- * of its memory (level 0's mean forgets 2^-6 a block of 32 rows: 2 000 rows), so 1 000 rows
- * after a hundredfold fall its q is still high: 2.04 measured (2.02 before issue 24). */
+ * 1 000 rows after the step: auto follows a rise within 1.10 (1.05 measured); a fall its
+ * levels' test for a fall detects some 500 to 800 rows after it (kalman_adapt.c), and
+ * 1 000 rows after the step the learning has not fully caught up: 1.43 measured (2.10
+ * without the test), bounded at 1.5. */
+/* auto/optimal after the step (mean over seeds [from, to] and both axes; *worst: the worst
+ * seed and axis) for the rise (up) or the fall */
+double step_ratio(bool up, uint64_t from, uint64_t to, double *worst) {
+    const Scenario sc = up ? Scenario{"q_t 0.01 -> 1", 2.0, 0.01, 1.0, {3.0, 3.0, 3.0, 3.0}, false}
+                           : Scenario{"q_t 1 -> 0.01", 2.0, 1.0, 0.01, {3.0, 3.0, 3.0, 3.0}, false};
+    double mean = 0;
+    *worst = 0;
+    for (uint64_t seed = from; seed <= to; ++seed) {
+        const Trace t = make_trace(sc, seed * 7919u + 11u);
+        const auto opt = optimal(sc, t);
+        const Fixed fa = run_fixed(sc, t, true);
+        const int after = kRows / 2 + 1000;
+        for (int axis = 1; axis <= 2; ++axis) {
+            const double r =
+                rms_angle(fa.x, t, axis, after, kRows) / rms_angle(opt, t, axis, after, kRows);
+            *worst = std::fmax(*worst, r);
+            mean += r / (2.0 * (double)(to - from + 1));
+        }
+    }
+    print_message("%s: auto/optimal after the step %.3f (worst seed %.3f)\n", sc.name, mean,
+                  *worst);
+    return mean;
+}
+
+void step_figures(uint64_t from, uint64_t to) {
+    double worst = 0;
+    (void)step_ratio(true, from, to, &worst);
+    (void)step_ratio(false, from, to, &worst);
+}
+
 void test_auto_follows_a_step(void **state) {
     (void)state;
-    const Scenario up = {"q_t 0.01 -> 1", 2.0, 0.01, 1.0, {3.0, 3.0, 3.0, 3.0}, false};
-    const Scenario down = {"q_t 1 -> 0.01", 2.0, 1.0, 0.01, {3.0, 3.0, 3.0, 3.0}, false};
-    for (const Scenario &sc : {up, down}) {
-        const double bound = sc.qt_after > sc.qt ? 1.10 : 2.3;
-        double worst = 0, mean = 0;
-        for (uint64_t seed = 6; seed <= 15; ++seed) {
-            const Trace t = make_trace(sc, seed * 7919u + 11u);
-            const auto opt = optimal(sc, t);
-            const Fixed fa = run_fixed(sc, t, true);
-            const int from = kRows / 2 + 1000;
-            for (int axis = 1; axis <= 2; ++axis) {
-                const double r =
-                    rms_angle(fa.x, t, axis, from, kRows) / rms_angle(opt, t, axis, from, kRows);
-                worst = std::fmax(worst, r);
-                mean += r / 20;
-            }
+    double worst = 0;
+    assert_true(step_ratio(true, 6, 15, &worst) <= 1.10);
+    assert_true(step_ratio(false, 6, 15, &worst) <= 1.5);
+}
+
+/* ref_tracking --trace QD QT SA SB SC SD SEED [ROWS [QT_AFTER]]: one run of `auto` (q_t
+ * QT_AFTER from the middle on), every 250 rows the
+ * learnt q and R and auto/optimal (the MSE ratio over those rows, α and β). */
+void trace(const Scenario &sc, uint64_t seed) {
+    const Trace t = make_trace(sc, seed * 7919u + 11u);
+    const auto opt = optimal(sc, t);
+    const Fixed fa = run_fixed(sc, t, true);
+    std::printf("row | q_x̄ | q_t | R A B C D | MSE auto/opt α β (these rows)\n");
+    for (int i = 0; i + 250 <= kRows; i += 250) {
+        const auto &l = fa.learnt[i + 249];
+        double ra[2];
+        for (int axis = 1; axis <= 2; ++axis) {
+            const double a = rms_angle(fa.x, t, axis, i, i + 250);
+            const double o = rms_angle(opt, t, axis, i, i + 250);
+            ra[axis - 1] = a * a / (o * o);
         }
-        print_message("%s: auto/optimal after the step %.3f (worst seed %.3f)\n", sc.name, mean,
-                      worst);
-        assert_true(mean <= bound);
+        std::printf("%5d | %.3g | %.3g | %.3g %.3g %.3g %.3g | %.2f %.2f\n", i + 250, l[0], l[1],
+                    l[2], l[3], l[4], l[5], ra[0], ra[1]);
     }
+    double ra[2];
+    for (int axis = 1; axis <= 2; ++axis) {
+        ra[axis - 1] =
+            rms_angle(fa.x, t, axis, kBurn, kRows) / rms_angle(opt, t, axis, kBurn, kRows);
+    }
+    std::printf("falls detected: x̄ %d, slopes %d\n", fa.falls[0], fa.falls[1]);
+    std::printf("RMS auto/opt from row %d: %.3f %.3f", kBurn, ra[0], ra[1]);
+    for (int from : {1500, kRows / 2}) {
+        for (int axis = 1; axis <= 2; ++axis) {
+            ra[axis - 1] =
+                rms_angle(fa.x, t, axis, from, kRows) / rms_angle(opt, t, axis, from, kRows);
+        }
+        std::printf("; from row %d: %.3f %.3f", from, ra[0], ra[1]);
+    }
+    std::printf("\n");
 }
 
 } // namespace
 
 int main(int argc, char **argv) {
-    if (argc == 4 && std::string(argv[1]) == "--sweep") {
-        /* the measurement (not a test): ref_tracking --sweep FIRST_SEED LAST_SEED */
+    if ((argc >= 4) && std::string(argv[1]) == "--sweep") {
+        /* the measurement (not a test): ref_tracking --sweep FIRST_SEED LAST_SEED [ROWS
+         * [QT...]]: ROWS per run (6000), only these q_t (mm²/s; the sweep's five) */
+        if (argc >= 5) {
+            kRows = std::stoi(argv[4]);
+        }
+        std::vector<double> qts;
+        for (int i = 5; i < argc; ++i) {
+            qts.push_back(std::stod(argv[i]));
+        }
         double wt = 0;
-        sweep(sweep_scenarios(true), std::stoull(argv[2]), std::stoull(argv[3]), &wt);
+        sweep(sweep_scenarios(true, qts), std::stoull(argv[2]), std::stoull(argv[3]), &wt);
+        return 0;
+    }
+    if (argc >= 9 && std::string(argv[1]) == "--trace") {
+        if (argc >= 10) {
+            kRows = std::stoi(argv[9]);
+        }
+        const Scenario sc = {
+            "trace",
+            std::stod(argv[2]),
+            std::stod(argv[3]),
+            argc >= 11 ? std::stod(argv[10]) : std::stod(argv[3]),
+            {std::stod(argv[4]), std::stod(argv[5]), std::stod(argv[6]), std::stod(argv[7])},
+            false};
+        trace(sc, std::stoull(argv[8]));
+        return 0;
+    }
+    if (argc >= 4 && std::string(argv[1]) == "--step") {
+        step_figures(std::stoull(argv[2]), std::stoull(argv[3]));
         return 0;
     }
     const struct CMUnitTest tests[] = {

@@ -102,9 +102,16 @@ struct kalman_cov {
     int32_t mean_d[ANGLES_SENSORS];
     int32_t blk_sum[KALMAN_ADAPT_LEVELS][KALMAN_STATES];
     int32_t blk_prev[KALMAN_ADAPT_LEVELS][KALMAN_STATES];
+    /* the squares of y's consecutive differences summed over the same blocks (this block's
+     * and the one before): the white noise under each block difference, from its own rows */
+    uint32_t blk_dsq[KALMAN_ADAPT_LEVELS][KALMAN_STATES];
+    uint32_t blk_dsq_prev[KALMAN_ADAPT_LEVELS][KALMAN_STATES];
     uint16_t last_mm[ANGLES_SENSORS];     /* the previous row's readings (last_valid) */
-    uint16_t n_q[KALMAN_ADAPT_LEVELS];    /* blocks sampled so far (saturating) */
-    uint16_t n_d;                         /* rows sampled so far (saturating) */
+    uint16_t n_q[KALMAN_ADAPT_LEVELS][2]; /* samples in mean_q (saturating) */
+    int32_t fall[KALMAN_ADAPT_LEVELS][2]; /* the test for a fall of q (Q12) */
+    uint32_t sum_d2[ANGLES_SENSORS];      /* this block's squared differences, per sensor */
+    uint8_t cnt_d[ANGLES_SENSORS];        /* ... how many */
+    uint8_t n_d[ANGLES_SENSORS];          /* blocks of differences so far (saturating) */
     uint8_t blk_sub[KALMAN_ADAPT_LEVELS]; /* rows (level 0) or sub-blocks in this block */
     uint8_t last_valid;
     uint8_t blk_prev_valid; /* bit l: level l has the block before */
