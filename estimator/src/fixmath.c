@@ -258,7 +258,7 @@ int64_t fix_s128_to_s64(fix_s128 a, bool *overflow) {
  * normalised divisor dn = d1 2^32 + d0 (d1 >= 2^31): the digit of (top 2^32 + next) / dn
  * for top < dn, estimated from top / d1 and corrected at most twice; *rest receives the
  * remainder, < dn. */
-static uint64_t knuth_digit(uint64_t top, uint32_t next, uint64_t dn, uint64_t *rest) {
+FIX_INLINE uint64_t knuth_digit(uint64_t top, uint32_t next, uint64_t dn, uint64_t *rest) {
     const uint64_t d1 = dn >> 32;
     const uint64_t d0 = dn & 0xFFFFFFFFu;
     uint64_t qhat = top / d1;
@@ -280,7 +280,7 @@ static uint64_t knuth_digit(uint64_t top, uint32_t next, uint64_t dn, uint64_t *
 
 /* (hi 2^64 + lo) / d for 2^32 < d and hi < d (the quotient fits 64 bits): two digits of
  * Algorithm D on the divisor shifted to its top bit; *rem receives the remainder. */
-static uint64_t divu_128_64(uint64_t hi, uint64_t lo, uint64_t d, uint64_t *rem) {
+FIX_INLINE uint64_t divu_128_64(uint64_t hi, uint64_t lo, uint64_t d, uint64_t *rem) {
     const unsigned s = 64u - fix_bitlen_u64(d); /* 0..31 */
     const uint64_t dn = d << s;
     const uint64_t u1 = s == 0u ? hi : (hi << s) | (lo >> (64u - s)); /* < dn */
