@@ -360,29 +360,45 @@ static void split23(int64_t x, int32_t *hi, int32_t *lo) {
     *lo = (int32_t)(x - h * ((int64_t)1 << 23));
 }
 
+/* P split once per window: P = hi · 2^23 + lo entry by entry (split23), so that each
+ * iteration's products are 32 × 32 bits. */
+struct paper_split {
+    int32_t hi[ANGLES_PER_AXIS][ANGLES_PER_AXIS];
+    int32_t lo[ANGLES_PER_AXIS][ANGLES_PER_AXIS];
+};
+
+static void paper_split_matrix(const fix_q30_t p[ANGLES_PER_AXIS][ANGLES_PER_AXIS],
+                               struct paper_split *ps) {
+    for (unsigned i = 0; i < ANGLES_PER_AXIS; ++i) {
+        for (unsigned k = 0; k < ANGLES_PER_AXIS; ++k) {
+            split23(p[i][k], &ps->hi[i][k], &ps->lo[i][k]);
+        }
+    }
+}
+
 /* One entry of P·v / 2^30 rounded half away from zero, exact, from the 2^23 splits of a
  * row of P (|P| <= 2^46: |hi| <= 2^23) and of v (|v| < 2^45: |hi| < 2^22): with
  * A = Σ Ph vh, B = Σ (Ph vl + Pl vh), C = Σ Pl vl (each below 2^50),
  * P·v = A 2^46 + B 2^23 + C and floor((P·v + 2^29) / 2^30)
  *     = A 2^16 + floor((B + floor((C + 2^29) / 2^23)) / 2^7).
- * |A| >= 2^29 means |P·v / 2^30| > 2^44.8, beyond the divergence bound: *diverged. */
-static int64_t paper_row(const fix_q30_t p[ANGLES_PER_AXIS], const int32_t vh[ANGLES_PER_AXIS],
-                         const int32_t vl[ANGLES_PER_AXIS], bool *diverged) {
-    int64_t a = 0;
-    int64_t b = 0;
-    int64_t c = 0;
-    for (unsigned k = 0; k < ANGLES_PER_AXIS; ++k) {
-        int32_t ph;
-        int32_t pl;
-        split23(p[k], &ph, &pl);
-        a += (int64_t)ph * vh[k];
-        b += (int64_t)ph * vl[k] + (int64_t)pl * vh[k];
-        c += (int64_t)pl * vl[k];
-    }
+ * |A| >= 2^29 means |P·v / 2^30| > 2^44.8, beyond the divergence bound: *diverged.
+ * Unrolled: it runs 5 times per iteration, up to the iteration cap. */
+static int64_t paper_row(const int32_t ph[ANGLES_PER_AXIS], const int32_t pl[ANGLES_PER_AXIS],
+                         const int32_t vh[ANGLES_PER_AXIS], const int32_t vl[ANGLES_PER_AXIS],
+                         bool *diverged) {
+    _Static_assert(ANGLES_PER_AXIS == 5u, "paper_row is unrolled for five estimates");
+    const int64_t a = (int64_t)ph[0] * vh[0] + (int64_t)ph[1] * vh[1] + (int64_t)ph[2] * vh[2] +
+                      (int64_t)ph[3] * vh[3] + (int64_t)ph[4] * vh[4];
     if (a >= ((int64_t)1 << 29) || a <= -((int64_t)1 << 29)) {
         *diverged = true;
         return 0;
     }
+    const int64_t c = (int64_t)pl[0] * vl[0] + (int64_t)pl[1] * vl[1] + (int64_t)pl[2] * vl[2] +
+                      (int64_t)pl[3] * vl[3] + (int64_t)pl[4] * vl[4];
+    const int64_t b = (int64_t)ph[0] * vl[0] + (int64_t)ph[1] * vl[1] + (int64_t)ph[2] * vl[2] +
+                      (int64_t)ph[3] * vl[3] + (int64_t)ph[4] * vl[4] + (int64_t)pl[0] * vh[0] +
+                      (int64_t)pl[1] * vh[1] + (int64_t)pl[2] * vh[2] + (int64_t)pl[3] * vh[3] +
+                      (int64_t)pl[4] * vh[4];
     const int64_t c1 = c + ((int64_t)1 << 29);
     const int64_t q1 = fix_floor_shr_s64(c1, 23u);
     const int64_t r1 = c1 - q1 * ((int64_t)1 << 23);
@@ -417,6 +433,8 @@ void consensus_paper(const fix_udeg_q16_t mean[ANGLES_PER_AXIS],
         lo0 = v[i] < lo0 ? v[i] : lo0;
         hi0 = v[i] > hi0 ? v[i] : hi0;
     }
+    struct paper_split ps;
+    paper_split_matrix(out->matrix, &ps);
     out->status = CONSENSUS_NO_CONVERGENCE;
     bool done = false;
     for (uint32_t it = 0; it <= cfg->max_iterations && !done; ++it) {
@@ -444,7 +462,7 @@ void consensus_paper(const fix_udeg_q16_t mean[ANGLES_PER_AXIS],
         }
         for (unsigned i = 0; i < ANGLES_PER_AXIS; ++i) {
             bool diverged = false;
-            next[i] = paper_row(out->matrix[i], vh, vl, &diverged);
+            next[i] = paper_row(ps.hi[i], ps.lo[i], vh, vl, &diverged);
             if (diverged || next[i] > diverged_q16 || next[i] < -diverged_q16) {
                 out->status = CONSENSUS_DIVERGED;
                 out->iterations = (uint16_t)(it + 1u);

@@ -254,6 +254,45 @@ int64_t fix_s128_to_s64(fix_s128 a, bool *overflow) {
     return fix_s128_is_neg(a) ? INT64_MIN : INT64_MAX;
 }
 
+/* One quotient digit (base 2^32) of Knuth's Algorithm D (TAOCP vol. 2, 4.3.1) for the
+ * normalised divisor dn = d1 2^32 + d0 (d1 >= 2^31): the digit of (top 2^32 + next) / dn
+ * for top < dn, estimated from top / d1 and corrected at most twice; *rest receives the
+ * remainder, < dn. */
+FIX_INLINE uint64_t knuth_digit(uint64_t top, uint32_t next, uint64_t dn, uint64_t *rest) {
+    const uint64_t d1 = dn >> 32;
+    const uint64_t d0 = dn & 0xFFFFFFFFu;
+    uint64_t qhat = top / d1;
+    uint64_t rhat = top - qhat * d1;
+    for (unsigned fix = 0; fix < 2u; ++fix) { /* the estimate exceeds the digit by <= 2 */
+        if (qhat <= 0xFFFFFFFFu && qhat * d0 <= ((rhat << 32) | next)) {
+            break;
+        }
+        --qhat;
+        rhat += d1;
+        if (rhat > 0xFFFFFFFFu) {
+            break;
+        }
+    }
+    /* modulo 2^64: the true remainder lies in [0, dn) */
+    *rest = ((top << 32) | next) - qhat * dn;
+    return qhat;
+}
+
+/* (hi 2^64 + lo) / d for 2^32 < d and hi < d (the quotient fits 64 bits): two digits of
+ * Algorithm D on the divisor shifted to its top bit; *rem receives the remainder. */
+FIX_INLINE uint64_t divu_128_64(uint64_t hi, uint64_t lo, uint64_t d, uint64_t *rem) {
+    const unsigned s = 64u - fix_bitlen_u64(d); /* 0..31 */
+    const uint64_t dn = d << s;
+    const uint64_t u1 = s == 0u ? hi : (hi << s) | (lo >> (64u - s)); /* < dn */
+    const uint64_t u0 = lo << s;
+    uint64_t mid;
+    const uint64_t q1 = knuth_digit(u1, (uint32_t)(u0 >> 32), dn, &mid);
+    uint64_t low;
+    const uint64_t q0 = knuth_digit(mid, (uint32_t)u0, dn, &low);
+    *rem = low >> s;
+    return (q1 << 32) | q0;
+}
+
 int64_t fix_s128_div_s64(fix_s128 a, int64_t den, bool *overflow) {
     if (den == 0) {
         if (overflow != NULL) {
@@ -284,25 +323,7 @@ int64_t fix_s128_div_s64(fix_s128 a, int64_t den, bool *overflow) {
         r = c1 - q1 * d;
         q = (q2 << 32) | q1;
     } else {
-        /* Restoring long division, one quotient bit per step, r < d throughout. The
-         * quotient has at most bitlen(m) − bitlen(d) + 1 bits: the bits of m.lo above
-         * them go into r at once (their quotient bits are 0), the rest one per step. */
-        const unsigned mbits = 64u + fix_bitlen_u64(m.hi);
-        const unsigned bound = mbits - fix_bitlen_u64(d) + 1u; /* q < 2^bound, q < 2^64 */
-        const unsigned qbits = bound >= 64u ? 64u : (bound < 2u ? 2u : bound); /* >= 2 anyway */
-        const unsigned skip = 64u - qbits;                                     /* 0..62 */
-        r = skip == 0u ? m.hi : (m.hi << skip) | (m.lo >> (64u - skip));
-        q = 0u;
-        for (unsigned step = 0u; step < qbits; ++step) {
-            const unsigned i = qbits - 1u - step; /* the bit of m.lo brought down */
-            const uint64_t top = r >> 63;
-            r = (r << 1) | ((m.lo >> i) & 1u);
-            q <<= 1;
-            if (top != 0u || r >= d) {
-                r -= d;
-                q |= 1u;
-            }
-        }
+        q = divu_128_64(m.hi, m.lo, d, &r);
     }
     if (r >= d - r) { /* 2r >= d: round half away from zero */
         if (q == UINT64_MAX) {

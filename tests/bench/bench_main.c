@@ -18,6 +18,10 @@
  *              same Q, tumbling windows: with Q > 0 the filter is not restarted at a
  *              window's start, and R follows each window's statistics)
  *   window     (fixed only) the whole window-end work of all four estimators
+ *   window_cal (fixed only) `window` with a calibrated head, the product's real
+ *              configuration (offsets, gains, their sds and correlation non-zero, as
+ *              HEAD.cal gives them): the corrected readings are other data, so the paper's
+ *              iterations and the gate's searches differ from `window`'s
  * `fixed` is the product's estimator; `float` the plain single-precision baseline
  * in tests/bench/float_baseline.c. tools/bench_report.py collects the lines.
  * Benchmark code, not firmware: it lives in tests/ because it uses float (the baseline's
@@ -44,6 +48,7 @@ static struct kalman_state kal;
 static struct kalman_state kal_track;
 static struct kalman_state kal_auto;
 static struct attitude_state est_track;
+static struct attitude_state est_cal;
 static struct flt_window fwin;
 static struct flt_kalman fkal;
 static struct flt_kalman fkal_track;
@@ -71,6 +76,29 @@ static void make_sample(unsigned window, uint16_t range[4]) {
     range[1] = (uint16_t)(mean + tb + noise_mm());
     range[2] = (uint16_t)(mean + ta + noise_mm());
     range[3] = (uint16_t)(mean - tb + noise_mm());
+}
+
+/* A calibrated head as `calibrate` writes one (tests/firmware/test_calibration_record.c's):
+ * offsets of up to 12 mm, gains of up to 1.2 %, sds of about 30 µm and 200 ppm, a strong
+ * negative correlation of offset and gain errors. */
+static void calibrated_head(struct calibration_head *c) {
+    const struct calibration_head head = {
+        .calibrated = true,
+        .offset_um = {-3105, 7882, 516, -12340},
+        .gain_ppm = {4100, -8130, 12020, -3450},
+        .offset_sd_um = {28, 29, 28, 30},
+        .gain_sd_ppm = {190, 200, 190, 210},
+        .offset_gain_corr_q15 = {-30474, -30500, -30000, -32768},
+    };
+    *c = head;
+}
+
+/* What head c reads for the workload's range x (mm): raw = gain · x + offset, to the
+ * nearest mm, so that the correction gives back the workload's plate. */
+static uint16_t head_reading(const struct calibration_head *c, unsigned k, uint16_t x) {
+    const int64_t raw_um =
+        (int64_t)x * (1000000 + c->gain_ppm[k]) / 1000 + (int64_t)c->offset_um[k];
+    return (uint16_t)((raw_um + 500) / 1000);
 }
 
 static void report(const char *cpu, const char *impl, const char *op, uint64_t total,
@@ -122,6 +150,12 @@ static void bench_fixed(const char *cpu) {
     for (unsigned i = 0; i < KALMAN_STATES; ++i) {
         track_cfg.kalman_process_noise_um2[i] = BENCH_Q_UM2;
     }
+    struct attitude_config cal_cfg = cfg;
+    calibrated_head(&cal_cfg.calibration);
+    if (attitude_init(&est_cal, &cal_cfg) != ATTITUDE_ERR_NONE) {
+        semihost_write_stdout("bench: attitude_init (calibrated) failed\n", 41);
+        semihost_exit(1);
+    }
     if (kalman_init(&kal, &kcfg) != KALMAN_OK || kalman_init(&kal_track, &tcfg) != KALMAN_OK ||
         kalman_init(&kal_auto, &acfg) != KALMAN_OK ||
         attitude_init(&est_track, &track_cfg) != ATTITUDE_ERR_NONE) {
@@ -129,7 +163,8 @@ static void bench_fixed(const char *cpu) {
         semihost_exit(1);
     }
     uint64_t sample_total = 0, window_total = 0, consensus_total = 0, kalman_total = 0;
-    uint64_t track_total = 0, sample_track_total = 0, auto_total = 0;
+    uint64_t track_total = 0, sample_track_total = 0, auto_total = 0, window_cal_total = 0;
+    uint32_t windows_cal = 0;
     uint32_t samples = 0, windows = 0, kalman_rows = 0, track_rows = 0, track_samples = 0;
     const uint8_t status[4] = {0, 0, 0, 0};
     const bool present[4] = {true, true, true, true};
@@ -181,6 +216,18 @@ static void bench_fixed(const char *cpu) {
                 sample_track_total += measured(s0, s1);
                 ++track_samples;
             }
+            uint16_t raw[4];
+            for (unsigned k = 0; k < 4u; ++k) {
+                raw[k] = head_reading(&cal_cfg.calibration, k, range[k]);
+            }
+            const uint32_t e0 = insn_counter_ticks();
+            const bool cal_ready = attitude_push_sample(&est_cal, raw, status, present, &out);
+            const uint32_t e1 = insn_counter_ticks();
+            if (cal_ready) {
+                window_cal_total += measured(e0, e1);
+                ++windows_cal;
+                fixed_sink = out.est[ATTITUDE_EST_CONSENSUS].alpha_udeg;
+            }
         }
         /* The product consensus of this window, from its statistics. */
         struct consensus_product_input in;
@@ -207,6 +254,7 @@ static void bench_fixed(const char *cpu) {
     report(cpu, "fixed", "kalman_auto", auto_total, track_rows);
     report(cpu, "fixed", "sample_track", sample_track_total, track_samples);
     report(cpu, "fixed", "window", window_total, windows);
+    report(cpu, "fixed", "window_cal", window_cal_total, windows_cal);
 }
 
 static void bench_float(const char *cpu) {

@@ -399,6 +399,49 @@ static void test_s128_division_paths(void **state) {
     }
 }
 
+/* fix_s128_div_s64 against __int128 for one case (rounding half away from zero). */
+static void check_division(i128 a, int64_t d) {
+    fix_s128 x;
+    x.hi = (uint64_t)((unsigned __int128)a >> 64);
+    x.lo = (uint64_t)a;
+    bool ovf = false;
+    const int64_t got = fix_s128_div_s64(x, d, &ovf);
+    const unsigned __int128 ma = a < 0 ? -(unsigned __int128)a : (unsigned __int128)a;
+    const unsigned __int128 md = d < 0 ? -(unsigned __int128)(i128)d : (unsigned __int128)(i128)d;
+    unsigned __int128 q = ma / md;
+    const unsigned __int128 r = ma % md;
+    q += r >= md - r ? 1u : 0u;
+    const bool neg = (a < 0) != (d < 0);
+    if (q > (unsigned __int128)INT64_MAX + (neg ? 1u : 0u)) {
+        assert_true(ovf);
+    } else {
+        assert_false(ovf);
+        assert_true((i128)got == (neg ? -(i128)q : (i128)q));
+    }
+}
+
+/* The divisors above 2^32 (two base-2^32 digits of Knuth's Algorithm D): the divisors
+ * whose top digit, once normalised, is smallest and whose low digit is largest make the
+ * digit estimate overshoot most (by 2); numerators q·d + r with the remainders where the
+ * rounding and the corrections turn (0, 1, half, d − 1), quotients of every size. */
+static void test_s128_division_knuth_corrections(void **state) {
+    (void)state;
+    for (int i = 0; i < 200000; ++i) {
+        const uint64_t top = ((uint64_t)1 << 31) + (next_u64() % 64u); /* d1 near 2^31 */
+        const uint64_t low = 0xFFFFFFFFu - (next_u64() % 64u);         /* d0 near 2^32 */
+        const unsigned shift = (unsigned)(next_u64() % 32u);           /* bitlen 33..64 */
+        const uint64_t ud = ((top << 32) | low) >> shift;
+        const int64_t d = (int64_t)(ud >> 1) * ((next_u64() & 1u) != 0u ? -1 : 1);
+        const uint64_t md = ud >> 1;
+        const unsigned qbits = 1u + (unsigned)(next_u64() % 63u);
+        const unsigned __int128 q = next_u64() >> (64u - qbits);
+        const uint64_t rs[6] = {0u, 1u, md / 2u, (md - 1u) / 2u, (md + 1u) / 2u, md - 1u};
+        const unsigned __int128 m = q * md + rs[next_u64() % 6u];
+        const i128 a = (next_u64() & 1u) != 0u ? -(i128)m : (i128)m;
+        check_division(a, d);
+    }
+}
+
 /* The angle sigma against long double: within 1e-6 relative + 2 udeg where it does not
  * saturate, over variances, arms and slopes of every size. */
 static void test_angle_sigma_random(void **state) {
@@ -439,6 +482,7 @@ int main(void) {
         cmocka_unit_test(test_atan_table_and_interpolation),
         cmocka_unit_test(test_norm_recip_mul_div),
         cmocka_unit_test(test_s128_division_paths),
+        cmocka_unit_test(test_s128_division_knuth_corrections),
         cmocka_unit_test(test_angle_sigma_random),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
