@@ -263,14 +263,14 @@ FIX_INLINE uint64_t knuth_digit(uint64_t top, uint32_t next, uint64_t dn, uint64
     const uint64_t d0 = dn & 0xFFFFFFFFu;
     uint64_t qhat = top / d1;
     uint64_t rhat = top - qhat * d1;
-    for (unsigned fix = 0; fix < 2u; ++fix) { /* the estimate exceeds the digit by <= 2 */
+    bool done = false;
+    for (unsigned fix = 0; fix < 2u && !done; ++fix) { /* the estimate exceeds the digit by <= 2 */
         if (qhat <= 0xFFFFFFFFu && qhat * d0 <= ((rhat << 32) | next)) {
-            break;
-        }
-        --qhat;
-        rhat += d1;
-        if (rhat > 0xFFFFFFFFu) {
-            break;
+            done = true;
+        } else {
+            --qhat;
+            rhat += d1;
+            done = rhat > 0xFFFFFFFFu;
         }
     }
     /* modulo 2^64: the true remainder lies in [0, dn) */

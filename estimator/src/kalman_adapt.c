@@ -47,10 +47,10 @@
 /* Q is set anew when the learnt value moves by more than a factor 12/8 (a q off by 1.5
  * costs the filter 1 % of RMS error at most; each change ends the steady state) */
 #define KALMAN_ADAPT_HYST    12
-#define KALMAN_ADAPT_ITER    2u  /* steps of the levels' mean per block (adapt_choose) */
-#define KALMAN_ADAPT_FALL_N  16u /* the fall test (adapt_fall): armed from this many samples */
-#define KALMAN_ADAPT_LN16_Q8 710 /* ln 16 in Q8 */
-#define KALMAN_ADAPT_FALL_H  (10 << 8)
+#define KALMAN_ADAPT_ITER    2u   /* steps of the levels' mean per block (adapt_choose) */
+#define KALMAN_ADAPT_FALL_N  16u  /* the fall test (adapt_fall): armed from this many samples */
+#define KALMAN_ADAPT_LN16_Q8 710  /* ln 16 in Q8 */
+#define KALMAN_ADAPT_FALL_H  2560 /* 10 in Q8 */
 
 /* B(B² − 1)/24 = (B(2B² + 1)/3 − B)/16 (exact) */
 static const int64_t adapt_weight16b[KALMAN_ADAPT_LEVELS] = {1364, 87376, 5592384, 357913856};
@@ -103,10 +103,13 @@ static void adapt_fall(struct kalman_cov *cv, unsigned l, unsigned g,
     uint64_t num;
     int64_t den;
     if (g == 0u) {
-        num = (uint64_t)((int64_t)d[0] * d[0]);
+        const int64_t sq0 = (int64_t)d[0] * d[0];
+        num = (uint64_t)sq0;
         den = ((m * w) >> 16) + (int64_t)(dsq[0] >> 1); /* q_y = 16 q_x̄, Q16 = m/16 */
     } else {
-        num = (uint64_t)((int64_t)d[1] * d[1]) + (uint64_t)((int64_t)d[2] * d[2]);
+        const int64_t sq1 = (int64_t)d[1] * d[1];
+        const int64_t sq2 = (int64_t)d[2] * d[2];
+        num = (uint64_t)sq1 + (uint64_t)sq2;
         den = ((m * w) >> 17) + (int64_t)(dsq[1] >> 1) + (int64_t)(dsq[2] >> 1); /* 2 x 4 q_t */
     }
     /* x in Q8 from 16-bit den (32-bit division), at most 255 (the test's step is then far
@@ -115,9 +118,14 @@ static void adapt_fall(struct kalman_cov *cv, unsigned l, unsigned g,
         fix_bitlen_u64((uint64_t)den) > 16u ? fix_bitlen_u64((uint64_t)den) - 16u : 0u;
     const uint32_t den16 = (uint32_t)((uint64_t)den >> sh) | 1u;
     const uint64_t num_s = num >> sh;
-    const int32_t x =
-        num_s >= ((uint64_t)den16 << 8) ? 255 * 256 : (int32_t)(((uint32_t)num_s << 8) / den16);
-    const int32_t k = g == 0u ? 1 : 2;
+    const uint32_t ratio_q8 = num_s >= ((uint64_t)den16 << 8)
+                                  ? 255u * 256u
+                                  : (((uint32_t)num_s << 8) / den16); /* below 2^16 */
+    const int32_t x = (int32_t)ratio_q8;
+    int32_t k = 2;
+    if (g == 0u) {
+        k = 1;
+    }
     int32_t c = cv->fall[l][g] + k * (KALMAN_ADAPT_LN16_Q8 - 15 * x) / 2;
     c = c > 0 ? c : 0;
     if (c > KALMAN_ADAPT_FALL_H) {
@@ -242,7 +250,9 @@ static bool adapt_q_moved(int64_t now, int64_t next) {
  * set. */
 static uint32_t adapt_sq(int32_t v) {
     const int32_t lim = 512; /* a jump: the block difference says so */
-    return v < lim && v > -lim ? (uint32_t)(v * v) : (uint32_t)(lim * lim);
+    const int32_t c = v < lim && v > -lim ? v : lim;
+    const int32_t sq = c * c; /* below 2^18 */
+    return (uint32_t)sq;
 }
 
 static void adapt_sums(struct kalman_state *k, const uint16_t range_mm[ANGLES_SENSORS],
@@ -302,7 +312,8 @@ bool kalman_adapt_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SEN
         const int32_t d = (int32_t)range_mm[s] - (int32_t)cv->last_mm[s];
         dz[s] = d;
         if ((both & (1u << s)) != 0u && d < 128 && d > -128) {
-            cv->sum_d2[s] += (uint32_t)(d * d); /* 32 rows: below 2^19 */
+            const int32_t sq = d * d;
+            cv->sum_d2[s] += (uint32_t)sq; /* 32 rows: below 2^19 */
             if (++cv->cnt_d[s] == KALMAN_ADAPT_BLOCK) {
                 /* 32 differences' mean into the running mean: gain 1/2^⌊log2 n⌋, then
                  * 2^-4 a block (512 rows) */

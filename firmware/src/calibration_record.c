@@ -171,6 +171,8 @@ enum tof_cal_state tof_cal_boot(struct tof_record_store *store, struct tof_app *
 enum tof_cal_state tof_cal_recheck(const struct tof_record_store *store, struct tof_app *app) {
     struct calibration_head cal;
     struct tof_cal_binding bind;
+    (void)memset(&cal, 0, sizeof cal); /* read only when decoded (cppcheck cannot tell) */
+    (void)memset(&bind, 0, sizeof bind);
     enum tof_cal_state state = TOF_CAL_NO_STORAGE;
     if (store != NULL && store->storage.ops != NULL) {
         state = store->current < 0 ? TOF_CAL_NONE

@@ -129,12 +129,13 @@ void tof_estimator_mode_process_noise(struct attitude_config *est) {
     }
 }
 
-int tof_estimator_process_noise(struct attitude_config *est, uint32_t period_us,
-                                uint32_t qd_um2_per_s, uint32_t qt_um2_per_s, bool automatic) {
-    const uint32_t q[3] = {qd_um2_per_s, qt_um2_per_s, qt_um2_per_s};
+/* Q per row `q[i] * num / den`, rounded, into est (all three or none): ATTITUDE_ERR_NONE, or
+ * ATTITUDE_ERR_KALMAN_PROCESS_NOISE when a non-zero Q would round to 0 or overflow. */
+static int scale_process_noise(struct attitude_config *est, const uint32_t q[3], uint32_t num,
+                               uint32_t den) {
     uint32_t per_row[3];
     for (unsigned i = 0; i < 3u; ++i) {
-        const uint64_t row = ((uint64_t)q[i] * period_us + 500000u) / 1000000u;
+        const uint64_t row = ((uint64_t)q[i] * num + den / 2u) / den;
         if (row > UINT32_MAX || (q[i] != 0u && row == 0u)) {
             return ATTITUDE_ERR_KALMAN_PROCESS_NOISE; /* never a silent Q = 0 */
         }
@@ -143,8 +144,17 @@ int tof_estimator_process_noise(struct attitude_config *est, uint32_t period_us,
     for (unsigned i = 0; i < 3u; ++i) {
         est->kalman_process_noise_um2[i] = per_row[i];
     }
-    est->kalman_process_noise_auto = automatic;
     return ATTITUDE_ERR_NONE;
+}
+
+int tof_estimator_process_noise(struct attitude_config *est, uint32_t period_us,
+                                uint32_t qd_um2_per_s, uint32_t qt_um2_per_s, bool automatic) {
+    const uint32_t q[3] = {qd_um2_per_s, qt_um2_per_s, qt_um2_per_s};
+    const int rc = scale_process_noise(est, q, period_us, 1000000u); /* µm²/s × s */
+    if (rc == ATTITUDE_ERR_NONE) {
+        est->kalman_process_noise_auto = automatic;
+    }
+    return rc;
 }
 
 int tof_app_config_process_noise(struct tof_app_config *cfg, uint32_t qd_um2_per_s,
@@ -155,20 +165,13 @@ int tof_app_config_process_noise(struct tof_app_config *cfg, uint32_t qd_um2_per
 }
 
 int tof_estimator_period(struct attitude_config *est, uint32_t period_us) {
-    uint32_t per_row[3];
-    for (unsigned i = 0; i < 3u; ++i) {
-        const uint32_t q = est->kalman_process_noise_um2[i];
-        /* the same intensity (Q per row / old period) at the new period, rounded */
-        const uint32_t old_us = est->period_us != 0u ? est->period_us : 1u; /* init checks it */
-        const uint64_t row = ((uint64_t)q * period_us + old_us / 2u) / old_us;
-        if (row > UINT32_MAX || (q != 0u && row == 0u)) {
-            return ATTITUDE_ERR_KALMAN_PROCESS_NOISE; /* never a silent Q = 0 */
-        }
-        per_row[i] = (uint32_t)row;
+    /* the same intensity (Q per row / old period) at the new period */
+    const uint32_t q[3] = {est->kalman_process_noise_um2[0], est->kalman_process_noise_um2[1],
+                           est->kalman_process_noise_um2[2]};
+    const uint32_t old_us = est->period_us != 0u ? est->period_us : 1u; /* init checks it */
+    const int rc = scale_process_noise(est, q, period_us, old_us);
+    if (rc == ATTITUDE_ERR_NONE) {
+        est->period_us = period_us;
     }
-    for (unsigned i = 0; i < 3u; ++i) {
-        est->kalman_process_noise_um2[i] = per_row[i];
-    }
-    est->period_us = period_us;
-    return ATTITUDE_ERR_NONE;
+    return rc;
 }

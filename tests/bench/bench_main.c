@@ -36,6 +36,7 @@
 #include "float_baseline.h"
 #include "insn_counter.h"
 #include "semihost.h"
+#include "test_calibration.h" /* tests/common */
 
 #define BENCH_WINDOWS 10u
 #define BENCH_N       100u
@@ -76,21 +77,6 @@ static void make_sample(unsigned window, uint16_t range[4]) {
     range[1] = (uint16_t)(mean + tb + noise_mm());
     range[2] = (uint16_t)(mean + ta + noise_mm());
     range[3] = (uint16_t)(mean - tb + noise_mm());
-}
-
-/* A calibrated head as `calibrate` writes one (tests/firmware/test_calibration_record.c's):
- * offsets of up to 12 mm, gains of up to 1.2 %, sds of about 30 µm and 200 ppm, a strong
- * negative correlation of offset and gain errors. */
-static void calibrated_head(struct calibration_head *c) {
-    const struct calibration_head head = {
-        .calibrated = true,
-        .offset_um = {-3105, 7882, 516, -12340},
-        .gain_ppm = {4100, -8130, 12020, -3450},
-        .offset_sd_um = {28, 29, 28, 30},
-        .gain_sd_ppm = {190, 200, 190, 210},
-        .offset_gain_corr_q15 = {-30474, -30500, -30000, -32768},
-    };
-    *c = head;
 }
 
 /* What head c reads for the workload's range x (mm): raw = gain · x + offset, to the
@@ -151,7 +137,7 @@ static void bench_fixed(const char *cpu) {
         track_cfg.kalman_process_noise_um2[i] = BENCH_Q_UM2;
     }
     struct attitude_config cal_cfg = cfg;
-    calibrated_head(&cal_cfg.calibration);
+    test_calibration_fitted(&cal_cfg.calibration);
     if (attitude_init(&est_cal, &cal_cfg) != ATTITUDE_ERR_NONE) {
         semihost_write_stdout("bench: attitude_init (calibrated) failed\n", 41);
         semihost_exit(1);

@@ -16,6 +16,7 @@
 #include "firmware/settings.h"
 #include "hal/hal_err.h"
 #include "sim/sim_flash.h"
+#include "test_calibration.h"
 
 static struct sim_flash flash;
 static struct tof_record_store store;
@@ -24,14 +25,8 @@ static struct tof_app app;
 
 /* A head as calibrate writes one: offsets, gains, their sd and correlation. */
 static struct calibration_head a_head(void) {
-    const struct calibration_head cal = {
-        .calibrated = true,
-        .offset_um = {-3105, 7882, 516, -12340},
-        .gain_ppm = {4100, -8130, 12020, -3450},
-        .offset_sd_um = {28, 29, 28, 30},
-        .gain_sd_ppm = {190, 200, 190, 210},
-        .offset_gain_corr_q15 = {-30474, -30500, -30000, -32768},
-    };
+    struct calibration_head cal;
+    test_calibration_fitted(&cal);
     return cal;
 }
 
@@ -224,7 +219,8 @@ static void test_settings_and_calibration_keep_each_other(void **state) {
     save_cal(&cal, true, &b); /* again: the settings stay */
     assert_int_equal(tof_settings_decode(store.payload, store.length, &back), TOF_RECORD_LOADED);
     assert_true(back.sliding);
-    assert_int_equal(store.length, 2u * TOF_SECTION_HEADER + TOF_SETTINGS_LENGTH + TOF_CALIBRATION_LENGTH);
+    assert_int_equal(store.length,
+                     2u * TOF_SECTION_HEADER + TOF_SETTINGS_LENGTH + TOF_CALIBRATION_LENGTH);
 }
 
 int main(void) {

@@ -13,6 +13,17 @@ struct words {
     unsigned n;
 };
 
+/* `c` in lower case (ASCII letters; anything else as it is), without char arithmetic. */
+static char lower(char c) {
+    static const char upper_set[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZ";
+    static const char lower_set[] = "abcdefghijklmnopqrstuvwxyz";
+    const char *at = c != '\0' ? strchr(upper_set, c) : NULL;
+    if (at == NULL) {
+        return c;
+    }
+    return lower_set[at - upper_set];
+}
+
 /* Split `text` at spaces into lower-case words; false if too many or one too long. */
 static bool split(const char *text, struct words *out) {
     out->n = 0;
@@ -38,7 +49,7 @@ static bool split(const char *text, struct words *out) {
         if (len + 1u >= WORD_MAX) {
             return false;
         }
-        out->w[out->n - 1u][len++] = (c >= 'A' && c <= 'Z') ? (char)(c - 'A' + 'a') : c;
+        out->w[out->n - 1u][len++] = lower(c);
     }
 }
 
@@ -160,7 +171,7 @@ static const char *write_calibration(const char *hex, struct tlm_command *out) {
         ++hex;
     }
     out->type = TLM_TYPE_WRITE_CALIBRATION;
-    for (size_t i = 0; i < 2u * TLM_CAL_SECTION_LEN; ++i) {
+    for (size_t i = 0; i < (size_t)TLM_CAL_SECTION_LEN * 2u; ++i) {
         const char c = hex[i];
         const int v = c >= '0' && c <= '9'   ? c - '0'
                       : c >= 'a' && c <= 'f' ? c - 'a' + 10
@@ -172,7 +183,7 @@ static const char *write_calibration(const char *hex, struct tlm_command *out) {
         out->u.cal_section[i / 2u] =
             (uint8_t)((unsigned)out->u.cal_section[i / 2u] << 4 | (unsigned)v);
     }
-    const char *rest = &hex[2u * TLM_CAL_SECTION_LEN];
+    const char *rest = &hex[(size_t)TLM_CAL_SECTION_LEN * 2u];
     while (*rest == ' ' || *rest == '\t') {
         ++rest;
     }
