@@ -278,6 +278,11 @@ static void start_pending_sensors(struct tof_app *app) {
  * iterations of idle_us plus their own work, locked to the slot period, could else step
  * over it slot after slot (seen in the twin: no start for 60 ms, then a re-init).
  */
+/* The longest idle sleep: the watchdog is kicked once an iteration, and the L476's expires
+ * after 400 ms (boards/stm32/stm32_board.c); a period of up to 10 s (set-period) sleeps in
+ * slices. Found by the twin: a 500 ms period reset the board every 0.7 s. */
+#define MAX_SLEEP_US 50000u
+
 static uint32_t idle_time_us(const struct tof_app *app, uint64_t now_us) {
     if (app->deferred_count != 0u) {
         return 0u; /* a held-back sample: its iteration comes at once */
@@ -291,8 +296,12 @@ static uint32_t idle_time_us(const struct tof_app *app, uint64_t now_us) {
         waiting = waiting || app->start_pending[i];
     }
     if (!waiting && now_us < next_slot && app->assembler.pending[0].present_mask == 0u) {
+        /* at most a period, and at most MAX_SLEEP_US: the iterations kick the watchdog */
         const uint64_t gap = next_slot - now_us;
-        return gap < app->assembler_cfg.period_us ? (uint32_t)gap : app->assembler_cfg.period_us;
+        const uint32_t cap = app->assembler_cfg.period_us < MAX_SLEEP_US
+                                 ? app->assembler_cfg.period_us
+                                 : MAX_SLEEP_US;
+        return gap < cap ? (uint32_t)gap : cap;
     }
     if (waiting) {
         const uint32_t period_us = app->assembler_cfg.period_us;
@@ -460,6 +469,11 @@ int tof_app_set_period(struct tof_app *app, uint32_t period_ms) {
         const bool configured = vl53_array_report(&app->array, i)->state == VL53_SENSOR_RANGING;
         if (configured) {
             park_until_boundary(app, i);
+            if (vl53_is_ranging(dev)) { /* the stop did not reach it: re-initialise it */
+                app->start_pending[i] = false;
+                note_error(app, i, HAL_ERR_DEVICE);
+                continue;
+            }
         }
         (void)vl53_set_timing_next(dev, &next.timing); /* checked above; the part is stopped */
         if (configured) {

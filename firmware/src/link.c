@@ -251,11 +251,12 @@ static uint8_t apply_geometry(struct tof_link *link, const struct tlm_command *c
         *error = tof_app_set_arm(link->app, (int32_t)cmd->u.arm_um);
         return estimator_result(*error);
     }
+    const uint16_t budget_ms = link->app->cfg.timing.budget_ms;
     *error = tof_app_set_period(link->app, cmd->u.period_ms);
     if (*error == HAL_ERR_INVALID) {
         return TLM_RESULT_OUT_OF_RANGE; /* no timing of the distance mode fits: a hal code */
     }
-    if (*error == 0) {
+    if (*error == 0 && link->app->cfg.timing.budget_ms != budget_ms) {
         link->cal_state = (uint8_t)tof_cal_recheck(link->records, link->app);
     }
     return estimator_result(*error);
@@ -309,6 +310,10 @@ static uint8_t apply(struct tof_link *link, const struct tlm_command *cmd, int *
         return apply_geometry(link, cmd, error);
     case TLM_TYPE_SAVE: {
         /* Begun here, advanced by each poll (a page erase outlasts a loop iteration). */
+        if (link->save_pending) {
+            *error = HAL_ERR_STATE; /* the save before is still being written: answered then */
+            return TLM_RESULT_STATE;
+        }
         struct tof_settings now;
         tof_settings_capture(app, &link->process_noise, &now);
         *error = tof_settings_save_begin(link->records, &now); /* a hal_err: storage's own */
@@ -355,8 +360,9 @@ static void on_frame(void *ctx, const struct tlm_frame *frame) {
     uint8_t result = (uint8_t)tlm_parse_command(frame, &cmd, &link->decoder.counters);
     int error = 0;
     if (result == TLM_RESULT_OK) {
+        const bool saving = link->save_pending;
         result = apply(link, &cmd, &error);
-        if (link->save_pending && frame->type == TLM_TYPE_SAVE) {
+        if (!saving && link->save_pending && frame->type == TLM_TYPE_SAVE) {
             link->save_seq = frame->seq; /* answered by save_poll() when the copy is in use */
             link->last_valid = false;
             return;
