@@ -297,11 +297,14 @@ static uint32_t idle_time_us(const struct tof_app *app, uint64_t now_us) {
     }
     if (!waiting && now_us < next_slot && app->assembler.pending[0].present_mask == 0u) {
         /* at most a period, and at most MAX_SLEEP_US: the iterations kick the watchdog */
-        const uint64_t gap = next_slot - now_us;
-        const uint32_t cap = app->assembler_cfg.period_us < MAX_SLEEP_US
-                                 ? app->assembler_cfg.period_us
-                                 : MAX_SLEEP_US;
-        return gap < cap ? (uint32_t)gap : cap;
+        uint64_t sleep_us = next_slot - now_us;
+        if (sleep_us > app->assembler_cfg.period_us) {
+            sleep_us = app->assembler_cfg.period_us;
+        }
+        if (sleep_us > MAX_SLEEP_US) {
+            sleep_us = MAX_SLEEP_US;
+        }
+        return (uint32_t)sleep_us;
     }
     if (waiting) {
         const uint32_t period_us = app->assembler_cfg.period_us;
