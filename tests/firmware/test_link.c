@@ -699,21 +699,31 @@ static void test_save_then_reset_brings_the_settings_back(void **state) {
     assert_int_equal(t.app.estimator.cfg.kalman_process_noise_um2[0], 0u);
 }
 
+/* Fresh record storage holding a calibration of offsets +1.5, -0.8, -1.2, +0.6 mm (no gains)
+ * bound as `b` says. */
+static void store_offsets_calibration(const struct tof_cal_binding *b) {
+    const struct calibration_head cal = {.calibrated = true,
+                                         .offset_um = {1500, -800, -1200, 600},
+                                         .offset_sd_um = {30, 30, 30, 30}};
+    uint8_t section[TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH];
+    assert_int_equal(tof_cal_encode(&cal, false, b, section), HAL_OK);
+    assert_int_equal(tof_section_save(&saved_store, section), HAL_OK);
+}
+
+static void open_saved_records(void) {
+    assert_int_equal(sim_flash_init(&saved_flash, 2u, 2048u), HAL_OK);
+    assert_int_equal(tof_record_init(&saved_store, sim_flash_hal(&saved_flash), 0u, 1u), HAL_OK);
+}
+
 /* set-arm and set-period (issue 22): in force at once (the sensors re-timed and read at the
  * new rate with no sample missing, Q per row rescaled to keep its intensity, the calibration
  * bound to the old timing budget no longer applied, and the status frame says so), refused
  * where no timing fits, kept by `save` and in force after a reset. */
 static void test_arm_and_period_by_command_and_kept(void **state) {
     (void)state;
-    assert_int_equal(sim_flash_init(&saved_flash, 2u, 2048u), HAL_OK);
-    assert_int_equal(tof_record_init(&saved_store, sim_flash_hal(&saved_flash), 0u, 1u), HAL_OK);
-    const struct calibration_head cal = {.calibrated = true,
-                                         .offset_um = {1500, -800, -1200, 600},
-                                         .offset_sd_um = {30, 30, 30, 30}};
+    open_saved_records();
     const struct tof_cal_binding b = tof_cal_binding_of(&t.app.cfg); /* budget 15 ms */
-    uint8_t section[TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH];
-    assert_int_equal(tof_cal_encode(&cal, false, &b, section), HAL_OK);
-    assert_int_equal(tof_section_save(&saved_store, section), HAL_OK);
+    store_offsets_calibration(&b);
     boot_with_records();
     assert_int_equal(t.last_status.calibration, TLM_CAL_APPLIED);
     assert_int_equal(t.last_status.arm_um, 30000u);
@@ -797,15 +807,9 @@ static void test_settings_the_image_refuses_fall_back_to_defaults(void **state) 
  * frame says so; one of another mode is not, and the status frame says why. */
 static void test_a_saved_calibration_is_applied_at_boot(void **state) {
     (void)state;
-    assert_int_equal(sim_flash_init(&saved_flash, 2u, 2048u), HAL_OK);
-    assert_int_equal(tof_record_init(&saved_store, sim_flash_hal(&saved_flash), 0u, 1u), HAL_OK);
-    const struct calibration_head cal = {.calibrated = true,
-                                         .offset_um = {1500, -800, -1200, 600},
-                                         .offset_sd_um = {30, 30, 30, 30}};
+    open_saved_records();
     struct tof_cal_binding b = tof_cal_binding_of(&t.app.cfg);
-    uint8_t section[TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH];
-    assert_int_equal(tof_cal_encode(&cal, false, &b, section), HAL_OK);
-    assert_int_equal(tof_section_save(&saved_store, section), HAL_OK);
+    store_offsets_calibration(&b);
     assert_false(t.app.estimator.cfg.calibration.calibrated);
     boot_with_records();
     assert_int_equal(t.last_status.calibration, TLM_CAL_APPLIED);
@@ -814,8 +818,7 @@ static void test_a_saved_calibration_is_applied_at_boot(void **state) {
     assert_int_equal(t.app.estimator.cfg.calibration.offset_um[1], -800);
 
     b.budget_ms = (uint16_t)(b.budget_ms * 2u);
-    assert_int_equal(tof_cal_encode(&cal, false, &b, section), HAL_OK);
-    assert_int_equal(tof_section_save(&saved_store, section), HAL_OK);
+    store_offsets_calibration(&b);
     setup(NULL);
     boot_with_records();
     assert_int_equal(t.last_status.calibration, TLM_CAL_OTHER_MODE);
