@@ -13,7 +13,13 @@
  *              windows run it (no restart; the warm-up rows excluded)
  *   kalman_auto  (fixed only) kalman_track's row with `--process-noise auto` (Q and R
  *              learnt from the readings, kalman_adapt.c: the block sums of every row and,
- *              every 32 rows, the samples and the levels' mean, averaged in)
+ *              every 32 rows, the samples and the levels' mean, averaged in): a cold start
+ *              on a plate stepped every 100 rows, so the learnt Q keeps changing and most
+ *              rows run in full (the transient's cost)
+ *   kalman_auto_walk  (fixed only) the same filter settled: a plate whose x̄ and slopes
+ *              wander as random walks (AUTO_WALK_ROWS rows, the first AUTO_WALK_LEARN not
+ *              counted), the operating case `auto` is for
+ *   kalman_auto_worst  (fixed only) the most expensive single `auto` row of both workloads
  *   sample_track  (fixed only) `sample` with the facade's Kalman filter tracking (the
  *              same Q, tumbling windows: with Q > 0 the filter is not restarted at a
  *              window's start, and R follows each window's statistics)
@@ -111,6 +117,48 @@ static uint64_t measured(uint32_t before, uint32_t after) {
     return n > overhead ? n - overhead : 0u;
 }
 
+/* The settled `auto` filter on a wandering plate: x̄ and the two slopes each take a step of
+ * ±STEP µm a row (q = STEP² per row: 0.02 mm²/s at 20 ms for the slopes, 0.5 for x̄), the
+ * workload's LCG noise on each reading. Reports the mean over the settled rows and returns
+ * the most expensive row (instructions). */
+#define AUTO_WALK_ROWS  4000u
+#define AUTO_WALK_LEARN 2000u
+static uint64_t bench_auto_walk(const char *cpu, const struct kalman_config *acfg) {
+    if (kalman_init(&kal_auto, acfg) != KALMAN_OK) {
+        semihost_write_stdout("bench: kalman_init (walk) failed\n", 33);
+        semihost_exit(1);
+    }
+    int32_t xbar_um = 100000;
+    int32_t ta_um = 1000;
+    int32_t tb_um = -1000;
+    uint64_t total = 0;
+    uint64_t worst = 0;
+    for (uint32_t r = 0; r < AUTO_WALK_ROWS; ++r) {
+        lcg_state = lcg_state * 1664525u + 1013904223u;
+        xbar_um += (lcg_state & 0x10000000u) != 0u ? 100 : -100;
+        ta_um += (lcg_state & 0x20000000u) != 0u ? 20 : -20;
+        tb_um += (lcg_state & 0x40000000u) != 0u ? 20 : -20;
+        const int32_t m[4] = {xbar_um - ta_um, xbar_um + tb_um, xbar_um + ta_um, xbar_um - tb_um};
+        uint16_t range[4];
+        for (unsigned k = 0; k < 4u; ++k) {
+            range[k] = (uint16_t)((m[k] + 500) / 1000 + noise_mm());
+        }
+        struct kalman_rows rows;
+        const uint32_t k0 = insn_counter_ticks();
+        kalman_push_row(&kal_auto, range, 0x0Fu, &rows);
+        const uint32_t k1 = insn_counter_ticks();
+        const uint64_t n = measured(k0, k1);
+        if (r >= AUTO_WALK_LEARN) {
+            total += n;
+        }
+        if (r >= acfg->warmup_rows && n > worst) {
+            worst = n;
+        }
+    }
+    report(cpu, "fixed", "kalman_auto_walk", total, AUTO_WALK_ROWS - AUTO_WALK_LEARN);
+    return worst;
+}
+
 static void bench_fixed(const char *cpu) {
     struct attitude_config cfg;
     attitude_config_default(&cfg);
@@ -151,6 +199,7 @@ static void bench_fixed(const char *cpu) {
     uint64_t sample_total = 0, window_total = 0, consensus_total = 0, kalman_total = 0;
     uint64_t track_total = 0, sample_track_total = 0, auto_total = 0, window_cal_total = 0;
     uint32_t windows_cal = 0;
+    uint64_t auto_worst = 0;
     uint32_t samples = 0, windows = 0, kalman_rows = 0, track_rows = 0, track_samples = 0;
     const uint8_t status[4] = {0, 0, 0, 0};
     const bool present[4] = {true, true, true, true};
@@ -193,7 +242,9 @@ static void bench_fixed(const char *cpu) {
             kalman_push_row(&kal_auto, range, 0x0Fu, &rows);
             const uint32_t k5 = insn_counter_ticks();
             if (w > 0u || i >= kcfg.warmup_rows) {
-                auto_total += measured(k4, k5);
+                const uint64_t n = measured(k4, k5);
+                auto_total += n;
+                auto_worst = n > auto_worst ? n : auto_worst;
             }
             const uint32_t s0 = insn_counter_ticks();
             const bool track_ready = attitude_push_sample(&est_track, range, status, present, &out);
@@ -238,6 +289,9 @@ static void bench_fixed(const char *cpu) {
     report(cpu, "fixed", "kalman", kalman_total, kalman_rows);
     report(cpu, "fixed", "kalman_track", track_total, track_rows);
     report(cpu, "fixed", "kalman_auto", auto_total, track_rows);
+    const uint64_t walk_worst = bench_auto_walk(cpu, &acfg);
+    report(cpu, "fixed", "kalman_auto_worst", walk_worst > auto_worst ? walk_worst : auto_worst,
+           1u);
     report(cpu, "fixed", "sample_track", sample_track_total, track_samples);
     report(cpu, "fixed", "window", window_total, windows);
     report(cpu, "fixed", "window_cal", window_cal_total, windows_cal);
