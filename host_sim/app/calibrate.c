@@ -2,12 +2,17 @@
 #include "calibrate.h"
 
 #include <errno.h>
+#include <math.h>
 #include <stdbool.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "calibrate/calfit.h"
 #include "calibrate/head_cal.h"
+#include "estimator/calibration.h"
+#include "firmware/config.h"
+#include "hal/hal_err.h"
+#include "replay_mode.h"
 #include "scene/trace.h"
 
 const char calibrate_help[] =
@@ -16,7 +21,11 @@ const char calibrate_help[] =
     "stations: runs of rows with the same truth alpha_deg, beta_deg, distance_mm (rows\n"
     "without truth, the fixture moving, and readings whose status is not 0 are not used),\n"
     "with their sd from the stations' noise and scatter (docs/calibration.md). With one\n"
-    "fixture distance only the gains are not determined: offsets only, no gain written.\n"
+    "fixture distance only the gains are not determined: offsets fitted at gain 1, and the\n"
+    "gain left at the parts' stated spread with its correlation to the offset written, so\n"
+    "the sd is exact at the fixture's distance and grows away from it. The HEAD.cal is\n"
+    "bound to the configuration the trace was recorded in: its '# distance_mode=' and\n"
+    "'# timing_budget_ms=', else the mode and budget host_sim replay would run it in.\n"
     "options:\n"
     "  --out HEAD.cal       the head-calibration file (DESIGN.md section 6a); required\n"
     "  --report CAL.json    the fit per sensor and the residuals per station\n"
@@ -68,8 +77,61 @@ static int parse(int argc, char **argv, struct calibrate_args *a) {
     return 0;
 }
 
+/* The configuration the fixture's readings were taken in, which the HEAD.cal is bound to
+ * (docs/calibration.md, "What binds a record"): without it a calibration made in one mode
+ * would be applied in another. */
+struct cal_binding {
+    enum vl53_distance_mode mode;
+    unsigned budget_ms;
+    char source[240]; /* why, for stderr */
+};
+
+/* The trace's mode (stated, else as host_sim replay infers it) and budget (stated as
+ * '# timing_budget_ms=', else the firmware's for the trace's period in that mode). 0, or -1
+ * with the message in err. */
+static int binding_of(struct trace_reader *r, const char *path, struct cal_binding *b, char *err,
+                      size_t errlen) {
+    struct replay_mode m;
+    const uint32_t period_ms = trace_reader_timing(r)->period_ms;
+    if (replay_mode_choose(&m, r, path, 0u, period_ms) != 0) {
+        snprintf(err, errlen, "%s: its distance_mode cannot be used (above)", path);
+        return -1;
+    }
+    b->mode = m.mode;
+    const char *v = trace_reader_meta(r, "timing_budget_ms");
+    if (v != NULL) {
+        char *end = NULL;
+        errno = 0;
+        const unsigned long ms = strtoul(v, &end, 10);
+        if (errno != 0 || end == v || *end != '\0' || ms == 0u || ms > 65535u) {
+            snprintf(err, errlen, "%s:%lu: timing_budget_ms: '%s' is not an integer 1..65535", path,
+                     trace_reader_meta_line(r, "timing_budget_ms"), v);
+            return -1;
+        }
+        b->budget_ms = (unsigned)ms;
+        snprintf(b->source, sizeof b->source, "mode from %s, budget from the trace (line %lu)",
+                 m.source, trace_reader_meta_line(r, "timing_budget_ms"));
+        return 0;
+    }
+    struct tof_app_config cfg;
+    if (tof_app_config_for_replay(&cfg, (int32_t)lround(r->meta.arm_mm * 1000.0), period_ms, 100u,
+                                  false, m.mode) != HAL_OK) {
+        snprintf(err, errlen,
+                 "%s: no firmware timing of %s mode fits period_ms %u: state the parts' budget "
+                 "as '# timing_budget_ms='",
+                 path, vl53_distance_mode_name(m.mode), (unsigned)period_ms);
+        return -1;
+    }
+    b->budget_ms = cfg.timing.budget_ms;
+    snprintf(b->source, sizeof b->source,
+             "mode from %s, budget the firmware's for period_ms %u (no '# timing_budget_ms=')",
+             m.source, (unsigned)period_ms);
+    return 0;
+}
+
 /* Every row of the trace into d. 0, or -1 with "file:line:col: what" in err. */
-static int read_trace(const char *path, struct calfit_data *d, char *err, size_t errlen) {
+static int read_trace(const char *path, struct calfit_data *d, struct cal_binding *b, char *err,
+                      size_t errlen) {
     FILE *f = fopen(path, "rb");
     if (f == NULL) {
         snprintf(err, errlen, "%s: cannot open: %s", path, strerror(errno));
@@ -81,6 +143,8 @@ static int read_trace(const char *path, struct calfit_data *d, char *err, size_t
         snprintf(err, errlen, "%s: out of memory", path);
     } else if (rc != 0) {
         snprintf(err, errlen, "%s", trace_reader_error(r));
+    } else if (binding_of(r, path, b, err, errlen) != 0) {
+        rc = -1;
     } else {
         /* Whole millimetres, as VL53 parts report and trace v1 stores them. */
         calfit_init(d, r->meta.arm_mm, 1.0);
@@ -118,27 +182,46 @@ static void four(char *buf, size_t len, const char *key, int decimals, const dou
     }
 }
 
+/* The parts' gain spread (estimator/calibration.h), as a gain sd. */
+#define UNCAL_GAIN_SD ((double)CALIBRATION_UNCAL_GAIN_SD_PPM / 1e6)
+
 static int write_cal(const char *path, const char *trace, const struct calfit_data *d,
-                     const struct calfit_result *res) {
-    struct head_cal cal = {.has_gain = res->gains};
+                     const struct calfit_result *res, const struct cal_binding *b) {
+    /* Gains written in both cases: fitted, or (one distance) the prior gain 1 ± the parts'
+     * spread σg with what that prior does to the offset fitted at the fixture's distance xc:
+     * raw = g·x + o read at xc with g taken as 1 gives ô = o + (g − 1)·xc, so
+     * sd(ô)² = σo² + xc²σg² and corr(ô, ĝ) = −xc·σg / sd(ô); the estimator's
+     * var = sd(ô)² + x²σg² + 2xρ·sd(ô)σg is then σo² + (x − xc)²σg²: exact at the fixture,
+     * growing away from it (integrity_noise.c, calibration_var). */
+    struct head_cal cal = {.has_gain = true};
     double noise[4], tau[4], ratio[4], rms[4], corr[4], readings[4];
+    const double xc = d->distance_min_mm;
     for (unsigned k = 0; k < 4u; ++k) {
         const struct calfit_sensor *s = &res->sensor[k];
         cal.offset_mm[k] = s->offset_mm;
         cal.offset_sd_mm[k] = s->offset_sd_mm;
         cal.gain[k] = s->gain;
         cal.gain_sd[k] = s->gain_sd;
+        corr[k] = s->corr;
+        if (!res->gains) {
+            cal.gain[k] = 1.0;
+            cal.gain_sd[k] = UNCAL_GAIN_SD;
+            cal.offset_sd_mm[k] = hypot(s->offset_sd_mm, xc * UNCAL_GAIN_SD);
+            corr[k] = -xc * UNCAL_GAIN_SD / cal.offset_sd_mm[k];
+        }
         noise[k] = s->noise_sd_mm;
         tau[k] = s->tau;
         ratio[k] = s->chi2_red;
         rms[k] = s->residual_rms_mm;
-        corr[k] = s->corr;
         readings[k] = (double)s->readings;
     }
-    char kv[12][HEAD_CAL_VALUE_MAX + HEAD_CAL_KEY_MAX];
-    const char *extra[13];
+    char kv[15][HEAD_CAL_VALUE_MAX + HEAD_CAL_KEY_MAX];
+    const char *extra[16];
     unsigned n = 0;
-    snprintf(kv[n++], sizeof kv[0], "fit=%s", res->gains ? "offsets+gains" : "offsets");
+    snprintf(kv[n++], sizeof kv[0], "fit=%s",
+             res->gains ? "offsets+gains" : "offsets (gains: the parts' prior)");
+    snprintf(kv[n++], sizeof kv[0], "distance_mode=%s", vl53_distance_mode_name(b->mode));
+    snprintf(kv[n++], sizeof kv[0], "timing_budget_ms=%u", b->budget_ms);
     snprintf(kv[n++], sizeof kv[0], "arm_mm=%.6g", d->arm_mm);
     snprintf(kv[n++], sizeof kv[0], "stations=%zu", d->n_stations);
     four(kv[n++], sizeof kv[0], "readings", 0, readings);
@@ -146,9 +229,8 @@ static int write_cal(const char *path, const char *trace, const struct calfit_da
              d->distance_max_mm);
     if (!res->gains) {
         snprintf(kv[n++], sizeof kv[0], "cal_distance_mm=%.3f", d->distance_min_mm);
-    } else {
-        four(kv[n++], sizeof kv[0], "offset_gain_corr", 4, corr);
     }
+    four(kv[n++], sizeof kv[0], "offset_gain_corr", 6, corr);
     four(kv[n++], sizeof kv[0], "noise_sd_mm", 4, noise);
     four(kv[n++], sizeof kv[0], "noise_tau", 2, tau);
     four(kv[n++], sizeof kv[0], "scatter_ratio", 3, ratio);
@@ -175,8 +257,36 @@ static int write_cal(const char *path, const char *trace, const struct calfit_da
     return 0;
 }
 
-static void summary(const char *trace, const struct calfit_data *d,
-                    const struct calfit_result *res) {
+/* A fit no VL53 part can have (estimator/calibration.h's bounds: what replay and the flight
+ * unit refuse) is an error here, naming the sensor and the value, not a file that replay
+ * then refuses. 0, or -1 after the message. */
+static int check_range(const char *trace, const struct calfit_result *res) {
+    int rc = 0;
+    for (unsigned k = 0; k < 4u; ++k) {
+        const struct calfit_sensor *s = &res->sensor[k];
+        const double gmax = (double)CALIBRATION_GAIN_MAX_PPM / 1e6;
+        const double omax = (double)CALIBRATION_OFFSET_MAX_UM / 1e3;
+        if (res->gains && !(fabs(s->gain - 1.0) <= gmax)) {
+            fprintf(stderr,
+                    "host_sim calibrate: %s: sensor %c: fitted gain %.6f is outside %.2f..%.2f, no "
+                    "VL53 part's (a wrong station truth, a swapped sensor, or a part to "
+                    "replace): nothing written\n",
+                    trace, 'A' + k, s->gain, 1.0 - gmax, 1.0 + gmax);
+            rc = -1;
+        }
+        if (!(fabs(s->offset_mm) <= omax)) {
+            fprintf(stderr,
+                    "host_sim calibrate: %s: sensor %c: fitted offset %.3f mm is beyond ±%.0f mm, "
+                    "no VL53 part's: nothing written\n",
+                    trace, 'A' + k, s->offset_mm, omax);
+            rc = -1;
+        }
+    }
+    return rc;
+}
+
+static void summary(const char *trace, const struct calfit_data *d, const struct calfit_result *res,
+                    const struct cal_binding *b) {
     fprintf(stderr,
             "host_sim calibrate: %s: %zu stations from %llu rows; not used: %llu rows without "
             "truth (moving), %llu with partial truth, readings not valid A %llu B %llu C %llu "
@@ -188,16 +298,25 @@ static void summary(const char *trace, const struct calfit_data *d,
     if (!res->gains) {
         fprintf(stderr,
                 "host_sim calibrate: every station at one distance (%.3f mm): gains not "
-                "determined; offsets fitted with gain 1, no gain written (the gain stays at its "
-                "stated prior)\n",
-                d->distance_min_mm);
+                "determined; offsets fitted at gain 1, the gain written as 1 +- %.6f (the parts' "
+                "spread) with its correlation to the offset: the sd is the fit's at %.3f mm and "
+                "grows by %.6f mm per mm away from it\n",
+                d->distance_min_mm, UNCAL_GAIN_SD, d->distance_min_mm, UNCAL_GAIN_SD);
     }
+    fprintf(stderr, "host_sim calibrate: bound to %s mode, timing budget %u ms (%s)\n",
+            vl53_distance_mode_name(b->mode), b->budget_ms, b->source);
     for (unsigned k = 0; k < 4u; ++k) {
         const struct calfit_sensor *s = &res->sensor[k];
+        char gain[64];
+        if (res->gains) {
+            snprintf(gain, sizeof gain, "gain %.6f +- %.6f", s->gain, s->gain_sd);
+        } else {
+            snprintf(gain, sizeof gain, "gain not fitted (1 +- %.6f)", UNCAL_GAIN_SD);
+        }
         fprintf(stderr,
-                "  %c: offset %.4f +- %.4f mm, gain %.6f +- %.6f, noise %.3f mm (tau %.1f%s), "
+                "  %c: offset %.4f +- %.4f mm, %s, noise %.3f mm (tau %.1f%s), "
                 "scatter ratio %.2f over %u dof\n",
-                'A' + k, s->offset_mm, s->offset_sd_mm, s->gain, s->gain_sd, s->noise_sd_mm, s->tau,
+                'A' + k, s->offset_mm, s->offset_sd_mm, gain, s->noise_sd_mm, s->tau,
                 s->tau_settled ? "" : ", not settled", s->chi2_red, s->dof);
     }
 }
@@ -209,8 +328,10 @@ int calibrate_main(int argc, char **argv) {
     }
     struct calfit_data d;
     memset(&d, 0, sizeof d);
+    struct cal_binding bind;
+    memset(&bind, 0, sizeof bind);
     char err[1024];
-    if (read_trace(a.trace, &d, err, sizeof err) != 0) {
+    if (read_trace(a.trace, &d, &bind, err, sizeof err) != 0) {
         fprintf(stderr, "host_sim calibrate: %s\n", err);
         calfit_free(&d);
         return 1;
@@ -222,8 +343,9 @@ int calibrate_main(int argc, char **argv) {
         rc = 1;
     }
     if (rc == 0) {
-        summary(a.trace, &d, &res);
-        rc = write_cal(a.out, a.trace, &d, &res) == 0 ? 0 : 1;
+        summary(a.trace, &d, &res, &bind);
+        rc = check_range(a.trace, &res) == 0 && write_cal(a.out, a.trace, &d, &res, &bind) == 0 ? 0
+                                                                                                : 1;
     }
     if (rc == 0 && a.report != NULL) {
         FILE *f = fopen(a.report, "wb");

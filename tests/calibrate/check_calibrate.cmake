@@ -1,7 +1,9 @@
 # host_sim calibrate end to end (cmake -P): a fixture scenario written, calibrated, and the
-# HEAD.cal and report checked. Inputs: CMD, WORK, SCENARIO, SEED, GAINS (ON: gain keys and
-# each fitted offset within 4 of its stated sd of the trace's sim_offset_mm; OFF: no gain
-# keys, and stderr says why).
+# HEAD.cal and report checked. Inputs: CMD, WORK, SCENARIO, SEED, GAINS (ON: fitted gain
+# keys and each fitted offset within 4 of its stated sd of the trace's sim_offset_mm; OFF:
+# stderr says the gains were not determined, the gain keys are the prior, 1 +- the parts'
+# spread, with a negative offset-gain correlation, so the sd grows away from the fixture's
+# distance). Either way the file is bound to the trace's mode and budget.
 set(trace ${WORK}/${SCENARIO}.csv)
 set(cal ${WORK}/${SCENARIO}.cal)
 set(report ${WORK}/${SCENARIO}.cal.json)
@@ -52,8 +54,11 @@ if(GAINS)
     endif()
   endforeach()
 else()
-  if(text MATCHES "\n# gain")
-    message(FATAL_ERROR "${cal}: gain keys written for one distance:\n${text}")
+  if(NOT text MATCHES "\n# gain=1,1,1,1\n" OR NOT text MATCHES "\n# gain_sd=0.017321,0.017321,0.017321,0.017321\n")
+    message(FATAL_ERROR "${cal}: one distance: gain keys not the parts' prior:\n${text}")
+  endif()
+  if(NOT text MATCHES "\n# offset_gain_corr=-0[.]9[0-9]*,-0[.]9[0-9]*,-0[.]9[0-9]*,-0[.]9[0-9]*\n")
+    message(FATAL_ERROR "${cal}: one distance: offset-gain correlation not the prior's:\n${text}")
   endif()
   if(NOT err MATCHES "gains not determined")
     message(FATAL_ERROR "stderr does not say the gains were not determined:\n${err}")
@@ -62,4 +67,7 @@ else()
   if(NOT fit STREQUAL "offsets")
     message(FATAL_ERROR "${report}: fit '${fit}'")
   endif()
+endif()
+if(NOT text MATCHES "\n# distance_mode=short\n" OR NOT text MATCHES "\n# timing_budget_ms=15\n")
+  message(FATAL_ERROR "${cal}: not bound to the trace's mode and budget (short, 15 ms):\n${text}")
 endif()
