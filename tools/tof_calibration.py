@@ -197,9 +197,16 @@ def station_rows(raw_samples, alpha_deg, beta_deg, distance_mm):
 
 
 def append_station(path, raw_samples, alpha_deg, beta_deg, distance_mm, arm_mm=30.0,
-                   period_ms=20):
+                   period_ms=20, distance_mode="short", timing_budget_ms=15):
     """Append a station's rows to the calibration trace at path (created with its header
-    when new). The reference values are checked as numbers. Returns the rows written."""
+    when new, stating the parts' distance mode and timing budget, which host_sim calibrate
+    binds the HEAD.cal to). The reference values are checked as numbers. Returns the rows
+    written."""
+    if distance_mode not in ("short", "long"):
+        raise CalibrationError("distance mode '%s' is not short or long" % distance_mode)
+    if not isinstance(timing_budget_ms, int) or not 1 <= timing_budget_ms <= 65535:
+        raise CalibrationError("timing budget '%s' ms is not an integer 1..65535"
+                               % timing_budget_ms)
     for v in (alpha_deg, beta_deg, distance_mm):
         if _units(str(v), 6) is None:
             raise CalibrationError("station reference '%s' is not a plain decimal" % v)
@@ -217,8 +224,9 @@ def append_station(path, raw_samples, alpha_deg, beta_deg, distance_mm, arm_mm=3
     rows = list(station_rows(samples, alpha_deg, beta_deg, distance_mm))
     with open(path, "a") as f:
         if new:
-            f.write("# tof-trace v1\n# arm_mm=%s\n# period_ms=%d\n%s\n"
-                    % (arm_mm, period_ms, TRACE_HEADER))
+            f.write("# tof-trace v1\n# arm_mm=%s\n# period_ms=%d\n# distance_mode=%s\n"
+                    "# timing_budget_ms=%d\n%s\n"
+                    % (arm_mm, period_ms, distance_mode, timing_budget_ms, TRACE_HEADER))
         for row in rows:
             f.write(row + "\n")
     return len(rows)

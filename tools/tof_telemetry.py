@@ -1108,7 +1108,9 @@ def _append_station(args, ap, raw):
     try:
         alpha, beta, distance = args.station.split(",")
         n = tof_calibration.append_station(args.record_station, raw, alpha, beta, distance,
-                                           args.arm_mm, args.period_ms)
+                                           args.arm_mm, args.period_ms,
+                                           args.cal_mode or "short",
+                                           args.cal_budget_ms or 15)
     except (ValueError, AttributeError, tof_calibration.CalibrationError) as e:
         ap.exit(1, "tof_telemetry: --station ALPHA,BETA,DISTANCE: %s\n" % e)
     print("station alpha=%s beta=%s distance_mm=%s: %d rows appended to %s"
@@ -1154,10 +1156,12 @@ def main(argv=None):
                           "message) into a HEAD.cal")
     cal.add_argument("--cal-mode", choices=["short", "long"],
                      help="distance mode the HEAD.cal was made in, if it has no "
-                          "distance_mode key (default short, the flight image's)")
+                          "distance_mode key, and the mode --record-station states in a new "
+                          "calibration trace (default short, the flight image's)")
     cal.add_argument("--cal-budget-ms", type=int,
                      help="timing budget the HEAD.cal was made with, if it has no "
-                          "timing_budget_ms key (default 15, the flight image's)")
+                          "timing_budget_ms key, and the budget --record-station states "
+                          "(default 15, the flight image's)")
     cal.add_argument("--record-station", metavar="CAL_TRACE.csv",
                      help="append a fixture station's raw readings (raw on, N samples, raw "
                           "off) with --station's reference to a calibration trace")

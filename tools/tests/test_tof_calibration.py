@@ -148,12 +148,14 @@ class TelemetryTest(unittest.TestCase):
                 self.assertEqual(rc, 0)
             with open(trace) as f:
                 lines = f.read().splitlines()
-            self.assertEqual(lines[:4], ["# tof-trace v1", "# arm_mm=30", "# period_ms=20",
+            # the parts' mode and budget stated, for host_sim calibrate's binding
+            self.assertEqual(lines[:6], ["# tof-trace v1", "# arm_mm=30", "# period_ms=20",
+                                         "# distance_mode=short", "# timing_budget_ms=15",
                                          c.TRACE_HEADER])
-            self.assertEqual(lines[4], "0,100,101,102,0,0,0,4,255,5,0,60")
+            self.assertEqual(lines[6], "0,100,101,102,0,0,0,4,255,5,0,60")
             # the second station's capture restarts at t_ms 0: it continues the trace's time
             self.assertEqual(lines[-1], "100,102,101,102,0,0,0,4,255,-5.5,2,200.25")
-            self.assertEqual(len(lines), 4 + 6)
+            self.assertEqual(len(lines), 6 + 6)
 
 
 if __name__ == "__main__":
