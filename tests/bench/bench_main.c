@@ -20,6 +20,8 @@
  *              wander as random walks (AUTO_WALK_ROWS rows, the first AUTO_WALK_LEARN not
  *              counted), the operating case `auto` is for
  *   kalman_auto_worst  (fixed only) the most expensive single `auto` row of both workloads
+ *   sample_auto_walk  (fixed only) `sample` on that wandering plate with the facade's filter
+ *              on `auto` (tumbling windows, as sample_track; the window ends not counted)
  *   sample_track  (fixed only) `sample` with the facade's Kalman filter tracking (the
  *              same Q, tumbling windows: with Q > 0 the filter is not restarted at a
  *              window's start, and R follows each window's statistics)
@@ -56,6 +58,7 @@ static struct kalman_state kal_track;
 static struct kalman_state kal_auto;
 static struct attitude_state est_track;
 static struct attitude_state est_cal;
+static struct attitude_state est_auto;
 static struct flt_window fwin;
 static struct flt_kalman fkal;
 static struct flt_kalman fkal_track;
@@ -123,8 +126,10 @@ static uint64_t measured(uint32_t before, uint32_t after) {
  * the most expensive row (instructions). */
 #define AUTO_WALK_ROWS  4000u
 #define AUTO_WALK_LEARN 2000u
-static uint64_t bench_auto_walk(const char *cpu, const struct kalman_config *acfg) {
-    if (kalman_init(&kal_auto, acfg) != KALMAN_OK) {
+static uint64_t bench_auto_walk(const char *cpu, const struct kalman_config *acfg,
+                                const struct attitude_config *auto_cfg) {
+    if (kalman_init(&kal_auto, acfg) != KALMAN_OK ||
+        attitude_init(&est_auto, auto_cfg) != ATTITUDE_ERR_NONE) {
         semihost_write_stdout("bench: kalman_init (walk) failed\n", 33);
         semihost_exit(1);
     }
@@ -133,6 +138,10 @@ static uint64_t bench_auto_walk(const char *cpu, const struct kalman_config *acf
     int32_t tb_um = -1000;
     uint64_t total = 0;
     uint64_t worst = 0;
+    uint64_t sample_total = 0;
+    uint32_t samples = 0;
+    const uint8_t status[4] = {0, 0, 0, 0};
+    const bool present[4] = {true, true, true, true};
     for (uint32_t r = 0; r < AUTO_WALK_ROWS; ++r) {
         lcg_state = lcg_state * 1664525u + 1013904223u;
         xbar_um += (lcg_state & 0x10000000u) != 0u ? 100 : -100;
@@ -154,8 +163,17 @@ static uint64_t bench_auto_walk(const char *cpu, const struct kalman_config *acf
         if (r >= acfg->warmup_rows && n > worst) {
             worst = n;
         }
+        struct attitude_output out;
+        const uint32_t s0 = insn_counter_ticks();
+        const bool ready = attitude_push_sample(&est_auto, range, status, present, &out);
+        const uint32_t s1 = insn_counter_ticks();
+        if (!ready && r >= AUTO_WALK_LEARN) {
+            sample_total += measured(s0, s1);
+            ++samples;
+        }
     }
     report(cpu, "fixed", "kalman_auto_walk", total, AUTO_WALK_ROWS - AUTO_WALK_LEARN);
+    report(cpu, "fixed", "sample_auto_walk", sample_total, samples);
     return worst;
 }
 
@@ -289,7 +307,9 @@ static void bench_fixed(const char *cpu) {
     report(cpu, "fixed", "kalman", kalman_total, kalman_rows);
     report(cpu, "fixed", "kalman_track", track_total, track_rows);
     report(cpu, "fixed", "kalman_auto", auto_total, track_rows);
-    const uint64_t walk_worst = bench_auto_walk(cpu, &acfg);
+    struct attitude_config auto_cfg = cfg;
+    auto_cfg.kalman_process_noise_auto = true;
+    const uint64_t walk_worst = bench_auto_walk(cpu, &acfg, &auto_cfg);
     report(cpu, "fixed", "kalman_auto_worst", walk_worst > auto_worst ? walk_worst : auto_worst,
            1u);
     report(cpu, "fixed", "sample_track", sample_track_total, track_samples);
