@@ -43,7 +43,9 @@ static void correct_tails(const struct integrity_config *cfg, struct integrity_w
 void integrity_noise_budget(const struct integrity_state *st, const struct integrity_config *cfg,
                             const struct window_stats *s, struct integrity_window *out,
                             struct integrity_noise_sums *sums) {
-    const fix_q32_t prior = integrity_um2_to_q32(cfg->offset_stability_um);
+    /* the offset stability's prior, as far as the parity's wander allows it */
+    const fix_q32_t prior =
+        integrity_wander_scaled(st, integrity_um2_to_q32(cfg->offset_stability_um));
     fix_q32_t base_sum = 0;  /* what the window sees, the prior and the rounding */
     fix_q32_t total_sum = 0; /* ... plus the learnt drift: the parity residual's variance */
     correct_tails(cfg, out);

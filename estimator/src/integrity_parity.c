@@ -57,7 +57,10 @@ static fix_q32_t prior_walk(const struct integrity_config *cfg, uint32_t rows) {
 
 fix_q32_t integrity_drift_var(const struct integrity_state *st) {
     fix_q32_t v = st->drift_mm2 > st->drift_long_mm2 ? st->drift_mm2 : st->drift_long_mm2;
-    v = v > st->walk_mm2 ? v : st->walk_mm2;
+    /* the walk as far as the parity's wander allows it (integrity_wander.c); `recalibrate`
+     * keeps the whole prior as its allowance (beyond_allowance) */
+    const fix_q32_t walk = integrity_wander_scaled(st, st->walk_mm2);
+    v = v > walk ? v : walk;
     return v > 0 ? v : 0;
 }
 
@@ -86,6 +89,11 @@ void integrity_parity(struct integrity_state *st, const struct integrity_config 
         out->parity_failed = integrity_beyond(out->parity_mm, sums->total, cfg->parity_sigmas_q8);
         if (learn) {
             learn_drift(st, cfg, out->parity_mm, sums->base);
+            fix_q32_t white = 0;
+            for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
+                white = fix_sat_add_s64(white, out->white_mm2[k]);
+            }
+            integrity_wander_add(st, cfg, out->parity_mm, white);
         }
     }
     if (out->parity_failed) {

@@ -99,6 +99,21 @@ struct integrity_state {
     fix_q32_t shown_mm2;      /* ... the recent blocks' mean not clipped above: the drift the
                                  parity shows, for `recalibrate` */
     fix_q32_t walk_mm2;       /* the prior walk's variance at the last block, Q32 mm² */
+    /* The offsets' wander the parity shows over minute spans (integrity_wander.c): this
+     * span's sums, the previous span's mean, and the sums over the span pairs so far */
+    fix_q32_t span_sum_mm;     /* Σ parity of this span's blocks, Q32 mm */
+    fix_q32_t span_sum_w;      /* Σ their white variances, Q32 mm² */
+    fix_q32_t span_prev_mm;    /* the previous span's mean parity */
+    fix_q32_t span_prev_w;     /* ... its white variance */
+    fix_q32_t wander_sum;      /* Σ (D² − white) over consecutive spans, Q32 mm² */
+    fix_q32_t wander_white;    /* Σ white */
+    fix_q32_t wander_prior;    /* Σ what the prior walk predicts for D² */
+    uint32_t span_end;         /* rows at the previous span's end */
+    uint32_t span_prev_rows;   /* the previous span's length, rows */
+    uint32_t wander_scale_q16; /* the priors' scale (Q16, <= 1), once wander_n >= 4 */
+    uint16_t span_blocks;      /* blocks in this span */
+    uint16_t wander_n;         /* span pairs so far (saturating) */
+    bool span_prev;            /* a previous span exists */
 };
 
 /* Per-sensor sums of the used readings of a window against their row index (0 = the
@@ -171,6 +186,16 @@ void integrity_assess(struct integrity_state *st, const struct integrity_config 
  * and the prior walk's offset_walk · t since the start (docs/estimator-design.md
  * "Drift since the start"). */
 fix_q32_t integrity_drift_var(const struct integrity_state *st);
+
+/* One block's parity (Q32 mm) and its white variance (Σ of the sensors' s²/n, Q32 mm²)
+ * into the minute spans whose consecutive means show the offsets' wander
+ * (integrity_wander.c); called once per block with all four sensors used. */
+void integrity_wander_add(struct integrity_state *st, const struct integrity_config *cfg,
+                          fix_q32_t parity_mm, fix_q32_t white_mm2);
+
+/* A prior variance (the offset stability², the walk) scaled by what the parity's wander
+ * allows: at most the prior, the prior itself until four span pairs are seen. */
+fix_q32_t integrity_wander_scaled(const struct integrity_state *st, fix_q32_t prior_mm2);
 
 /* Variance (Q32 mm², saturating) of the axis' least-squares combination of the sensor
  * means over the set `used` (DESIGN.md §2: y_α = (x_C − x_A)/2 with all four, ...), for
