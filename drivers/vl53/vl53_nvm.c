@@ -57,8 +57,7 @@ static int read_word(const struct call *c, uint8_t word, uint8_t *out) {
         {VL53_REG_NVM_READN, 0x01u, 0u},
     };
     const int err = run_steps(c, pulse, sizeof pulse / sizeof pulse[0]);
-    return err != HAL_OK ? err
-                         : vl53_call_read(c, c->dev->address, VL53_REG_NVM_DATAOUT, out, 4u);
+    return err != HAL_OK ? err : vl53_call_read(c, c->dev->address, VL53_REG_NVM_DATAOUT, out, 4u);
 }
 
 int vl53_read_part_id(struct vl53_dev *dev, uint64_t *part_id) {
