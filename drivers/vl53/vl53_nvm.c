@@ -1,12 +1,13 @@
 /* VL53 driver: the part's identity (lot, wafer, die X/Y) read from its NVM by ST's sequence. */
 /*
  * The register facts, delays and word addressing are [NVM] in vl53_regs.h. The steps are a
- * table (register, value, wait after) walked by one loop, enable and disable alike; the two
- * words between them each take an address, a READN low-then-high pulse and a 4-byte read.
+ * table (register, value, wait after) walked by one loop: enable, disable and the READN
+ * pulse alike; each of the two words takes its address, the pulse and a 4-byte read.
  */
 #include <stddef.h>
 
 #include "hal/hal_err.h"
+#include "hal/hal_i2c_reg.h"
 #include "vl53/vl53.h"
 #include "vl53_internal.h"
 
@@ -49,16 +50,11 @@ static int run_steps(const struct call *c, const struct nvm_step *steps, size_t 
     return HAL_OK;
 }
 
-/* One 32-bit NVM word into out[0..3] (NVM byte 4·word first). */
-static int read_word(const struct call *c, uint8_t word, uint8_t *out) {
-    const struct nvm_step pulse[] = {
-        {VL53_REG_NVM_ADDR, word, 0u},
-        {VL53_REG_NVM_READN, 0x00u, VL53_NVM_READ_TRIGGER_US},
-        {VL53_REG_NVM_READN, 0x01u, 0u},
-    };
-    const int err = run_steps(c, pulse, sizeof pulse / sizeof pulse[0]);
-    return err != HAL_OK ? err : vl53_call_read(c, c->dev->address, VL53_REG_NVM_DATAOUT, out, 4u);
-}
+/* The READN pulse that latches the word at NVM_CTRL__ADDR into DATAOUT. */
+static const struct nvm_step nvm_pulse[] = {
+    {VL53_REG_NVM_READN, 0x00u, VL53_NVM_READ_TRIGGER_US},
+    {VL53_REG_NVM_READN, 0x01u, 0u},
+};
 
 int vl53_read_part_id(struct vl53_dev *dev, uint64_t *part_id) {
     if (!dev_ok(dev)) {
@@ -72,7 +68,14 @@ int vl53_read_part_id(struct vl53_dev *dev, uint64_t *part_id) {
     struct call c = call_begin(dev, call_budget(dev));
     int err = run_steps(&c, nvm_on, sizeof nvm_on / sizeof nvm_on[0]);
     for (uint8_t w = 0; w < VL53_NVM_ID_WORDS && err == HAL_OK; ++w) {
-        err = read_word(&c, (uint8_t)(VL53_NVM_ID_FIRST_WORD + w), &raw[4u * w]);
+        /* one 32-bit word: its address, the pulse, DATAOUT (NVM byte 4·word first) */
+        err = vl53_call_write_byte(&c, VL53_REG_NVM_ADDR, (uint8_t)(VL53_NVM_ID_FIRST_WORD + w));
+        if (err == HAL_OK) {
+            err = run_steps(&c, nvm_pulse, sizeof nvm_pulse / sizeof nvm_pulse[0]);
+        }
+        if (err == HAL_OK) {
+            err = vl53_call_read(&c, dev->address, VL53_REG_NVM_DATAOUT, &raw[4u * w], 4u);
+        }
     }
     /* Never leave the part with its firmware off: the restore runs whatever happened, with
      * a budget of its own (the first error is the one returned). */
@@ -82,10 +85,7 @@ int vl53_read_part_id(struct vl53_dev *dev, uint64_t *part_id) {
     if (err != HAL_OK) {
         return err;
     }
-    uint64_t id = 0u;
-    for (size_t i = 0; i < sizeof raw; ++i) {
-        id = id << 8 | raw[i];
-    }
+    const uint64_t id = (uint64_t)hal_get_be32(&raw[0]) << 32 | hal_get_be32(&raw[4]);
     dev->part_id = id;
     if (part_id != NULL) {
         *part_id = id;
