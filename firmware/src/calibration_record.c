@@ -252,10 +252,12 @@ enum tof_cal_state tof_cal_write(struct tof_record_store *store, struct tof_app 
     *error = 0;
     struct calibration_head cal;
     struct tof_cal_binding bind;
-    uint64_t running[CALIBRATION_SENSORS];
+    /* Static, not on the stack: the re-zero reaches here at the deepest point of the
+     * sample path (the m4 image's stack reserve). Never re-entered: main loop only. */
+    static uint64_t running[CALIBRATION_SENSORS];
     tof_cal_running_parts(app, running);
     /* the section as stored on board: version 2, bound to the parts that run */
-    uint8_t stored[TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH];
+    static uint8_t stored[TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH];
     enum tof_cal_state state = TOF_CAL_VERSION;
     if (tof_cal_bind_parts(section, running, stored) == HAL_OK) {
         state = tof_cal_decode(stored, (uint16_t)sizeof stored, &cal, &bind);
