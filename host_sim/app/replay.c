@@ -252,15 +252,20 @@ static int run(struct replay *r) {
     if (r->cal.cal.calibrated &&
         (r->cal_state == TOF_CAL_OTHER_MODE || r->cal_state == TOF_CAL_OTHER_HEAD ||
          r->cal_state == TOF_CAL_OTHER_PARTS)) {
-        fprintf(stderr,
-                "host_sim replay: warning: %s was made %s than this replay's (%s, %u ms): not "
-                "applied, as the flight unit would refuse it; the head is uncalibrated\n",
-                r->cal.source,
-                r->cal_state == TOF_CAL_OTHER_PARTS
-                    ? "with other parts (part_id_A..D keys) than the simulated head's"
-                    : "in another distance mode or timing budget",
-                vl53_distance_mode_name(r->app_cfg.timing.mode),
-                (unsigned)r->app_cfg.timing.budget_ms);
+        if (r->cal_state == TOF_CAL_OTHER_PARTS) {
+            fprintf(stderr,
+                    "host_sim replay: warning: %s was made with other parts (its part_id_A..D "
+                    "keys) than the simulated head's: not applied, as the flight unit would "
+                    "refuse it; the head is uncalibrated\n",
+                    r->cal.source);
+        } else {
+            fprintf(stderr,
+                    "host_sim replay: warning: %s was made in another distance mode or timing "
+                    "budget than this replay's (%s, %u ms): not applied, as the flight unit "
+                    "would refuse it; the head is uncalibrated\n",
+                    r->cal.source, vl53_distance_mode_name(r->app_cfg.timing.mode),
+                    (unsigned)r->app_cfg.timing.budget_ms);
+        }
     } else if (r->cal_state != (r->cal.cal.calibrated ? TOF_CAL_APPLIED : TOF_CAL_NONE)) {
         fprintf(stderr,
                 "host_sim replay: internal: the firmware's boot found calibration state %d\n",
