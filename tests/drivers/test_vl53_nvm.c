@@ -49,6 +49,34 @@ static void test_bring_up_reads_each_parts_identity(void **state) {
     }
 }
 
+/* On a 100 kHz bus the read (~19 transfers, several ms) still fits its budgets: one part
+ * released and read at 0x29 right after boot, as the bring-up does before configuring. */
+static void test_identity_read_at_100_khz(void **state) {
+    (void)state;
+    fx.rig_cfg.bus_hz = 100000u;
+    drv_fixture_build(&fx);
+    struct vl53_dev others;
+    for (unsigned k = 0; k < DRV_SENSORS; ++k) { /* all in reset: one part at 0x29 */
+        assert_int_equal(vl53_attach(&others, &fx.sensor_cfg[k]), HAL_OK);
+        assert_int_equal(vl53_shutdown(&others), HAL_OK);
+    }
+    drv_sleep(&fx, 500u);
+    struct vl53_dev dev;
+    assert_int_equal(vl53_attach(&dev, &fx.sensor_cfg[1]), HAL_OK);
+    assert_int_equal(vl53_power_up(&dev), HAL_OK);
+    assert_int_equal(vl53_wait_boot(&dev), HAL_OK);
+    const uint64_t t0 = drv_now(&fx);
+    uint64_t id = 0u;
+    assert_int_equal(vl53_read_part_id(&dev, &id), HAL_OK);
+    const uint64_t took = drv_now(&fx) - t0;
+    print_message("NVM identity read at 100 kHz: %llu us\n", (unsigned long long)took);
+    assert_true(id == sim_vl53_part_id(&fx.rig.sensor[1]));
+    assert_true(vl53_part_id(&dev) == id);
+    assert_true(took > 2u * VL53_NVM_READ_TRIGGER_US + 300u); /* the waits were taken */
+    assert_true(took <= 4u * VL53_DEFAULT_CALL_BUDGET_US);
+    assert_int_equal(fx.rig.sensor[1].stats.nvm_violations, 0u);
+}
+
 static void test_configured_identity_is_read_back(void **state) {
     (void)state;
     const uint64_t ids[DRV_SENSORS] = {0x0123456789ABCDEFull, 0xFEDCBA9876543210ull,
@@ -135,6 +163,7 @@ static void test_model_refuses_accesses_out_of_sequence(void **state) {
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup(test_bring_up_reads_each_parts_identity, setup),
+        cmocka_unit_test_setup(test_identity_read_at_100_khz, setup),
         cmocka_unit_test_setup(test_configured_identity_is_read_back, setup),
         cmocka_unit_test_setup(test_nacking_part_is_parked_and_named, setup),
         cmocka_unit_test_setup(test_model_refuses_accesses_out_of_sequence, setup),

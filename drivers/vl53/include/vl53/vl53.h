@@ -10,7 +10,8 @@
  *   - vl53_configure():  call_budget_us + configure_budget_us plus two transfers (it is
  *                        vl53_configure_begin() then vl53_configure_finish());
  *   - vl53_configure_finish(): configure_budget_us plus one transfer;
- *   - vl53_read_part_id(): two call_budget_us plus one transfer (the restore has its own);
+ *   - vl53_read_part_id(): four call_budget_us plus one transfer (NVM on, each of two
+ *                        words, the restore: one budget each);
  *   - every other call:  call_budget_us plus one transfer,
  * where "one transfer" is the wire time of the call's longest single transfer (the
  * hal_i2c contract: a transfer never takes longer than its timeout plus its wire time,
@@ -234,6 +235,7 @@ int vl53_set_address(struct vl53_dev *dev, uint8_t new_address);
  * (HAL_ERR_STATE while ranging or during a configuration), e.g. right after boot: the part's
  * firmware is off during the read and switched on again afterwards, even after a failure
  * (its own budget), and the first error is returned unchanged; the identity is then 0.
+ * Within four call budgets (above).
  */
 int vl53_read_part_id(struct vl53_dev *dev, uint64_t *part_id);
 
