@@ -25,8 +25,8 @@ static const struct nvm_step nvm_on[] = {
     {VL53_REG_NVM_PDN, 0x01u, 0u},
     {VL53_REG_CLK_CTRL1, VL53_CLK_CTRL1_NVM_CLOCK, VL53_NVM_POWER_UP_US},
     {VL53_REG_NVM_MODE, 0x01u, 0u},
-    {VL53_REG_NVM_PULSE_WIDTH_MSB, (uint8_t)(VL53_NVM_PULSE_WIDTH >> 8), 0u},
-    {VL53_REG_NVM_PULSE_WIDTH_MSB + 1u, (uint8_t)(VL53_NVM_PULSE_WIDTH & 0xFFu), 0u},
+    {VL53_REG_NVM_PULSE_WIDTH_MSB, VL53_NVM_PULSE_WIDTH_MSB, 0u},
+    {VL53_REG_NVM_PULSE_WIDTH_MSB + 1u, VL53_NVM_PULSE_WIDTH_LSB, 0u},
 };
 
 /* VL53L1_nvm_disable's: READN high, NVM powered down, power force off, firmware on. */
@@ -76,7 +76,7 @@ int vl53_read_part_id(struct vl53_dev *dev, uint64_t *part_id) {
             err = run_steps(&c, nvm_pulse, sizeof nvm_pulse / sizeof nvm_pulse[0]);
         }
         if (err == HAL_OK) {
-            err = vl53_call_read(&c, dev->address, VL53_REG_NVM_DATAOUT, &raw[4u * w], 4u);
+            err = vl53_call_read(&c, dev->address, VL53_REG_NVM_DATAOUT, &raw[(size_t)w * 4u], 4u);
         }
     }
     /* Never leave the part with its firmware off: the restore runs whatever happened, with

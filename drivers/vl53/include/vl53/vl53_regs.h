@@ -178,7 +178,8 @@
 #define VL53_REG_NVM_PDN             0x0781u
 #define VL53_REG_NVM_READN           0x0783u
 #define VL53_REG_NVM_PULSE_WIDTH_MSB 0x0784u
-#define VL53_NVM_PULSE_WIDTH         0x0004u
+#define VL53_NVM_PULSE_WIDTH_MSB     0x00u /* the pulse width 0x0004, high byte */
+#define VL53_NVM_PULSE_WIDTH_LSB     0x04u
 #define VL53_REG_NVM_DATAOUT         0x0790u
 #define VL53_REG_NVM_ADDR            0x0794u
 #define VL53_POWER_FORCE_SETTLE_US   250u
