@@ -306,7 +306,7 @@ enum tof_cal_state tof_cal_write_head(struct tof_record_store *store, struct tof
                    cal->gain_sd_ppm[i] != CALIBRATION_UNCAL_GAIN_SD_PPM;
     }
     const struct tof_cal_binding bind = tof_cal_binding_of(&app->cfg);
-    uint8_t section[TOF_CAL_WIRE_SIZE];
+    static uint8_t section[TOF_CAL_WIRE_SIZE]; /* static: see tof_cal_write() */
     *error = 0;
     if (tof_cal_encode(cal, has_gain, &bind, section) != HAL_OK) {
         return TOF_CAL_CORRUPT;
