@@ -122,7 +122,7 @@ RECORD_STATES = ["none", "loaded", "corrupt", "version", "rejected", "no-storage
 # The status frame's calibration state: what the firmware found of the head's calibration
 # at boot (firmware/calibration_record.h enum tof_cal_state); all but applied: uncalibrated.
 CAL_STATES = ["none", "applied", "corrupt", "version", "other-head", "other-mode", "rejected",
-              "no-storage"]
+              "no-storage", "other-parts"]
 SENSORS = "ABCD"
 WINDOW_MIN, WINDOW_MAX = 2, 255
 PROCESS_NOISE_AUTO = 0x01  # set-process-noise flags; every other bit is out of range

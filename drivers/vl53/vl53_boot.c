@@ -60,6 +60,7 @@ int vl53_attach(struct vl53_dev *dev, const struct vl53_config *cfg) {
     dev->vhv_running = false;
     dev->vhv_start_us = dev->power_up_us;
     dev->offset_mismatch_reg = 0u;
+    dev->part_id = 0u;
     return HAL_OK;
 }
 
@@ -91,6 +92,7 @@ int vl53_power_up(struct vl53_dev *dev) {
     }
     dev->power_up_us = now_us(dev);
     dev->address = VL53_DEFAULT_ADDRESS;
+    dev->part_id = 0u; /* read again after this boot */
     vl53_forget_ranging(dev);
     return HAL_OK;
 }

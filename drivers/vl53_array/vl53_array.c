@@ -148,6 +148,10 @@ static int release_and_begin(struct vl53_array *array, size_t index) {
     if (err != HAL_ERR_ADDR_NACK) {
         return fail(array, index, VL53_ARRAY_BUS_ERROR, err, VL53_DEFAULT_ADDRESS);
     }
+    err = vl53_read_part_id(dev, NULL); /* the part's own identity, before ST's block */
+    if (err != HAL_OK) {
+        return fail(array, index, VL53_ARRAY_IDENTITY_FAILED, err, target);
+    }
     err = vl53_configure_begin(dev);
     if (err != HAL_OK) {
         return fail(array, index, VL53_ARRAY_CONFIG_FAILED, err, target);
@@ -309,12 +313,13 @@ static uint32_t value_or(uint32_t value, uint32_t fallback) {
     return value != 0u ? value : fallback;
 }
 
-/* Release, boot, identify, move, probe 0x29, configure (begin and finish), start: one
+/* Release, boot, identify, move, probe 0x29, NVM identity (four budgets), configure (begin
+ * and finish), start: one
  * sensor's bring-up. */
 static uint32_t release_budget_us(const struct vl53_config *cfg) {
     uint32_t call = value_or(cfg->call_budget_us, VL53_DEFAULT_CALL_BUDGET_US);
     uint32_t transfer = value_or(cfg->i2c_timeout_us, VL53_DEFAULT_I2C_TIMEOUT_US);
-    return VL53_BOOT_TIME_MAX_US + VL53_BOOT_SLACK_US + VL53_BOOT_POLL_US + 4u * call + transfer +
+    return VL53_BOOT_TIME_MAX_US + VL53_BOOT_SLACK_US + VL53_BOOT_POLL_US + 8u * call + transfer +
            value_or(cfg->configure_budget_us, VL53_DEFAULT_CONFIGURE_BUDGET_US);
 }
 
@@ -387,6 +392,8 @@ const char *vl53_array_fault_name(enum vl53_array_fault fault) {
         return "bus_error";
     case VL53_ARRAY_CONFIG_FAILED:
         return "config_failed";
+    case VL53_ARRAY_IDENTITY_FAILED:
+        return "identity_failed";
     default:
         return "unknown";
     }

@@ -166,11 +166,11 @@ static int32_t learnt_lag(struct attitude_state *st, const struct kalman_cmp *c,
     if (learn) {
         const int64_t b = (int64_t)st->kalman_lag_blocks + 1;
         const int64_t m = st->kalman_lag_udeg[axis];
-        st->kalman_lag_udeg[axis] = m + (c->delta - m) / b;
+        st->kalman_lag_udeg[axis] = m + fix_div_trunc_s64(c->delta - m, b);
         /* V = ((b − 1)² V + var)/b² (exact 128-bit intermediate, saturating) */
         const int64_t v = st->kalman_lag_var_udeg2[axis];
-        st->kalman_lag_var_udeg2[axis] =
-            fix_sat_add_s64(fix_muldiv_s64(v, (b - 1) * (b - 1), b * b, NULL), c->var / (b * b));
+        st->kalman_lag_var_udeg2[axis] = fix_sat_add_s64(
+            fix_muldiv_s64(v, (b - 1) * (b - 1), b * b, NULL), fix_div_trunc_s64(c->var, b * b));
     }
     if (st->kalman_lag_blocks == 0u && !learn) {
         return 0;

@@ -274,7 +274,8 @@ void consensus_product(const struct consensus_product_input *in,
     }
     /* tolerance in slope units: |Δatan| <= |Δt|, so a slope spread <= tol_rad
      * guarantees an angle spread <= tol */
-    pp.tol_q32 = (fix_q32_t)in->tolerance_udeg * FIX_Q32_RAD_PER_UDEG_X1000 / 1000;
+    pp.tol_q32 =
+        fix_div_trunc_s64((fix_q32_t)in->tolerance_udeg * FIX_Q32_RAD_PER_UDEG_X1000, 1000);
     product_axis(in, &pp, &alpha_frame, &out->alpha);
     product_axis(in, &pp, &beta_frame, &out->beta);
 

@@ -111,6 +111,13 @@ int64_t fix_div_round_s64(int64_t num, int64_t den) {
     return from_sign_magnitude((num < 0) != (den < 0), q, NULL);
 }
 
+int64_t fix_div_trunc_s64(int64_t num, int64_t den) {
+    if (den == 0) {
+        return 0; /* contract violation; defined result instead of a trap */
+    }
+    return from_sign_magnitude((num < 0) != (den < 0), fix_abs_u64(num) / fix_abs_u64(den), NULL);
+}
+
 fix_q30_t fix_recip_q30(fix_q30_t den) {
     return fix_div_round_s64((int64_t)1 << 60, den);
 }

@@ -75,7 +75,7 @@ static int64_t adapt_noise0(int64_t w_q32) {
  * same 2B rows: E[(Δy)²] = 2w + q_y, so E[D² − S/2] = q_y (B(2B² + 1)/3 − B) whatever w. */
 static int64_t adapt_q_sample(unsigned l, int32_t d, uint32_t dsq) {
     const int64_t d2 = ((int64_t)d * d - (int64_t)(dsq >> 1)) * 4096; /* |d| < 2^(15+2l) */
-    return d2 / adapt_weight16b[l];
+    return fix_div_trunc_s64(d2, adapt_weight16b[l]);
 }
 
 static int32_t adapt_bound(int64_t v) {
@@ -220,7 +220,7 @@ static int64_t adapt_choose(const struct kalman_cov *cv, unsigned g, int64_t q_n
     if (den <= 0) {
         return 0; /* no level has a sample (the start, or all forgot a fall) */
     }
-    const int64_t mean = num / den;
+    const int64_t mean = fix_div_trunc_s64(num, den);
     const int64_t m = mean > 0 ? mean << 8 : 0;
     /* at least a quarter of the mean's sd, sqrt(2/Σ n_l/s_l²)/4 = 2^sh·sqrt(2^24/den)/4:
      * a q learnt as 0 would freeze the filter, the worst miss (its cost grows with

@@ -17,14 +17,21 @@ _Static_assert(TOF_CAL_NONE == (int)TLM_CAL_NONE && TOF_CAL_APPLIED == (int)TLM_
                    TOF_CAL_OTHER_HEAD == (int)TLM_CAL_OTHER_HEAD &&
                    TOF_CAL_OTHER_MODE == (int)TLM_CAL_OTHER_MODE &&
                    TOF_CAL_REJECTED == (int)TLM_CAL_REJECTED &&
-                   TOF_CAL_NO_STORAGE == (int)TLM_CAL_NO_STORAGE,
+                   TOF_CAL_NO_STORAGE == (int)TLM_CAL_NO_STORAGE &&
+                   TOF_CAL_OTHER_PARTS == (int)TLM_CAL_OTHER_PARTS,
                "calibration states are the status frame's codes");
 
-#define PER_SENSOR 18u /* i32 offset, i32 gain, u32 offset sd, u32 gain sd, i16 corr */
-#define SENSORS_AT 8u
-_Static_assert(SENSORS_AT + CALIBRATION_SENSORS * PER_SENSOR == TOF_CALIBRATION_LENGTH,
+#define PER_SENSOR   18u /* i32 offset, i32 gain, u32 offset sd, u32 gain sd, i16 corr */
+#define SENSORS_AT   8u
+#define PART_ID_SIZE 8u /* u64, two little-endian u32: low word first */
+_Static_assert(SENSORS_AT + CALIBRATION_SENSORS * PER_SENSOR == TOF_CALIBRATION_V1_LENGTH,
                "section 2 version 1 is 80 bytes");
-_Static_assert(TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH + TOF_SECTION_HEADER + 16u <=
+_Static_assert(TOF_CALIBRATION_V1_LENGTH + CALIBRATION_SENSORS * PART_ID_SIZE ==
+                   TOF_CALIBRATION_LENGTH,
+               "version 2 is version 1 and the four parts' identities");
+_Static_assert(TOF_CAL_WIRE_SIZE == TLM_CAL_SECTION_LEN, "the commands carry version 1");
+_Static_assert(TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH + TOF_SECTION_HEADER +
+                       TOF_SETTINGS_LENGTH <=
                    TOF_RECORD_PAYLOAD_MAX,
                "the settings and the calibration fit one record");
 
@@ -56,10 +63,10 @@ int tof_cal_encode(const struct calibration_head *cal, bool has_gain,
             return HAL_ERR_INVALID;
         }
     }
-    memset(out, 0, TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH);
+    memset(out, 0, TOF_CAL_WIRE_SIZE);
     out[0] = TOF_SECTION_CALIBRATION;
-    out[1] = TOF_CALIBRATION_VERSION;
-    out[2] = TOF_CALIBRATION_LENGTH;
+    out[1] = 1u;
+    out[2] = TOF_CALIBRATION_V1_LENGTH;
     uint8_t *v = &out[TOF_SECTION_HEADER];
     le_put_u32(&v[0], bind->head_id);
     v[4] = bind->mode;
@@ -99,6 +106,18 @@ static bool decode_sensor(const uint8_t *v, bool has_gain, unsigned i,
     return sensor_ok(cal, i);
 }
 
+/* The body length of calibration section version `version`, or 0 for one not read. */
+static uint16_t body_length(uint8_t version) {
+    return version == 1u   ? (uint16_t)TOF_CALIBRATION_V1_LENGTH
+           : version == 2u ? (uint16_t)TOF_CALIBRATION_LENGTH
+                           : 0u;
+}
+
+static uint64_t get_part_id(const uint8_t *v, unsigned i) {
+    const uint8_t *p = &v[TOF_CALIBRATION_V1_LENGTH + PART_ID_SIZE * i];
+    return (uint64_t)le_get_u32(&p[4]) << 32 | le_get_u32(p);
+}
+
 enum tof_cal_state tof_cal_decode(const uint8_t *payload, uint16_t len,
                                   struct calibration_head *cal, struct tof_cal_binding *bind) {
     const int at = tof_section_find(payload, len, TOF_SECTION_CALIBRATION);
@@ -106,25 +125,26 @@ enum tof_cal_state tof_cal_decode(const uint8_t *payload, uint16_t len,
         return at == -1 ? TOF_CAL_NONE : TOF_CAL_CORRUPT;
     }
     const uint8_t *p = &payload[at];
-    if (p[1] != TOF_CALIBRATION_VERSION) {
+    const uint16_t body = body_length(p[1]);
+    if (body == 0u) {
         return TOF_CAL_VERSION;
     }
     const uint8_t *v = &p[TOF_SECTION_HEADER];
-    if ((uint16_t)(p[2] | p[3] << 8) != TOF_CALIBRATION_LENGTH ||
-        (v[5] & (uint8_t)~TOF_CAL_FLAG_GAINS) != 0u) {
+    if ((uint16_t)(p[2] | p[3] << 8) != body || (v[5] & (uint8_t)~TOF_CAL_FLAG_GAINS) != 0u) {
         return TOF_CAL_CORRUPT;
     }
     struct calibration_head c;
     memset(&c, 0, sizeof c);
     c.calibrated = true;
     const bool has_gain = (v[5] & TOF_CAL_FLAG_GAINS) != 0u;
+    struct tof_cal_binding b = {
+        .head_id = le_get_u32(&v[0]), .mode = v[4], .budget_ms = (uint16_t)(v[6] | v[7] << 8)};
     for (unsigned i = 0; i < CALIBRATION_SENSORS; ++i) {
         if (!decode_sensor(v, has_gain, i, &c)) {
             return TOF_CAL_CORRUPT;
         }
+        b.part_id[i] = body == TOF_CALIBRATION_LENGTH ? get_part_id(v, i) : 0u;
     }
-    const struct tof_cal_binding b = {
-        .head_id = le_get_u32(&v[0]), .mode = v[4], .budget_ms = (uint16_t)(v[6] | v[7] << 8)};
     if ((b.mode != (uint8_t)VL53_DISTANCE_SHORT && b.mode != (uint8_t)VL53_DISTANCE_LONG) ||
         b.budget_ms == 0u) {
         return TOF_CAL_CORRUPT;
@@ -132,6 +152,34 @@ enum tof_cal_state tof_cal_decode(const uint8_t *payload, uint16_t len,
     *cal = c;
     *bind = b;
     return TOF_CAL_APPLIED;
+}
+
+int tof_cal_bind_parts(const uint8_t *section, const uint64_t part_id[CALIBRATION_SENSORS],
+                       uint8_t *out) {
+    const uint16_t body = body_length(section[1]);
+    if (section[0] != TOF_SECTION_CALIBRATION || body == 0u ||
+        (uint16_t)(section[2] | section[3] << 8) != body) {
+        return HAL_ERR_INVALID;
+    }
+    uint8_t *v = &out[TOF_SECTION_HEADER];
+    memset(out, 0, TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH);
+    memcpy(out, section, TOF_SECTION_HEADER + body);
+    out[1] = TOF_CALIBRATION_VERSION;
+    out[2] = TOF_CALIBRATION_LENGTH;
+    for (unsigned i = 0; i < CALIBRATION_SENSORS; ++i) {
+        uint8_t *id = &v[TOF_CALIBRATION_V1_LENGTH + PART_ID_SIZE * i];
+        if (get_part_id(v, i) == 0u) {
+            le_put_u32(id, (uint32_t)part_id[i]);
+            le_put_u32(&id[4], (uint32_t)(part_id[i] >> 32));
+        }
+    }
+    return HAL_OK;
+}
+
+void tof_cal_running_parts(const struct tof_app *app, uint64_t running[CALIBRATION_SENSORS]) {
+    for (unsigned i = 0; i < CALIBRATION_SENSORS; ++i) {
+        running[i] = vl53_part_id(&app->array.dev[i]);
+    }
 }
 
 struct tof_cal_binding tof_cal_binding_of(const struct tof_app_config *cfg) {
@@ -142,10 +190,17 @@ struct tof_cal_binding tof_cal_binding_of(const struct tof_app_config *cfg) {
 }
 
 enum tof_cal_state tof_cal_check(const struct tof_cal_binding *bind,
-                                 const struct tof_app_config *cfg) {
+                                 const struct tof_app_config *cfg,
+                                 const uint64_t running[CALIBRATION_SENSORS]) {
     const struct tof_cal_binding mine = tof_cal_binding_of(cfg);
     if (bind->head_id != mine.head_id) {
         return TOF_CAL_OTHER_HEAD;
+    }
+    for (unsigned i = 0; i < CALIBRATION_SENSORS && running != NULL; ++i) {
+        /* a part not bound, or not known running (it did not come up): nothing to compare */
+        if (bind->part_id[i] != 0u && running[i] != 0u && bind->part_id[i] != running[i]) {
+            return TOF_CAL_OTHER_PARTS;
+        }
     }
     return bind->mode == mine.mode && bind->budget_ms == mine.budget_ms ? TOF_CAL_APPLIED
                                                                         : TOF_CAL_OTHER_MODE;
@@ -178,8 +233,10 @@ enum tof_cal_state tof_cal_recheck(const struct tof_record_store *store, struct 
         state = store->current < 0 ? TOF_CAL_NONE
                                    : tof_cal_decode(store->payload, store->length, &cal, &bind);
     }
+    uint64_t running[CALIBRATION_SENSORS];
+    tof_cal_running_parts(app, running);
     if (state == TOF_CAL_APPLIED) {
-        state = tof_cal_check(&bind, &app->cfg);
+        state = tof_cal_check(&bind, &app->cfg, running);
     }
     if (state == TOF_CAL_APPLIED && tof_app_set_calibration(app, &cal) != 0) {
         state = TOF_CAL_REJECTED;
@@ -195,10 +252,20 @@ enum tof_cal_state tof_cal_write(struct tof_record_store *store, struct tof_app 
     *error = 0;
     struct calibration_head cal;
     struct tof_cal_binding bind;
-    enum tof_cal_state state = tof_cal_decode(
-        section, (uint16_t)(TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH), &cal, &bind);
+    /* Static, not on the stack: the re-zero reaches here at the deepest point of the
+     * sample path (the m4 image's stack reserve). Never re-entered: main loop only. */
+    static uint64_t running[CALIBRATION_SENSORS];
+    tof_cal_running_parts(app, running);
+    /* the section as stored on board: version 2, bound to the parts that run */
+    static uint8_t stored[TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH];
+    enum tof_cal_state state = TOF_CAL_VERSION;
+    if (tof_cal_bind_parts(section, running, stored) == HAL_OK) {
+        state = tof_cal_decode(stored, (uint16_t)sizeof stored, &cal, &bind);
+    } else if (section[0] != TOF_SECTION_CALIBRATION || body_length(section[1]) != 0u) {
+        state = TOF_CAL_CORRUPT; /* not a calibration section, or a wrong length */
+    }
     if (state == TOF_CAL_APPLIED) {
-        state = tof_cal_check(&bind, &app->cfg);
+        state = tof_cal_check(&bind, &app->cfg, running);
     }
     if (state == TOF_CAL_NONE) {
         state = TOF_CAL_CORRUPT; /* not a calibration section at all */
@@ -208,7 +275,7 @@ enum tof_cal_state tof_cal_write(struct tof_record_store *store, struct tof_app 
     }
     /* Saved first: a calibration in force that the next boot would not find is worse
      * than one refused now. */
-    *error = tof_section_save(store, section);
+    *error = tof_section_save(store, stored);
     if (*error != HAL_OK) {
         return TOF_CAL_NO_STORAGE;
     }
@@ -217,17 +284,17 @@ enum tof_cal_state tof_cal_write(struct tof_record_store *store, struct tof_app 
 }
 
 void tof_cal_read(const struct tof_record_store *store, uint8_t *section) {
-    memset(section, 0, TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH);
+    memset(section, 0, TOF_CAL_WIRE_SIZE);
     if (store == NULL || store->current < 0) {
         return;
     }
     const int at = tof_section_find(store->payload, store->length, TOF_SECTION_CALIBRATION);
-    if (at >= 0) {
-        const uint32_t size =
-            TOF_SECTION_HEADER + (uint32_t)(store->payload[at + 2] | store->payload[at + 3] << 8);
-        if (size == TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH) {
-            memcpy(section, &store->payload[at], size);
-        }
+    if (at >= 0 && (uint16_t)(store->payload[at + 2] | store->payload[at + 3] << 8) ==
+                       body_length(store->payload[at + 1])) {
+        /* version 1 as stored, or version 2 without the parts' identities */
+        memcpy(section, &store->payload[at], TOF_CAL_WIRE_SIZE);
+        section[1] = 1u;
+        section[2] = TOF_CALIBRATION_V1_LENGTH;
     }
 }
 
@@ -239,7 +306,7 @@ enum tof_cal_state tof_cal_write_head(struct tof_record_store *store, struct tof
                    cal->gain_sd_ppm[i] != CALIBRATION_UNCAL_GAIN_SD_PPM;
     }
     const struct tof_cal_binding bind = tof_cal_binding_of(&app->cfg);
-    uint8_t section[TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH];
+    static uint8_t section[TOF_CAL_WIRE_SIZE]; /* static: see tof_cal_write() */
     *error = 0;
     if (tof_cal_encode(cal, has_gain, &bind, section) != HAL_OK) {
         return TOF_CAL_CORRUPT;

@@ -4,6 +4,8 @@
 
 #include <string.h>
 
+#include "estimator/fixmath.h"
+
 bool tof_rezero_start(struct tof_rezero *z, uint16_t samples) {
     if (samples < TOF_REZERO_MIN || samples > TOF_REZERO_MAX) {
         return false;
@@ -73,10 +75,10 @@ bool tof_rezero_fit(const struct tof_rezero *z, const struct calibration_head *c
         var_o_sum += (uint64_t)cal->offset_sd_um[i] * cal->offset_sd_um[i];
     }
     /* x̂ in µm, rounded to nearest (num ≥ 0 at any distance a VL53 reports) */
-    const int64_t x_um = (num * 1000000 + g_sum / 2) / g_sum;
+    const int64_t x_um = fix_div_trunc_s64(num * 1000000 + g_sum / 2, g_sum);
     struct calibration_head next = *cal;
     for (unsigned i = 0; i < CALIBRATION_SENSORS; ++i) {
-        const int64_t gx = x_um + (x_um * cal->gain_ppm[i]) / 1000000; /* g_i · x̂ */
+        const int64_t gx = x_um + fix_div_trunc_s64(x_um * cal->gain_ppm[i], 1000000); /* g_i·x̂ */
         const int64_t o = m[i] - gx;
         if (o < -CALIBRATION_OFFSET_MAX_UM || o > CALIBRATION_OFFSET_MAX_UM) {
             return false;

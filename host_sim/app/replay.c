@@ -250,13 +250,22 @@ static int run(struct replay *r) {
     /* The boot reads the calibration from the record storage, as on the flight unit. */
     r->cal_state = (int)tof_cal_boot(&r->records, &r->app);
     if (r->cal.cal.calibrated &&
-        (r->cal_state == TOF_CAL_OTHER_MODE || r->cal_state == TOF_CAL_OTHER_HEAD)) {
-        fprintf(stderr,
-                "host_sim replay: warning: %s was made in another distance mode or timing budget "
-                "than this replay's (%s, %u ms): not applied, as the flight unit would refuse "
-                "it; the head is uncalibrated\n",
-                r->cal.source, vl53_distance_mode_name(r->app_cfg.timing.mode),
-                (unsigned)r->app_cfg.timing.budget_ms);
+        (r->cal_state == TOF_CAL_OTHER_MODE || r->cal_state == TOF_CAL_OTHER_HEAD ||
+         r->cal_state == TOF_CAL_OTHER_PARTS)) {
+        if (r->cal_state == TOF_CAL_OTHER_PARTS) {
+            fprintf(stderr,
+                    "host_sim replay: warning: %s was made with other parts (its part_id_A..D "
+                    "keys) than the simulated head's: not applied, as the flight unit would "
+                    "refuse it; the head is uncalibrated\n",
+                    r->cal.source);
+        } else {
+            fprintf(stderr,
+                    "host_sim replay: warning: %s was made in another distance mode or timing "
+                    "budget than this replay's (%s, %u ms): not applied, as the flight unit "
+                    "would refuse it; the head is uncalibrated\n",
+                    r->cal.source, vl53_distance_mode_name(r->app_cfg.timing.mode),
+                    (unsigned)r->app_cfg.timing.budget_ms);
+        }
     } else if (r->cal_state != (r->cal.cal.calibrated ? TOF_CAL_APPLIED : TOF_CAL_NONE)) {
         fprintf(stderr,
                 "host_sim replay: internal: the firmware's boot found calibration state %d\n",

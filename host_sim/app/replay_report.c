@@ -122,11 +122,12 @@ static void write_calibration(FILE *f, const struct replay *r, unsigned e) {
 /* The head's calibration as the firmware's boot put it into the estimator's configuration
  * (attitude_config.calibration), and where it came from. */
 static void write_head_calibration(FILE *f, const struct replay *r) {
-    static const char *const states[] = {"none",       "applied",    "corrupt",  "version",
-                                         "other-head", "other-mode", "rejected", "no-storage"};
+    static const char *const states[] = {"none",     "applied",    "corrupt",
+                                         "version",  "other-head", "other-mode",
+                                         "rejected", "no-storage", "other-parts"};
     const struct calibration_head *c = &r->app.estimator.cfg.calibration;
     fprintf(f, "  \"calibration\": {\"source\": \"%s\", \"state\": \"%s\", \"calibrated\": %s",
-            r->cal.source, r->cal_state >= 0 && r->cal_state <= 7 ? states[r->cal_state] : "?",
+            r->cal.source, r->cal_state >= 0 && r->cal_state <= 8 ? states[r->cal_state] : "?",
             c->calibrated ? "true" : "false");
     const char *const names[5] = {"offset_um", "gain_ppm", "offset_sd_um", "gain_sd_ppm",
                                   "offset_gain_corr_q15"};

@@ -1,6 +1,7 @@
 /*
  * VL53L1X-class device model. What it counts as protocol errors: a register index of one
- * byte, an index outside 0x0000..0x01FF, a write before boot completed, a mode start value
+ * byte, an index outside 0x0000..0x01FF (but the NVM-read registers, sim_vl53_nvm.c), a write
+ * before boot completed, a mode start value
  * other than 0x00/0x40. A real part would do something undocumented in these cases; the
  * model counts them so tests can insist on zero. A start without ST's configuration is no
  * protocol error but what a part does with it: nothing (see sim_vl53_refusal), or, without
@@ -33,6 +34,8 @@ static void reset_registers(struct sim_vl53 *dev) {
     dev->regs[M_PART_TO_PART_OFFSET] &= M_PART_TO_PART_HI_MASK;
     put_be16_at(dev->regs, M_INNER_OFFSET, (uint16_t)dev->cfg.nvm_inner_offset_mm);
     put_be16_at(dev->regs, M_OUTER_OFFSET, (uint16_t)dev->cfg.nvm_outer_offset_mm);
+    dev->regs[M_FIRMWARE_ENABLE] = M_FIRMWARE_ENABLE_RESET; /* [NVMR]: on after boot */
+    sim_vl53_nvm_reset(dev);
 }
 
 static void power_up(struct sim_vl53 *dev) {
@@ -88,11 +91,17 @@ static bool is_read_only(uint16_t reg) {
            reg == M_MODEL_ID || reg == M_MODEL_ID + 1u;
 }
 
-static void write_register(struct sim_vl53 *dev, uint16_t reg, uint8_t value,
-                           uint8_t *new_address) {
+/* HAL_OK, or HAL_ERR_DATA_NACK: the part refuses the byte (the NVM-read registers). */
+static int write_register(struct sim_vl53 *dev, uint16_t reg, uint8_t value, uint8_t *new_address) {
+    if (sim_vl53_nvm_reg(reg)) {
+        return sim_vl53_nvm_write(dev, reg, value);
+    }
     if (reg >= SIM_VL53_REG_SPACE) {
         dev->stats.protocol_errors++;
-        return;
+        return HAL_OK;
+    }
+    if (sim_vl53_nvm_guard(dev, reg, value) != HAL_OK) {
+        return HAL_ERR_DATA_NACK;
     }
     if (reg >= M_BLOCK_FIRST && reg <= M_BLOCK_LAST) {
         /* 0x31 is read-only, yet ST's block writes it: written all the same */
@@ -101,10 +110,10 @@ static void write_register(struct sim_vl53 *dev, uint16_t reg, uint8_t value,
     }
     if (is_read_only(reg)) {
         dev->stats.readonly_writes++;
-        return;
+        return HAL_OK;
     }
     if (reg >= M_PART_TO_PART_OFFSET && reg <= M_OFFSET_LAST && dev->cfg.ignores_offset_writes) {
-        return; /* the defect: ACKed, kept what NVM loaded */
+        return HAL_OK; /* the defect: ACKed, kept what NVM loaded */
     }
     switch (reg) {
     case M_PART_TO_PART_OFFSET:
@@ -147,6 +156,7 @@ static void write_register(struct sim_vl53 *dev, uint16_t reg, uint8_t value,
         dev->regs[reg] = value;
         break;
     }
+    return HAL_OK;
 }
 
 static bool drdy_level(const struct sim_vl53 *dev) {
@@ -205,6 +215,7 @@ static int target_transfer(void *ctx, const uint8_t *tx, size_t tx_len, uint8_t 
     struct sim_vl53 *dev = ctx;
     sim_vl53_update(dev);
     uint8_t new_address = dev->address;
+    int result = HAL_OK;
     if (tx_len == 1u) {
         dev->stats.protocol_errors++; /* half a register index */
     } else if (tx_len >= 2u) {
@@ -213,11 +224,14 @@ static int target_transfer(void *ctx, const uint8_t *tx, size_t tx_len, uint8_t 
             dev->stats.protocol_errors++; /* written before the firmware booted: ignored */
             dev->index = (uint16_t)(dev->index + (tx_len - 2u));
         } else {
-            for (size_t i = 2; i < tx_len; ++i) {
-                write_register(dev, dev->index, tx[i], &new_address);
+            for (size_t i = 2; i < tx_len && result == HAL_OK; ++i) {
+                result = write_register(dev, dev->index, tx[i], &new_address);
                 dev->index++;
             }
         }
+    }
+    if (result != HAL_OK) {
+        rx_len = 0u; /* NACKed: the master stops there and reads nothing */
     }
     const size_t first = dev->index;
     if (first + rx_len <= SIM_VL53_REG_SPACE &&
@@ -230,8 +244,10 @@ static int target_transfer(void *ctx, const uint8_t *tx, size_t tx_len, uint8_t 
         }
         dev->index = (uint16_t)(first + rx_len);
     } else {
-        for (size_t i = 0; i < rx_len; ++i) {
-            if (dev->index >= SIM_VL53_REG_SPACE) {
+        for (size_t i = 0; i < rx_len && result == HAL_OK; ++i) {
+            if (sim_vl53_nvm_reg(dev->index)) {
+                result = sim_vl53_nvm_read(dev, dev->index, &rx[i]);
+            } else if (dev->index >= SIM_VL53_REG_SPACE) {
                 dev->stats.protocol_errors++;
                 rx[i] = 0u;
             } else {
@@ -247,7 +263,7 @@ static int target_transfer(void *ctx, const uint8_t *tx, size_t tx_len, uint8_t 
     if (tx_len > 2u) {
         sim_vl53_reschedule(dev); /* a write may have started ranging */
     }
-    return HAL_OK;
+    return result;
 }
 
 bool sim_vl53_inject(struct sim_vl53 *dev, enum sim_fault_kind kind) {

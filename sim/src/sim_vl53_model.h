@@ -6,6 +6,7 @@
 #ifndef SIM_VL53_MODEL_H
 #define SIM_VL53_MODEL_H
 
+#include <stdbool.h>
 #include <stdint.h>
 
 #include "sim/sim_clock.h"
@@ -36,5 +37,15 @@ uint64_t sim_vl53_next_event_us(const struct sim_vl53 *dev);
 /* After a change from outside (a register write, XSHUT, an injected fault): recompute the
  * next event and wake the clock for it. */
 void sim_vl53_reschedule(struct sim_vl53 *dev);
+
+/* The NVM-read registers (sim_vl53_nvm.c): whether `reg` is one (0x0683, 0x0780..0x0795); a
+ * write or read of one, HAL_OK or HAL_ERR_DATA_NACK out of ST's sequence; power-up state. */
+bool sim_vl53_nvm_reg(uint16_t reg);
+int sim_vl53_nvm_write(struct sim_vl53 *dev, uint16_t reg, uint8_t value);
+int sim_vl53_nvm_read(struct sim_vl53 *dev, uint16_t reg, uint8_t *value);
+void sim_vl53_nvm_reset(struct sim_vl53 *dev);
+/* Before a write of 0x0083 / 0x0085 in the register file: notes when power force went on;
+ * HAL_ERR_DATA_NACK (not written) for firmware on or power force off under a powered NVM. */
+int sim_vl53_nvm_guard(struct sim_vl53 *dev, uint16_t reg, uint8_t value);
 
 #endif /* SIM_VL53_MODEL_H */

@@ -24,6 +24,15 @@
  *         the MM1/MM2 steps (0x81 bits 5/6, vl53l1_register_settings.h), which ST's block
  *         leaves off (0x81 = 0x9B); the full API then copies outer x 4 into 0x1E
  *         (vl53l1_api_core.c, "MM1/MM2 disabled").
+ *   [NVMR] ST full API vl53l1_register_map.h: POWER_MANAGEMENT__GO1_POWER_FORCE 0x0083,
+ *         RANGING_CORE__CLK_CTRL1 0x0683, RANGING_CORE__NVM_CTRL__MODE 0x0780, __PDN 0x0781,
+ *         __READN 0x0783, __PULSE_WIDTH_MSB/LSB 0x0784/5, __DATAOUT_MMM..LLL 0x0790..3, __ADDR
+ *         0x0794; FIRMWARE__ENABLE 0x0085 default 0x01. ST's NVM read (VL53L1_nvm_enable,
+ *         _read, _disable): firmware off, power force, 250 us settling (vl53l1_ll_device.h),
+ *         PDN 1 and CLK_CTRL1 0x05, 50 us NVM power-up, MODE 1, pulse width; per word ADDR
+ *         (0..127, byte 4·ADDR), READN 0, 5 us, READN 1, 4 bytes of DATAOUT; then READN 1,
+ *         PDN 0, power force off, firmware on. vl53l1_nvm_map.h: bytes 0x1F8..0x1FF hold the
+ *         EWS lot, wafer and die X/Y.
  */
 #ifndef SIM_VL53_REGS_H
 #define SIM_VL53_REGS_H
@@ -96,5 +105,25 @@
 #define M_BLOCK_TIMEOUT_A 0x01CCu
 #define M_BLOCK_TIMEOUT_B 0x01F1u
 #define M_BLOCK_RANGE_MS  103u
+
+/* The NVM-read registers and ST's delays [NVMR]. */
+#define M_POWER_FORCE           0x0083u
+#define M_CLK_CTRL1             0x0683u
+#define M_CLK_NVM_ON            0x05u
+#define M_NVM_CTRL_FIRST        0x0780u
+#define M_NVM_MODE              0x0780u
+#define M_NVM_PDN               0x0781u
+#define M_NVM_READN             0x0783u
+#define M_NVM_PULSE_MSB         0x0784u
+#define M_NVM_PULSE_LSB         0x0785u
+#define M_NVM_DATAOUT           0x0790u
+#define M_NVM_ADDR              0x0794u
+#define M_NVM_CTRL_LAST         0x0795u
+#define M_NVM_WORDS             128u
+#define M_NVM_ID_FIRST_BYTE     0x01F8u
+#define M_FORCE_SETTLE_US       250u
+#define M_NVM_POWER_UP_US       50u
+#define M_NVM_TRIGGER_US        5u
+#define M_FIRMWARE_ENABLE_RESET 0x01u
 
 #endif /* SIM_VL53_REGS_H */

@@ -81,6 +81,27 @@ static void test_shifts_and_rounding(void **state) {
     }
 }
 
+/* fix_div_trunc_s64 is C's int64 `/` (truncation toward zero, every sign) without the signed
+ * helper; INT64_MIN / -1 saturates instead of trapping. */
+static void test_division_truncating(void **state) {
+    (void)state;
+    assert_true(fix_div_trunc_s64(7, 2) == 3);
+    assert_true(fix_div_trunc_s64(-7, 2) == -3);
+    assert_true(fix_div_trunc_s64(7, -2) == -3);
+    assert_true(fix_div_trunc_s64(-7, -2) == 3);
+    assert_true(fix_div_trunc_s64(INT64_MIN, -1) == INT64_MAX);
+    assert_true(fix_div_trunc_s64(INT64_MIN, 1) == INT64_MIN);
+    assert_true(fix_div_trunc_s64(INT64_MIN, INT64_MIN) == 1);
+    for (int i = 0; i < 20000; ++i) {
+        const int64_t n = next_s64_bits((unsigned)(next_u64() % 63u) + 1u);
+        int64_t d = next_s64_bits((unsigned)(next_u64() % 62u) + 2u);
+        if (d == 0) {
+            d = -5;
+        }
+        assert_true(fix_div_trunc_s64(n, d) == n / d);
+    }
+}
+
 static void test_division(void **state) {
     (void)state;
     assert_true(fix_div_round_s64(7, 2) == 4);
@@ -472,6 +493,7 @@ int main(void) {
         cmocka_unit_test(test_saturation),
         cmocka_unit_test(test_shifts_and_rounding),
         cmocka_unit_test(test_division),
+        cmocka_unit_test(test_division_truncating),
         cmocka_unit_test(test_isqrt),
         cmocka_unit_test(test_s128_against_int128),
         cmocka_unit_test(test_atan_dense_sweep_45),

@@ -1,8 +1,10 @@
 /*
  * The head's calibration as record section 2 (firmware/calibration_record.h) on the
  * simulated flash: what boot puts in attitude_config.calibration for a matching section,
- * and that a missing, damaged, other-version, other-head or other-mode one leaves the head
- * uncalibrated and says why; the settings and the calibration keep each other's section.
+ * and that a missing, damaged, other-version, other-head, other-parts or other-mode one leaves
+ * the head uncalibrated and says why; version 2 binds the parts' NVM identities, version 1 is
+ * still read (bound to the head only); a section written on board is bound to the parts that
+ * run; the settings and the calibration keep each other's section.
  */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -45,12 +47,36 @@ static struct tof_cal_binding mine(void) {
     return tof_cal_binding_of(&cfg);
 }
 
+/* Version 2 as the firmware stores it, bound to bind->part_id. */
 static void save_cal(const struct calibration_head *cal, bool has_gain,
                      const struct tof_cal_binding *bind) {
+    uint8_t wire[TOF_CAL_WIRE_SIZE];
     uint8_t section[TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH];
-    assert_int_equal(tof_cal_encode(cal, has_gain, bind, section), HAL_OK);
+    assert_int_equal(tof_cal_encode(cal, has_gain, bind, wire), HAL_OK);
+    assert_int_equal(tof_cal_bind_parts(wire, bind->part_id, section), HAL_OK);
+    assert_int_equal(section[1], TOF_CALIBRATION_VERSION);
     assert_int_equal(tof_section_save(&store, section), HAL_OK);
 }
+
+/* Version 1, as an older firmware stored it. */
+static void save_cal_v1(const struct calibration_head *cal, const struct tof_cal_binding *bind) {
+    uint8_t section[TOF_CAL_WIRE_SIZE];
+    assert_int_equal(tof_cal_encode(cal, true, bind, section), HAL_OK);
+    assert_int_equal(section[1], 1u);
+    assert_int_equal(tof_section_save(&store, section), HAL_OK);
+}
+
+/* The parts the bring-up found: part i has identity ids[i] (0: none read). */
+static void running_parts(const uint64_t ids[4]) {
+    static struct vl53_config any;
+    for (unsigned i = 0; i < 4u; ++i) {
+        app.array.dev[i].cfg = &any;
+        app.array.dev[i].part_id = ids[i];
+    }
+}
+
+static const uint64_t parts[4] = {0x9A6B1C2D3E074021ull, 0x9A6B1C2D3E074322ull,
+                                  0x9A6B1C2D3E074623ull, 0x9A6B1C2D3E074924ull};
 
 /* Boot on a fresh store over the same flash, as after a reset. */
 static enum tof_cal_state boot(void) {
@@ -131,7 +157,7 @@ static void test_another_section_version_is_not_applied(void **state) {
     const struct tof_cal_binding b = mine();
     uint8_t section[TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH];
     assert_int_equal(tof_cal_encode(&cal, true, &b, section), HAL_OK);
-    section[1] = 2u; /* a later firmware's layout */
+    section[1] = 3u; /* a later firmware's layout */
     assert_int_equal(tof_section_save(&store, section), HAL_OK);
     assert_int_equal(boot(), TOF_CAL_VERSION);
     assert_uncalibrated();
@@ -184,6 +210,7 @@ static void test_values_out_of_bounds_are_corrupt(void **state) {
         {4u + 8u + 3u, 0x7Fu},       /* offset A beyond ±100 mm */
         {4u + 8u + 18u + 7u, 0x80u}, /* gain B beyond ±10 % */
         {2u, 79u},                   /* a section length other than 80 */
+        {1u, 2u},                    /* version 2 with version 1's length */
     };
     for (size_t k = 0; k < sizeof bad / sizeof bad[0]; ++k) {
         assert_int_equal(tof_cal_encode(&cal, true, &b, s), HAL_OK);
@@ -196,6 +223,13 @@ static void test_values_out_of_bounds_are_corrupt(void **state) {
         assert_int_equal(tof_cal_decode(s, len, &out, &bo), TOF_CAL_CORRUPT);
     }
     /* an uncalibrated head or one out of bounds is never encoded */
+    /* version 2 with a length other than 112 */
+    uint8_t s2[TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH];
+    assert_int_equal(tof_cal_encode(&cal, true, &b, s), HAL_OK);
+    assert_int_equal(tof_cal_bind_parts(s, parts, s2), HAL_OK);
+    assert_int_equal(tof_cal_decode(s2, sizeof s2, &out, &bo), TOF_CAL_APPLIED);
+    s2[2] = 111u;
+    assert_int_equal(tof_cal_decode(s2, sizeof s2, &out, &bo), TOF_CAL_CORRUPT);
     struct calibration_head u = cal;
     u.calibrated = false;
     assert_int_equal(tof_cal_encode(&u, true, &b, s), HAL_ERR_INVALID);
@@ -223,6 +257,138 @@ static void test_settings_and_calibration_keep_each_other(void **state) {
                      2u * TOF_SECTION_HEADER + TOF_SETTINGS_LENGTH + TOF_CALIBRATION_LENGTH);
 }
 
+/* Version 2 carries the four identities, each read back as written, under the record's CRC. */
+static void test_version_2_keeps_the_parts_identities(void **state) {
+    (void)state;
+    const struct calibration_head cal = a_head();
+    struct tof_cal_binding b = mine();
+    memcpy(b.part_id, parts, sizeof parts);
+    b.part_id[1] = 0u; /* one part bound to none */
+    uint8_t wire[TOF_CAL_WIRE_SIZE];
+    uint8_t s[TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH];
+    assert_int_equal(tof_cal_encode(&cal, true, &b, wire), HAL_OK);
+    assert_int_equal(tof_cal_bind_parts(wire, b.part_id, s), HAL_OK);
+    assert_int_equal(s[0], TOF_SECTION_CALIBRATION);
+    assert_int_equal(s[1], 2u);
+    assert_int_equal(s[2] | s[3] << 8, TOF_CALIBRATION_LENGTH);
+    assert_memory_equal(&s[TOF_SECTION_HEADER], &wire[TOF_SECTION_HEADER], 80u); /* v1's bytes */
+    struct calibration_head out;
+    struct tof_cal_binding bo;
+    assert_int_equal(tof_cal_decode(s, sizeof s, &out, &bo), TOF_CAL_APPLIED);
+    assert_same_cal(&out, &cal);
+    for (unsigned i = 0; i < 4u; ++i) {
+        assert_true(bo.part_id[i] == b.part_id[i]);
+    }
+    /* binding again keeps the parts already bound and fills only the unbound one */
+    const uint64_t others[4] = {1u, 2u, 3u, 4u};
+    uint8_t again[sizeof s];
+    assert_int_equal(tof_cal_bind_parts(s, others, again), HAL_OK);
+    assert_int_equal(tof_cal_decode(again, sizeof again, &out, &bo), TOF_CAL_APPLIED);
+    assert_true(bo.part_id[0] == parts[0] && bo.part_id[1] == 2u && bo.part_id[3] == parts[3]);
+    /* a damaged identity byte on flash: the record's CRC refuses it */
+    b.part_id[1] = parts[1];
+    save_cal(&cal, true, &b);
+    assert_int_equal(boot(), TOF_CAL_APPLIED);
+    sim_flash_poke(&flash, 0u, 12u + 4u + 80u + 8u + 2u, 0x10u);
+    assert_int_equal(attitude_init(&app.estimator, &cfg.estimator), ATTITUDE_ERR_NONE); /* reset */
+    assert_int_equal(boot(), TOF_CAL_CORRUPT);
+    assert_uncalibrated();
+}
+
+/* A part whose NVM identity differs from the one bound: other parts, uncalibrated; a part not
+ * read (it did not come up) or not bound is not compared. */
+static void test_another_part_is_not_applied(void **state) {
+    (void)state;
+    const struct calibration_head cal = a_head();
+    struct tof_cal_binding b = mine();
+    memcpy(b.part_id, parts, sizeof parts);
+    save_cal(&cal, true, &b);
+    running_parts(parts);
+    assert_int_equal(boot(), TOF_CAL_APPLIED);
+    assert_same_cal(&app.estimator.cfg.calibration, &cal);
+    for (unsigned k = 0; k < 4u; ++k) {
+        uint64_t swapped[4];
+        memcpy(swapped, parts, sizeof parts);
+        swapped[k] ^= 0x0100u; /* another die X on one part */
+        running_parts(swapped);
+        assert_int_equal(boot(), TOF_CAL_OTHER_PARTS);
+        assert_uncalibrated();
+        swapped[k] = 0u; /* that part not read: not compared */
+        running_parts(swapped);
+        assert_int_equal(boot(), TOF_CAL_APPLIED);
+    }
+    /* head first: another head with other parts says other-head */
+    b.head_id = 5u;
+    save_cal(&cal, true, &b);
+    const uint64_t none[4] = {7u, 7u, 7u, 7u};
+    running_parts(none);
+    assert_int_equal(boot(), TOF_CAL_OTHER_HEAD);
+}
+
+/* Version 1 (an older firmware's record) is read and bound to the head only: it holds for any
+ * parts, and for no other head. */
+static void test_version_1_binds_the_head_only(void **state) {
+    (void)state;
+    const struct calibration_head cal = a_head();
+    struct tof_cal_binding b = mine();
+    save_cal_v1(&cal, &b);
+    running_parts(parts);
+    assert_int_equal(boot(), TOF_CAL_APPLIED);
+    assert_same_cal(&app.estimator.cfg.calibration, &cal);
+    struct calibration_head out;
+    struct tof_cal_binding bo;
+    assert_int_equal(tof_cal_decode(store.payload, store.length, &out, &bo), TOF_CAL_APPLIED);
+    for (unsigned i = 0; i < 4u; ++i) {
+        assert_true(bo.part_id[i] == 0u);
+    }
+    b.head_id = 9u;
+    save_cal_v1(&cal, &b);
+    assert_int_equal(boot(), TOF_CAL_OTHER_HEAD);
+    assert_uncalibrated();
+}
+
+/* A calibration received (the version-1 form the command carries) is stored as version 2 bound
+ * to the parts that run and read back in its version-1 form; after a part is replaced the
+ * next boot refuses it. One received as version 2 for other parts is refused, nothing stored. */
+static void test_written_on_board_binds_the_running_parts(void **state) {
+    (void)state;
+    const struct calibration_head cal = a_head();
+    const struct tof_cal_binding b = mine();
+    uint8_t wire[TOF_CAL_WIRE_SIZE];
+    assert_int_equal(tof_cal_encode(&cal, true, &b, wire), HAL_OK);
+    running_parts(parts);
+    int error = 1;
+    assert_int_equal(tof_cal_write(&store, &app, wire, &error), TOF_CAL_APPLIED);
+    assert_int_equal(error, 0);
+    struct calibration_head out;
+    struct tof_cal_binding bo;
+    assert_int_equal(tof_cal_decode(store.payload, store.length, &out, &bo), TOF_CAL_APPLIED);
+    for (unsigned i = 0; i < 4u; ++i) {
+        assert_true(bo.part_id[i] == parts[i]);
+    }
+    uint8_t back[TOF_CAL_WIRE_SIZE];
+    tof_cal_read(&store, back);
+    assert_memory_equal(back, wire, sizeof wire);
+    assert_int_equal(boot(), TOF_CAL_APPLIED);
+    uint64_t replaced[4];
+    memcpy(replaced, parts, sizeof parts);
+    replaced[2] = 0x1122334455667788ull;
+    running_parts(replaced);
+    assert_int_equal(boot(), TOF_CAL_OTHER_PARTS);
+    assert_uncalibrated();
+
+    /* received as version 2, bound to parts other than these: refused, the record kept */
+    const uint32_t seq = store.sequence;
+    uint8_t v2[TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH];
+    assert_int_equal(tof_cal_bind_parts(wire, parts, v2), HAL_OK);
+    assert_int_equal(tof_cal_write(&store, &app, v2, &error), TOF_CAL_OTHER_PARTS);
+    assert_int_equal(store.sequence, seq);
+    /* and for these parts: stored as it is */
+    assert_int_equal(tof_cal_bind_parts(wire, replaced, v2), HAL_OK);
+    assert_int_equal(tof_cal_write(&store, &app, v2, &error), TOF_CAL_APPLIED);
+    assert_int_equal(boot(), TOF_CAL_APPLIED);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup(test_a_matching_section_reaches_the_estimator, setup),
@@ -234,6 +400,10 @@ int main(void) {
         cmocka_unit_test_setup(test_another_mode_or_budget_is_not_applied, setup),
         cmocka_unit_test_setup(test_values_out_of_bounds_are_corrupt, setup),
         cmocka_unit_test_setup(test_settings_and_calibration_keep_each_other, setup),
+        cmocka_unit_test_setup(test_version_2_keeps_the_parts_identities, setup),
+        cmocka_unit_test_setup(test_another_part_is_not_applied, setup),
+        cmocka_unit_test_setup(test_version_1_binds_the_head_only, setup),
+        cmocka_unit_test_setup(test_written_on_board_binds_the_running_parts, setup),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

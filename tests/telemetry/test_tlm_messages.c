@@ -542,7 +542,7 @@ static void test_raw_health_ack_status_validation(void **state) {
     assert_int_equal(tlm_encode_ack(0, &ack_with_error, out, sizeof out), HAL_ERR_INVALID);
 
     const size_t status_bytes[] = {3, 10, 11, 12, 13, 16, 17, 20};
-    const uint8_t status_bad[] = {TLM_PROTOCOL_VERSION + 1u, 2, 4, 2, 2, 6, 8, 0x10}; /* protocol,
+    const uint8_t status_bad[] = {TLM_PROTOCOL_VERSION + 1u, 2, 4, 2, 2, 6, 9, 0x10}; /* protocol,
                    mode, estimator, bools, record state, calibration state, arm > 1000 mm */
     for (size_t i = 0; i < 8; ++i) {
         status = sample_status();

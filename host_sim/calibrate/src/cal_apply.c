@@ -2,6 +2,7 @@
  * (calibrate/cal_apply.h). */
 #include "calibrate/cal_apply.h"
 
+#include <errno.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -50,6 +51,23 @@ static int read_binding(const struct head_cal *hc, const char *path, struct cal_
         }
         b->has_budget = true;
         b->budget_ms = (uint16_t)ms;
+    }
+    for (unsigned i = 0; i < 4u; ++i) {
+        char key[16];
+        snprintf(key, sizeof key, "part_id_%c", 'A' + i);
+        if ((v = head_cal_extra(hc, key)) == NULL) {
+            continue;
+        }
+        errno = 0;
+        const unsigned long long id = strtoull(v, &end, 16);
+        if (strncmp(v, "0x", 2) != 0 || strlen(v) < 3u || strlen(v) > 18u || *end != '\0' ||
+            errno != 0 || id == 0u) {
+            snprintf(err, errlen,
+                     "%s: %s '%s' is not a part's NVM identity (0x and 1 to 16 hex digits, not 0)",
+                     path, key, v);
+            return -1;
+        }
+        b->part_id[i] = (uint64_t)id;
     }
     return 0;
 }
@@ -161,15 +179,24 @@ int cal_apply_preload(const struct trace_v1_cal *cal, const struct tof_app_confi
         bind.mode = made_in->has_mode ? made_in->mode : bind.mode;
         bind.budget_ms = made_in->has_budget ? made_in->budget_ms : bind.budget_ms;
     }
+    /* As the flight unit stores it: version 2, bound to the parts the file names (none
+     * named: bound to none, so it holds for the parts that run) */
+    static const uint64_t unnamed[4] = {0u, 0u, 0u, 0u};
+    uint8_t wire[TOF_CAL_WIRE_SIZE];
     uint8_t section[TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH];
-    uint8_t stored[TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH];
-    tof_cal_read(store, stored);
-    if (tof_cal_encode(&head, cal->has_gain, &bind, section) == HAL_OK &&
-        memcmp(stored, section, sizeof section) == 0) {
+    if (tof_cal_encode(&head, cal->has_gain, &bind, wire) != HAL_OK ||
+        tof_cal_bind_parts(wire, made_in != NULL ? made_in->part_id : unnamed, section) != HAL_OK) {
+        fprintf(stderr, "internal: the calibration does not make a record\n");
+        return -1;
+    }
+    const int at = store->current < 0
+                       ? -1
+                       : tof_section_find(store->payload, store->length, TOF_SECTION_CALIBRATION);
+    if (at >= 0 && (size_t)store->length - (size_t)at >= sizeof section &&
+        memcmp(&store->payload[at], section, sizeof section) == 0) {
         return 0; /* already there (pages kept from a run before): left as they are */
     }
-    if (tof_cal_encode(&head, cal->has_gain, &bind, section) != HAL_OK ||
-        tof_section_save(store, section) != HAL_OK) {
+    if (tof_section_save(store, section) != HAL_OK) {
         fprintf(stderr, "internal: the calibration does not make a record\n");
         return -1;
     }

@@ -7,7 +7,9 @@
  * struct sim_range_source. It ranges only once configured as ST's bring-up does it:
  * the default-configuration block 0x2D..0x87, the VHV step, a valid mode/budget
  * encoding (see sim_vl53_refusal). Its offset registers 0x1E/0x20/0x22 come from a per-part
- * NVM at power-up and shift the reported range as ST says. Integer only, no heap; built for
+ * NVM at power-up and shift the reported range as ST says; its NVM identity is read only through
+ * ST's NVM-read sequence (firmware off, power force, NVM power-up, ...: sim_vl53_nvm.c), any
+ * other access to those registers is NACKed. Integer only, no heap; built for
  * Cortex-M as well. Its register facts are its own (src/sim_vl53_regs.h, with sources), not the
  * driver's; which behaviours ST documents and which are the model's assumptions: docs/driver.md.
  */
@@ -55,6 +57,33 @@ struct sim_vl53_config {
     int16_t nvm_inner_offset_mm;  /* 0x0020 */
     int16_t nvm_outer_offset_mm;  /* 0x0022 */
     bool ignores_offset_writes;   /* defect: writes to 0x1E..0x23 are ACKed but change nothing */
+    /* The identity in the part's NVM bytes 0x1F8..0x1FF (lot, wafer, die X/Y; the first byte
+     * most significant), served through the NVM-read registers (sim_vl53_nvm.c); 0:
+     * SIM_VL53_DEFAULT_PART_ID(sensor), distinct per part. */
+    uint64_t part_id;
+    bool nvm_unreadable; /* defect: every access to an NVM-read register is NACKed */
+};
+
+/* The default identity of part `sensor` (0..3 = A..D): one made-up lot and wafer, die X and Y
+ * differing per part. */
+#define SIM_VL53_DEFAULT_PART_ID(sensor)                                                           \
+    (0x9A6B1C2D3E070000ull | (uint64_t)(0x40u + 3u * (unsigned)(sensor)) << 8 |                    \
+     (uint64_t)(0x21u + (unsigned)(sensor)))
+
+/* The NVM-read state (sim_vl53_nvm.c): ST's sequence, step by step. */
+struct sim_vl53_nvm {
+    uint64_t force_us; /* when POWER_FORCE went on */
+    uint64_t pdn_us;   /* when the NVM was powered up */
+    uint64_t readn_low_us;
+    bool powered; /* NVM_CTRL__PDN 1 */
+    bool clock;   /* CLK_CTRL1 0x05 */
+    bool read_mode;
+    bool pulse_set;
+    bool readn_low;
+    bool data_valid; /* DATAOUT holds the word at `addr` */
+    uint8_t addr;
+    uint8_t ctrl[0x16]; /* 0x0780..0x0795 as written */
+    uint8_t data[4];
 };
 
 /* A result the model wrote to its result block (for checks from outside). */
@@ -85,6 +114,10 @@ struct sim_vl53_stats {
     uint32_t starts;
     uint32_t stops;
     uint32_t clears;
+    uint32_t nvm_words;      /* NVM words read out (READN pulses in ST's sequence) */
+    uint32_t nvm_violations; /* NVM-read accesses out of ST's sequence (NACKed; also counted
+                                as protocol errors) */
+    uint32_t nvm_nacks;      /* accesses NACKed by the nvm_unreadable defect */
 };
 
 enum sim_vl53_drdy_stuck { SIM_VL53_DRDY_FREE, SIM_VL53_DRDY_STUCK_HIGH, SIM_VL53_DRDY_STUCK_LOW };
@@ -131,6 +164,7 @@ struct sim_vl53 {
     bool source_done; /* the source had no more samples: ranging produces nothing */
     int source_error; /* first negative code from the source (0: none) */
     struct sim_vl53_published published[2]; /* [0] newest */
+    struct sim_vl53_nvm nvm;
     struct sim_vl53_stats stats;
 };
 
@@ -164,6 +198,9 @@ void sim_vl53_update(struct sim_vl53 *dev);
  * (low 5 bits, e.g. 1, 2, 17 hardware faults, 4 no target, 7 wrap) and distance `mm`
  * instead of the source's (the source is still consumed). */
 void sim_vl53_force_results(struct sim_vl53 *dev, uint8_t raw, uint16_t mm, uint32_t count);
+
+/* The identity the part serves from its NVM (cfg.part_id or its default). */
+uint64_t sim_vl53_part_id(const struct sim_vl53 *dev);
 
 /* Backdoor: a register as the bus would read it (no side effects, no statistics). */
 uint8_t sim_vl53_peek(struct sim_vl53 *dev, uint16_t reg);

@@ -10,6 +10,8 @@
  *   - vl53_configure():  call_budget_us + configure_budget_us plus two transfers (it is
  *                        vl53_configure_begin() then vl53_configure_finish());
  *   - vl53_configure_finish(): configure_budget_us plus one transfer;
+ *   - vl53_read_part_id(): four call_budget_us plus one transfer (NVM on, each of two
+ *                        words, the restore: one budget each);
  *   - every other call:  call_budget_us plus one transfer,
  * where "one transfer" is the wire time of the call's longest single transfer (the
  * hal_i2c contract: a transfer never takes longer than its timeout plus its wire time,
@@ -185,6 +187,7 @@ struct vl53_dev {
     bool vhv_running;   /* vl53_configure_begin() started the VHV range */
     uint32_t vhv_start_us;
     uint16_t offset_mismatch_reg; /* see vl53_offset_mismatch_register() */
+    uint64_t part_id;             /* see vl53_part_id() */
 };
 
 /*
@@ -224,6 +227,20 @@ int vl53_identify(struct vl53_dev *dev, uint16_t *model_id);
  * the driver keeps the old address; on a failed confirmation it assumes the new one.
  */
 int vl53_set_address(struct vl53_dev *dev, uint8_t new_address);
+
+/*
+ * Read the part's identity from its NVM (vl53_nvm.c, ST's NVM-read sequence, [NVM] in
+ * vl53_regs.h): the 8 bytes at NVM 0x1F8..0x1FF (lot, wafer, die X and Y), the first as the
+ * most significant, into *part_id (if not NULL) and kept for vl53_part_id(). Call it stopped
+ * (HAL_ERR_STATE while ranging or during a configuration), e.g. right after boot: the part's
+ * firmware is off during the read and switched on again afterwards, even after a failure
+ * (its own budget), and the first error is returned unchanged; the identity is then 0.
+ * Within four call budgets (above).
+ */
+int vl53_read_part_id(struct vl53_dev *dev, uint64_t *part_id);
+
+/* The identity the last vl53_read_part_id() read since power-up, or 0 if none did. */
+uint64_t vl53_part_id(const struct vl53_dev *dev);
 
 /* The offset register (0x001E, 0x0020 or 0x0022) whose read-back differed from what the
  * last vl53_configure_begin() wrote, or 0 if none did. */

@@ -156,4 +156,36 @@
  */
 #define VL53_STREAM_COUNT_WRAP_TO 0x80u
 
+/* --- the part's NVM, read for its identity (vl53_nvm.c) ----------------------------------
+ * [NVM] ST full API: vl53l1_register_map.h (POWER_MANAGEMENT__GO1_POWER_FORCE 0x0083,
+ * FIRMWARE__ENABLE 0x0085, RANGING_CORE__CLK_CTRL1 0x0683, RANGING_CORE__NVM_CTRL__MODE
+ * 0x0780, __PDN 0x0781, __READN 0x0783, __PULSE_WIDTH_MSB 0x0784, __DATAOUT_MMM..LLL
+ * 0x0790..0x0793, __ADDR 0x0794; e.g. the copy in zephyrproject-rtos/zephyr
+ * ext/hal/st/lib/sensor/vl53l1x/api/core/inc); the sequence of VL53L1_nvm_enable, _read and
+ * _disable (vl53l1_nvm.c / vl53l1_api.c): firmware off, power force on, 250 us
+ * (VL53L1_ENABLE_POWERFORCE_SETTLING_TIME_US, vl53l1_ll_device.h), NVM power up (PDN 1) and
+ * clock (CLK_CTRL1 0x05), 50 us (VL53L1_NVM_POWER_UP_DELAY_US), read mode (MODE 1), pulse
+ * width 0x0004; per 32-bit word: ADDR = word, READN 0, 5 us (VL53L1_NVM_READ_TRIGGER_DELAY_US),
+ * READN 1, 4 bytes from DATAOUT_MMM (NVM byte 4·word first); then READN 1, PDN 0, power
+ * force off, firmware on. vl53l1_nvm_map.h: NVM bytes 0x1F8..0x1FF hold the EWS lot (six
+ * 6-bit characters), wafer (0x1FD bits 4:0), die X (0x1FE) and Y (0x1FF) coordinates:
+ * words 0x7E and 0x7F. */
+#define VL53_REG_POWER_FORCE         0x0083u
+#define VL53_REG_FIRMWARE_ENABLE     0x0085u
+#define VL53_REG_CLK_CTRL1           0x0683u
+#define VL53_CLK_CTRL1_NVM_CLOCK     0x05u
+#define VL53_REG_NVM_MODE            0x0780u
+#define VL53_REG_NVM_PDN             0x0781u
+#define VL53_REG_NVM_READN           0x0783u
+#define VL53_REG_NVM_PULSE_WIDTH_MSB 0x0784u
+#define VL53_NVM_PULSE_WIDTH_MSB     0x00u /* the pulse width 0x0004, high byte */
+#define VL53_NVM_PULSE_WIDTH_LSB     0x04u
+#define VL53_REG_NVM_DATAOUT         0x0790u
+#define VL53_REG_NVM_ADDR            0x0794u
+#define VL53_POWER_FORCE_SETTLE_US   250u
+#define VL53_NVM_POWER_UP_US         50u
+#define VL53_NVM_READ_TRIGGER_US     5u
+#define VL53_NVM_ID_FIRST_WORD       0x7Eu /* NVM byte 0x1F8 */
+#define VL53_NVM_ID_WORDS            2u
+
 #endif /* VL53_REGS_H */

@@ -39,6 +39,7 @@ enum vl53_array_fault {
                                     is held in reset: two devices would answer at one address */
     VL53_ARRAY_BUS_ERROR,        /* a bus error (stuck, timeout, NACK burst) got in the way */
     VL53_ARRAY_CONFIG_FAILED,    /* configuration or start failed (error in report.err) */
+    VL53_ARRAY_IDENTITY_FAILED,  /* its NVM identity could not be read (vl53_read_part_id) */
 };
 
 struct vl53_sensor_report {
@@ -68,7 +69,8 @@ int vl53_array_attach(struct vl53_array *array, const struct vl53_array_config *
 /*
  * Hold every XSHUT low, check that nothing answers at 0x29 or at any sensor's address,
  * then for each sensor in turn: release it, wait for boot, verify the model ID, move it to
- * its address (checking 0x29 is free again), write ST's configuration and start its VHV
+ * its address (checking 0x29 is free again), read its NVM identity
+ * (vl53_read_part_id, vl53_part_id() then gives it), write ST's configuration and start its VHV
  * range (vl53_configure_begin), and check the sensors already up still answer at theirs
  * (see vl53_array_recover_sensor); then for each: finish its VHV step, write its timing
  * and start it. The four ~100 ms VHV ranges so overlap. A sensor that fails is parked in
@@ -79,7 +81,8 @@ int vl53_array_bring_up(struct vl53_array *array);
 
 /*
  * Bring sensor `index` back (after a reset, a lost sensor, a stuck data-ready): XSHUT low,
- * check 0x29 and its address are free, release, boot, identify, re-address, configure,
+ * check 0x29 and its address are free, release, boot, identify, re-address, read the NVM
+ * identity, configure,
  * start, then check every other ranging sensor still answers at its own address (one that
  * reset meanwhile may have followed this one to its address: VL53_ARRAY_ADDRESS_CONFLICT).
  * Only this sensor's XSHUT moves, and the others see nothing but model-ID reads, so they
@@ -108,7 +111,7 @@ int vl53_array_recover_bus(struct vl53_array *array);
  * last transfer of each step (at most VL53_ARRAY_STEPS_PER_SENSOR per sensor, plus one bus
  * recovery and 1 + count probes for bring-up). Lets a scheduler know how long it blocks.
  */
-#define VL53_ARRAY_STEPS_PER_SENSOR (9u + VL53_ARRAY_MAX_SENSORS - 1u)
+#define VL53_ARRAY_STEPS_PER_SENSOR (11u + VL53_ARRAY_MAX_SENSORS - 1u)
 uint32_t vl53_array_recover_budget_us(const struct vl53_array *array, size_t index);
 uint32_t vl53_array_bring_up_budget_us(const struct vl53_array *array);
 

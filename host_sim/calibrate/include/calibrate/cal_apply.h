@@ -18,12 +18,14 @@
 #include "sim/trace_v1.h"
 
 /* What a HEAD.cal says it was made in (its keys head_id, distance_mode, timing_budget_ms,
- * as tools/tof_telemetry.py --read-cal writes them): each used when present. */
+ * as tools/tof_telemetry.py --read-cal writes them, and part_id_A..part_id_D, the parts' NVM
+ * identities, docs/calibration.md): each used when present. */
 struct cal_apply_binding {
     bool has_head, has_mode, has_budget;
     uint32_t head_id;
     uint8_t mode; /* enum vl53_distance_mode */
     uint16_t budget_ms;
+    uint64_t part_id[4]; /* A..D; 0: the key is absent (the record binds no part) */
 };
 
 struct cal_apply {
