@@ -12,6 +12,7 @@
 #include "firmware/app.h"
 #include "firmware/link.h"
 #include "firmware/record.h"
+#include "firmware/text.h"
 #include "stm32_usart.h"
 
 /* State is static, so its size shows in the map file rather than on the stack. */
@@ -94,16 +95,13 @@ void board_fault(const char *what) {
     const uint32_t vector = cortex_m_fault_vector;
     if (vector != 0u && vector < 512u) {
         /* " (vector N)": which exception, so an IRQ without a handler can be named. */
-        char num[16] = " (vector ";
-        size_t k = 9u;
-        const uint32_t digits[3] = {vector / 100u, (vector / 10u) % 10u, vector % 10u};
-        for (unsigned i = 0; i < 3u; ++i) {
-            if (digits[i] != 0u || k > 9u || i == 2u) {
-                num[k++] = (char)('0' + (int)digits[i]);
-            }
-        }
-        num[k++] = ')';
-        board_hal_fault_write(num, k);
+        char num[16];
+        struct tof_text t;
+        tof_text_init(&t, num, sizeof num);
+        tof_text_str(&t, " (vector ");
+        tof_text_u64(&t, vector);
+        tof_text_str(&t, ")");
+        board_hal_fault_write(num, t.len);
         cortex_m_fault_vector = 0u;
     }
     board_hal_fault_write("\n", 1u);
