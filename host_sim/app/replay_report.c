@@ -152,9 +152,11 @@ static void write_head(FILE *f, const struct replay *r) {
             "{\n  \"trace\": \"%s\",\n  \"rows\": %llu,\n  \"window\": %u,\n  \"mode\": \"%s\",\n",
             r->args->trace_path, (unsigned long long)r->stream.next_index, r->args->window,
             r->args->sliding ? "sliding" : "tumbling");
-    fprintf(f, "  \"primary\": \"%s\",\n  \"estimates\": %llu,\n  \"truth\": %s,\n",
+    fprintf(f,
+            "  \"primary\": \"%s\",\n  \"estimates\": %llu,\n  \"estimates_after_end\": %llu,\n"
+            "  \"truth\": %s,\n",
             r->args->estimator, (unsigned long long)r->stats.estimates,
-            r->stats.truth_seen ? "true" : "false");
+            (unsigned long long)r->after_end, r->stats.truth_seen ? "true" : "false");
     const struct trace_timing *tm = trace_reader_timing(&r->reader);
     fprintf(f,
             "  \"time_base\": {\"period_ms\": %u, \"source\": \"%s\", \"t_ms_repeats\": %llu, "

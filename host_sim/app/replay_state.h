@@ -45,6 +45,7 @@ struct replay {
     int64_t recovery_us;
     uint32_t health_events, reinit_events, bus_recovery_events, overrun_events;
     int failed;            /* an output or data error: stop and report */
+    uint64_t after_end;    /* estimates of slots after the trace's last row: not written */
     uint64_t partial_rows; /* tumbling: rows after the last whole window (no estimate) */
     struct replay_mode distance;
     struct cal_apply cal;            /* the head's calibration (calibrate/cal_apply.h) */
