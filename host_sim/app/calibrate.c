@@ -83,7 +83,7 @@ static int parse(int argc, char **argv, struct calibrate_args *a) {
 struct cal_binding {
     enum vl53_distance_mode mode;
     unsigned budget_ms;
-    char source[240]; /* why, for stderr */
+    char source[320]; /* why, for stderr (the mode's own text is up to 200) */
 };
 
 /* The trace's mode (stated, else as host_sim replay infers it) and budget (stated as
