@@ -286,3 +286,9 @@ uint64_t drv_manager_all_healthy_since(const struct drv_manager *m) {
     }
     return latest;
 }
+
+int drv_fixture_default_rig(struct drv_fixture *f) {
+    drv_fixture_defaults(f);
+    drv_fixture_build(f);
+    return 0;
+}

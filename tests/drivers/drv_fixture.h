@@ -44,6 +44,10 @@ void drv_fixture_defaults(struct drv_fixture *f);
 /* (Re)build the rig and bind the sensor configs and the array to it. */
 void drv_fixture_build(struct drv_fixture *f);
 
+/* The defaults built (drv_fixture_defaults, then drv_fixture_build): a cmocka setup's
+ * whole work; returns 0. */
+int drv_fixture_default_rig(struct drv_fixture *f);
+
 /* Simulated time now, µs. */
 uint64_t drv_now(const struct drv_fixture *f);
 

@@ -21,9 +21,7 @@ static struct drv_fixture fx;
 
 static int setup(void **state) {
     (void)state;
-    drv_fixture_defaults(&fx);
-    drv_fixture_build(&fx);
-    return 0;
+    return drv_fixture_default_rig(&fx);
 }
 
 static int bring_up(void) {
