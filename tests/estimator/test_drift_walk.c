@@ -36,6 +36,7 @@ static const bool all_present[4] = {true, true, true, true};
 
 struct tally {
     unsigned windows, answered_windows, rows, within3, beyond6, recalibrate, after, after_said;
+    unsigned uncalibrated, ok; /* windows saying `uncalibrated`; windows `ok` */
     double err2, sd2;
 };
 
@@ -50,6 +51,8 @@ static void ideal(double x[4]) {
 
 static void score(struct tally *t, const struct attitude_estimate *e) {
     t->windows++;
+    t->uncalibrated += (e->why & ATTITUDE_WHY_UNCALIBRATED) != 0u ? 1u : 0u;
+    t->ok += e->status == ATTITUDE_OK ? 1u : 0u;
     if (e->status == ATTITUDE_INVALID) {
         return;
     }
@@ -71,13 +74,14 @@ static void score(struct tally *t, const struct attitude_estimate *e) {
 /* ROWS rows of σ mm white noise plus per-sensor random walks at `rate` × the prior's;
  * step_mm: one offset step of sensor A after the first hour (0: none). `recalibrate` is
  * tallied over the quarter hour after it. */
-static struct tally run(enum attitude_window_mode mode, double rate, double sigma, double step_mm,
-                        uint64_t seed) {
+static struct tally run_head(enum attitude_window_mode mode, double rate, double sigma,
+                             double step_mm, uint64_t seed, bool calibrated) {
     rng.state = seed;
     struct attitude_config cfg;
     attitude_config_default(&cfg);
-    test_calibration_exact(
-        &cfg.calibration); /* calibrated at the start: the walk is what follows */
+    if (calibrated) { /* calibrated at the start: the walk is what follows */
+        test_calibration_exact(&cfg.calibration);
+    }
     cfg.mode = mode;
     cfg.period_us = PERIOD_US;
     cfg.estimators = ATTITUDE_EST_BIT(ATTITUDE_EST_CONSENSUS);
@@ -85,6 +89,8 @@ static struct tally run(enum attitude_window_mode mode, double rate, double sigm
     /* per-row step of the walk: rate · q0 (µm²/h) · period, in mm */
     const double step =
         sqrt(rate * ATTITUDE_OFFSET_WALK_UM2_H_DEFAULT * 1e-6 * (PERIOD_US / 1e6) / 3600.0);
+    /* an uncalibrated head's parts: offsets within ST's ±20 mm, parity 45 mm */
+    static const double parts[4] = {15.0, -12.0, 10.0, -8.0};
     double x[4], walk[4] = {0, 0, 0, 0};
     ideal(x);
     struct tally t;
@@ -94,7 +100,8 @@ static struct tally run(enum attitude_window_mode mode, double rate, double sigm
         for (unsigned k = 0; k < 4; ++k) {
             walk[k] += step * test_gauss(&rng);
             const double jump = (k == 0u && i >= ROWS / 4u) ? step_mm : 0.0;
-            r[k] = (uint16_t)lround(x[k] + walk[k] + jump + sigma * test_gauss(&rng));
+            r[k] = (uint16_t)lround(x[k] + (calibrated ? 0.0 : parts[k]) + walk[k] + jump +
+                                    sigma * test_gauss(&rng));
         }
         if (attitude_push_sample(&st, r, all_ok, all_present, &out)) {
             score(&t, &out.est[ATTITUDE_EST_CONSENSUS]);
@@ -105,6 +112,12 @@ static struct tally run(enum attitude_window_mode mode, double rate, double sigm
         }
     }
     return t;
+}
+
+/* A head calibrated at the start (exactly), as above. */
+static struct tally run(enum attitude_window_mode mode, double rate, double sigma, double step_mm,
+                        uint64_t seed) {
+    return run_head(mode, rate, sigma, step_mm, seed, true);
 }
 
 static void check_goal(const char *what, const struct tally *t) {
@@ -154,6 +167,23 @@ static void test_recalibrate(void **state) {
                   100 * q, 100 * s);
     assert_true(q <= 0.02);
     assert_true(s >= 0.80);
+}
+
+/* A head never calibrated (offsets +15, −12, +10, −8 mm) has nothing to recalibrate: the
+ * same 6 mm step that is
+ * `recalibrate` above is said `uncalibrated` in every window and never `recalibrate`
+ * (said on heads never calibrated before session 10: 715 of 8,000 rows in a reviewer's
+ * case), and never `ok`. */
+static void test_uncalibrated_never_recalibrate(void **state) {
+    (void)state;
+    const struct tally step =
+        run_head(ATTITUDE_TUMBLING, 1.0, 2.0, 6.0, 0x5851F42D4C957F2Du, false);
+    print_message("uncalibrated parts, 6 mm step: %u of %u windows uncalibrated, %u recalibrate\n",
+                  step.uncalibrated, step.windows, step.recalibrate);
+    assert_true(step.windows > 0u);
+    assert_int_equal(step.uncalibrated, step.windows);
+    assert_int_equal(step.recalibrate, 0u);
+    assert_int_equal(step.ok, 0u);
 }
 
 /* The walk in fixed point: after an hour of 20 ms rows (180,000) of a flat plate with
@@ -259,9 +289,12 @@ static void test_period_checked(void **state) {
 
 int main(void) {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_walk_fixed_point), cmocka_unit_test(test_period_checked),
-        cmocka_unit_test(test_walk_four_hours),  cmocka_unit_test(test_white_head_half_hour),
+        cmocka_unit_test(test_walk_fixed_point),
+        cmocka_unit_test(test_period_checked),
+        cmocka_unit_test(test_walk_four_hours),
+        cmocka_unit_test(test_white_head_half_hour),
         cmocka_unit_test(test_recalibrate),
+        cmocka_unit_test(test_uncalibrated_never_recalibrate),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
