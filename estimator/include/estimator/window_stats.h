@@ -121,9 +121,11 @@ struct window_state {
     int32_t cal_inv_gain_q32[ANGLES_SENSORS];
     int64_t cal_inv_gain2_q32[ANGLES_SENSORS]; /* 1/gain² − 1 in Q32: the variances' */
     int32_t newest_fine[ANGLES_SENSORS];       /* the newest row's corrected readings, fine units */
-    uint16_t newest_mm[ANGLES_SENSORS];        /* ... rounded to whole mm (0 below 0; exact for
-                                                  the readings the window uses): what a consumer
+    uint16_t newest_mm[ANGLES_SENSORS];        /* ... in whole mm with the previous rows'
+                                                  rounding carried (0 below 0): what a consumer
                                                   of whole mm (the Kalman filter) takes */
+    int32_t newest_carry[ANGLES_SENSORS];      /* the rounding left over, fine units + 1/2 mm:
+                                                  0 .. 1023 (window_cal.h) */
     struct window_row ring[WINDOW_MAX_SAMPLES];
     uint16_t oldest;          /* ring index of the oldest row */
     uint16_t fill;            /* rows held, <= cfg.length */
