@@ -64,14 +64,9 @@ void integrity_axes_coeffs(uint8_t used, struct integrity_axes_coeffs *ac);
 /* --- integrity_noise.c ------------------------------------------------------------------ */
 
 /* Sums over the used sensors of the variance of their window means. */
-/* The prior walk's variance after `rows` rows: offset_walk (µm²/h) · rows · period (µs) /
- * 3.6e9 µs/h, as Q32 mm² (saturating; integrity_wander.c). */
-fix_q32_t integrity_prior_walk(const struct integrity_config *cfg, uint32_t rows);
-
 struct integrity_noise_sums {
     fix_q32_t base;  /* white noise plus what is not learnt: the prior and the rounding */
     fix_q32_t total; /* ... plus the learnt drift: the parity residual's variance */
-    fix_q32_t white; /* the white part alone (what the wander's spans average down) */
 };
 
 /* Each used sensor's noise budget: out->used, out->white_mm2 (what the window sees) and

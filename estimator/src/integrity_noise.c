@@ -43,10 +43,7 @@ static void correct_tails(const struct integrity_config *cfg, struct integrity_w
 void integrity_noise_budget(const struct integrity_state *st, const struct integrity_config *cfg,
                             const struct window_stats *s, struct integrity_window *out,
                             struct integrity_noise_sums *sums) {
-    /* the offset stability's prior, as far as the parity's wander allows it */
-    const fix_q32_t prior =
-        integrity_wander_scaled(&st->wander, integrity_um2_to_q32(cfg->offset_stability_um));
-    fix_q32_t white_sum = 0; /* what the window sees */
+    const fix_q32_t prior = integrity_um2_to_q32(cfg->offset_stability_um);
     fix_q32_t base_sum = 0;  /* what the window sees, the prior and the rounding */
     fix_q32_t total_sum = 0; /* ... plus the learnt drift: the parity residual's variance */
     correct_tails(cfg, out);
@@ -69,12 +66,10 @@ void integrity_noise_budget(const struct integrity_state *st, const struct integ
         const fix_q32_t cal = calibration_var(cfg, k, ss->mean_mm);
         const fix_q32_t fixed = fix_sat_add_s64(fix_sat_add_s64(prior, quant), cal);
         out->extra_mm2[k] = fix_sat_add_s64(drift, fixed);
-        white_sum = fix_sat_add_s64(white_sum, out->white_mm2[k]);
         base_sum = fix_sat_add_s64(base_sum, fix_sat_add_s64(out->white_mm2[k], fixed));
         total_sum =
             fix_sat_add_s64(total_sum, fix_sat_add_s64(out->white_mm2[k], out->extra_mm2[k]));
     }
-    sums->white = white_sum;
     sums->base = base_sum;
     sums->total = total_sum;
 }

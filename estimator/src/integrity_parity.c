@@ -45,12 +45,21 @@ static void learn_drift(struct integrity_state *st, const struct integrity_confi
     st->drift_long_mm2 += fix_div_round_s64(sample - st->drift_long_mm2, st->long_blocks);
 }
 
+/* The prior walk's variance at rows since the start: offset_walk (µm²/h) · rows · period
+ * (µs) / 3.6e9 µs/h, in µm², then as Q32 mm² (saturating: it grows, it is never capped).
+ * Never scaled down by what the parity shows: docs/estimator-design.md, "Drift since the
+ * start" (session 10: a smooth drift's short spans hid its long ones). */
+static fix_q32_t prior_walk(const struct integrity_config *cfg, uint32_t rows) {
+    bool sat = false;
+    const int64_t us = (int64_t)rows * (int64_t)cfg->period_us;
+    const int64_t um2 = fix_muldiv_s64(us, (int64_t)cfg->offset_walk_um2_h, 3600000000, &sat);
+    const int64_t q32 = fix_muldiv_s64(um2, FIX_Q32_ONE, 1000000, &sat);
+    return sat ? INT64_MAX : q32;
+}
+
 fix_q32_t integrity_drift_var(const struct integrity_state *st) {
     fix_q32_t v = st->drift_mm2 > st->drift_long_mm2 ? st->drift_mm2 : st->drift_long_mm2;
-    /* the walk as far as the parity's wander allows it (integrity_wander.c); `recalibrate`
-     * keeps the whole prior as its allowance (beyond_allowance) */
-    const fix_q32_t walk = integrity_wander_scaled(&st->wander, st->walk_mm2);
-    v = v > walk ? v : walk;
+    v = v > st->walk_mm2 ? v : st->walk_mm2;
     return v > 0 ? v : 0;
 }
 
@@ -70,7 +79,7 @@ void integrity_parity(struct integrity_state *st, const struct integrity_config 
                       const struct window_stats *s, const struct integrity_noise_sums *sums,
                       bool learn, struct integrity_window *out) {
     if (learn) { /* the walk grows with the time since the start, once per block */
-        st->walk_mm2 = integrity_prior_walk(cfg, st->rows);
+        st->walk_mm2 = prior_walk(cfg, st->rows);
     }
     if (out->used == ANGLES_ALL_SENSORS) {
         const struct window_sensor_stats *sn = s->sensor;
@@ -79,7 +88,6 @@ void integrity_parity(struct integrity_state *st, const struct integrity_config 
         out->parity_failed = integrity_beyond(out->parity_mm, sums->total, cfg->parity_sigmas_q8);
         if (learn) {
             learn_drift(st, cfg, out->parity_mm, sums->base);
-            integrity_wander_add(&st->wander, cfg, st->rows, out->parity_mm, sums->white);
         }
     }
     if (out->parity_failed) {

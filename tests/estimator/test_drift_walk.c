@@ -188,9 +188,9 @@ static void test_uncalibrated_never_recalibrate(void **state) {
 
 /* The walk in fixed point: after an hour of 20 ms rows (180,000) of a flat plate with
  * identical readings (no learnt drift), the prior walk is q0·t = 0.576 mm² exactly (Q32,
- * within 1e-6 mm²); at 200 ms rows the same rows are ten hours. The sd carries it only as
- * far as the parity's wander allows (integrity_wander.c): identical readings show none,
- * so the allowance is a small part of it. */
+ * within 1e-6 mm²); at 200 ms rows the same rows are ten hours. The sd carries the whole
+ * walk: nothing the parity shows scales it down (session 9's wander learner did, and hid
+ * smooth drifts: test_smooth_drift). */
 static void test_walk_fixed_point(void **state) {
     (void)state;
     static const uint32_t periods[2] = {20000u, 200000u};
@@ -212,16 +212,15 @@ static void test_walk_fixed_point(void **state) {
         print_message("walk after %.0f h: %.6f mm² (q0·t %.6f), in the sd %.6f mm²\n", hours, got,
                       want, used);
         assert_true(fabs(got - want) < 1e-6);
-        assert_true(used < 0.1 * want);
+        assert_true(fabs(used - want) < 1e-6);
     }
 }
 
 /* A head that does not wander (white noise only, calibrated exactly), 20 ms rows: the
- * priors (120 µm, the walk) alone grow the sd to 2–4 times the error (RMS error / RMS sd
- * over half an hour 0.25 at σ = 1 mm, 0.44 at 2 mm); the parity's spans show no wander, so
- * the sd follows the data. Pooled over six seeds each (a seed's own ratio scatters by
- * ±0.08 with the bound it learnt): ≥ 0.5 at σ = 1 mm over 15 min and at 2 and 3 mm over
- * 30, and in every run ≥ 95 % within 3 sd and ≤ 0.1 % beyond 6. */
+ * priors (120 µm, the walk) alone grow the sd beyond the error, the conservative side
+ * (RMS error / RMS sd over half an hour 0.33 at σ = 1 mm, about 0.45 at 2 mm: below the
+ * issue's 0.5, said in docs/estimator-benchmark.md). In every run ≥ 95 % within 3 sd and
+ * ≤ 0.1 % beyond 6; pooled over six seeds, the sd at most 3.5 times the error. */
 static void test_white_head_half_hour(void **state) {
     (void)state;
     static const double sigmas[3] = {1.0, 2.0, 3.0};
@@ -260,11 +259,61 @@ static void test_white_head_half_hour(void **state) {
             pooled.err2 += t.err2;
             pooled.sd2 += t.sd2;
         }
-        char what[64];
-        (void)snprintf(what, sizeof what, "white head, sigma %.0f mm, %u min, 6 seeds", sigmas[i],
-                       rows[i] / 3000u);
-        check_goal(what, &pooled);
+        const double ratio = sqrt(pooled.err2 / pooled.sd2);
+        print_message("white head, sigma %.0f mm, %u min, 6 seeds: within 3 sd %.2f %%, "
+                      "err/sd %.3f\n",
+                      sigmas[i], rows[i] / 3000u, 100.0 * pooled.within3 / pooled.rows, ratio);
+        assert_true(pooled.answered_windows == pooled.windows);
+        assert_true(ratio >= 1 / 3.5);
     }
+}
+
+/* A smooth drift, as a temperature cycle makes one: every offset a sinusoid of period 2 h
+ * with its own amplitude (below), one phase for all,
+ * 0 at the calibration; σ 2 mm, 2 h of 20 ms rows. Its increments over a minute are far
+ * below the walk's, over an hour above: session 9's wander learner read the minute spans
+ * and scaled the walk prior down: 78 % within 3 sd, 0.67 % beyond 6 sd, 44 rows `ok`
+ * beyond 6 sd (an independent review, session 10, found it with random amplitudes).
+ * Now ≥ 95 % within 3 sd, ≤ 0.1 % beyond 6 sd, and no `ok` row beyond 6 sd. */
+static void test_smooth_drift(void **state) {
+    (void)state;
+    rng.state = 0xBF58476D1CE4E5B9u;
+    struct attitude_config cfg;
+    attitude_config_default(&cfg);
+    test_calibration_exact(&cfg.calibration);
+    cfg.period_us = 20000u;
+    cfg.estimators = ATTITUDE_EST_BIT(ATTITUDE_EST_CONSENSUS);
+    assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_NONE);
+    /* a drift mostly along α (C − A = −1.5 mm) with a small parity (A + C − B − D = −0.2
+     * mm): a realisation of independent amplitudes that the parity barely shows */
+    static const double amp[4] = {1.0, 0.4, -0.5, 0.3};
+    const double phase = 2 * TEST_PI * test_urand(&rng);
+    double x[4];
+    ideal(x);
+    struct tally t;
+    (void)memset(&t, 0, sizeof t);
+    unsigned ok_beyond6 = 0;
+    for (unsigned i = 0; i < 360000u; ++i) { /* 2 h of 20 ms rows */
+        const double s = sin(2 * TEST_PI * i * 0.02 / 7200.0 + phase) - sin(phase);
+        uint16_t r[4];
+        for (unsigned k = 0; k < 4; ++k) {
+            r[k] = (uint16_t)lround(x[k] + amp[k] * s + 2.0 * test_gauss(&rng));
+        }
+        if (attitude_push_sample(&st, r, all_ok, all_present, &out)) {
+            const struct attitude_estimate *e = &out.est[ATTITUDE_EST_CONSENSUS];
+            const unsigned before = t.beyond6;
+            score(&t, e);
+            ok_beyond6 += e->status == ATTITUDE_OK ? t.beyond6 - before : 0u;
+        }
+    }
+    const double w3 = (double)t.within3 / t.rows;
+    const double b6 = (double)t.beyond6 / t.rows;
+    print_message("smooth drift, 1 mm over 2 h, 2 h: within 3 sd %.2f %%, beyond 6 sd %.3f %%, "
+                  "ok beyond 6 sd %u, err/sd %.3f\n",
+                  100 * w3, 100 * b6, ok_beyond6, sqrt(t.err2 / t.sd2));
+    assert_true(w3 >= 0.95);
+    assert_true(b6 <= 0.001);
+    assert_int_equal(ok_beyond6, 0);
 }
 
 /* period_us outside 1000..10,000,000 µs is refused, naming the integrity fields. */
@@ -293,6 +342,7 @@ int main(void) {
         cmocka_unit_test(test_period_checked),
         cmocka_unit_test(test_walk_four_hours),
         cmocka_unit_test(test_white_head_half_hour),
+        cmocka_unit_test(test_smooth_drift),
         cmocka_unit_test(test_recalibrate),
         cmocka_unit_test(test_uncalibrated_never_recalibrate),
     };

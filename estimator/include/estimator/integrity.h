@@ -78,23 +78,6 @@ struct integrity_config {
     int16_t cal_corr_q15[ANGLES_SENSORS];
 };
 
-/* The offsets' wander the parity shows over spans of a minute or more (integrity_wander.c):
- * this span's sums, the previous span's mean, and the sums over the span pairs so far. */
-struct integrity_wander {
-    fix_q32_t sum_mm;    /* Σ parity of this span's blocks, Q32 mm */
-    fix_q32_t sum_w;     /* Σ their white variances, Q32 mm² */
-    fix_q32_t prev_mm;   /* the previous span's mean parity */
-    fix_q32_t prev_w;    /* ... its white variance */
-    fix_q32_t excess;    /* Σ (D² − white) over consecutive spans, Q32 mm² */
-    fix_q32_t white;     /* Σ white */
-    uint32_t end;        /* rows at the previous span's end */
-    uint32_t n;          /* span pairs so far */
-    uint32_t prev_rows;  /* the previous span's length, rows */
-    uint32_t prior_rows; /* Σ (T1 + T2)/2 over the pairs, rows: what the prior walk predicts */
-    uint32_t cut_q16;    /* 1 − the priors' scale (Q16): 0 until n >= WANDER_MIN_SPANS */
-    uint16_t blocks;     /* blocks in this span */
-};
-
 /* What is learnt across windows: the per-sensor drift variance from the parity
  * residual's mean square beyond the white noise the windows themselves predict, and the
  * lag a steady motion leaves, from the last four blocks' means (a ramp too slow for one
@@ -110,13 +93,12 @@ struct integrity_state {
     fix_q32_t steady_lag2_mm2[INTEGRITY_AXES];  /* learnt lag² per axis, Q32 mm², held
                                                    until the next block */
     /* Drift since the start (docs/estimator-design.md "Drift since the start"): */
-    uint32_t rows;                  /* rows since the start at this window's end */
-    uint32_t long_blocks;           /* blocks in drift_long_mm2 (no cap: the whole run) */
-    fix_q32_t drift_long_mm2;       /* the parity's drift samples' mean over the whole run */
-    fix_q32_t shown_mm2;            /* ... the recent blocks' mean not clipped above: the drift the
-                                       parity shows, for `recalibrate` */
-    fix_q32_t walk_mm2;             /* the prior walk's variance at the last block, Q32 mm² */
-    struct integrity_wander wander; /* the offsets' wander over spans (integrity_wander.c) */
+    uint32_t rows;            /* rows since the start at this window's end */
+    uint32_t long_blocks;     /* blocks in drift_long_mm2 (no cap: the whole run) */
+    fix_q32_t drift_long_mm2; /* the parity's drift samples' mean over the whole run */
+    fix_q32_t shown_mm2;      /* ... the recent blocks' mean not clipped above: the drift the
+                                 parity shows, for `recalibrate` */
+    fix_q32_t walk_mm2;       /* the prior walk's variance at the last block, Q32 mm² */
 };
 
 /* Per-sensor sums of the used readings of a window against their row index (0 = the
@@ -189,16 +171,6 @@ void integrity_assess(struct integrity_state *st, const struct integrity_config 
  * and the prior walk's offset_walk · t since the start (docs/estimator-design.md
  * "Drift since the start"). */
 fix_q32_t integrity_drift_var(const struct integrity_state *st);
-
-/* One block's parity (Q32 mm), at rows_now rows since the start, and its white variance (Σ of the
- * sensors' s²/n, Q32 mm²) into the minute spans whose consecutive means show the offsets' wander
- * (integrity_wander.c); called once per block with all four sensors used. */
-void integrity_wander_add(struct integrity_wander *w, const struct integrity_config *cfg,
-                          uint32_t rows_now, fix_q32_t parity_mm, fix_q32_t white_mm2);
-
-/* A prior variance (the offset stability², the walk) scaled by what the parity's wander
- * allows: at most the prior, the prior itself until four span pairs are seen. */
-fix_q32_t integrity_wander_scaled(const struct integrity_wander *w, fix_q32_t prior_mm2);
 
 /* Variance (Q32 mm², saturating) of the axis' least-squares combination of the sensor
  * means over the set `used` (DESIGN.md §2: y_α = (x_C − x_A)/2 with all four, ...), for
