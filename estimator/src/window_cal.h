@@ -42,8 +42,8 @@ FIX_INLINE void window_correct(const struct window_state *w,
 FIX_INLINE void window_correct_newest_one(struct window_state *w, unsigned k, uint16_t raw) {
     const int32_t x = window_correct_one(w, k, raw);
     w->newest_fine[k] = x;
-    const int32_t f = x + w->newest_carry[k];
-    w->newest_carry[k] = f & (int32_t)(ANGLES_FINE_ONE - 1u);
+    const int32_t f = x + (int32_t)w->newest_carry[k];
+    w->newest_carry[k] = (uint32_t)f & ((uint32_t)ANGLES_FINE_ONE - 1u);
     w->newest_mm[k] = (uint16_t)((uint32_t)(f < 0 ? 0 : f) >> ANGLES_FINE_SHIFT);
 }
 

@@ -124,8 +124,8 @@ struct window_state {
     uint16_t newest_mm[ANGLES_SENSORS];        /* ... in whole mm with the previous rows'
                                                   rounding carried (0 below 0): what a consumer
                                                   of whole mm (the Kalman filter) takes */
-    int32_t newest_carry[ANGLES_SENSORS];      /* the rounding left over, fine units + 1/2 mm:
-                                                  0 .. 1023 (window_cal.h) */
+    uint32_t newest_carry[ANGLES_SENSORS];     /* the rounding left over, fine units + 1/2 mm:
+                                                 0 .. 1023 (window_cal.h) */
     struct window_row ring[WINDOW_MAX_SAMPLES];
     uint16_t oldest;          /* ring index of the oldest row */
     uint16_t fill;            /* rows held, <= cfg.length */
