@@ -39,8 +39,8 @@ int window_init(struct window_state *w, const struct window_config *cfg) {
         w->cal_inv_gain2_q32[k] = 2 * r + fix_mul_shr_s64(r, r, FIX_Q32_SHIFT, NULL);
         w->newest_fine[k] = 0;
         w->newest_mm[k] = 0;
-        w->newest_carry[k] =
-            (uint32_t)ANGLES_FINE_ONE / 2u; /* nothing left over: round to nearest */
+        /* nothing left over yet: the first row rounds to nearest (window_cal.h) */
+        w->newest_carry[k] = (uint32_t)ANGLES_FINE_ONE / 2u;
     }
     window_clear(w);
     return WINDOW_OK;
