@@ -17,25 +17,31 @@
 #     [COMPILE_OPTIONS <flag>...]  after the standard flags (exemptions, with a reason)
 #     [OUTPUT_DIR <dir>]           default ${CMAKE_CURRENT_BINARY_DIR}/fuzz
 #     [TEST <ctest name>]          default fuzz.<name>
-#     ARGS <libFuzzer flag>...     must bound the run: -runs=N or -max_total_time=S
-#     CORPUS <seed dir>...         committed seeds, read only
-#     [WORK <dir>])                default ${CMAKE_CURRENT_BINARY_DIR}/<name>_work
+#     [ARGS <libFuzzer flag>...]   the campaign's flags (-max_len=N, -dict=FILE)
+#     CORPUS <seed dir>...)        committed seeds, read only
 #
 # Builds OUTPUT_DIR/<name> (custom target <name>, in ALL, also a dependency of
-# the target tof_fuzzers). The test runs the binary with ARGS over WORK/corpus
-# (new inputs land there, never in the source tree) and the CORPUS dirs; a
-# crash, leak or timeout leaves its input as WORK/crash-* (leak-*, timeout-*,
-# oom-*) and fails the test with libFuzzer's report. ctest TIMEOUT is 300 s.
+# the target tof_fuzzers) and registers two ways to run it:
 #
-# This file is also the test runner (cmake -P cmake/TofFuzz.cmake, see
-# tof_fuzz_run below).
+# - The ctest (label fuzz) executes every committed seed once under ASan/UBSan
+#   and the harness's own invariants. Its verdict is a function of the commit
+#   alone, the same on any machine. A mutation run is not: even with -seed=1,
+#   -reload=0, one worker and a count bound, libFuzzer's comparison tables take
+#   operand values, pointers among them, so address-space randomisation
+#   changes the schedule (measured: fuzz_vl53, 20,000 runs, three runs, two
+#   different coverages; identical with randomisation off, which a container's
+#   seccomp profile commonly forbids).
+# - Mutation campaigns run by a separate command, tests/fuzz/long_run.sh (or the
+#   target fuzz_campaign), over every target listed in
+#   ${CMAKE_BINARY_DIR}/fuzz_targets.txt, which this function writes. A crash
+#   a campaign finds is fixed and its input committed to the target's first
+#   CORPUS dir, where every later ctest replays it.
 
 # --- runner (script mode) ----------------------------------------------------
 
-# cmake -DFUZZ_EXE=<exe> -DFUZZ_WORK=<dir> "-DFUZZ_ARGS=<flag;...>"
-#       "-DFUZZ_SEEDS=<dir;...>" -P TofFuzz.cmake
+# cmake -DFUZZ_EXE=<exe> "-DFUZZ_SEEDS=<dir;...>" -P TofFuzz.cmake
 function(tof_fuzz_run)
-  foreach(var FUZZ_EXE FUZZ_WORK FUZZ_ARGS FUZZ_SEEDS)
+  foreach(var FUZZ_EXE FUZZ_SEEDS)
     if(NOT DEFINED ${var})
       message(FATAL_ERROR "TofFuzz.cmake: -D${var}=... is required")
     endif()
@@ -43,30 +49,35 @@ function(tof_fuzz_run)
   if(NOT EXISTS "${FUZZ_EXE}")
     message(FATAL_ERROR "TofFuzz.cmake: fuzzer ${FUZZ_EXE} is not built")
   endif()
+  set(inputs "")
   foreach(dir IN LISTS FUZZ_SEEDS)
     if(NOT IS_DIRECTORY "${dir}")
       message(FATAL_ERROR "TofFuzz.cmake: seed corpus ${dir} does not exist")
     endif()
+    file(GLOB found LIST_DIRECTORIES false "${dir}/*")
+    list(APPEND inputs ${found})
   endforeach()
-  file(MAKE_DIRECTORY ${FUZZ_WORK}/corpus)
+  list(SORT inputs)
+  list(LENGTH inputs count)
+  if(count EQUAL 0)
+    message(FATAL_ERROR "TofFuzz.cmake: no seeds in ${FUZZ_SEEDS}")
+  endif()
+  # Inputs named one by one: libFuzzer executes each once, whole (no -max_len
+  # truncation), and stops.
   execute_process(
-    COMMAND ${FUZZ_EXE} ${FUZZ_ARGS} -print_final_stats=1 -artifact_prefix=${FUZZ_WORK}/
-            ${FUZZ_WORK}/corpus ${FUZZ_SEEDS}
+    COMMAND ${FUZZ_EXE} -timeout=10 -rss_limit_mb=2048 ${inputs}
     RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
-  string(REGEX MATCH "stat::number_of_executed_units: *[0-9]+" runs "${err}")
-  string(REGEX MATCH "stat::average_exec_per_sec: *[0-9]+" speed "${err}")
-  string(REGEX MATCHALL "cov: [0-9]+ ft: [0-9]+" cov "${err}")
-  set(last_cov "")
-  if(cov)
-    list(POP_BACK cov last_cov)
-  endif()
+  string(REGEX MATCHALL "\nExecuted [^\n]*" executed "\n${err}")
+  list(LENGTH executed ran)
   if(NOT rc EQUAL 0)
-    message(FATAL_ERROR "fuzzer failed (exit ${rc}); input saved under ${FUZZ_WORK}\n${err}")
+    list(GET FUZZ_SEEDS 0 first_seeds)
+    message(FATAL_ERROR "a committed seed fails (exit ${rc}): fix the code; the input is "
+                        "already a regression seed under ${first_seeds}\n${err}")
   endif()
-  if(NOT runs)
-    message(FATAL_ERROR "fuzzer printed no statistics; did it run?\n${err}")
+  if(NOT ran EQUAL count)
+    message(FATAL_ERROR "fuzzer executed ${ran} of ${count} seeds\n${err}")
   endif()
-  message(STATUS "fuzz ok: ${runs}; ${speed}; last ${last_cov}")
+  message(STATUS "fuzz ok: ${count} committed seeds executed, none failed")
 endfunction()
 
 if(CMAKE_SCRIPT_MODE_FILE STREQUAL CMAKE_CURRENT_LIST_FILE)
@@ -120,6 +131,14 @@ set(TOF_FUZZ_FLAGS -std=c11 -g -O1 -fno-omit-frame-pointer
 
 if(TOF_FUZZ_ENABLED AND NOT TARGET tof_fuzzers)
   add_custom_target(tof_fuzzers ALL)
+  # The campaign's list starts empty at each configure; tof_fuzz_target appends.
+  file(WRITE ${CMAKE_BINARY_DIR}/fuzz_targets.txt "")
+  set(TOF_FUZZ_CAMPAIGN_SECONDS 600 CACHE STRING "Seconds each target runs in fuzz_campaign")
+  add_custom_target(fuzz_campaign
+    COMMAND sh ${PROJECT_SOURCE_DIR}/tests/fuzz/long_run.sh ${CMAKE_BINARY_DIR}
+            ${TOF_FUZZ_CAMPAIGN_SECONDS}
+    DEPENDS tof_fuzzers USES_TERMINAL
+    COMMENT "libFuzzer campaign: every target for ${TOF_FUZZ_CAMPAIGN_SECONDS} s")
 endif()
 
 # One warning per configure listing every fuzz test left out (deferred to the
@@ -139,29 +158,25 @@ function(tof_fuzz_report_missing)
 endfunction()
 
 function(tof_fuzz_target name)
-  cmake_parse_arguments(ARG "" "OUTPUT_DIR;TEST;WORK"
+  cmake_parse_arguments(ARG "" "OUTPUT_DIR;TEST"
     "SOURCES;INCLUDES;DEFINITIONS;LIBS;COMPILE_OPTIONS;ARGS;CORPUS" ${ARGN})
   if(ARG_UNPARSED_ARGUMENTS)
     message(FATAL_ERROR "tof_fuzz_target(${name}): unknown arguments ${ARG_UNPARSED_ARGUMENTS}")
   endif()
-  foreach(required SOURCES ARGS CORPUS)
+  foreach(required SOURCES CORPUS)
     if(NOT ARG_${required})
       message(FATAL_ERROR "tof_fuzz_target(${name}): ${required} is required")
     endif()
   endforeach()
-  # Without a bound libFuzzer runs until ctest kills it.
-  if(NOT ARG_ARGS MATCHES "(^|;)-(runs|max_total_time)=[0-9]+(;|$)")
-    message(FATAL_ERROR "tof_fuzz_target(${name}): ARGS must bound the run "
-                        "(-runs=N or -max_total_time=S): ${ARG_ARGS}")
+  if(ARG_ARGS MATCHES "(^|;)-(runs|max_total_time|jobs|workers|fork)=")
+    message(FATAL_ERROR "tof_fuzz_target(${name}): ARGS are the campaign's input flags; "
+                        "its length is long_run.sh's: ${ARG_ARGS}")
   endif()
   if(NOT ARG_TEST)
     set(ARG_TEST fuzz.${name})
   endif()
   if(NOT ARG_OUTPUT_DIR)
     set(ARG_OUTPUT_DIR ${CMAKE_CURRENT_BINARY_DIR}/fuzz)
-  endif()
-  if(NOT ARG_WORK)
-    set(ARG_WORK ${CMAKE_CURRENT_BINARY_DIR}/${name}_work)
   endif()
 
   if(NOT TOF_FUZZ_ENABLED)
@@ -217,8 +232,12 @@ function(tof_fuzz_target name)
     list(APPEND seeds ${dir})
   endforeach()
   add_test(NAME ${ARG_TEST}
-    COMMAND ${CMAKE_COMMAND} -DFUZZ_EXE=${exe} -DFUZZ_WORK=${ARG_WORK}
-            "-DFUZZ_ARGS=${ARG_ARGS}" "-DFUZZ_SEEDS=${seeds}"
+    COMMAND ${CMAKE_COMMAND} -DFUZZ_EXE=${exe} "-DFUZZ_SEEDS=${seeds}"
             -P ${CMAKE_CURRENT_FUNCTION_LIST_FILE})
   set_tests_properties(${ARG_TEST} PROPERTIES LABELS fuzz TIMEOUT 300)
+
+  # One line per target for the campaign: name|binary|seed dirs|flags.
+  list(JOIN seeds " " seed_words)
+  list(JOIN ARG_ARGS " " arg_words)
+  file(APPEND ${CMAKE_BINARY_DIR}/fuzz_targets.txt "${name}|${exe}|${seed_words}|${arg_words}\n")
 endfunction()

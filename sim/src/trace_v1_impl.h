@@ -53,7 +53,8 @@ struct trace_field trace_v1_make_field(const char *line, size_t start, size_t en
 int trace_v1_meta_uint(const struct trace_field *f, uint64_t max, uint64_t *out);
 
 /* A whole metadata value as a positive decimal in units of 10^-decimals: 0 with *units
- * (saturated at INT32_MAX) and *exact, or -1 (not a positive number). */
+ * (saturated at INT32_MAX) and *exact, or -1 (not a positive number, or one that rounds
+ * to 0 units). */
 int trace_v1_meta_positive(const struct trace_field *f, unsigned decimals, int32_t *units,
                            bool *exact);
 

@@ -249,6 +249,11 @@ int trace_v1_meta_positive(const struct trace_field *f, unsigned decimals, int32
         return -1;
     }
     const uint64_t v = d.units + d.round_up;
+    /* Positive but below half a unit (3e-400): every layer above would read 0, which is
+     * not a positive value (a host's strtod underflows to 0.0). */
+    if (v == 0u) {
+        return -1;
+    }
     *units = v > (uint64_t)INT32_MAX ? INT32_MAX : (int32_t)v;
     *exact = !d.below && v <= (uint64_t)INT32_MAX;
     return 0;

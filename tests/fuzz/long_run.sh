@@ -14,23 +14,22 @@ set -u
 build=${1:?usage: long_run.sh BUILD_DIR [SECONDS] [OUT]}
 seconds=${2:-600}
 out=${3:-$build/fuzz-long}
-src=$(cd "$(dirname "$0")/../.." && pwd)
 mkdir -p "$out"
 
-# name | binary (relative to BUILD_DIR) | seed dir (relative to the source) | extra flags
-targets="
-telemetry_decoder|tests/telemetry/fuzz/fuzz_decoder|tests/telemetry/corpus/decoder|
-telemetry_command|tests/telemetry/fuzz/fuzz_command|tests/telemetry/corpus/command|
-trace_reader|tests/scene/fuzz/fuzz_trace_reader|tests/scene/corpus|-max_len=4096 -dict=$src/tests/scene/trace.dict
-fuzz_attitude|tests/fuzz/bin/fuzz_attitude|tests/fuzz/corpus/fuzz_attitude|-max_len=4096
-fuzz_estimator_math|tests/fuzz/bin/fuzz_estimator_math|tests/fuzz/corpus/fuzz_estimator_math|-max_len=2048
-fuzz_vl53|tests/fuzz/bin/fuzz_vl53|tests/fuzz/corpus/fuzz_vl53|-max_len=4096
-"
+# name|binary|seed dirs|flags, one line per target, written by the configure
+# (tof_fuzz_target in cmake/TofFuzz.cmake).
+manifest=$build/fuzz_targets.txt
+if [ ! -s "$manifest" ]; then
+    echo "long_run.sh: $manifest is missing or empty: configure and build $build with" \
+         "the fuzzers (clang and libclang-rt-14-dev, tools/setup.sh)" >&2
+    exit 1
+fi
+targets=$(cat "$manifest")
 
 run_one() { # name binary seeds extra
     name=$1
     [ "${FUZZ_REPORT_ONLY:-0}" = 1 ] && return
-    bin=$build/$2
+    bin=$2
     if [ ! -x "$bin" ]; then
         echo "$name: $bin not built" > "$out/$name.log"
         return
@@ -38,7 +37,7 @@ run_one() { # name binary seeds extra
     mkdir -p "$out/$name/corpus"
     # shellcheck disable=SC2086  # $4 holds several flags
     "$bin" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
-        -artifact_prefix="$out/$name/" $4 "$out/$name/corpus" "$src/$3" > "$out/$name.log" 2>&1
+        -artifact_prefix="$out/$name/" $4 "$out/$name/corpus" $3 > "$out/$name.log" 2>&1
     echo "exit=$?" >> "$out/$name.log"
 }
 

@@ -171,6 +171,11 @@ static void test_missing_arm(void **state) {
                  "arm_mm must be a positive number of millimetres, got 'abc'");
     expect_error("# tof-trace v1\n# arm_mm=\n" COLS "0,1,2,3,4\n", "2:10", "arm_mm must be");
     expect_error("# tof-trace v1\n# arm_mm=-3\n" COLS "0,1,2,3,4\n", "2:10", "arm_mm must be");
+    /* Positive text whose value rounds to 0 µm (strtod underflows 3e-400 to 0.0). */
+    expect_error("# tof-trace v1\n# arm_mm=3e-400\n" COLS "0,1,2,3,4\n", "2:10",
+                 "arm_mm must be a positive number of millimetres, got '3e-400'");
+    expect_error("# tof-trace v1\n# arm_mm=0.0004\n" COLS "0,1,2,3,4\n", "2:10",
+                 "arm_mm must be a positive number of millimetres, got '0.0004'");
     expect_error("# tof-trace v1\n# arm_mm=30\n# arm_mm=31\n" COLS "0,1,2,3,4\n", "3:3",
                  "duplicate metadata key 'arm_mm'");
     expect_error(HEAD "# period_ms=0\n" COLS "0,1,2,3,4\n", "3:13", "period_ms must be");
