@@ -4,7 +4,7 @@
 - HEAD.cal text (DESIGN.md section 6a) <-> the flight unit's record section 2 version 1
   (firmware/calibration_record.h), which travels as it is stored in the telemetry's
   write-calibration command and calibration message (docs/telemetry.md). The decimal
-  conversion is the trace reader's (sim/src/trace_v1_cal.c), exactly: offsets and their sd
+  conversion is the trace reader's (trace/src/trace_v1_cal.c), exactly: offsets and their sd
   to 1 um, gains read to 1e-9 then to 1 ppm of (gain - 1), gain sd to 1 ppm, the
   offset-gain correlation to Q15, each rounded half away from zero; a section read back
   and written again as HEAD.cal gives the same bytes.

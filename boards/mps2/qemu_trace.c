@@ -9,7 +9,7 @@
 
 _Static_assert((int)TRACE_MODE_SHORT == (int)VL53_DISTANCE_SHORT &&
                    (int)TRACE_MODE_LONG == (int)VL53_DISTANCE_LONG,
-               "sim/trace_v1.h's modes carry the driver's numbers");
+               "trace/trace_v1.h's modes carry the driver's numbers");
 
 static int fail(struct qemu_trace *t, uint32_t line, uint32_t col, const char *what) {
     struct tof_text out;

@@ -1,6 +1,6 @@
 /*
  * The QEMU replay image's trace input: trace v1 (DESIGN.md §5) read through
- * semihosting by the one trace v1 reader (sim/trace_v1.h), so its rules and messages
+ * semihosting by the one trace v1 reader (trace/trace_v1.h), so its rules and messages
  * ("file:line:column: what") are host_sim's. It keeps the last rows in a ring for the
  * device models and the output, and chooses the parts' distance mode by sim/'s policy
  * (trace_mode_choose) with the evidence read so far: it cannot read the trace ahead as
@@ -14,7 +14,7 @@
 #include <stdint.h>
 
 #include "sim/range_source.h"
-#include "sim/trace_v1.h"
+#include "trace/trace_v1.h"
 #include "vl53/vl53.h"
 
 #define QEMU_TRACE_RING 64u /* rows kept for the device models and the output */

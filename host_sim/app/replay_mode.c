@@ -9,7 +9,7 @@
 
 _Static_assert((int)TRACE_MODE_SHORT == (int)VL53_DISTANCE_SHORT &&
                    (int)TRACE_MODE_LONG == (int)VL53_DISTANCE_LONG,
-               "sim/trace_v1.h's modes carry the driver's numbers");
+               "trace/trace_v1.h's modes carry the driver's numbers");
 
 /* The trace's readings in (1,360, 4,000] mm, from a second pass of the reader over the
  * file. 0 with *ev, or -1 when the file is not a regular one (a pipe cannot be read

@@ -20,11 +20,12 @@ MAY_INCLUDE = {
     "pose": set(),
     "drivers": {"hal"},
     "sim": {"hal"},
+    "trace": set(),
     "firmware": {"hal", "drivers", "estimator"},
-    "boards": {"hal", "drivers", "estimator", "firmware", "sim"},
-    "host_sim": {"hal", "drivers", "estimator", "firmware", "sim"},
-    "host_sim/camera": {"hal", "drivers", "estimator", "firmware", "sim", "pose"},
-    "twin": {"hal", "drivers", "estimator", "firmware", "sim", "host_sim"},
+    "boards": {"hal", "drivers", "estimator", "firmware", "sim", "trace"},
+    "host_sim": {"hal", "drivers", "estimator", "firmware", "sim", "trace"},
+    "host_sim/camera": {"hal", "drivers", "estimator", "firmware", "sim", "trace", "pose"},
+    "twin": {"hal", "drivers", "estimator", "firmware", "sim", "trace", "host_sim"},
 }
 FLOAT_ALLOWED = {"pose", "host_sim", "twin", "tests"}
 SOURCE_EXT = (".c", ".h", ".cpp", ".hpp", ".cc")

@@ -1,4 +1,4 @@
-/* sim/'s trace v1 reader in its own integers (sim/trace_v1.h) and the distance-mode policy. */
+/* The trace v1 reader in its own integers (trace/trace_v1.h) and the distance-mode policy. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -6,7 +6,7 @@
 #include <string.h>
 #include <cmocka.h>
 
-#include "sim/trace_v1.h"
+#include "trace/trace_v1.h"
 
 static struct trace_v1_reader reader;
 

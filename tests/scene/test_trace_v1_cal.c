@@ -1,4 +1,4 @@
-/* The trace v1 reader's head-calibration keys (sim/trace_v1.h, DESIGN.md §5): exact integers,
+/* The trace v1 reader's head-calibration keys (trace/trace_v1.h, DESIGN.md §5): exact integers,
  * whole-or-nothing, errors with line and column. */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -7,7 +7,7 @@
 #include <string.h>
 #include <cmocka.h>
 
-#include "sim/trace_v1.h"
+#include "trace/trace_v1.h"
 
 static struct trace_v1_reader reader;
 static unsigned char block[64];

@@ -1,4 +1,4 @@
-/* Trace format v1: host_sim's layer over the one reader (sim/trace_v1.h), and the writer. */
+/* Trace format v1: host_sim's layer over the one reader (trace/trace_v1.h), and the writer. */
 #include "scene/trace.h"
 
 #include <errno.h>

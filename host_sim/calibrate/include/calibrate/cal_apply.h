@@ -15,7 +15,7 @@
 #include "firmware/config.h"
 #include "firmware/record.h"
 #include "sim/sim_flash.h"
-#include "sim/trace_v1.h"
+#include "trace/trace_v1.h"
 
 /* What a HEAD.cal says it was made in (its keys head_id, distance_mode, timing_budget_ms,
  * as tools/tof_telemetry.py --read-cal writes them, and part_id_A..part_id_D, the parts' NVM

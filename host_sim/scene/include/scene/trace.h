@@ -7,7 +7,7 @@
  *   t_ms,a_mm,b_mm,c_mm,d_mm,a_st,b_st,c_st,d_st,alpha_deg,beta_deg
  *   0,98,101,102,100,0,0,0,0,1.000,0.000
  *
- * The reader is the one trace v1 reader of sim/ (sim/trace_v1.h: integer C, every
+ * The reader is the one trace v1 reader of trace/ (trace/trace_v1.h: integer C, every
  * target) with the host's parts around it: a FILE* or a memory buffer as its input, a
  * 64 KB block, the file name in front of its messages ("file:line:column: what") and its
  * fixed-point values as doubles (the same doubles strtod gives for the text). A status of
@@ -23,7 +23,7 @@
 #include <stdio.h>
 
 #include "scene/row.h"
-#include "sim/trace_v1.h"
+#include "trace/trace_v1.h"
 
 #define TRACE_ERR_MAX  1024u
 #define TRACE_IO_BLOCK 65536u

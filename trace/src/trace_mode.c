@@ -1,5 +1,5 @@
-/* The replay's distance mode from a trace v1 (sim/trace_v1.h): one policy for every target. */
-#include "sim/trace_v1.h"
+/* The replay's distance mode from a trace v1 (trace/trace_v1.h): one policy for every target. */
+#include "trace/trace_v1.h"
 
 #include <stddef.h>
 

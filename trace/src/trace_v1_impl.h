@@ -9,7 +9,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "sim/trace_v1.h"
+#include "trace/trace_v1.h"
 
 /* ---- messages (trace_v1_msg.c) ---- */
 

@@ -1,4 +1,4 @@
-/* The head's calibration keys of a trace or a HEAD.cal in integers (sim/trace_v1.h, DESIGN.md §5,
+/* The head's calibration keys of a trace or a HEAD.cal in integers (trace/trace_v1.h, DESIGN.md §5,
  * §6a). */
 #include <stdint.h>
 #include <string.h>

@@ -1,5 +1,5 @@
-/* Trace format v1 reader: lines, metadata, header and the row stream (sim/trace_v1.h). */
-#include "sim/trace_v1.h"
+/* Trace format v1 reader: lines, metadata, header and the row stream (trace/trace_v1.h). */
+#include "trace/trace_v1.h"
 
 #include <string.h>
 
