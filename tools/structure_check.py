@@ -22,7 +22,7 @@ import sys
 
 FIRMWARE_DIRS = ["estimator", "drivers", "hal", "firmware", "boards", "sim", "trace"]
 LOOP_FREE_DIRS = ["estimator", "drivers", "hal", "firmware", "boards", "sim", "trace", "pose",
-                  "twin", "host_sim"]
+                  "twin", "hostlib", "host_sim"]
 CODE_DIRS = LOOP_FREE_DIRS + ["tests", "tools"]
 MAX_FILE_LINES = 600
 MAX_FUNCTION_LINES = 80

@@ -6,13 +6,13 @@
  *
  * For every scenario and estimator it prints the RMS and mean absolute α and β
  * errors over the windows the estimator reported as valid, beside the
- * Cramér-Rao bound of the same windows (host_sim/scene/crb.h: the linear model
+ * Cramér-Rao bound of the same windows (hostlib/scene, scene/crb.h: the linear model
  * of DESIGN.md §2 with the true per-sensor noise and the readings an oracle
  * would keep), and the largest difference between the fixed-point outputs and
  * a plain double implementation of the same algorithms on the same data.
  * It also reproduces the shape of the paper's Table I.
  *
- * Scenario generation is host_sim/scene (shared with `host_sim scenario`).
+ * Scenario generation is hostlib/scene (shared with `host_sim scenario`).
  * Host only; floating point is fine here.
  */
 #include <math.h>

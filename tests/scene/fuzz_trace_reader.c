@@ -1,5 +1,5 @@
 /*
- * libFuzzer target for the trace v1 reader (host_sim/scene/src/trace.c): any
+ * libFuzzer target for the trace v1 reader (hostlib/scene/src/trace.c): any
  * byte string must end in rows or in one well-formed error, never a crash, a
  * hang or an over-read (built with ASan/UBSan). Checked invariants:
  *   - an error reads "t.csv:<line>:<column>: <message>" with line, column ≥ 1;

@@ -8,7 +8,7 @@
 #include <string.h>
 
 #ifndef TOF_SOURCE_DIR
-#error "TOF_SOURCE_DIR must name the repository (set by host_sim/scene/CMakeLists.txt)"
+#error "TOF_SOURCE_DIR must name the repository (set by hostlib/scene/CMakeLists.txt)"
 #endif
 
 int scene_shared_dir(char *buf, size_t buflen) {
