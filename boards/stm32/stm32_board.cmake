@@ -5,7 +5,7 @@
 # interrupt, whose vector the shared startup points at Uart_IRQHandler (stm32_board.c).
 #
 # TEST_VARIANTS v...: also firmware-<board>-<v>.elf, the same image built with TWIN_TEST_<V>
-# defined (test builds for the twin, twin/tests); the flight image is never changed by them.
+# defined (test builds for the twin, tests/twin); the flight image is never changed by them.
 function(tof_stm32_board board core irqs openocd_cfg ld)
   cmake_parse_arguments(ARG "NO_FLOAT" "UART_IRQ" "TEST_VARIANTS" ${ARGN})
   if(NOT DEFINED ARG_UART_IRQ)

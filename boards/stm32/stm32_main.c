@@ -26,7 +26,7 @@ static struct tof_record_store records; /* the saved settings (firmware/settings
 #include "stm32_board.h"
 #include "stm32_i2c_regs.h"
 #include "stm32_reg.h"
-/* Test builds for the twin (twin/tests), never the flight image: the flight ELF is built
+/* Test builds for the twin (tests/twin), never the flight image: the flight ELF is built
  * without any of these. Kept across the watchdog reset so the hang happens once. */
 __attribute__((section(".noinit"))) static volatile uint32_t twin_test_boots;
 #define TWIN_TEST_MAGIC 0x7E57B007u

@@ -105,7 +105,7 @@ static void test_arm_period_and_calibration(void **state) {
     assert_int_equal(parse_ok("set-period 10000").type, TLM_TYPE_SET_PERIOD);
     assert_int_equal(parse_ok("read-calibration").type, TLM_TYPE_READ_CALIBRATION);
     assert_int_equal(parse_ok("re-zero 50").u.rezero_samples, 50u);
-    /* twin/tests/head.cal as tools/tof_telemetry.py --send-cal sends it */
+    /* tests/twin/head.cal as tools/tof_telemetry.py --send-cal sends it */
     static const char hex[] =
         "020150000000000001010f00e2040000d00700001e000000c8000000f68812fdffff30f8ffff1e000000c8"
         "000000f68824faffffe80300001e000000c8000000f688f401000018fcffff1e000000c8000000f688";

@@ -25,7 +25,7 @@ def clean_tree(root):
     write(root, "estimator/src/low.c", "/* The bottom. */\nint low(int x) { return x + 1; }\n")
     write(root, "estimator/src/high.c",
           "/* The top: calls down. */\nint low(int x);\nint high(int x) { return low(x); }\n")
-    write(root, "twin/src/model.c",
+    write(root, "twin/models/model.c",
           "/* A model, handed its service by pointer. */\n"
           "struct svc { int (*now)(void); };\n"
           "int model_tick(const struct svc *s) { return s->now(); }\n")

@@ -119,7 +119,7 @@ static void test_read_paced_by_timingr(void) {
 
 /* A write reaches the world once its bytes are in, but at its START's time: the world's
  * bus adds the wire time itself, so its clock ends with the core's, not that far ahead (a
- * sensor released after a long write booted early in the world's time, twin/src/twin_i2c.c). */
+ * sensor released after a long write booted early in the world's time, twin/models/twin_i2c.c). */
 static void test_world_clock_follows_a_write(void) {
     fresh(true);
     w32(RCC_APB1ENR1, 1u << 21);
