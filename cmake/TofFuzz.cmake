@@ -31,7 +31,7 @@
 #   changes the schedule (measured: fuzz_vl53, 20,000 runs, three runs, two
 #   different coverages; identical with randomisation off, which a container's
 #   seccomp profile commonly forbids).
-# - Mutation campaigns run by a separate command, tests/fuzz/long_run.sh (or the
+# - Mutation campaigns run by a separate command, tools/fuzz_campaign.sh (or the
 #   target fuzz_campaign), over every target listed in
 #   ${CMAKE_BINARY_DIR}/fuzz_targets.txt, which this function writes. A crash
 #   a campaign finds is fixed and its input committed to the target's first
@@ -135,7 +135,7 @@ if(TOF_FUZZ_ENABLED AND NOT TARGET tof_fuzzers)
   file(WRITE ${CMAKE_BINARY_DIR}/fuzz_targets.txt "")
   set(TOF_FUZZ_CAMPAIGN_SECONDS 600 CACHE STRING "Seconds each target runs in fuzz_campaign")
   add_custom_target(fuzz_campaign
-    COMMAND sh ${PROJECT_SOURCE_DIR}/tests/fuzz/long_run.sh ${CMAKE_BINARY_DIR}
+    COMMAND sh ${PROJECT_SOURCE_DIR}/tools/fuzz_campaign.sh ${CMAKE_BINARY_DIR}
             ${TOF_FUZZ_CAMPAIGN_SECONDS}
     DEPENDS tof_fuzzers USES_TERMINAL
     COMMENT "libFuzzer campaign: every target for ${TOF_FUZZ_CAMPAIGN_SECONDS} s")
@@ -170,7 +170,7 @@ function(tof_fuzz_target name)
   endforeach()
   if(ARG_ARGS MATCHES "(^|;)-(runs|max_total_time|jobs|workers|fork)=")
     message(FATAL_ERROR "tof_fuzz_target(${name}): ARGS are the campaign's input flags; "
-                        "its length is long_run.sh's: ${ARG_ARGS}")
+                        "its length is fuzz_campaign.sh's: ${ARG_ARGS}")
   endif()
   if(NOT ARG_TEST)
     set(ARG_TEST fuzz.${name})

@@ -5,7 +5,11 @@
 - in code that ships in a firmware image (FIRMWARE_DIRS), no file over 600 lines and no
   function over 80 lines (from the line of its name to its closing brace);
 - no call loop between files (A calls a function defined in B and B, directly or through
-  others, calls one defined in A) in LOOP_FREE_DIRS: calls point down the layers.
+  others, calls one defined in A) in LOOP_FREE_DIRS: calls point down the layers;
+- tests are sorted by component only: every folder directly under tests/ is named after a
+  component (a top-level code folder, or a sub-folder of one with its own CMakeLists.txt,
+  like hostlib/scene or firmware/telemetry), or is tests/common (helpers every test may
+  use). Unit, fuzz, reference and bench are ctest labels, not folders.
 
 A light C reader, not a compiler: comments, strings and preprocessor lines are blanked,
 functions are the brace blocks at file scope whose head ends in a parameter list, and a
@@ -180,10 +184,35 @@ def loops(graph):
     return comps
 
 
+def component_names(root):
+    """Top-level code folders and their sub-folders that have a CMakeLists.txt."""
+    names = set()
+    for top in LOOP_FREE_DIRS:
+        base = os.path.join(root, top)
+        if not os.path.isdir(base):
+            continue
+        names.add(top)
+        for sub in os.listdir(base):
+            if os.path.isfile(os.path.join(base, sub, "CMakeLists.txt")):
+                names.add(sub)
+    return names
+
+
+def test_folder_findings(root):
+    tests = os.path.join(root, "tests")
+    if not os.path.isdir(tests):
+        return []
+    allowed = component_names(root) | {"common"}
+    return [f"tests/{d}:1: a test folder not named after a component (tests/<component>/; "
+            "kinds of test are ctest labels)"
+            for d in sorted(os.listdir(tests))
+            if os.path.isdir(os.path.join(tests, d)) and d not in allowed]
+
+
 def main():
     root = os.path.abspath(sys.argv[1] if len(sys.argv) > 1 else
                            os.path.join(os.path.dirname(__file__), ".."))
-    findings = []
+    findings = test_folder_findings(root)
     parsed = {}
     for rel in c_files(root, CODE_DIRS):
         with open(os.path.join(root, rel), encoding="utf-8") as f:

@@ -10,7 +10,7 @@ cmake --preset host-release >/dev/null
 cmake --build --preset host-release --target host_sim >/dev/null
 build/host-release/host_sim/app/host_sim replay traces/demo/realnoise_demo.csv --quiet \
   --out traces/demo/realnoise_demo.est.csv
-# the long-range target test's (a VL53L1X in long mode at 2 m: tests/target/data)
-build/host-release/host_sim/app/host_sim replay tests/target/data/long_range.csv --quiet \
-  --out tests/target/data/long_range.est.csv
-git --no-pager diff --stat -- traces/demo/realnoise_demo.est.csv tests/target/data/long_range.est.csv
+# the long-range target test's (a VL53L1X in long mode at 2 m: tests/boards/data)
+build/host-release/host_sim/app/host_sim replay tests/boards/data/long_range.csv --quiet \
+  --out tests/boards/data/long_range.est.csv
+git --no-pager diff --stat -- traces/demo/realnoise_demo.est.csv tests/boards/data/long_range.est.csv

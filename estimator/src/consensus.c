@@ -483,7 +483,7 @@ void consensus_paper(const fix_udeg_q16_t mean[ANGLES_PER_AXIS],
     const fix_udeg_q16_t result = fix_div_round_s64(sum, (int64_t)ANGLES_PER_AXIS);
     const fix_udeg_t angle = fix_sat_s32(fix_shr_round_s64(result, FIX_UDEG_Q_SHIFT));
     /* The tolerance margin can carry a converged mean of estimates near ±90° past it, where
-     * no angle lies (found by tests/fuzz: a = 1 mm, tolerance 4.9°): reported likewise. */
+     * no angle lies (found by the fuzzers: a = 1 mm, tolerance 4.9°): reported likewise. */
     if (result < lo0 - tol_q16 || result > hi0 + tol_q16 || angle > FIX_UDEG_90 ||
         angle < -FIX_UDEG_90) {
         out->status = CONSENSUS_OUTSIDE_HULL;

@@ -62,7 +62,7 @@ static void joseph_update(struct kalman_state *k, const fix_q32_t g[KALMAN_STATE
         /* A gain far above 1 (a direction an ill-conditioned P barely resolves) times a
          * large innovation can throw the state out of any physical range, and then the
          * predictions h·x out of int64: flagged (the covariance restarts), the state kept
-         * within ±KALMAN_X_LIMIT_Q32. (Found by tests/fuzz.) */
+         * within ±KALMAN_X_LIMIT_Q32. (Found by the fuzzers.) */
         const int64_t dx = fix_mul_shr_s64(gain[i], e, FIX_Q30_SHIFT, ovf);
         if (dx > 0 ? k->x[i] > KALMAN_X_LIMIT_Q32 - dx : k->x[i] < -KALMAN_X_LIMIT_Q32 - dx) {
             *ovf = true;
@@ -126,7 +126,7 @@ static bool update_exact(struct kalman_state *k, unsigned sensor, fix_q32_t z_mm
  * g comes from the mantissas, within a few units (2^-27 of the largest diagonal each) of
  * p, which moves each decrease by a few units times |k|. Along h the posterior variance
  * R (s − R)/s is at least 2^-9 of the largest diagonal (hᵀPh >= 2^-6 of it, s <= 5 R),
- * so the update keeps P positive definite wherever the exact one does. tests/reference
+ * so the update keeps P positive definite wherever the exact one does. tests/estimator/ref_tracking.cpp
  * compares P with double within 1e-6 relative + 64 LSB. */
 
 #define BLOCK_TOP_BITS     28                 /* largest diagonal mantissa in [2^27, 2^28) */
@@ -142,7 +142,7 @@ struct pblock {
 
 /* Rows a block may live before it is taken afresh from p: its mantissas drift from p by
  * up to one half unit of rounding per update (p itself receives the exact sums), and
- * that drift moves the later decreases by |k| units each (tests/reference: 16 rows keep
+ * that drift moves the later decreases by |k| units each (tests/estimator/ref_tracking.cpp: 16 rows keep
  * P within 6 LSB of its exact-block value, 64 rows within 26). */
 #define BLOCK_MAX_ROWS 16u
 /* Margin of the cheap definiteness check on the mantissas, in block units: larger than
@@ -151,7 +151,7 @@ struct pblock {
 
 /* R in block units when it is this large or larger: it does not fit the block's s = hᵀPh + R
  * below 2^62 (R up to 2^52 scaled by up to 2^30 would overflow int64), so block_update()
- * leaves such a measurement to the exact update. (Found by tests/fuzz.) */
+ * leaves such a measurement to the exact update. (Found by the fuzzers.) */
 #define BLOCK_R_TOO_LARGE ((int64_t)1 << 61)
 
 /* R of `sensor` in block units (exponent e), at most BLOCK_R_TOO_LARGE. */
@@ -352,7 +352,7 @@ static int block_update(struct kalman_state *k, struct pblock *b, unsigned senso
     int32_t *m = cv->bm;
     /* The int32 sums below rely on |m| <= max P_ii < 2^28, true of a block when it is
      * taken; a nearly singular P can lose it inside a row (the updates overshoot and a
-     * diagonal turns negative: found by tests/fuzz). Such a row goes on exactly, and the
+     * diagonal turns negative: found by the fuzzers). Such a row goes on exactly, and the
      * definiteness check at its end sees what happened. Each m + 2^28 is below 2^29
      * exactly when its bits from 29 up are clear, so one test of their OR checks all six
      * (a sixth of a row's cost as a loop of compares). */
@@ -447,7 +447,7 @@ static uint8_t update_row(struct kalman_state *k, const uint16_t range_mm[ANGLES
     /* The mantissas prove p only while a block unit is at least one LSB of p (be >= 0):
      * finer units leave p's own rounding (half an LSB per entry) outside the margin, and
      * a P of a few LSB (sliding windows, Q = 0, long runs) could round to singular
-     * unseen. (Found by tests/fuzz.) */
+     * unseen. (Found by the fuzzers.) */
     *proven = cv->bvalid && cv->be >= 0 && block_healthy(k);
     return used;
 }

@@ -25,6 +25,8 @@ def clean_tree(root):
     write(root, "estimator/src/low.c", "/* The bottom. */\nint low(int x) { return x + 1; }\n")
     write(root, "estimator/src/high.c",
           "/* The top: calls down. */\nint low(int x);\nint high(int x) { return low(x); }\n")
+    write(root, "tests/estimator/test_low.c", "/* A test of low(). */\nint t(void) { return 0; }\n")
+    write(root, "tests/common/helper.c", "/* A helper every test may use. */\nint h(void);\n")
     write(root, "twin/models/model.c",
           "/* A model, handed its service by pointer. */\n"
           "struct svc { int (*now)(void); };\n"
@@ -47,6 +49,8 @@ def main():
             "long function": ("sim/src/longfn.c", "/* Long function. */\nint g(void) {\n" +
                               "    int a = 0;\n" * 90 + "    return a;\n}\n",
                               "function g has"),
+            "test folder by kind": ("tests/unit/test_x.c", "/* A test. */\nint x(void);\n",
+                                    "not named after a component"),
             "call loop": ("estimator/src/low.c",
                           "/* Calls back up. */\nint high(int x);\n"
                           "int low(int x) { return x > 0 ? high(x - 1) : 0; }\n",

@@ -1,17 +1,17 @@
 #!/bin/sh
-# The long fuzzing run of docs/reliability.md: every libFuzzer target of the
+# The fuzzing campaign of docs/reliability.md: every libFuzzer target of the
 # project for SECONDS each (default 600), two at a time (the machine has two
 # cores), each on its committed seeds plus a corpus kept in OUT/<target>/corpus,
 # then one table of executions per second, coverage and crashes.
 #
-#   tests/fuzz/long_run.sh BUILD_DIR [SECONDS] [OUT]
+#   tools/fuzz_campaign.sh BUILD_DIR [SECONDS] [OUT]
 #     BUILD_DIR  a configured and built tree (cmake --preset host -B BUILD_DIR)
 #     OUT        logs, corpora and any crash-*/timeout-*/leak-* inputs
 #                (default BUILD_DIR/fuzz-long)
 # Exit status 1 if any target failed (crash, timeout, leak, property violation).
 # FUZZ_REPORT_ONLY=1 prints the table of an earlier run in OUT without fuzzing.
 set -u
-build=${1:?usage: long_run.sh BUILD_DIR [SECONDS] [OUT]}
+build=${1:?usage: fuzz_campaign.sh BUILD_DIR [SECONDS] [OUT]}
 seconds=${2:-600}
 out=${3:-$build/fuzz-long}
 mkdir -p "$out"
@@ -20,7 +20,7 @@ mkdir -p "$out"
 # (tof_fuzz_target in cmake/TofFuzz.cmake).
 manifest=$build/fuzz_targets.txt
 if [ ! -s "$manifest" ]; then
-    echo "long_run.sh: $manifest is missing or empty: configure and build $build with" \
+    echo "fuzz_campaign.sh: $manifest is missing or empty: configure and build $build with" \
          "the fuzzers (clang and libclang-rt-14-dev, tools/setup.sh)" >&2
     exit 1
 fi

@@ -31,7 +31,7 @@
  *              HEAD.cal gives them): the corrected readings are other data, so the paper's
  *              iterations and the gate's searches differ from `window`'s
  * `fixed` is the product's estimator; `float` the plain single-precision baseline
- * in tests/bench/float_baseline.c. tools/bench_report.py collects the lines.
+ * in tests/estimator/float_baseline.c. tools/bench_report.py collects the lines.
  * Benchmark code, not firmware: it lives in tests/ because it uses float (the baseline's
  * results); boards/mps2 links it into the bench images with the board's own files.
  */

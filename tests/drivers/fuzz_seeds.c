@@ -1,5 +1,5 @@
 /*
- * Writes the named seed corpus of the tests/fuzz targets:
+ * Writes the named seed corpora of the firmware's fuzz targets:
  *
  *   fuzz_seeds OUT_DIR   ->  OUT_DIR/fuzz_attitude/<name>.bin
  *                            OUT_DIR/fuzz_estimator_math/<name>.bin
@@ -13,9 +13,10 @@
  * written down; the fuzzer replays the file through the same harness, so each
  * seed starts it deep in a real bring-up, ranging or recovery.
  *
- * The committed corpus (tests/fuzz/corpus/) is exactly what this program writes:
- * unit.fuzz_seeds_current checks it. Regenerate after changing an input format:
- *   build/<dir>/tests/fuzz/fuzz_seeds tests/fuzz/corpus
+ * The committed corpora (tests/estimator/corpus/fuzz_attitude, fuzz_estimator_math,
+ * tests/drivers/corpus/fuzz_vl53) are exactly what this program writes:
+ * unit.fuzz_seeds_current checks them. Regenerate after changing an input format:
+ *   build/<dir>/tests/drivers/fuzz_seeds OUT, then copy OUT/<target>/ over each
  */
 #include <errno.h>
 #include <stdbool.h>
