@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""The sd calibration table of docs/estimator-benchmark.md (issue 15).
+"""The sd calibration table of docs/estimator-benchmark.md.
 
 Replays the bundled recording (traces/demo) and the traces tools/real_traces.py builds
 from a real VL53 log, tumbling and sliding, and prints per trace, mode and estimator

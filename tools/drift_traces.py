@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Long static four-sensor traces for the drift allowance (issue 23), from a real log.
+"""Long static four-sensor traces for the drift allowance, from a real log.
 
 Each sensor's noise is the real one-column log (e.g. the one-hour VL53L0X log of
 tomisuarez2/TimeOfFlightCalibration in ../shared/traces/external), minus its mean, cut and

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""The code's shape, checked (issue 21; the developers' guide, "Style"):
+"""The code's shape, checked (the developers' guide, "Style"):
 
 - every .c file opens with a one-line comment saying what it is;
 - in code that ships in a firmware image (FIRMWARE_DIRS), no file over 600 lines and no

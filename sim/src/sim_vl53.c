@@ -176,7 +176,7 @@ static uint8_t read_register(const struct sim_vl53 *dev, uint16_t reg) {
     }
     if (reg == M_FIRMWARE_STATUS) {
         /* 0 while booting, 0x01 after boot ([ULD] BootState). Once started since power-up,
-         * 0x03 ranging / 0x02 stopped: the values issue 14 reports from a part that kept
+         * 0x03 ranging / 0x02 stopped: the values a field report gives for a part that kept
          * power across an MCU reset; which bit means what is the model's assumption. */
         if (!dev->booted) {
             return 0u;

@@ -66,7 +66,7 @@ static struct sim_range constant_range(void) {
 static void publish(struct sim_vl53 *dev, const struct sim_range *range, uint32_t sample_index,
                     uint64_t time_us) {
     /* Stream count: 0 on the first range after power-up, then +1, 0xFF wraps to 0x80 ([API]);
-     * it does not restart at a later start (issue 14; the model's choice, see docs). */
+     * it does not restart at a later start (the model's choice, see docs). */
     if (!dev->stream_started) {
         dev->stream_count = 0u;
         dev->stream_started = true;

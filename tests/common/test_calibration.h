@@ -1,5 +1,5 @@
 /*
- * Head calibrations for tests (issue 23). Exact: calibrated, offsets 0, gains 1, every sd 0
+ * Head calibrations for tests. Exact: calibrated, offsets 0, gains 1, every sd 0
  * (the estimator's default configuration is an uncalibrated head, never `ok`; a test about
  * `ok` rows of ideal sensors sets this one). Fitted: a realistic head with every field set.
  */

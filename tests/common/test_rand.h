@@ -1,5 +1,5 @@
 /*
- * Deterministic pseudo-random numbers for the host tests, written once (issue 17): the
+ * Deterministic pseudo-random numbers for the host tests, written once: the
  * generators the estimator's tests each carried a copy of. Same sequences as those
  * copies, so every test draws exactly the inputs it drew before.
  */

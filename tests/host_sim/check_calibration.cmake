@@ -1,4 +1,4 @@
-# host_sim replay's head calibration reaches the firmware (issue 23): from the trace's keys,
+# host_sim replay's head calibration reaches the firmware: from the trace's keys,
 # from calibration=FILE beside the trace, from --calibration (which wins), or none; bad
 # values are errors naming file, line and column. Read back from the report's
 # "calibration", which is what the firmware's boot put into attitude_config.calibration.

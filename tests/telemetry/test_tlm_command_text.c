@@ -95,7 +95,7 @@ static void test_row_argument(void **state) {
     assert_non_null(tlm_command_from_arg("12:raw", &row, &c));
 }
 
-/* set-arm, set-period, the calibration commands (issue 22: the twin sends every type). */
+/* set-arm, set-period, the calibration commands (the twin sends every type). */
 static void test_arm_period_and_calibration(void **state) {
     (void)state;
     assert_int_equal(parse_ok("set-arm 45.25").u.arm_um, 45250u);

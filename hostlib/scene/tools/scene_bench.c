@@ -1,6 +1,6 @@
 /*
  * scene_bench: throughput of the scene and trace code that host_sim replay
- * sits on (issue 6 wants ≥ 1,000,000 samples/s end to end, so these parts
+ * sits on (the replay is held to ≥ 1,000,000 samples/s end to end, so these parts
  * must be well above that). Prints rows per second for
  *   1. generating a scenario (table1 protocol stretched to ROWS rows),
  *   2. writing it as trace v1 to a temporary file,

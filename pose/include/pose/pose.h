@@ -1,6 +1,6 @@
 /*
  * 6-DoF pose of a target carrying circular reflectors, from one ToF camera frame
- * (issue 8; Zhu et al. 2022, ../shared/seeds/001_*.txt). The pipeline:
+ * (Zhu et al. 2022, ../shared/seeds/001_*.txt). The pipeline:
  *
  *   1. extraction (§3): raw gray threshold -> active pixel set capped at
  *      active_cap pixels (the dimmest dropped) -> negative Laplacian-of-Gaussian

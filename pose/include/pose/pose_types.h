@@ -1,5 +1,5 @@
 /*
- * Shared types of the camera pose module (issue 8; Zhu et al. 2022, "System
+ * Shared types of the camera pose module (Zhu et al. 2022, "System
  * Design for Pose Determination of Spacecraft Using Time-of-Flight Sensors",
  * ../shared/seeds/001_*.txt): error codes, camera intrinsics, frames and the
  * reflector catalog.
