@@ -13,7 +13,8 @@
  *         and its raw-status table status_rtn.
  *   [REG] ST full API register map vl53l1_register_map.h: register names and bit fields.
  *   [API] ST full API core: stream count wraps 0xFF -> 0x80.
- *   [FR]  field report (a part kept powered across an MCU reset): the first range after ST's block takes 103 ms.
+ *   [FR]  field report (a part kept powered across an MCU reset): the first range after
+ *         ST's block takes 103 ms.
  *   [NVM] ST full API: vl53l1_register_map.h puts 0x1E, 0x20, 0x22 in the group
  *         "customer_nvm_managed", and vl53l1_api_core.c (VL53L1_read_p2p_data) reads that
  *         group as "G02 registers containing data copied from NVM" once the part has booted;
