@@ -5,7 +5,7 @@
 #include <string.h>
 
 #include "attitude_internal.h"
-#include "fix_inline.h"
+#include "fixmath_internal.h"
 
 _Static_assert((ATTITUDE_EST_BUILT) != 0u && ((ATTITUDE_EST_BUILT) & ~0x0Fu) == 0u,
                "ATTITUDE_EST_BUILT: a non-empty mask of the four estimators");
