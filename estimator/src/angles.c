@@ -1,7 +1,7 @@
 /* Eq. 1 of the first paper and its β mirror: see estimator/angles.h. */
 #include "estimator/angles.h"
 
-#include "fix_atan.h"
+#include "fixmath_internal.h"
 
 #define A_ ANGLES_BIT(ANGLES_A)
 #define B_ ANGLES_BIT(ANGLES_B)

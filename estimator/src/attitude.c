@@ -5,7 +5,7 @@
 #include <string.h>
 
 #include "attitude_internal.h"
-#include "fix_inline.h"
+#include "fixmath_internal.h"
 
 _Static_assert((ATTITUDE_EST_BUILT) != 0u && ((ATTITUDE_EST_BUILT) & ~0x0Fu) == 0u,
                "ATTITUDE_EST_BUILT: a non-empty mask of the four estimators");
@@ -166,9 +166,11 @@ FIX_NOINLINE void window_end(struct attitude_state *st, struct attitude_output *
     /* the drift learning takes one window per block of N rows (every window when tumbling) */
     integrity_assess(&st->integrity, &st->icfg, &st->window, w, st->rows,
                      st->rows % cfg->window == 0u, &st->iw);
-    if (!cfg->calibration.calibrated) { /* never ok: every estimate says why; nothing to
-                                         * recalibrate (its parity reads the parts' spread) */
-        st->iw.why = (st->iw.why & ~ATTITUDE_WHY_RECALIBRATE) | ATTITUDE_WHY_UNCALIBRATED;
+    if (!cfg->calibration.calibrated) {
+        /* never ok: every estimate says why; no drift since a calibration it never had and
+         * nothing to recalibrate (its parity reads the parts' spread): only `uncalibrated` */
+        const attitude_why_t calibration_bits = ATTITUDE_WHY_RECALIBRATE | ATTITUDE_WHY_DRIFT;
+        st->iw.why = (st->iw.why & ~calibration_bits) | ATTITUDE_WHY_UNCALIBRATED;
     }
     /* what the window adds to every estimator's angles, as 1σ: computed once */
     st->extra_udeg[0] = attitude_extra_sd(st, st->iw.extra_var_mm2[INTEGRITY_ALPHA], 0u);

@@ -3,7 +3,7 @@
 
 #include <string.h>
 
-#include "fix_inline.h"
+#include "fixmath_internal.h"
 
 /* 1/12 mm² (uniform 1 mm quantisation, Sheppard) in Q32: the smallest sample
  * variance a sensor reporting integer millimetres can honestly be given. */

@@ -5,8 +5,12 @@
 
 #include <string.h>
 
-#include "fix_inline.h"
+#include "fixmath_internal.h"
 #include "integrity_internal.h"
+
+fix_q32_t integrity_drift_var(const struct integrity_state *st) {
+    return integrity_drift_var_of(st);
+}
 
 bool integrity_config_valid(const struct integrity_config *cfg) {
     return cfg->range_max_mm != 0u && cfg->range_max_mm < INTEGRITY_NO_TARGET_8190 &&

@@ -47,6 +47,14 @@ static inline fix_q32_t integrity_div_small(fix_q32_t v, int32_t d) {
     return (fix_q32_t)fix_div_u64_u16((uint64_t)v, (uint32_t)d);
 }
 
+/* integrity_drift_var() (estimator/integrity.h): the state the parity test (integrity_parity.c)
+ * learns, read by the noise budget (integrity_noise.c) without calling its neighbour. */
+static inline fix_q32_t integrity_drift_var_of(const struct integrity_state *st) {
+    fix_q32_t v = st->drift_mm2 > st->drift_long_mm2 ? st->drift_mm2 : st->drift_long_mm2;
+    v = v > st->walk_mm2 ? v : st->walk_mm2;
+    return v > 0 ? v : 0;
+}
+
 /* --- integrity_axes.c ----------------------------------------------------------------- */
 
 /* Least-squares coefficients of an axis over a sensor set, in units of 1/2 (α, β: y =

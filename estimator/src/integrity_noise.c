@@ -59,7 +59,7 @@ void integrity_noise_budget(const struct integrity_state *st, const struct integ
         /* noise under half a step does not dither the rounding: the mean keeps its error */
         const fix_q32_t quant = ss->var_mm2 < Q32_QUARTER ? Q32_TWELFTH : 0;
         /* the learnt drift and the walk since the start (integrity_parity.c), never below 0 */
-        const fix_q32_t drift = integrity_drift_var(st);
+        const fix_q32_t drift = integrity_drift_var_of(st);
         /* the calibration's share is not learnt: it is in the parity threshold (an
          * uncalibrated head's x_A + x_C − x_B − x_D reads tens of mm) and in the base the
          * drift is learnt beyond */

@@ -57,12 +57,6 @@ static fix_q32_t prior_walk(const struct integrity_config *cfg, uint32_t rows) {
     return sat ? INT64_MAX : q32;
 }
 
-fix_q32_t integrity_drift_var(const struct integrity_state *st) {
-    fix_q32_t v = st->drift_mm2 > st->drift_long_mm2 ? st->drift_mm2 : st->drift_long_mm2;
-    v = v > st->walk_mm2 ? v : st->walk_mm2;
-    return v > 0 ? v : 0;
-}
-
 /* `recalibrate`: the drift the parity shows (significant) beyond k² times the allowance
  * since the start, offset stability² plus the prior walk. */
 static bool beyond_allowance(const struct integrity_state *st, const struct integrity_config *cfg) {

@@ -3,9 +3,7 @@
  * process_noise_auto kalman_adapt.c. */
 #include <string.h>
 
-#include "kalman_adapt.h"
-#include "kalman_gate.h"
-#include "kalman_track.h"
+#include "kalman_internal.h"
 
 static void r_changed(struct kalman_state *k);
 

@@ -1,7 +1,5 @@
-/* The Kalman filter's process_noise_auto: Q and R learned from the readings (kalman_adapt.h). */
-#include "kalman_adapt.h"
-
-#include "fix_inline.h"
+/* The Kalman filter's process_noise_auto: Q and R learned from the readings (kalman_internal.h). */
+#include "kalman_internal.h"
 
 /* What each state does over time is read off the readings themselves, not the filter's
  * innovations (whose variance hides a small q under R: the slow-motion case needs ~10^7

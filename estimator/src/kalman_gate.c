@@ -1,7 +1,5 @@
-/* The Kalman filter's innovation gate: see kalman_gate.h and estimator/kalman.h. */
-#include "kalman_gate.h"
-
-#include "fix_inline.h"
+/* The Kalman filter's innovation gate: see kalman_internal.h and estimator/kalman.h. */
+#include "kalman_internal.h"
 
 void kalman_gate_init(struct kalman_state *k) {
     const uint64_t q2 = (uint64_t)k->cfg.gate_sigmas_q8 * k->cfg.gate_sigmas_q8;

@@ -1,7 +1,5 @@
-/* The Kalman filter's static run: Q = 0 rows as one LS correction each (kalman_static.h). */
-#include "kalman_static.h"
-
-#include "kalman_track.h"
+/* The Kalman filter's static run: Q = 0 rows as one LS correction each (kalman_internal.h). */
+#include "kalman_internal.h"
 
 /* With Q = 0 the information after n rows of four accepted readings with the same R is
  * y0·I + n·M, M = Σ_s h_s h_sᵀ/R_s; once the diffuse prior's y0 (2^-24 mm⁻²) is negligible
@@ -24,10 +22,6 @@
 
 #define STATIC_TOL_SHIFT 19u /* (M⁻¹_ii + M⁻¹_jj) / 2^19: 2^-18 of their mean */
 #define STATIC_U_MAX     ((int64_t)1 << 61) /* c + 1 below 2^29 rows (Q32; one row is FIX_Q32_ONE) */
-
-/* packed upper triangle 00 01 02 11 12 22 */
-static const uint8_t row_of[6] = {0u, 0u, 0u, 1u, 1u, 2u};
-static const uint8_t col_of[6] = {0u, 1u, 2u, 1u, 2u, 2u};
 
 void kalman_static_try(struct kalman_state *k) {
     struct kalman_cov *cv = &k->cov;
@@ -55,8 +49,8 @@ void kalman_static_try(struct kalman_state *k) {
     }
     const int64_t diag[3] = {m[0], m[3], m[5]};
     for (unsigned i = 0; i < 6u; ++i) {
-        const unsigned a = row_of[i];
-        const unsigned b = col_of[i];
+        const unsigned a = kalman_packed_row(i);
+        const unsigned b = kalman_packed_col(i);
         const int64_t v = fix_muldiv_s64(cv->p[a][b], c, FIX_Q32_ONE, &ovf);
         const int64_t tol = (diag[a] >> STATIC_TOL_SHIFT) + (diag[b] >> STATIC_TOL_SHIFT);
         const int64_t d = v - m[i];
@@ -92,7 +86,7 @@ FIX_INLINE bool innovation24(const struct kalman_state *k, unsigned s, uint16_t 
     if (e_hi > 63u) {
         return false;
     }
-    const int32_t v = shr_to_s32(e + 128, 8u); /* rounded to Q24 */
+    const int32_t v = fix_shr_to_s32(e + 128, 8u); /* rounded to Q24 */
     *e24 = v;
     const int64_t v2 = (int64_t)v * v;
     return !gated || (uint64_t)v2 <= k->gate_accept[s];
@@ -141,8 +135,8 @@ void kalman_static_covariance(const struct kalman_state *k,
     const struct kalman_cov *cv = &k->cov;
     const int64_t c = cv->run_u - FIX_Q32_ONE; /* the rows so far */
     for (unsigned i = 0; i < 6u; ++i) {
-        const unsigned a = row_of[i];
-        const unsigned b = col_of[i];
+        const unsigned a = kalman_packed_row(i);
+        const unsigned b = kalman_packed_col(i);
         p[a][b] = fix_muldiv_s64(cv->run_minv[i], FIX_Q32_ONE, c, NULL);
         p[b][a] = p[a][b];
     }

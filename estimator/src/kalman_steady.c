@@ -1,6 +1,6 @@
 /* The Kalman filter's steady state at Q > 0: a settled P's gains kept, and the rows that
  * reuse them (kalman_track.c calls down into this file). */
-#include "kalman_track.h"
+#include "kalman_internal.h"
 
 /* --- the steady state -------------------------------------------------------------------
  * With Q > 0 and R constant, P converges to the fixed point of the Riccati recursion, and
@@ -30,7 +30,7 @@ bool kalman_steady_row(struct kalman_state *k, const uint16_t range_mm[ANGLES_SE
         const fix_q32_t pred = kalman_h_minus(s) ? k->x[0] - k->x[j] : k->x[0] + k->x[j];
         const fix_q32_t e = ((fix_q32_t)range_mm[s] << FIX_Q32_SHIFT) - pred;
         const uint32_t e_hi = (uint32_t)((uint64_t)e >> 32) + 128u;
-        const int32_t e24 = shr_to_s32(e + 128, 8u);
+        const int32_t e24 = fix_shr_to_s32(e + 128, 8u);
         const int64_t e24_sq = (int64_t)e24 * e24;
         if (e_hi > 255u || (gated && (uint64_t)e24_sq > k->gate_accept[s])) {
             k->x[0] = x0;

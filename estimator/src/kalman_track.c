@@ -2,9 +2,7 @@
  * see estimator/kalman.h. */
 #include <string.h>
 
-#include "kalman_gate.h"
-#include "kalman_static.h"
-#include "kalman_track.h"
+#include "kalman_internal.h"
 
 /* Rows of Eq. 5 with the slopes scaled by a: A [1, −1, 0], B [1, 0, 1], C [1, 1, 0],
  * D [1, 0, −1]: h = e0 + σ e_j (update_exact, block_update). */
@@ -169,7 +167,7 @@ static int64_t block_r(const struct kalman_state *k, unsigned sensor, int32_t e)
 /* p_ij · 2^-e rounded, as a block mantissa (|p_ij| <= max P_ii < 2^(28 + e)). */
 FIX_INLINE int32_t to_block(int64_t v, int32_t e) {
     if (e > 0) {
-        return shr_to_s32(v + ((int64_t)1 << (unsigned)(e - 1)), (unsigned)e);
+        return fix_shr_to_s32(v + ((int64_t)1 << (unsigned)(e - 1)), (unsigned)e);
     }
     return (int32_t)(v * ((int64_t)1 << (unsigned)(-e)));
 }
@@ -239,15 +237,13 @@ static bool block_healthy(const struct kalman_state *k) {
 
 /* P −= dec · 2^(e − 31), one rounding per entry; dec starts again from 0. */
 static void block_apply(struct kalman_state *k, struct pblock *b) {
-    /* the packed upper triangle's row and column (a loop: cold code, half the bytes) */
-    static const uint8_t row_of[6] = {0u, 0u, 0u, 1u, 1u, 2u};
-    static const uint8_t col_of[6] = {0u, 1u, 2u, 1u, 2u, 2u};
+    /* a loop over the packed upper triangle: cold code, half the bytes */
     struct kalman_cov *cv = &k->cov;
     const int32_t sh_signed = 31 - cv->be;
     const unsigned sh = (unsigned)sh_signed; /* in [1, 61] */
     for (unsigned i = 0; i < 6u; ++i) {
-        const unsigned r = row_of[i];
-        const unsigned c = col_of[i];
+        const unsigned r = kalman_packed_row(i);
+        const unsigned c = kalman_packed_col(i);
         cv->p[r][c] -= fix_round_shr_s64(b->dec[i], sh);
         cv->p[c][r] = cv->p[r][c];
         b->dec[i] = 0;
@@ -324,9 +320,9 @@ FIX_INLINE int block_accept(struct kalman_state *k, struct pblock *b, unsigned s
     /* gains in Q31: k = g · 2^31 / s_b = g · rm / 2^(30 + es), |k| < 1 */
     const int32_t gain_shift_signed = 30 + es;
     const unsigned gain_shift = (unsigned)gain_shift_signed; /* in [20, 61] */
-    const int32_t k0 = shr_to_s32((int64_t)g[0] * rm, gain_shift);
-    const int32_t k1 = shr_to_s32((int64_t)g[1] * rm, gain_shift);
-    const int32_t k2 = shr_to_s32((int64_t)g[2] * rm, gain_shift);
+    const int32_t k0 = fix_shr_to_s32((int64_t)g[0] * rm, gain_shift);
+    const int32_t k1 = fix_shr_to_s32((int64_t)g[1] * rm, gain_shift);
+    const int32_t k2 = fix_shr_to_s32((int64_t)g[2] * rm, gain_shift);
     cv->gain[sensor][0] = k0; /* for the steady state (kalman_track_row) */
     cv->gain[sensor][1] = k1;
     cv->gain[sensor][2] = k2;
@@ -387,7 +383,7 @@ static int block_update(struct kalman_state *k, struct pblock *b, unsigned senso
             }
         }
     }
-    const int32_t e24 = shr_to_s32(e + 128, 8u); /* innovation in Q24, rounded */
+    const int32_t e24 = fix_shr_to_s32(e + 128, 8u); /* innovation in Q24, rounded */
     const int64_t e24_sq = (int64_t)e24 * e24;
     if (gate && k->cfg.gate_sigmas_q8 != 0u && (uint64_t)e24_sq > k->gate_accept[sensor]) {
         /* not surely inside: the gate on the exact s */

@@ -3,8 +3,8 @@
 
 #include <string.h>
 
-#include "fix_inline.h"
-#include "window_cal.h"
+#include "fixmath_internal.h"
+#include "window_internal.h"
 
 _Static_assert(WINDOW_MAX_SAMPLES >= 255u, "the issue asks for windows of at least 255 rows");
 _Static_assert(WINDOW_MAX_SAMPLES <= 1024u, "exact 64-bit sums of angle products need N <= 1024");
@@ -39,7 +39,7 @@ int window_init(struct window_state *w, const struct window_config *cfg) {
         w->cal_inv_gain2_q32[k] = 2 * r + fix_mul_shr_s64(r, r, FIX_Q32_SHIFT, NULL);
         w->newest_fine[k] = 0;
         w->newest_mm[k] = 0;
-        /* nothing left over yet: the first row rounds to nearest (window_cal.h) */
+        /* nothing left over yet: the first row rounds to nearest (window_internal.h) */
         w->newest_carry[k] = (uint32_t)ANGLES_FINE_ONE / 2u;
     }
     window_clear(w);

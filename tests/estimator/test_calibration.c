@@ -387,6 +387,41 @@ static void test_uncalibrated(void **state) {
     }
 }
 
+/* A head never calibrated says `uncalibrated`, and nothing a calibration would answer:
+ * its parity reads the parts' offsets, so neither `drift` (a drift since a calibration it
+ * never had) nor `recalibrate`. Heads with offsets in ±20 mm and ±2 mm (the second a head
+ * whose parity passes, so the drift is learnt from it), 20 tumbling windows of 100 rows
+ * each, σ 2 mm. */
+static void test_uncalibrated_says_only_uncalibrated(void **state) {
+    (void)state;
+    rng.state = 0x2FFD72DBD01ADFB7u;
+    const double spreads[2] = {20, 2};
+    unsigned answers = 0;
+    unsigned said = 0; /* estimates that say drift or recalibrate */
+    for (unsigned i = 0; i < 60u; ++i) {
+        struct head h;
+        random_head(&h, spreads[i % 2u], 0.03);
+        struct attitude_config cfg;
+        attitude_config_default(&cfg); /* uncalibrated */
+        assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_NONE);
+        double x[4];
+        geometry(uniform(-5, 5), uniform(-5, 5), 100, x);
+        for (unsigned w = 0; w < 20u; ++w) {
+            assert_true(window(&h, x, 2.0, 100, NULL));
+            for (unsigned e = 0; e < 2u; ++e) {
+                const struct attitude_estimate *est =
+                    &out.est[e == 0u ? ATTITUDE_EST_CONSENSUS : ATTITUDE_EST_KALMAN];
+                answers++;
+                said +=
+                    (est->why & (ATTITUDE_WHY_DRIFT | ATTITUDE_WHY_RECALIBRATE)) != 0u ? 1u : 0u;
+                assert_true((est->why & ATTITUDE_WHY_UNCALIBRATED) != 0u);
+            }
+        }
+    }
+    printf("uncalibrated heads: %u estimates, %u say drift or recalibrate\n", answers, said);
+    assert_int_equal(said, 0);
+}
+
 /* The Kalman filter takes the corrected readings in whole mm; a calibration whose offsets
  * have a fraction must not leave it in them (plain rounding did: each reading lost the
  * same fraction, up to 0.5 mm a sensor, and the filter's angles and distance carried it,
@@ -482,10 +517,15 @@ static void test_stated_sd_covered(void **state) {
 
 int main(void) {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_correction_exact),  cmocka_unit_test(test_identity_whole_mm),
-        cmocka_unit_test(test_validation),        cmocka_unit_test(test_uncalibrated),
-        cmocka_unit_test(test_stated_sd_covered), cmocka_unit_test(test_sliding_subtracts_exactly),
-        cmocka_unit_test(test_extremes),          cmocka_unit_test(test_kalman_fraction_carried),
+        cmocka_unit_test(test_correction_exact),
+        cmocka_unit_test(test_identity_whole_mm),
+        cmocka_unit_test(test_validation),
+        cmocka_unit_test(test_uncalibrated),
+        cmocka_unit_test(test_uncalibrated_says_only_uncalibrated),
+        cmocka_unit_test(test_stated_sd_covered),
+        cmocka_unit_test(test_sliding_subtracts_exactly),
+        cmocka_unit_test(test_extremes),
+        cmocka_unit_test(test_kalman_fraction_carried),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -16,7 +16,7 @@
 #include "test_rand.h"
 
 #include "estimator/kalman.h"
-#include "kalman_track.h" /* white-box: the filter's private constants */
+#include "kalman_internal.h" /* white-box: the filter's private constants */
 
 #define TEST_PI 3.14159265358979323846
 #define Q32     4294967296.0

@@ -125,7 +125,7 @@ struct window_state {
                                                   rounding carried (0 below 0): what a consumer
                                                   of whole mm (the Kalman filter) takes */
     uint32_t newest_carry[ANGLES_SENSORS];     /* the rounding left over, fine units + 1/2 mm:
-                                                 0 .. 1023 (window_cal.h) */
+                                                 0 .. 1023 (window_internal.h) */
     struct window_row ring[WINDOW_MAX_SAMPLES];
     uint16_t oldest;          /* ring index of the oldest row */
     uint16_t fill;            /* rows held, <= cfg.length */

@@ -1,12 +1,12 @@
-/* The head's calibration applied to the window's readings and statistics (issue 23). */
-/* Private to window_stats.c: see estimator/window_stats.h, "Calibration". */
-#ifndef ESTIMATOR_WINDOW_CAL_H
-#define ESTIMATOR_WINDOW_CAL_H
+/* The window family's private parts (window_stats.c only): the head's calibration applied to
+ * the window's readings and statistics; see estimator/window_stats.h, "Calibration". */
+#ifndef ESTIMATOR_WINDOW_INTERNAL_H
+#define ESTIMATOR_WINDOW_INTERNAL_H
 
 #include <stdint.h>
 
 #include "estimator/window_stats.h"
-#include "fix_inline.h"
+#include "fixmath_internal.h"
 
 /* One reading corrected (DESIGN.md §2: true = (raw − offset)/gain), in fine units:
  * d = raw − offset, true = d + round(d·r/2^32) with r = 1/gain − 1 in Q32, computed as
@@ -69,4 +69,4 @@ static inline void correct_stats(const struct window_state *w, unsigned k,
     ss->var_mm2 += fix_mul_shr_s64(ss->var_mm2, w->cal_inv_gain2_q32[k], FIX_Q32_SHIFT, NULL);
 }
 
-#endif /* ESTIMATOR_WINDOW_CAL_H */
+#endif /* ESTIMATOR_WINDOW_INTERNAL_H */
