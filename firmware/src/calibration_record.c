@@ -207,20 +207,26 @@ enum tof_cal_state tof_cal_check(const struct tof_cal_binding *bind,
 }
 
 enum tof_cal_state tof_cal_boot(struct tof_record_store *store, struct tof_app *app) {
-    if (store == NULL || store->storage.ops == NULL) {
-        return TOF_CAL_NO_STORAGE;
+    enum tof_cal_state state = TOF_CAL_NO_STORAGE;
+    if (store != NULL && store->storage.ops != NULL) {
+        switch (tof_record_load(store)) {
+        case TOF_RECORD_LOADED:
+            return tof_cal_recheck(store, app);
+        case TOF_RECORD_NONE:
+            state = TOF_CAL_NONE;
+            break;
+        case TOF_RECORD_VERSION:
+            state = TOF_CAL_VERSION;
+            break;
+        default:
+            state = TOF_CAL_CORRUPT;
+            break;
+        }
     }
-    switch (tof_record_load(store)) {
-    case TOF_RECORD_LOADED:
-        break;
-    case TOF_RECORD_NONE:
-        return TOF_CAL_NONE;
-    case TOF_RECORD_VERSION:
-        return TOF_CAL_VERSION;
-    default:
-        return TOF_CAL_CORRUPT;
-    }
-    return tof_cal_recheck(store, app);
+    /* No record to apply: the configuration's own calibration, whatever was in force before
+     * (a boot after a soft restart, or a test rig reusing the application, must not keep it). */
+    (void)tof_app_set_calibration(app, &app->cfg.estimator.calibration);
+    return state;
 }
 
 enum tof_cal_state tof_cal_recheck(const struct tof_record_store *store, struct tof_app *app) {
