@@ -6,7 +6,15 @@
 
 #include "hal/hal_err.h"
 #include "telemetry/tlm_crc.h"
+#include "telemetry/tlm_messages.h"
 #include "le_bytes.h"
+
+/* The status frame carries enum tof_cal_age_state as it is (link.c). */
+_Static_assert(TOF_CAL_AGE_NONE == (int)TLM_CAL_AGE_NONE &&
+                   TOF_CAL_AGE_KEPT == (int)TLM_CAL_AGE_KEPT &&
+                   TOF_CAL_AGE_UNKNOWN == (int)TLM_CAL_AGE_UNKNOWN &&
+                   TOF_CAL_AGE_FAILED == (int)TLM_CAL_AGE_FAILED,
+               "age states are the status frame's codes");
 
 int tof_cal_age_init(struct tof_cal_age *age, struct hal_records storage, uint16_t page_a,
                      uint16_t page_b) {
@@ -172,7 +180,9 @@ enum tof_cal_age_state tof_cal_age_boot(struct tof_cal_age *age, bool calibrated
     const uint32_t stored = scan(age, tag, &found);
     age->counting = true;
     age->tag = tag;
-    age->base_s = add_sat(found ? stored : 0u, off_allowance_s);
+    /* no entry: a calibration stored without its age (preloaded by a programmer, or by a
+     * firmware that kept none) is taken as made at this boot (cal_age.h) */
+    age->base_s = found ? add_sat(stored, off_allowance_s) : 0u;
     age->base_us = now_us;
     age->state = found ? TOF_CAL_AGE_KEPT : TOF_CAL_AGE_UNKNOWN;
     const uint8_t state = age->state;

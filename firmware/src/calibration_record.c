@@ -7,6 +7,7 @@
 
 #include "firmware/settings.h"
 #include "hal/hal_err.h"
+#include "telemetry/tlm_crc.h"
 #include "telemetry/tlm_messages.h"
 #include "le_bytes.h"
 
@@ -318,4 +319,19 @@ enum tof_cal_state tof_cal_write_head(struct tof_record_store *store, struct tof
         return TOF_CAL_CORRUPT;
     }
     return tof_cal_write(store, app, section, error);
+}
+
+uint16_t tof_cal_tag(const struct tof_record_store *store) {
+    if (store == NULL || store->current < 0) {
+        return 0u;
+    }
+    const int at = tof_section_find(store->payload, store->length, TOF_SECTION_CALIBRATION);
+    if (at < 0) {
+        return 0u;
+    }
+    const uint16_t body = (uint16_t)(store->payload[at + 2] | store->payload[at + 3] << 8);
+    if ((uint32_t)at + TOF_SECTION_HEADER + body > store->length) {
+        return 0u;
+    }
+    return tlm_crc16(TLM_CRC_INIT, &store->payload[at], (size_t)TOF_SECTION_HEADER + body);
 }

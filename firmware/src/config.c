@@ -37,6 +37,7 @@ const struct tof_app_config tof_app_default_config = {
                .trouble_errors = 5},
     .estimator = ATTITUDE_CONFIG_DEFAULT, /* the estimator's own defaults (attitude.h) */
     .raw_output = false,
+    .cal_off_allowance_s = TOF_CAL_OFF_ALLOWANCE_S_DEFAULT,
 };
 
 const char *tof_app_config_check(const struct tof_app_config *cfg) {

@@ -87,7 +87,7 @@ static void test_a_new_calibration_starts_at_zero(void **state) {
     (void)state;
     struct tof_cal_age a;
     assert_int_equal(boot(&a, TAG, 0u), TOF_CAL_AGE_UNKNOWN);
-    assert_int_equal(tof_cal_age_now_s(&a, 0u), OFF_S); /* no entry: the allowance alone */
+    assert_int_equal(tof_cal_age_now_s(&a, 0u), 0u); /* no entry: taken as made at this boot */
     run(&a, 0u, 20000u);
     assert_int_equal(tof_cal_age_restart(&a, 0x4321u, 20000u * S), HAL_OK);
     assert_int_equal(tof_cal_age_now_s(&a, 20000u * S), 0u);
@@ -105,12 +105,12 @@ static void test_a_damaged_entry_is_skipped(void **state) {
     (void)state;
     struct tof_cal_age a;
     assert_int_equal(boot(&a, TAG, 0u), TOF_CAL_AGE_UNKNOWN);
-    run(&a, 0u, 1300u); /* entries at 4200 (boot), 4800, 5400 (the allowance counted) */
+    run(&a, 0u, 1300u); /* entries at 600 (boot), 1200, 1800 */
     const uint16_t page = a.page[a.active];
     const uint16_t last = (uint16_t)(a.next_slot - 1u);
     sim_flash_poke(&flash, page, (uint32_t)last * TOF_CAL_AGE_ENTRY + 1u, 0x01u);
     assert_int_equal(boot(&a, TAG, 0u), TOF_CAL_AGE_KEPT);
-    assert_int_equal(tof_cal_age_now_s(&a, 0u), 4800u + OFF_S);
+    assert_int_equal(tof_cal_age_now_s(&a, 0u), 1200u + OFF_S);
     assert_true(a.next_slot == last + 2u); /* the damaged slot is not programmed again */
 }
 

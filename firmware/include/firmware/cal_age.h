@@ -49,8 +49,9 @@
 enum tof_cal_age_state {
     TOF_CAL_AGE_NONE = 0,    /* no calibration in force, or no storage: no age kept */
     TOF_CAL_AGE_KEPT = 1,    /* the stored age of this calibration, plus the off allowance */
-    TOF_CAL_AGE_UNKNOWN = 2, /* a calibration with no entry (written by a firmware that kept
-                                none, or its first entry cut): counted from the allowance */
+    TOF_CAL_AGE_UNKNOWN = 2, /* a calibration with no entry (preloaded by a programmer, kept
+                                by a firmware that kept none, or its first entry cut): taken
+                                as made at this boot, counted from 0 */
     TOF_CAL_AGE_FAILED = 3,  /* the storage refused an entry: the age runs, not kept */
 };
 
@@ -77,8 +78,9 @@ int tof_cal_age_init(struct tof_cal_age *age, struct hal_records storage, uint16
                      uint16_t page_b);
 
 /* The age at boot of the calibration tagged `tag` (`calibrated` false: none in force, nothing
- * kept): the largest entry with that tag, plus `off_allowance_s`, counted from `now_us`; that
- * age plus one interval is written at once. Returns the state (also in age->state). */
+ * kept): the largest entry with that tag plus `off_allowance_s` (KEPT), or 0 when there is none
+ * (UNKNOWN), counted from `now_us`; that age plus one interval is written at once. Returns the
+ * state (also in age->state). */
 enum tof_cal_age_state tof_cal_age_boot(struct tof_cal_age *age, bool calibrated, uint16_t tag,
                                         uint32_t off_allowance_s, uint64_t now_us);
 

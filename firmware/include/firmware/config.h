@@ -25,7 +25,15 @@ struct tof_app_config {
      * calibration applies only when made on the same head (firmware/calibration_record.h);
      * 0, the default, is a head without a number. */
     uint32_t head_id;
+    /* The time the unit may have been off before a boot, added to its calibration's stored age
+     * at every boot until the next calibration (firmware/cal_age.h): the unit has no clock
+     * that runs while it is off. A mission sets the longest it expects. */
+    uint32_t cal_off_allowance_s;
 };
+
+/* One day: a unit off longer than that before its use is re-zeroed first, or its mission sets
+ * a longer allowance (docs/firmware.md, "Calibration age"). */
+#define TOF_CAL_OFF_ALLOWANCE_S_DEFAULT 86400u
 
 /* The product's default configuration (firmware/src/config.c). */
 extern const struct tof_app_config tof_app_default_config;
