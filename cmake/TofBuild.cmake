@@ -17,12 +17,33 @@ if(CMAKE_CROSSCOMPILING)
   endif()
   # Optimisation of every cross-built object: -Os (size) unless the preset says otherwise.
   set(TOF_OPT_FLAGS -Os CACHE STRING "Optimisation flags of the cross builds")
+  # Link-time optimisation of the images (a board layer's TOF_LTO_DEFAULT: the flight boards;
+  # the QEMU benchmark images stay without, so their instruction counts measure the code as
+  # compiled file by file). Code generation then happens at the link, with the same flags;
+  # the stack check reads the call graphs GCC writes for the link's partitions.
+  if(NOT DEFINED TOF_LTO_DEFAULT)
+    set(TOF_LTO_DEFAULT OFF)
+  endif()
+  option(TOF_LTO "Link-time optimisation of the firmware images" ${TOF_LTO_DEFAULT})
+  set(lto_flags "")
+  if(TOF_LTO)
+    set(lto_flags -flto)
+  endif()
   list(REMOVE_DUPLICATES TOF_CORES)
   foreach(core IN LISTS TOF_CORES)
-    add_library(tof_core_${core} INTERFACE)
-    target_compile_options(tof_core_${core} INTERFACE ${TOF_CORE_FLAGS_${core}}
+    set(core_lto "")
+    if(TOF_LTO)
+      set(core_lto ${lto_flags} ${TOF_CORE_LTO_FLAGS_${core}})
+    endif()
+    set(codegen ${TOF_CORE_FLAGS_${core}} ${core_lto}
       -ffunction-sections -fdata-sections -fstack-usage -fcallgraph-info=su -fno-common ${TOF_OPT_FLAGS} -g3)
-    target_link_options(tof_core_${core} INTERFACE ${TOF_CORE_FLAGS_${core}})
+    add_library(tof_core_${core} INTERFACE)
+    target_compile_options(tof_core_${core} INTERFACE ${codegen})
+    if(TOF_LTO)
+      target_link_options(tof_core_${core} INTERFACE ${codegen})
+    else()
+      target_link_options(tof_core_${core} INTERFACE ${TOF_CORE_FLAGS_${core}})
+    endif()
   endforeach()
   set(TOF_TARGET_CORES ${TOF_CORES})
 else()
@@ -87,13 +108,21 @@ function(tof_image name)
     -Wl,--print-memory-usage -Wl,--no-warn-rwx-segments)
   set_target_properties(${name} PROPERTIES LINK_DEPENDS ${ARG_LINKER_SCRIPT})
   set(float_flag "")
+  # Flight images keep a quarter of their stack free at the static worst case: a deeper
+  # path fails the link, not a unit in the field.
+  set(stack_margin 0)
+  if(ARG_FLIGHT)
+    set(stack_margin 25)
+  endif()
   if(ARG_NO_FLOAT)
     set(float_flag -DNO_FLOAT=1)
   endif()
   if(ARG_FLIGHT)
     list(APPEND float_flag -DSIZE=${CMAKE_SIZE} -DFLIGHT_BUDGET=1)
   endif()
-  # The stack the linker script reserves, for the worst-case stack check.
+  # The stack the linker script reserves, for the worst-case stack check (read at configure
+  # time: an edit of the script configures again).
+  set_property(DIRECTORY APPEND PROPERTY CMAKE_CONFIGURE_DEPENDS ${ARG_LINKER_SCRIPT})
   file(READ ${ARG_LINKER_SCRIPT} ld_text)
   if(ld_text MATCHES "STACK_SIZE = ([0-9]+)K;")
     math(EXPR stack_limit "${CMAKE_MATCH_1} * 1024")
@@ -102,13 +131,24 @@ function(tof_image name)
   else()
     message(FATAL_ERROR "${ARG_LINKER_SCRIPT}: no 'STACK_SIZE = <n>K;' or '<bytes>;' line")
   endif()
+  # The call graphs of what is linked: each object's own, or with link-time optimisation the
+  # link's partitions (written into a folder of the image's own, emptied before each link).
+  set(graph_args --root ${CMAKE_BINARY_DIR} --match _${ARG_CORE}.dir --match /${name}.dir/)
+  if(TOF_LTO)
+    set(lto_dir ${CMAKE_CURRENT_BINARY_DIR}/${name}.lto)
+    target_link_options(${name} PRIVATE -dumpdir ${lto_dir}/)
+    add_custom_command(TARGET ${name} PRE_LINK
+      COMMAND ${CMAKE_COMMAND} -E remove_directory ${lto_dir}
+      COMMAND ${CMAKE_COMMAND} -E make_directory ${lto_dir} VERBATIM)
+    set(graph_args --root ${lto_dir} --match ltrans)
+  endif()
   add_custom_command(TARGET ${name} POST_BUILD
     COMMAND ${CMAKE_COMMAND} -DNM=${CMAKE_NM} -DELF=$<TARGET_FILE:${name}> ${float_flag}
             -P ${PROJECT_SOURCE_DIR}/cmake/check_image.cmake
     COMMAND /usr/bin/python3 ${PROJECT_SOURCE_DIR}/tools/stack_check.py
-            --root ${CMAKE_BINARY_DIR} --match _${ARG_CORE}.dir --match /${name}.dir/
+            ${graph_args}
             --map $<TARGET_FILE_DIR:${name}>/${name}.map --elf $<TARGET_FILE:${name}>
-            --limit ${stack_limit} --name ${name} --narrow
+            --limit ${stack_limit} --min-free-percent ${stack_margin} --name ${name} --narrow
             --json $<TARGET_FILE_DIR:${name}>/${name}.stack.json
     COMMAND ${CMAKE_OBJCOPY} -O binary $<TARGET_FILE:${name}> $<TARGET_FILE_DIR:${name}>/${name}.bin
     VERBATIM)

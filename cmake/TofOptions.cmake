@@ -47,3 +47,13 @@ if(tof_est_mask EQUAL 15)
   set(TOF_FULL_ESTIMATOR_SET ON)
 endif()
 message(STATUS "Estimators built: ${TOF_ESTIMATORS} (ATTITUDE_EST_BUILT ${tof_est_mask})")
+
+# The sensors' I2C bus clock of the board images (kHz): 400 (Fast-mode, the default) or 100
+# (Standard-mode, for a long harness). The board programs its I2C timing for it, and the
+# firmware's default period is one the bus can carry (firmware/config.h, tof_app_bus_fits()).
+# host_sim takes the same choice at run time (replay --i2c-khz).
+set(TOF_I2C_KHZ 400 CACHE STRING "I2C bus clock of the board images, kHz: 100 or 400")
+if(NOT TOF_I2C_KHZ MATCHES "^(100|400)$")
+  message(FATAL_ERROR "TOF_I2C_KHZ='${TOF_I2C_KHZ}': 100 or 400")
+endif()
+add_compile_definitions(TOF_I2C_KHZ=${TOF_I2C_KHZ})

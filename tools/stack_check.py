@@ -32,6 +32,7 @@ Rules (an upper bound under the project's rules, not a proof):
 
 Usage: stack_check.py --root BUILD_DIR --match SUBSTR [--match ...] --map IMAGE.map
                       --limit BYTES [--json OUT] [--entry NAME ...] [--handler NAME ...]
+                      [--min-free-percent P]
 """
 import argparse
 import json
@@ -311,6 +312,8 @@ def main():
                     help="resolve indirect calls by the ops member they go through")
     ap.add_argument("--json")
     ap.add_argument("--name", default="image")
+    ap.add_argument("--min-free-percent", type=int, default=0,
+                    help="fail unless this share of the reserve stays free at the worst case")
     a = ap.parse_args()
     entries = a.entry or ["Reset_Handler"]
     handlers = a.handler or ["HardFault_Handler", "Default_Handler", "SysTick_Handler",
@@ -352,6 +355,12 @@ def main():
     if total > a.limit:
         print(f"stack_check: {a.name} needs up to {total} bytes of stack, the linker script "
               f"reserves {a.limit}", file=sys.stderr)
+        return 1
+    if (a.limit - total) * 100 < a.min_free_percent * a.limit:
+        print(f"stack_check: {a.name} keeps {a.limit - total} of {a.limit} bytes of stack free "
+              f"at the worst case, under the {a.min_free_percent} % margin: reserve more "
+              f"(the linker script's STACK_SIZE) or make the deepest path shallower",
+              file=sys.stderr)
         return 1
     return 0
 

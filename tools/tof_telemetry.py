@@ -44,7 +44,7 @@ HEADER_SIZE = 5
 CRC_SIZE = 2
 FRAME_OVERHEAD = HEADER_SIZE + CRC_SIZE
 MAX_PAYLOAD = 192
-PROTOCOL_VERSION = 5
+PROTOCOL_VERSION = 6
 
 ACCEPT_COMMANDS = 1
 ACCEPT_TELEMETRY = 2
@@ -80,7 +80,7 @@ TYPES = {
     T_RAW_SAMPLE: ("raw", ACCEPT_TELEMETRY, 17),
     T_HEALTH: ("health", ACCEPT_TELEMETRY, 148),
     T_ACK: ("ack", ACCEPT_TELEMETRY, 4),
-    T_STATUS: ("status", ACCEPT_TELEMETRY, 22),
+    T_STATUS: ("status", ACCEPT_TELEMETRY, 27),
     T_SET_WINDOW: ("set-window", ACCEPT_COMMANDS, 3),
     T_SELECT_ESTIMATOR: ("select-estimator", ACCEPT_COMMANDS, 1),
     T_START: ("start", ACCEPT_COMMANDS, 0),
@@ -123,6 +123,8 @@ RECORD_STATES = ["none", "loaded", "corrupt", "version", "rejected", "no-storage
 # at boot (firmware/calibration_record.h enum tof_cal_state); all but applied: uncalibrated.
 CAL_STATES = ["none", "applied", "corrupt", "version", "other-head", "other-mode", "rejected",
               "no-storage", "other-parts"]
+# the status frame's cal_age (protocol 6): how the calibration's age is known
+CAL_AGE_STATES = ["none", "kept", "unknown", "failed"]
 SENSORS = "ABCD"
 WINDOW_MIN, WINDOW_MAX = 2, 255
 PROCESS_NOISE_AUTO = 0x01  # set-process-noise flags; every other bit is out of range
@@ -341,15 +343,17 @@ def _ack(p):
 
 def _status(p):
     (major, minor, patch, protocol, uptime, window_n, mode, estimator, running, raw,
-     period, record, cal, arm) = struct.unpack("<BBBBIHBBBBHBBI", p)
+     period, record, cal, arm, cal_age_s, cal_age) = struct.unpack("<BBBBIHBBBBHBBIIB", p)
     valid = (protocol == PROTOCOL_VERSION and WINDOW_MIN <= window_n <= WINDOW_MAX
              and mode < len(MODES) and estimator < len(ESTIMATORS) and running <= 1 and raw <= 1
              and record < len(RECORD_STATES) and cal < len(CAL_STATES)
-             and ARM_MIN_UM <= arm <= ARM_MAX_UM and PERIOD_MIN_MS <= period <= PERIOD_MAX_MS)
+             and ARM_MIN_UM <= arm <= ARM_MAX_UM and PERIOD_MIN_MS <= period <= PERIOD_MAX_MS
+             and cal_age < len(CAL_AGE_STATES))
     return valid, {"fw": (major, minor, patch), "protocol": protocol, "uptime_ms": uptime,
                    "window_n": window_n, "mode": mode, "estimator": estimator,
                    "running": running, "raw_stream": raw, "period_ms": period,
-                   "record": record, "calibration": cal, "arm_um": arm}
+                   "record": record, "calibration": cal, "arm_um": arm,
+                   "cal_age_s": cal_age_s, "cal_age": cal_age}
 
 
 def _set_window(p):
@@ -530,12 +534,13 @@ def format_message(ftype, seq, m):
     if ftype == T_STATUS:
         return head + (
             "status fw=%d.%d.%d protocol=%d uptime_ms=%d window_n=%d mode=%s estimator=%s "
-            "running=%s raw_stream=%s period_ms=%d record=%s calibration=%s arm_um=%d" % (
+            "running=%s raw_stream=%s period_ms=%d record=%s calibration=%s arm_um=%d "
+            "cal_age_s=%d cal_age=%s" % (
                 m["fw"][0], m["fw"][1], m["fw"][2], m["protocol"], m["uptime_ms"],
                 m["window_n"], MODES[m["mode"]], ESTIMATORS[m["estimator"]],
                 "yes" if m["running"] else "no", "yes" if m["raw_stream"] else "no",
                 m["period_ms"], RECORD_STATES[m["record"]], CAL_STATES[m["calibration"]],
-                m["arm_um"]))
+                m["arm_um"], m["cal_age_s"], CAL_AGE_STATES[m["cal_age"]]))
     if ftype == T_CALIBRATION:
         return head + "calibration state=%s section=%s" % (CAL_STATES[m["state"]],
                                                            m["section"].hex())

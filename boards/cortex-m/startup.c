@@ -100,7 +100,9 @@ __attribute__((naked)) void HardFault_Handler(void) {
                      "bx r1\n");
 }
 
-void HardFault_Report(void) {
+/* `used`: called only from the naked handler's assembly, which link-time optimisation does not
+ * see as a reference (it would drop the function). */
+__attribute__((used)) void HardFault_Report(void) {
     cortex_m_fault_vector = 3u;
     cortex_m_last_fault_vector = 3u;
     board_fault("HardFault");
@@ -120,7 +122,8 @@ __attribute__((naked)) void Default_Handler(void) {
                      "bx r1\n");
 }
 
-void Default_Report(void) {
+/* `used`: as HardFault_Report. */
+__attribute__((used)) void Default_Report(void) {
     uint32_t ipsr; /* still in handler mode: IPSR names the exception taken */
     __asm__ volatile("mrs %0, ipsr" : "=r"(ipsr));
     cortex_m_fault_vector = ipsr & 0x1FFu;

@@ -113,9 +113,11 @@ void stm32_board_peripheral_clocks_init(void) {
     (void)stm32_reg_read(L476_RCC_APB1ENR1); /* read back: the enables have taken effect */
 }
 
-/* The record pages: the last 4 KB of the 1 MB flash, which the linker script keeps out of
+/* The storage pages: the last 8 KB of the 1 MB flash, which the linker script keeps out of
  * the FLASH region (stm32l476rg.ld, __records_start): bank 2 (0x0808 0000 up, RM0351
- * §3.3.1 "Flash memory organization"), pages 254 and 255. The image runs from bank 1, so
+ * §3.3.1 "Flash memory organization"), pages 252..255: the calibration's age on 252 and 253
+ * (storage pages 0, 1: firmware/cal_age.h), the record on 254 and 255 (storage pages 2, 3:
+ * firmware/record.h, where it has always been). The image runs from bank 1, so
  * erasing them does not stall the core (§3.3.8 read-while-write). Busy bounds from the
  * datasheet (DS10198 "Flash memory characteristics": page erase <= 24.47 ms, one
  * double-word <= 90.76 us), with margin. */
@@ -133,7 +135,7 @@ struct hal_records stm32_board_records(struct hal_time time) {
         .regs = STM32L4_FLASH_REGS,
         .memory = at,
         .first_page = (uint16_t)(page % STM32_FLASH_BANK_PAGES),
-        .pages = 2u,
+        .pages = 4u,
         .bank2 = at >= L476_BANK2_START,
         .erase_budget_us = 40000u,
         .program_budget_us = 1000u,

@@ -78,15 +78,17 @@ int board_hal_init(void) {
     log_uart_init(core_hz);
 
     board_gpio = (struct stm32_gpio){d->sensor_pins, 2u * BOARD_HAL_SENSOR_COUNT};
-    i2c_config = (struct stm32_i2c_config){
+    i2c_config = (struct stm32_i2c_config) {
         .base = d->i2c_base,
+#if TOF_I2C_KHZ == 100
+        .timingr = STM32_I2C_TIMINGR_100KHZ_AT_16MHZ, /* the build option TOF_I2C_KHZ */
+            .byte_time_us = 90u,                      /* 9 bits x 10 us */
+#else
         .timingr = STM32_I2C_TIMINGR_400KHZ_AT_16MHZ,
         .byte_time_us = 23u, /* 9 bits x 2.5 us = 22.5 us */
-        .core_cycles_per_us = core_hz / 1000000u,
-        .recovery_half_period_us = 5u,
-        .scl = d->i2c_scl,
-        .sda = d->i2c_sda,
-        .time = board_time_handle,
+#endif
+            .core_cycles_per_us = core_hz / 1000000u, .recovery_half_period_us = 5u,
+        .scl = d->i2c_scl, .sda = d->i2c_sda, .time = board_time_handle,
     };
     /* IWDG: LSI / 32 (PR = 3) = 1 ms per count at the nominal 32 kHz; RLR = 399 -> 400 ms.
      * The LSI RC tolerance (datasheet "LSI oscillator characteristics") scales it. */

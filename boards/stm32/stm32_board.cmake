@@ -4,6 +4,9 @@
 # (openocd over the board's ST-LINK). UART_IRQ: the NVIC number of the telemetry USART's
 # interrupt, whose vector the shared startup points at Uart_IRQHandler (stm32_board.c).
 #
+# `budget`: the flight image's flash and RAM by part (tools/image_budget.py; configure with
+# -DTOF_BUDGET_ARGS=--markdown or --files for the docs' tables).
+#
 # TEST_VARIANTS v...: also firmware-<board>-<v>.elf, the same image built with TWIN_TEST_<V>
 # defined (test builds for the twin, tests/twin); the flight image is never changed by them.
 function(tof_stm32_board board core irqs openocd_cfg ld)
@@ -38,6 +41,13 @@ function(tof_stm32_board board core irqs openocd_cfg ld)
     endif()
     target_link_options(${name} PRIVATE -L${PROJECT_SOURCE_DIR}/boards/cortex-m)
   endforeach()
+  # The flight image's flash and RAM by part, and its stack margin (tools/image_budget.py).
+  add_custom_target(budget
+    COMMAND /usr/bin/python3 ${PROJECT_SOURCE_DIR}/tools/image_budget.py
+            $<TARGET_FILE_DIR:${image}>/${image}.map
+            --stack $<TARGET_FILE_DIR:${image}>/${image}.stack.json ${TOF_BUDGET_ARGS}
+    DEPENDS ${image}
+    COMMENT "Flash, RAM and stack of ${image} by part" VERBATIM)
   add_custom_target(flash
     COMMAND sh -c "command -v openocd >/dev/null || { echo 'flash: openocd missing: run tools/setup.sh' >&2; exit 1; }"
     COMMAND openocd -f ${openocd_cfg} -c "program $<TARGET_FILE:${image}> verify reset exit"

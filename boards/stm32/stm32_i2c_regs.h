@@ -81,5 +81,17 @@
      ((uint32_t)(sclh) << 8) | (uint32_t)(scll))
 #define STM32_I2C_TIMINGR_400KHZ_AT_16MHZ                                                          \
     STM32_I2C_TIMINGR_VALUE(1u, 3u, 2u, 3u, 9u) /* 0x10320309 */
+/*
+ * Standard-mode 100 kHz from the same 16 MHz kernel clock, the same table's Standard-mode
+ * column:
+ *   PRESC = 3  -> t_PRESC = 4 / 16 MHz = 250 ns
+ *   SCLL = 0x13 -> t_SCLL = 20 x 250 ns = 5.0 us (t_LOW >= 4.7 us)
+ *   SCLH = 0xF  -> t_SCLH = 16 x 250 ns = 4.0 us (t_HIGH >= 4.0 us)
+ *   SDADEL = 2  -> data hold 500 ns; SCLDEL = 4 -> data setup 1250 ns >= t_r (1000 ns) +
+ *                  t_SU;DAT (250 ns)
+ *   t_SCL ~ 10 us -> ~100 kHz.
+ */
+#define STM32_I2C_TIMINGR_100KHZ_AT_16MHZ                                                          \
+    STM32_I2C_TIMINGR_VALUE(3u, 4u, 2u, 0xFu, 0x13u) /* 0x30420F13 */
 
 #endif /* BOARDS_STM32_I2C_REGS_H */

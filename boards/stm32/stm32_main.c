@@ -20,6 +20,7 @@ static struct tof_app app;
 static struct tof_link link;
 static struct tof_platform platform;
 static struct tof_record_store records; /* the saved settings (firmware/settings.h) */
+static struct tof_cal_age cal_age;      /* the calibration's age (firmware/cal_age.h) */
 
 #if defined(TWIN_TEST_HANG) || defined(TWIN_TEST_BAD_SEQUENCE) || defined(TWIN_TEST_STACK_OVERFLOW)
 #define TWIN_TEST 1
@@ -48,8 +49,13 @@ int main(void) {
     __asm__ volatile("1: push {r0}\n subs %0, %0, #1\n bne 1b" : "+r"(words)::"memory", "cc");
 #endif
     tof_link_init(&link, board_hal_serial());
-    if (tof_record_init(&records, board_hal_records(), 0u, 1u) == 0) {
+    /* storage pages 0, 1: the calibration's age; 2, 3: the record (board_desc.c) */
+    const struct hal_records storage = board_hal_records();
+    if (tof_record_init(&records, storage, 2u, 3u) == 0) {
         tof_link_set_records(&link, &records); /* none: defaults, `save` refused */
+        if (tof_cal_age_init(&cal_age, storage, 0u, 1u) == 0) {
+            tof_link_set_cal_age(&link, &cal_age); /* none: the age counts from each boot */
+        }
     }
     platform = (struct tof_platform){
         .board_name = BOARD_NAME,

@@ -6,3 +6,6 @@ set(TOF_BOARD_DIRS nucleo-g071rb)
 # The same flight image as the NUCLEO-L476RG's (board-nucleo-l476rg.cmake): the product's two
 # estimators only; the paper's rule and the plain mean are host_sim's and QEMU's baselines.
 set(TOF_ESTIMATORS_DEFAULT consensus kalman)
+# Link-time optimisation (cmake/TofBuild.cmake): what it saves and costs in flash and stack,
+# tools/image_budget.py (the `budget` target).
+set(TOF_LTO_DEFAULT ON)

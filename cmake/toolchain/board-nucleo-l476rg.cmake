@@ -6,3 +6,6 @@ set(TOF_BOARD_DIRS nucleo-l476rg)
 # rule and the plain mean are comparison baselines for host_sim, the QEMU replay and the
 # benchmarks; docs/benchmarks.md has the flash each choice costs).
 set(TOF_ESTIMATORS_DEFAULT consensus kalman)
+# Link-time optimisation (cmake/TofBuild.cmake): what it saves and costs in flash and stack,
+# tools/image_budget.py (the `budget` target).
+set(TOF_LTO_DEFAULT ON)

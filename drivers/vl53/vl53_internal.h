@@ -49,9 +49,9 @@ static inline struct call call_begin(struct vl53_dev *dev, uint32_t budget_us) {
     return c;
 }
 
-/* The budget of an ordinary call (cfg->call_budget_us, or its default). */
+/* The budget of an ordinary call (vl53_call_budget_us()). */
 static inline uint32_t call_budget(const struct vl53_dev *dev) {
-    return or_default(dev->cfg->call_budget_us, VL53_DEFAULT_CALL_BUDGET_US);
+    return vl53_call_budget_us(dev->cfg);
 }
 
 /* Timeout for the next transfer of call `c`, or 0 when its budget is spent. */

@@ -6,6 +6,16 @@
 #include "hal/hal_i2c_reg.h"
 #include "vl53_internal.h"
 
+uint32_t vl53_call_budget_us(const struct vl53_config *cfg) {
+    const uint32_t at_400 = or_default(cfg->call_budget_us, VL53_DEFAULT_CALL_BUDGET_US);
+    const uint32_t hz = or_default(cfg->bus_hz, 400000u);
+    if (hz >= 400000u) {
+        return at_400;
+    }
+    const uint64_t scaled = ((uint64_t)at_400 * 400000u + hz - 1u) / hz;
+    return scaled > UINT32_MAX / 2u ? UINT32_MAX / 2u : (uint32_t)scaled;
+}
+
 uint32_t vl53_call_transfer_timeout(const struct call *c) {
     uint32_t elapsed = hal_time_elapsed_us(now_us(c->dev), c->start_us);
     if (elapsed >= c->budget_us) {

@@ -317,7 +317,7 @@ static uint32_t value_or(uint32_t value, uint32_t fallback) {
  * and finish), start: one
  * sensor's bring-up. */
 static uint32_t release_budget_us(const struct vl53_config *cfg) {
-    uint32_t call = value_or(cfg->call_budget_us, VL53_DEFAULT_CALL_BUDGET_US);
+    uint32_t call = vl53_call_budget_us(cfg);
     uint32_t transfer = value_or(cfg->i2c_timeout_us, VL53_DEFAULT_I2C_TIMEOUT_US);
     return VL53_BOOT_TIME_MAX_US + VL53_BOOT_SLACK_US + VL53_BOOT_POLL_US + 8u * call + transfer +
            value_or(cfg->configure_budget_us, VL53_DEFAULT_CONFIGURE_BUDGET_US);

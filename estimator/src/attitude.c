@@ -127,7 +127,8 @@ int attitude_init(struct attitude_state *st, const struct attitude_config *cfg) 
                                     .drift_flag_um = cfg->drift_flag_um,
                                     .drift_shift = cfg->drift_shift,
                                     .period_us = cfg->period_us,
-                                    .offset_walk_um2_h = cfg->offset_walk_um2_h};
+                                    .offset_walk_um2_h = cfg->offset_walk_um2_h,
+                                    .calibration_age_s = cfg->calibration_age_s};
     if (!integrity_config_valid(&icfg)) {
         return ATTITUDE_ERR_INTEGRITY;
     }

@@ -146,6 +146,11 @@ void integrity_assess(struct integrity_state *st, const struct integrity_config 
     st->rows = rows; /* the drift allowance's time: rows × period since the start */
     /* the ramp sums: zeroed above; in out, not on the window-end stack */
     out->why = scan_rows(cfg, w, s, out->ramp);
+    if (st->walk_mm2 == 0 && cfg->calibration_age_s != 0u) {
+        /* a calibration older than the start: its walk counts from the first window, not
+         * from the first block's end (integrity_parity) */
+        st->walk_mm2 = integrity_prior_walk(cfg, rows);
+    }
     struct integrity_noise_sums sums;
     integrity_noise_budget(st, cfg, s, out, &sums);
     integrity_motion_sensors(w, s, out);

@@ -87,6 +87,10 @@ void integrity_noise_budget(const struct integrity_state *st, const struct integ
 
 /* The parity test of a window with all four sensors (out->parity_mm, parity_failed), the
  * drift it teaches when learn, and the `parity` and `drift` bits of out->why. */
+/* The prior walk's variance (Q32 mm², saturating) at `rows` since the start, the
+ * calibration's age at the start included. */
+fix_q32_t integrity_prior_walk(const struct integrity_config *cfg, uint32_t rows);
+
 void integrity_parity(struct integrity_state *st, const struct integrity_config *cfg,
                       const struct window_stats *s, const struct integrity_noise_sums *sums,
                       bool learn, struct integrity_window *out);

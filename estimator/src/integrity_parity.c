@@ -45,13 +45,14 @@ static void learn_drift(struct integrity_state *st, const struct integrity_confi
     st->drift_long_mm2 += fix_div_round_s64(sample - st->drift_long_mm2, st->long_blocks);
 }
 
-/* The prior walk's variance at rows since the start: offset_walk (µm²/h) · rows · period
- * (µs) / 3.6e9 µs/h, in µm², then as Q32 mm² (saturating: it grows, it is never capped).
- * Never scaled down by what the parity shows: docs/estimator-design.md, "Drift since the
- * start" (session 10: a smooth drift's short spans hid its long ones). */
-static fix_q32_t prior_walk(const struct integrity_config *cfg, uint32_t rows) {
+/* The prior walk's variance at rows since the start: offset_walk (µm²/h) · (the calibration's
+ * age at the start + rows · period) (µs) / 3.6e9 µs/h, in µm², then as Q32 mm² (saturating: it
+ * grows, it is never capped). Never scaled down by what the parity shows: docs/estimator-design.md,
+ * "Drift since the start" (session 10: a smooth drift's short spans hid its long ones). */
+fix_q32_t integrity_prior_walk(const struct integrity_config *cfg, uint32_t rows) {
     bool sat = false;
-    const int64_t us = (int64_t)rows * (int64_t)cfg->period_us;
+    const int64_t us =
+        (int64_t)rows * (int64_t)cfg->period_us + (int64_t)cfg->calibration_age_s * 1000000;
     const int64_t um2 = fix_muldiv_s64(us, (int64_t)cfg->offset_walk_um2_h, 3600000000, &sat);
     const int64_t q32 = fix_muldiv_s64(um2, FIX_Q32_ONE, 1000000, &sat);
     return sat ? INT64_MAX : q32;
@@ -73,7 +74,7 @@ void integrity_parity(struct integrity_state *st, const struct integrity_config 
                       const struct window_stats *s, const struct integrity_noise_sums *sums,
                       bool learn, struct integrity_window *out) {
     if (learn) { /* the walk grows with the time since the start, once per block */
-        st->walk_mm2 = prior_walk(cfg, st->rows);
+        st->walk_mm2 = integrity_prior_walk(cfg, st->rows);
     }
     if (out->used == ANGLES_ALL_SENSORS) {
         const struct window_sensor_stats *sn = s->sensor;

@@ -344,6 +344,7 @@ int tof_app_init(struct tof_app *app, const struct tof_platform *platform,
              * a flipped bit cannot reach an `ok` window (docs/driver.md "Integrity"; bus
              * load 14.35 % at 4 x 50 Hz, within the 15 % goal). */
             .verify_distance = true,
+            .bus_hz = (uint32_t)cfg->i2c_khz * 1000u, /* the call budgets' wire time */
         };
     }
     app->array_cfg = (struct vl53_array_config){.sensors = app->sensor_cfg, .count = TOF_SENSORS};

@@ -40,6 +40,16 @@ void tof_app_get_calibration(const struct tof_app *app, struct calibration_head 
     *out = app->estimator.cfg.calibration;
 }
 
+int tof_app_set_calibration_age(struct tof_app *app, uint32_t age_s, bool restart) {
+    if (!restart) {
+        app->estimator.cfg.calibration_age_s = age_s; /* read by the next attitude_init() */
+        return ATTITUDE_ERR_NONE;
+    }
+    struct attitude_config next = app->estimator.cfg;
+    next.calibration_age_s = age_s;
+    return attitude_init(&app->estimator, &next);
+}
+
 int tof_app_set_arm(struct tof_app *app, int32_t arm_um) {
     struct attitude_config next = app->estimator.cfg;
     next.arm_um = arm_um;

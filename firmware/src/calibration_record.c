@@ -7,6 +7,7 @@
 
 #include "firmware/settings.h"
 #include "hal/hal_err.h"
+#include "telemetry/tlm_crc.h"
 #include "telemetry/tlm_messages.h"
 #include "le_bytes.h"
 
@@ -207,20 +208,26 @@ enum tof_cal_state tof_cal_check(const struct tof_cal_binding *bind,
 }
 
 enum tof_cal_state tof_cal_boot(struct tof_record_store *store, struct tof_app *app) {
-    if (store == NULL || store->storage.ops == NULL) {
-        return TOF_CAL_NO_STORAGE;
+    enum tof_cal_state state = TOF_CAL_NO_STORAGE;
+    if (store != NULL && store->storage.ops != NULL) {
+        switch (tof_record_load(store)) {
+        case TOF_RECORD_LOADED:
+            return tof_cal_recheck(store, app);
+        case TOF_RECORD_NONE:
+            state = TOF_CAL_NONE;
+            break;
+        case TOF_RECORD_VERSION:
+            state = TOF_CAL_VERSION;
+            break;
+        default:
+            state = TOF_CAL_CORRUPT;
+            break;
+        }
     }
-    switch (tof_record_load(store)) {
-    case TOF_RECORD_LOADED:
-        break;
-    case TOF_RECORD_NONE:
-        return TOF_CAL_NONE;
-    case TOF_RECORD_VERSION:
-        return TOF_CAL_VERSION;
-    default:
-        return TOF_CAL_CORRUPT;
-    }
-    return tof_cal_recheck(store, app);
+    /* No record to apply: the configuration's own calibration, whatever was in force before
+     * (a boot after a soft restart, or a test rig reusing the application, must not keep it). */
+    (void)tof_app_set_calibration(app, &app->cfg.estimator.calibration);
+    return state;
 }
 
 enum tof_cal_state tof_cal_recheck(const struct tof_record_store *store, struct tof_app *app) {
@@ -312,4 +319,19 @@ enum tof_cal_state tof_cal_write_head(struct tof_record_store *store, struct tof
         return TOF_CAL_CORRUPT;
     }
     return tof_cal_write(store, app, section, error);
+}
+
+uint16_t tof_cal_tag(const struct tof_record_store *store) {
+    if (store == NULL || store->current < 0) {
+        return 0u;
+    }
+    const int at = tof_section_find(store->payload, store->length, TOF_SECTION_CALIBRATION);
+    if (at < 0) {
+        return 0u;
+    }
+    const uint16_t body = (uint16_t)(store->payload[at + 2] | store->payload[at + 3] << 8);
+    if ((uint32_t)at + TOF_SECTION_HEADER + body > store->length) {
+        return 0u;
+    }
+    return tlm_crc16(TLM_CRC_INIT, &store->payload[at], (size_t)TOF_SECTION_HEADER + body);
 }

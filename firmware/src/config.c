@@ -5,9 +5,24 @@
 
 #include "hal/hal_err.h"
 
+/* The board's bus clock (the build option TOF_I2C_KHZ, cmake/TofOptions.cmake). */
+#ifndef TOF_I2C_KHZ
+#define TOF_I2C_KHZ 400
+#endif
+#if TOF_I2C_KHZ != 100 && TOF_I2C_KHZ != 400
+#error "TOF_I2C_KHZ: 100 or 400"
+#endif
+
 /* Defaults, checked at compile time below. */
-#define TOF_PERIOD_MS      20u /* 50 Hz per sensor, the paper's experiment rate */
-#define TOF_BUDGET_MS      15u /* VL53L1X short mode: the longest budget that fits the period */
+#if TOF_I2C_KHZ == 400
+#define TOF_PERIOD_MS 20u /* 50 Hz per sensor, the paper's experiment rate */
+#define TOF_BUDGET_MS 15u /* VL53L1X short mode: the longest budget that fits the period */
+#else
+/* 25 Hz: a 100 kHz bus carries four readings in 14.1 ms, more than half of 20 ms
+ * (tof_app_bus_fits()); 40 ms leaves 65 % of the period free. */
+#define TOF_PERIOD_MS 40u
+#define TOF_BUDGET_MS 33u /* the longest budget that fits 40 ms with the 4 ms margin */
+#endif
 #define TOF_MAX_SKEW_US    5000u
 #define TOF_IDLE_US        1000u  /* data-ready latency bound when idle */
 #define TOF_LOOP_BUDGET_US 40000u /* >= one sensor re-init (boot 1.2 ms + config) + 4 polls */
@@ -17,6 +32,9 @@ _Static_assert(TOF_PERIOD_MS >= TOF_BUDGET_MS + VL53_IMP_MARGIN_MS,
 _Static_assert(TOF_MAX_SKEW_US < TOF_PERIOD_MS * 1000u / 2u,
                "skew must stay below half a period so slots cannot be confused");
 _Static_assert(TOF_IDLE_US < TOF_MAX_SKEW_US, "idle sleep must be shorter than the skew window");
+_Static_assert(2u * ((TOF_SAMPLE_BUS_BITS * 1000u + TOF_I2C_KHZ - 1u) / TOF_I2C_KHZ) <=
+                   TOF_PERIOD_MS * 1000u,
+               "the default period's readings take at most half of it on the bus");
 
 const struct tof_app_config tof_app_default_config = {
     /* 0x29 is the power-on default (VL53L1X datasheet DS12385 §2.5.2); 0x30.. are free
@@ -37,7 +55,17 @@ const struct tof_app_config tof_app_default_config = {
                .trouble_errors = 5},
     .estimator = ATTITUDE_CONFIG_DEFAULT, /* the estimator's own defaults (attitude.h) */
     .raw_output = false,
+    .cal_off_allowance_s = TOF_CAL_OFF_ALLOWANCE_S_DEFAULT,
+    .i2c_khz = TOF_I2C_KHZ,
 };
+
+bool tof_app_bus_fits(uint32_t period_ms, uint16_t i2c_khz) {
+    if (i2c_khz == 0u) {
+        return false;
+    }
+    const uint64_t wire_us = ((uint64_t)TOF_SAMPLE_BUS_BITS * 1000u + i2c_khz - 1u) / i2c_khz;
+    return 2u * wire_us <= (uint64_t)period_ms * 1000u;
+}
 
 const char *tof_app_config_check(const struct tof_app_config *cfg) {
     if (vl53_timing_check(&cfg->timing) != HAL_OK) {
@@ -66,6 +94,12 @@ const char *tof_app_config_check(const struct tof_app_config *cfg) {
     if (!tof_health_config_valid(&cfg->health)) {
         return "health";
     }
+    if (cfg->i2c_khz != 100u && cfg->i2c_khz != 400u) {
+        return "i2c_khz";
+    }
+    if (!tof_app_bus_fits(cfg->timing.inter_measurement_ms, cfg->i2c_khz)) {
+        return "timing (the bus at i2c_khz cannot carry the period)";
+    }
     /* The estimator's own fields are checked by attitude_init() at tof_app_init(). */
     return NULL;
 }
@@ -93,7 +127,8 @@ bool tof_app_replay_mode_fits(uint32_t period_ms, enum vl53_distance_mode mode) 
 
 int tof_app_config_period(struct tof_app_config *cfg, uint32_t period_ms) {
     struct vl53_timing timing;
-    if (period_ms == 0u || !replay_timing(period_ms, cfg->timing.mode, &timing)) {
+    if (period_ms == 0u || !replay_timing(period_ms, cfg->timing.mode, &timing) ||
+        !tof_app_bus_fits(period_ms, cfg->i2c_khz)) {
         return HAL_ERR_INVALID;
     }
     const uint32_t period_us = period_ms * 1000u;

@@ -120,6 +120,21 @@ static void on_estimate(void *ctx, const struct tof_estimate_record *record) {
 
 static void send_calibration(struct tof_link *link);
 
+/* A new calibration in force (a re-zero's or one written): its age starts at 0, kept from now
+ * (a storage error leaves it counting from now all the same: state FAILED in the status). */
+static void age_restart(struct tof_link *link) {
+    const uint64_t now_us = tof_app_now_us(link->app);
+    if (link->cal_age != NULL) {
+        (void)tof_cal_age_restart(link->cal_age, tof_cal_tag(link->records), now_us);
+    }
+    (void)tof_app_set_calibration_age(link->app, 0u, true);
+}
+
+/* The calibration's age now: kept on storage, else 0 (none kept: it counts from the boot). */
+static uint32_t age_now_s(struct tof_link *link) {
+    return link->cal_age != NULL ? tof_cal_age_now_s(link->cal_age, tof_app_now_us(link->app)) : 0u;
+}
+
 /* The re-zero's last sample is in: the offsets refitted, saved and in force (or the reason
  * not), the raw stream as the user had it, and a calibration message says how it went. */
 static void finish_rezero(struct tof_link *link) {
@@ -136,6 +151,9 @@ static void finish_rezero(struct tof_link *link) {
     link->cal_state = (uint8_t)st; /* this message says how the re-zero went */
     send_calibration(link);
     link->cal_state = st == TOF_CAL_APPLIED ? (uint8_t)st : kept;
+    if (st == TOF_CAL_APPLIED) {
+        age_restart(link);
+    }
 }
 
 static void on_sample(void *ctx, const struct tof_sample *sample) {
@@ -179,6 +197,8 @@ void tof_link_send_status(struct tof_link *link) {
         .record = link->record_state,   /* enum tof_record_state == enum tlm_record_state */
         .calibration = link->cal_state, /* enum tof_cal_state == enum tlm_cal_state */
         .arm_um = (uint32_t)st.arm_um,  /* the estimator keeps it in 1..1000 mm */
+        .cal_age_s = age_now_s(link),
+        .cal_age = link->cal_age != NULL ? link->cal_age->state : (uint8_t)TOF_CAL_AGE_NONE,
     };
     uint8_t frame[TLM_FRAME_MAX];
     send(link, frame, tlm_encode_status(link->seq, &msg, frame, sizeof frame));
@@ -210,6 +230,7 @@ static uint8_t write_calibration(struct tof_link *link, const uint8_t *section, 
     const enum tof_cal_state st = tof_cal_write(link->records, link->app, section, error);
     if (st == TOF_CAL_APPLIED) {
         link->cal_state = (uint8_t)st; /* what the status frame says from now on */
+        age_restart(link);
         return TLM_RESULT_OK;
     }
     return st == TOF_CAL_CORRUPT || st == TOF_CAL_VERSION ? TLM_RESULT_OUT_OF_RANGE
@@ -406,6 +427,10 @@ void tof_link_set_records(struct tof_link *link, struct tof_record_store *store)
     link->records = store;
 }
 
+void tof_link_set_cal_age(struct tof_link *link, struct tof_cal_age *age) {
+    link->cal_age = age;
+}
+
 void tof_link_bind(struct tof_link *link, struct tof_app *app) {
     link->app = app;
 }
@@ -434,6 +459,11 @@ void tof_link_poll(struct tof_link *link) {
         return;
     }
     save_poll(link); /* not inlined for the same reason as send_health() */
+    if (link->cal_age != NULL && link->cal_age->counting && !tof_record_busy(link->records)) {
+        /* never while the record's erase runs in the background: one storage, one operation */
+        (void)tof_cal_age_poll(link->cal_age, tof_app_now_us(link->app));
+        (void)tof_app_set_calibration_age(link->app, age_now_s(link), false);
+    }
     uint8_t buf[TOF_LINK_RX_PER_POLL];
     const struct tlm_frame_sink sink = {.on_frame = on_frame, .on_reject = on_reject, .ctx = link};
     for (unsigned chunk = 0; chunk < TOF_LINK_RX_CHUNKS; ++chunk) {
@@ -454,6 +484,12 @@ static void service_start(void *ctx, struct tof_app *app) {
     /* the settings in force: their process noise is what `save` keeps until a command */
     link->record_state = (uint8_t)tof_settings_boot(link->records, app, &link->process_noise);
     link->cal_state = (uint8_t)tof_cal_boot(link->records, app); /* the head's calibration */
+    if (link->cal_age != NULL) { /* its age: stored, plus the time the unit may have been off */
+        (void)tof_cal_age_boot(link->cal_age, link->cal_state == TOF_CAL_APPLIED,
+                               tof_cal_tag(link->records), app->cfg.cal_off_allowance_s,
+                               tof_app_now_us(app));
+        (void)tof_app_set_calibration_age(app, age_now_s(link), true);
+    }
     tof_link_send_status(link);
 }
 

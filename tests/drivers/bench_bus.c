@@ -36,6 +36,7 @@ static void build(const struct setup *s) {
     drv_fixture_defaults(&fx);
     fx.rig_cfg.bus_hz = s->bus_hz;
     for (size_t i = 0; i < DRV_SENSORS; ++i) {
+        fx.sensor_cfg[i].bus_hz = s->bus_hz; /* the driver's call budgets follow the bus */
         fx.sensor_cfg[i].verify_distance = s->verify;
         if (!s->gpio1) {
             fx.sensor_cfg[i].gpio1_pin = VL53_PIN_NONE;

@@ -117,9 +117,7 @@ uint32_t drv_manager_bound_us(const struct drv_manager *m, enum drv_call call) {
     uint32_t slack = drv_transfer_slack_us(f);
     switch (call) {
     case DRV_CALL_POLL: {
-        uint32_t budget = f->sensor_cfg[0].call_budget_us != 0u ? f->sensor_cfg[0].call_budget_us
-                                                                : VL53_DEFAULT_CALL_BUDGET_US;
-        return budget + slack;
+        return vl53_call_budget_us(&f->sensor_cfg[0]) + slack;
     }
     case DRV_CALL_RECOVER_SENSOR:
         return vl53_array_recover_budget_us(&f->array, 0) + VL53_ARRAY_STEPS_PER_SENSOR * slack;

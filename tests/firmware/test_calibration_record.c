@@ -389,6 +389,39 @@ static void test_written_on_board_binds_the_running_parts(void **state) {
     assert_int_equal(boot(), TOF_CAL_APPLIED);
 }
 
+/* A unit running calibrated whose record is then found damaged, erased, of another version or
+ * gone (no storage) at the next boot: the estimator's calibration goes back to the
+ * configuration's own, never the one left in force. */
+static void test_a_boot_without_a_valid_record_resets_the_calibration(void **state) {
+    (void)state;
+    const struct calibration_head cal = a_head();
+    const struct tof_cal_binding b = mine();
+    enum { DAMAGED, ERASED, OTHER_FORMAT, NO_STORAGE, CASES };
+    for (int k = 0; k < CASES; ++k) {
+        save_cal(&cal, true, &b);
+        assert_int_equal(boot(), TOF_CAL_APPLIED);
+        assert_true(app.estimator.cfg.calibration.calibrated);
+        enum tof_cal_state want = TOF_CAL_CORRUPT;
+        if (k == DAMAGED) {
+            sim_flash_poke(&flash, (uint16_t)store.current, 12u + 4u + 9u, 0x04u);
+        } else if (k == ERASED) {
+            assert_int_equal(sim_flash_ops.erase(&flash, 0u), HAL_OK);
+            assert_int_equal(sim_flash_ops.erase(&flash, 1u), HAL_OK);
+            want = TOF_CAL_NONE;
+        } else if (k == OTHER_FORMAT) {
+            sim_flash_poke(&flash, (uint16_t)store.current, 4u, TOF_RECORD_FORMAT + 1u);
+            want = TOF_CAL_VERSION;
+        }
+        if (k == NO_STORAGE) {
+            assert_int_equal(tof_cal_boot(NULL, &app), TOF_CAL_NO_STORAGE);
+        } else {
+            assert_int_equal(boot(), want);
+        }
+        assert_uncalibrated();
+        assert_int_equal(setup(NULL), 0); /* a blank flash and store for the next case */
+    }
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup(test_a_matching_section_reaches_the_estimator, setup),
@@ -404,6 +437,7 @@ int main(void) {
         cmocka_unit_test_setup(test_another_part_is_not_applied, setup),
         cmocka_unit_test_setup(test_version_1_binds_the_head_only, setup),
         cmocka_unit_test_setup(test_written_on_board_binds_the_running_parts, setup),
+        cmocka_unit_test_setup(test_a_boot_without_a_valid_record_resets_the_calibration, setup),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

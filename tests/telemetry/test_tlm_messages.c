@@ -90,7 +90,9 @@ static struct tlm_status sample_status(void) {
                                .period_ms = 20,
                                .record = TLM_RECORD_CORRUPT,
                                .calibration = TLM_CAL_OTHER_MODE,
-                               .arm_um = 30000u};
+                               .arm_um = 30000u,
+                               .cal_age_s = 90061u,
+                               .cal_age = TLM_CAL_AGE_KEPT};
 }
 
 /* Decode exactly one accepted frame from `bytes` through a real decoder. */
@@ -140,7 +142,7 @@ static void test_every_type_has_its_documented_length(void **state) {
     assert_int_equal(tlm_encode_raw_sample(0, &raw, out, sizeof out), 17 + 7);
     assert_int_equal(tlm_encode_health(0, &health, out, sizeof out), 148 + 7);
     assert_int_equal(tlm_encode_ack(0, &ack, out, sizeof out), 4 + 7);
-    assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 22 + 7);
+    assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 27 + 7);
     assert_int_equal(tlm_type_payload_length(TLM_TYPE_HEALTH, TLM_ACCEPT_TELEMETRY), 148);
     assert_int_equal(tlm_type_payload_length(TLM_TYPE_HEALTH, TLM_ACCEPT_COMMANDS), -1);
     assert_int_equal(tlm_type_payload_length(TLM_TYPE_SET_WINDOW, TLM_ACCEPT_ALL), 3);
@@ -160,14 +162,16 @@ static void test_status_layout(void **state) {
     (void)state;
     const struct tlm_status status = sample_status();
     uint8_t out[TLM_FRAME_MAX];
-    assert_int_equal(tlm_encode_status(3, &status, out, sizeof out), 29);
+    assert_int_equal(tlm_encode_status(3, &status, out, sizeof out), 34);
     const uint8_t *p = &out[TLM_HEADER_SIZE];
     const uint8_t expected[] = {0,    1,    2,    TLM_PROTOCOL_VERSION,
                                 0x40, 0xE2, 0x01, 0x00,
                                 100,  0,    1,    2,
                                 1,    0,    20,   0,
                                 2,    5,    0x30, 0x75,
-                                0x00, 0x00}; /* arm 30000 um */
+                                0x00, 0x00, /* arm 30000 um */
+                                0xCD, 0x5F, 0x01, 0x00,
+                                1}; /* calibration age 90061 s, kept */
     assert_memory_equal(p, expected, sizeof expected);
     /* an arm or a period outside the protocol's ranges is not encoded */
     struct tlm_status bad = status;
@@ -342,6 +346,8 @@ static void test_ack_and_status_round_trip(void **state) {
     assert_true(s->running);
     assert_false(s->raw_stream);
     assert_int_equal(s->period_ms, 20);
+    assert_int_equal(s->cal_age_s, 90061u);
+    assert_int_equal(s->cal_age, TLM_CAL_AGE_KEPT);
 }
 
 /* --- telemetry validation ------------------------------------------------- */
@@ -541,18 +547,19 @@ static void test_raw_health_ack_status_validation(void **state) {
     const struct tlm_ack ack_with_error = {.result = 0, .error = -1};
     assert_int_equal(tlm_encode_ack(0, &ack_with_error, out, sizeof out), HAL_ERR_INVALID);
 
-    const size_t status_bytes[] = {3, 10, 11, 12, 13, 16, 17, 20};
-    const uint8_t status_bad[] = {TLM_PROTOCOL_VERSION + 1u, 2, 4, 2, 2, 6, 9, 0x10}; /* protocol,
-                   mode, estimator, bools, record state, calibration state, arm > 1000 mm */
-    for (size_t i = 0; i < 8; ++i) {
+    const size_t status_bytes[] = {3, 10, 11, 12, 13, 16, 17, 20, 26};
+    const uint8_t status_bad[] = {
+        TLM_PROTOCOL_VERSION + 1u, 2, 4, 2, 2, 6, 9, 0x10, 4}; /* protocol,
+mode, estimator, bools, record state, calibration state, arm > 1000 mm, age state */
+    for (size_t i = 0; i < 9; ++i) {
         status = sample_status();
-        assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 29);
+        assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 34);
         out[5 + status_bytes[i]] = status_bad[i];
         frame = raw_frame(TLM_TYPE_STATUS, &out[5], TLM_LEN_STATUS);
         assert_int_equal(tlm_parse_telemetry(&frame, &msg, NULL), TLM_RESULT_OUT_OF_RANGE);
     }
     status = sample_status();
-    assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 29);
+    assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 34);
     out[5 + 8] = 1; /* window_n = 1 */
     frame = raw_frame(TLM_TYPE_STATUS, &out[5], TLM_LEN_STATUS);
     assert_int_equal(tlm_parse_telemetry(&frame, &msg, NULL), TLM_RESULT_OUT_OF_RANGE);

@@ -14,6 +14,7 @@ static const char *const record_names[] = {"none",    "loaded",   "corrupt",
 static const char *const cal_names[] = {"none",     "applied",    "corrupt",
                                         "version",  "other-head", "other-mode",
                                         "rejected", "no-storage", "other-parts"};
+static const char *const cal_age_names[] = {"none", "kept", "unknown", "failed"};
 static const char *const health_names[] = {"healthy", "suspect", "lost", "recovering"};
 static const char *const mode_names[] = {"tumbling", "sliding"};
 static const char *const result_names[] = {"ok", "unknown-type", "bad-length", "out-of-range",
@@ -200,11 +201,12 @@ void tlm_text_telemetry(FILE *out, uint8_t seq, const struct tlm_telemetry *msg)
         fprintf(out,
                 "status fw=%u.%u.%u protocol=%u uptime_ms=%" PRIu32
                 " window_n=%u mode=%s estimator=%s running=%s raw_stream=%s period_ms=%u"
-                " record=%s calibration=%s arm_um=%" PRIu32,
+                " record=%s calibration=%s arm_um=%" PRIu32 " cal_age_s=%" PRIu32 " cal_age=%s",
                 s->fw_major, s->fw_minor, s->fw_patch, TLM_PROTOCOL_VERSION, s->uptime_ms,
                 s->window_n, mode_names[s->mode], estimator_names[s->estimator],
                 s->running ? "yes" : "no", s->raw_stream ? "yes" : "no", s->period_ms,
-                record_names[s->record], cal_names[s->calibration], s->arm_um);
+                record_names[s->record], cal_names[s->calibration], s->arm_um, s->cal_age_s,
+                cal_age_names[s->cal_age]);
         break;
     }
     case TLM_TYPE_CALIBRATION:

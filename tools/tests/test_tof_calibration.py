@@ -103,7 +103,7 @@ class TelemetryTest(unittest.TestCase):
         self.assertEqual(t.parse(t.T_CALIBRATION, bytes([9]) + bytes(84))[1], t.R_OUT_OF_RANGE)
         self.assertEqual(t.parse(t.T_WRITE_CALIBRATION, bytes(84))[1], t.R_OUT_OF_RANGE)
         status, result = t.parse(t.T_STATUS, bytes([0, 1, 0, t.PROTOCOL_VERSION]) + struct.pack(
-            "<IHBBBBHBBI", 1000, 100, 0, 0, 1, 0, 20, 0, 5, 30000))
+            "<IHBBBBHBBIIB", 1000, 100, 0, 0, 1, 0, 20, 0, 5, 30000, 7200, 1))
         self.assertEqual((result, t.CAL_STATES[status["calibration"]]), (t.R_OK, "other-mode"))
 
     def run_main(self, argv):

@@ -41,12 +41,14 @@ uint32_t twin_flash_if_read(struct twin *t, uint32_t off);
 void twin_flash_if_write(struct twin *t, uint32_t off, uint32_t v);
 
 /* ---- FLASH program/erase interface (RM0351 §3.3.5-3.3.7, §3.7) and the record pages ---- */
-/* The record pages the flight image's linker script reserves (stm32l476rg.ld): bank 2,
- * pages 254 and 255, the last 4 KB of the 1 MB flash. Only they may be erased or
- * programmed; they are mapped as I/O so each access reaches the model. */
-#define TWIN_RECORDS_BASE 0x080FF000u
-#define TWIN_RECORDS_SIZE 0x1000u
-#define TWIN_RECORDS_PNB  254u
+/* The storage pages the flight image's linker script reserves (stm32l476rg.ld): bank 2,
+ * pages 252..255, the last 8 KB of the 1 MB flash (the calibration's age on 252 and 253, the
+ * record on 254 and 255). Only they may be erased or programmed; they are mapped as I/O so
+ * each access reaches the model. */
+#define TWIN_RECORDS_BASE   0x080FE000u
+#define TWIN_RECORDS_SIZE   0x2000u
+#define TWIN_RECORDS_PNB    252u
+#define TWIN_RECORD_PAGE_AT 0x1000u /* the record's first page (254) from TWIN_RECORDS_BASE */
 #define TWIN_FLASH_NO_CUT UINT32_MAX
 struct twin_flash {
     uint32_t sr, cr, eccr;

@@ -144,7 +144,7 @@ static int preload_records(struct run *r) {
         }
         return -1;
     }
-    uint8_t *mem = &r->t.flash[TWIN_RECORDS_BASE - TWIN_FLASH_BASE];
+    uint8_t *mem = &r->t.flash[TWIN_RECORDS_BASE - TWIN_FLASH_BASE + TWIN_RECORD_PAGE_AT];
     /* bound as the HEAD.cal states (head, mode, budget): the flight image's boot refuses
      * what a flight unit would, and the report's calibration_state says so */
     if (cal_apply_preload(&cal.cal, &r->cfg, &cal.made_in, mem, &flash, &store) != 0) {

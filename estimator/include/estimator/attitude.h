@@ -120,6 +120,9 @@ struct attitude_config {
                                      allowance, which grows with rows × period since start */
     uint32_t offset_walk_um2_h;   /* prior random-walk rate of each sensor's offset, µm² per
                                      hour (0: none): the unseen drift's growth */
+    uint32_t calibration_age_s;   /* the calibration's age at attitude_init, seconds: the
+                                     prior walk grows over it plus rows × period (the unit
+                                     keeps it across resets: firmware/cal_age.h); 0: none */
     /* The head's calibration (estimator/calibration.h), applied to every reading before
      * any estimator: calibrated false is an uncalibrated head, never `ok` (why
      * `uncalibrated`; offset 0, gain 1, the parts' spread CALIBRATION_UNCAL_* in every

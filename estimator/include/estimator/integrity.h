@@ -68,6 +68,8 @@ struct integrity_config {
     uint8_t drift_shift;          /* learning gain 2^-shift per block, after a start-up mean */
     uint32_t period_us;           /* row period: the time since the start is rows × period */
     uint32_t offset_walk_um2_h;   /* prior random-walk rate of each offset, µm²/h */
+    uint32_t calibration_age_s;   /* the calibration's age at the start: the walk's time
+                                     is this plus rows × period */
     /* What the head's calibration leaves, per sensor (estimator/calibration.h; the parts'
      * spread for an uncalibrated head): 1σ of its offset and gain errors and their
      * correlation. Each sensor mean's variance carries them at its distance. */

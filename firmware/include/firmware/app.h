@@ -156,6 +156,12 @@ int tof_app_set_calibration(struct tof_app *app, const struct calibration_head *
 /* The head's calibration in force (estimator/calibration.h) into `out`. */
 void tof_app_get_calibration(const struct tof_app *app, struct calibration_head *out);
 
+/* The calibration's age `age_s` (firmware/cal_age.h) for the estimator: with `restart`, the
+ * estimators restart with it now (attitude_init(): its attitude_error, nothing changed on a
+ * refusal); without, it is only kept for their next restart (a command's), their running
+ * walk growing on its own meanwhile. */
+int tof_app_set_calibration_age(struct tof_app *app, uint32_t age_s, bool restart);
+
 /* The head's arm a (µm) in force from the next sample: the estimators restart, as after
  * tof_app_set_window(). ATTITUDE_ERR_NONE, or attitude_init()'s attitude_error unchanged
  * (ATTITUDE_ERR_ARM outside 1..1000 mm) with nothing changed. */

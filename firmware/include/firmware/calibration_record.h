@@ -142,6 +142,10 @@ enum tof_cal_state tof_cal_write_head(struct tof_record_store *store, struct tof
  * it), or zeros when there is none. */
 void tof_cal_read(const struct tof_record_store *store, uint8_t *section);
 
+/* Which calibration the record in use holds, for its age (firmware/cal_age.h): the CRC-16 of
+ * its calibration section (header and body as stored), or 0 when it holds none. */
+uint16_t tof_cal_tag(const struct tof_record_store *store);
+
 /* The binding of the running image (its head id, distance mode, timing budget; part_id 0). */
 struct tof_cal_binding tof_cal_binding_of(const struct tof_app_config *cfg);
 

@@ -25,7 +25,29 @@ struct tof_app_config {
      * calibration applies only when made on the same head (firmware/calibration_record.h);
      * 0, the default, is a head without a number. */
     uint32_t head_id;
+    /* The time the unit may have been off before a boot, added to its calibration's stored age
+     * at every boot until the next calibration (firmware/cal_age.h): the unit has no clock
+     * that runs while it is off. A mission sets the longest it expects. */
+    uint32_t cal_off_allowance_s;
+    /* The sensors' bus clock, kHz: 400 (Fast-mode) or 100 (Standard-mode, a long harness): the
+     * board's build option TOF_I2C_KHZ. A period whose four readings need more than half of
+     * it on the wire is refused (tof_app_bus_fits()). */
+    uint16_t i2c_khz;
 };
+
+/* Wire bits of one four-sensor sample, the most any data-ready method takes: data ready read
+ * from the status register, the result block and the distance re-read, 17.4 transactions on
+ * average (tests/drivers/bench_bus.c, drv_bench_bus: 1,406 bits at 4 x 50 Hz). */
+#define TOF_SAMPLE_BUS_BITS 1406u
+
+/* True when a sample's readings (TOF_SAMPLE_BUS_BITS at `i2c_khz`) take at most half of
+ * `period_ms` on the wire, the other half left to the estimator's window end and the link:
+ * at 400 kHz 3.5 ms (every VL53L1X period fits), at 100 kHz 14.1 ms (29 ms and longer). */
+bool tof_app_bus_fits(uint32_t period_ms, uint16_t i2c_khz);
+
+/* One day: a unit off longer than that before its use is re-zeroed first, or its mission sets
+ * a longer allowance (firmware/cal_age.h). */
+#define TOF_CAL_OFF_ALLOWANCE_S_DEFAULT 86400u
 
 /* The product's default configuration (firmware/src/config.c). */
 extern const struct tof_app_config tof_app_default_config;
@@ -51,7 +73,8 @@ int tof_app_config_for_replay(struct tof_app_config *cfg, int32_t arm_um, uint32
  * budget of the mode that leaves the inter-measurement margin), the skew, idle time and
  * health timeouts scaled to the period, and the estimator's clock (period_us). The one rule
  * of tof_app_config_for_replay() and of the set-period command (tof_app_set_period()).
- * HAL_OK, or HAL_ERR_INVALID with `cfg` unchanged when no timing of the mode fits.
+ * HAL_OK, or HAL_ERR_INVALID with `cfg` unchanged when no timing of the mode fits or the bus
+ * at cfg->i2c_khz cannot carry the period (tof_app_bus_fits()).
  */
 int tof_app_config_period(struct tof_app_config *cfg, uint32_t period_ms);
 

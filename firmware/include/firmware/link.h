@@ -17,6 +17,7 @@
 #include <stdint.h>
 
 #include "firmware/app.h"
+#include "firmware/cal_age.h"
 #include "firmware/record.h"
 #include "firmware/rezero.h"
 #include "firmware/settings.h"
@@ -67,6 +68,9 @@ struct tof_link {
      * answer goes out once the new copy is in use. */
     bool save_pending;
     uint8_t save_seq;
+    /* The calibration's age kept across resets (NULL: not kept; it then counts from each
+     * boot), on storage pages the record's erases never run alongside. */
+    struct tof_cal_age *cal_age;
 };
 
 /* Start a link over `serial`. */
@@ -75,6 +79,12 @@ void tof_link_init(struct tof_link *link, struct hal_serial serial);
 /* Keep the settings in `store` (initialised with tof_record_init()): the service's start
  * applies the saved ones (firmware/settings.h), `save` writes them. Call before the start. */
 void tof_link_set_records(struct tof_link *link, struct tof_record_store *store);
+
+/* Keep the calibration's age in `age` (initialised with tof_cal_age_init() on the same storage
+ * as the records, other pages): the service's start hands the stored age plus the
+ * configuration's off allowance to the estimator, each poll keeps it, a new calibration starts
+ * it at 0, and the status frame reports it. Call before the start. */
+void tof_link_set_cal_age(struct tof_link *link, struct tof_cal_age *age);
 
 /* Attach the application the commands act on (after tof_app_init). */
 void tof_link_bind(struct tof_link *link, struct tof_app *app);

@@ -266,6 +266,7 @@ static bool status_is_valid(const struct tlm_status *m) {
     return window_is_valid(m->window_n, m->mode) && m->estimator <= TLM_ESTIMATOR_LAST &&
            m->record <= TLM_RECORD_STATE_LAST &&   /* enum tlm_record_state */
            m->calibration <= TLM_CAL_STATE_LAST && /* enum tlm_cal_state */
+           m->cal_age <= TLM_CAL_AGE_STATE_LAST && /* enum tlm_cal_age_state */
            arm_is_valid(m->arm_um) && period_is_valid(m->period_ms);
 }
 
@@ -288,6 +289,8 @@ int tlm_encode_status(uint8_t seq, const struct tlm_status *msg, uint8_t *out, s
     put_u8(&w, msg->record);
     put_u8(&w, msg->calibration);
     put_u32(&w, msg->arm_um);
+    put_u32(&w, msg->cal_age_s);
+    put_u8(&w, msg->cal_age);
     return finish_frame(TLM_TYPE_STATUS, seq, out, w.at, cap);
 }
 
@@ -306,6 +309,8 @@ static enum tlm_result parse_status(struct reader *r, struct tlm_status *m) {
     m->record = get_u8(r);
     m->calibration = get_u8(r);
     m->arm_um = get_u32(r);
+    m->cal_age_s = get_u32(r);
+    m->cal_age = get_u8(r);
     if (protocol != TLM_PROTOCOL_VERSION || !running_ok || !raw_ok || !status_is_valid(m)) {
         return TLM_RESULT_OUT_OF_RANGE;
     }

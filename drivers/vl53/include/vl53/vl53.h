@@ -137,7 +137,8 @@ struct vl53_config {
     enum vl53_polarity polarity;
     struct vl53_timing timing;
     uint32_t i2c_timeout_us;      /* per transfer (clock stretching), 0: default */
-    uint32_t call_budget_us;      /* per call, 0: default */
+    uint32_t call_budget_us;      /* per call at 400 kHz, 0: default (vl53_call_budget_us()) */
+    uint32_t bus_hz;              /* the bus clock (100000 or 400000), 0: 400 kHz */
     uint32_t configure_budget_us; /* for vl53_configure(), 0: default */
     uint32_t poll_interval_us;    /* least gap between data-ready register reads, 0: default */
     /* Re-read the distance after each result and compare: catches bit errors in the
@@ -152,6 +153,12 @@ struct vl53_config {
     /* Written to 0x1E/0x20/0x22 at every bring-up and read back; zero-initialised: all 0. */
     struct vl53_offsets offsets;
 };
+
+/* The budget of one ordinary call of a sensor configured as `cfg`: call_budget_us (or its
+ * default), which bounds a call's transfers at 400 kHz, scaled by 400 kHz / bus_hz, rounded
+ * up, on a slower bus: the longest call (the configuration's 91-byte write and read-back) has
+ * four times the wire time at 100 kHz. */
+uint32_t vl53_call_budget_us(const struct vl53_config *cfg);
 
 /* One measurement as read from the result block. */
 struct vl53_result {

@@ -24,7 +24,8 @@
 /* 4: the status message ends with the head calibration's state (18 bytes); write- and
  * read-calibration (0x90, 0x91) and the calibration message (0x10). */
 /* 5: the status message ends with the arm (22 bytes); set-arm and set-period (0x89, 0x8A). */
-#define TLM_PROTOCOL_VERSION 5u
+/* 6: the status message ends with the calibration's age and its state (27 bytes). */
+#define TLM_PROTOCOL_VERSION 6u
 
 /* Frame types. Commands have the top bit set, so direction shows in a dump. */
 enum tlm_type {
@@ -55,7 +56,7 @@ enum tlm_type {
 #define TLM_LEN_RAW_SAMPLE        17u
 #define TLM_LEN_HEALTH            148u
 #define TLM_LEN_ACK               4u
-#define TLM_LEN_STATUS            22u
+#define TLM_LEN_STATUS            27u
 #define TLM_LEN_SET_WINDOW        3u
 #define TLM_LEN_SELECT_ESTIMATOR  1u
 #define TLM_LEN_START             0u
@@ -214,7 +215,19 @@ struct tlm_status {
     uint8_t record;      /* enum tlm_record_state: the saved settings at boot */
     uint8_t calibration; /* enum tlm_cal_state: the head's calibration at boot */
     uint32_t arm_um;     /* the head's arm a in force, TLM_ARM_MIN_UM..TLM_ARM_MAX_UM */
+    uint32_t cal_age_s;  /* the calibration's age now, s (what the estimator's walk counts) */
+    uint8_t cal_age;     /* enum tlm_cal_age_state: how that age is known */
 };
+
+/* The status message's `cal_age`: how the calibration's age is known (the values of
+ * firmware/cal_age.h's enum tof_cal_age_state). */
+enum tlm_cal_age_state {
+    TLM_CAL_AGE_NONE = 0,    /* no calibration in force at boot, or no storage: age 0 */
+    TLM_CAL_AGE_KEPT = 1,    /* stored across resets, each boot's off allowance added */
+    TLM_CAL_AGE_UNKNOWN = 2, /* a calibration stored without an age: counted from its boot */
+    TLM_CAL_AGE_FAILED = 3,  /* the storage refused the last entry: counted, not kept */
+};
+#define TLM_CAL_AGE_STATE_LAST TLM_CAL_AGE_FAILED
 
 /* The status message's `record`: what the firmware found of its saved settings at boot
  * (the values of firmware/record.h's enum tof_record_state). */
