@@ -128,6 +128,7 @@ int attitude_init(struct attitude_state *st, const struct attitude_config *cfg) 
                                     .drift_shift = cfg->drift_shift,
                                     .period_us = cfg->period_us,
                                     .offset_walk_um2_h = cfg->offset_walk_um2_h,
+                                    .max_rate_mdeg_s = cfg->max_rate_mdeg_s,
                                     .calibration_age_s = cfg->calibration_age_s};
     if (!integrity_config_valid(&icfg)) {
         return ATTITUDE_ERR_INTEGRITY;

@@ -31,7 +31,8 @@ const char *attitude_error_message(int err) {
         return "NULL state or config";
     case ATTITUDE_ERR_INTEGRITY:
         return "an integrity field out of range (range_max_mm 1..8189, parity/motion sigmas "
-               "1..16 x 256, drift_shift 1..8, period_us 1000..10000000)";
+               "1..16 x 256, drift_shift 1..8, period_us 1000..10000000, max_rate_mdeg_s "
+               "0..360000)";
     case ATTITUDE_ERR_BUFFER:
         return "buffer too small";
     case ATTITUDE_ERR_CALIBRATION:

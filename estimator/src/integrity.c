@@ -17,7 +17,8 @@ bool integrity_config_valid(const struct integrity_config *cfg) {
            cfg->parity_sigmas_q8 >= 256u && cfg->parity_sigmas_q8 <= 16u * 256u &&
            cfg->motion_sigmas_q8 >= 256u && cfg->motion_sigmas_q8 <= 16u * 256u &&
            cfg->drift_shift != 0u && cfg->drift_shift <= 8u &&
-           cfg->period_us >= INTEGRITY_PERIOD_US_MIN && cfg->period_us <= INTEGRITY_PERIOD_US_MAX;
+           cfg->period_us >= INTEGRITY_PERIOD_US_MIN && cfg->period_us <= INTEGRITY_PERIOD_US_MAX &&
+           cfg->max_rate_mdeg_s <= INTEGRITY_MAX_RATE_MDEG_S_MAX;
 }
 
 void integrity_init(struct integrity_state *st) {

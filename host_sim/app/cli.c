@@ -49,6 +49,43 @@ static const char *option_value(const char *cmd, int argc, char **argv, int *i) 
 
 /* One intensity in mm²/s, plain decimal (digits, one optional point and fraction), as
  * whole µm²/s; false when it is not exactly that or exceeds 2^32 − 1 µm²/s. */
+bool cli_parse_rate_mdeg_s(const char *text, uint32_t *mdeg_s) {
+    uint32_t whole = 0;
+    uint32_t frac = 0;
+    unsigned frac_digits = 0;
+    bool point = false;
+    bool digit = false;
+    for (const char *p = text; *p != '\0'; ++p) {
+        if (*p == '.' && !point) {
+            point = true;
+        } else if (*p >= '0' && *p <= '9') {
+            digit = true;
+            if (!point) {
+                whole = whole * 10u + (uint32_t)(*p - '0');
+                if (whole > 360u) {
+                    return false;
+                }
+            } else if (frac_digits < 3u) {
+                frac = frac * 10u + (uint32_t)(*p - '0');
+                frac_digits++;
+            } else if (*p != '0') {
+                return false; /* finer than 1 m°/s */
+            }
+        } else {
+            return false;
+        }
+    }
+    for (; frac_digits < 3u; ++frac_digits) {
+        frac *= 10u;
+    }
+    const uint32_t v = whole * 1000u + frac;
+    if (!digit || v > 360000u) {
+        return false;
+    }
+    *mdeg_s = v;
+    return true;
+}
+
 static bool parse_intensity(const char *text, size_t len, uint32_t *um2_per_s) {
     uint64_t whole = 0;
     uint64_t frac = 0;
@@ -132,6 +169,8 @@ static const char replay_help[] =
     "                       above 1360 mm and its period admits long mode, else short\n"
     "  --calibration F      the head's calibration, a HEAD.cal (docs/calibration.md); wins\n"
     "                       over the trace's keys; neither: an uncalibrated head, never ok\n"
+    "  --max-rate DEG_S     the plate's rate bound in °/s, 0..360 (0: a still plate, e.g. a\n"
+    "                       fixture); wins over the trace's '# max_rate_deg_s='; default 1\n"
     "  --command ROW:TEXT   a host's command (tools/tof_telemetry.py --send syntax: set-window\n"
     "                       50 sliding, estimator kalman, process-noise auto, raw on, ...)\n"
     "                       to the firmware's link at 115200 Bd when row ROW's slot is half\n"
@@ -273,6 +312,17 @@ int cli_parse_replay(int argc, char **argv, struct replay_args *out) {
                                    "4294.967295, at most 6 places) or auto",
                                    v);
             }
+        } else if (strcmp(arg, "--max-rate") == 0) {
+            if ((v = option_value(cmd, argc, argv, &i)) == NULL) {
+                return -1;
+            }
+            if (!cli_parse_rate_mdeg_s(v, &out->max_rate_mdeg_s)) {
+                return usage_error(cmd,
+                                   "--max-rate: expected the plate's rate bound in °/s, "
+                                   "0..360 with at most 3 decimals",
+                                   v);
+            }
+            out->max_rate_given = true;
         } else if (strcmp(arg, "--distance-mode") == 0) {
             if ((v = option_value(cmd, argc, argv, &i)) == NULL) {
                 return -1;

@@ -39,6 +39,8 @@ struct replay_args {
     unsigned distance_mode;       /* --distance-mode: 0 unset (the trace's, else from its
                                      readings), else enum vl53_distance_mode */
     const char *calibration_path; /* --calibration HEAD.cal (wins over the trace's keys) */
+    bool max_rate_given;          /* --max-rate DEG_S given (wins over the trace's key) */
+    uint32_t max_rate_mdeg_s;     /* ... its value, m°/s */
     const char *commands[16]; /* --command ROW:TEXT, in order (replay_commands.h parses) */
     unsigned command_count;
 };
@@ -64,6 +66,10 @@ int cli_parse_scenario(int argc, char **argv, struct scenario_args *out);
 
 /* Parse a decimal unsigned integer in [min, max]; false when `text` is not exactly that. */
 bool cli_parse_u64(const char *text, uint64_t min, uint64_t max, uint64_t *out);
+
+/* A plate rate bound in °/s as text ("1", "0.2", "0"; at most 3 decimals, 0..360) in m°/s:
+ * false when `text` is not exactly that (the option and the trace key share it). */
+bool cli_parse_rate_mdeg_s(const char *text, uint32_t *mdeg_s);
 
 /* The estimator names replay accepts, in output order; NULL-terminated. */
 extern const char *const cli_estimator_names[];

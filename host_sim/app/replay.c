@@ -186,6 +186,19 @@ static int configure(struct replay *r) {
                 (unsigned)vl53_shortest_budget_ms(r->distance.mode), VL53_IMP_MARGIN_MS);
         return -1;
     }
+    /* The plate's rate bound: the option, else the trace's key, else the unit's default. */
+    if (r->args->max_rate_given) {
+        r->app_cfg.estimator.max_rate_mdeg_s = r->args->max_rate_mdeg_s;
+    } else if (trace_reader_meta(&r->reader, "max_rate_deg_s") != NULL) {
+        const char *v = trace_reader_meta(&r->reader, "max_rate_deg_s");
+        if (!cli_parse_rate_mdeg_s(v, &r->app_cfg.estimator.max_rate_mdeg_s)) {
+            fprintf(stderr,
+                    "host_sim replay: %s:%lu: max_rate_deg_s must be the plate's rate bound in "
+                    "°/s, 0..360 with at most 3 decimals, got '%s'\n",
+                    r->args->trace_path, trace_reader_meta_line(&r->reader, "max_rate_deg_s"), v);
+            return -1;
+        }
+    }
     if (r->args->process_noise_given &&
         tof_app_config_process_noise(&r->app_cfg, r->args->process_noise_um2_per_s[0],
                                      r->args->process_noise_um2_per_s[1],

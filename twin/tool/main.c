@@ -132,6 +132,20 @@ static int preload_records(struct run *r) {
         (void)trace_v1_cal_value(&m.cal, m.key[k], m.value[k], m.line[k], &col, &what);
         m.count = k + 1u;
     }
+    /* The plate's rate bound reaches the unit as its default only: a trace that states
+     * another is refused, not replayed under a bound it does not state. */
+    for (unsigned k = 0; k < r->meta.count && k < TRACE_MAX_META; ++k) {
+        if (strcmp(r->meta.key[k], "max_rate_deg_s") == 0 &&
+            fabs(strtod(r->meta.value[k], NULL) * 1000.0 -
+                 (double)ATTITUDE_MAX_RATE_MDEG_S_DEFAULT) > 0.5) {
+            fprintf(stderr,
+                    "tof_twin: %s:%lu: max_rate_deg_s=%s: the twin replays at the unit's "
+                    "default rate bound (%u m°/s) only; use host_sim replay for another\n",
+                    r->a.trace, (unsigned long)r->meta.line[k], r->meta.value[k],
+                    ATTITUDE_MAX_RATE_MDEG_S_DEFAULT);
+            return -1;
+        }
+    }
     const char *what = NULL;
     uint32_t line = 0;
     static struct cal_apply cal;

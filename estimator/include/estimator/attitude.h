@@ -120,6 +120,10 @@ struct attitude_config {
                                      allowance, which grows with rows × period since start */
     uint32_t offset_walk_um2_h;   /* prior random-walk rate of each sensor's offset, µm² per
                                      hour (0: none): the unseen drift's growth */
+    uint32_t max_rate_mdeg_s;     /* the plate's rate bound, m°/s (a mission setting; 0: a
+                                     plate known to be still, a fixture): α and β carry
+                                     the lag a ramp at up to this rate leaves in a window
+                                     (estimator/integrity.h); 0..360000 */
     uint32_t calibration_age_s;   /* the calibration's age at attitude_init, seconds: the
                                      prior walk grows over it plus rows × period (the unit
                                      keeps it across resets: firmware/cal_age.h); 0: none */
@@ -208,7 +212,10 @@ struct attitude_state {
  * set the trace's own.
  * offset walk 576 000 um²/h (160 um²/s): the random-walk slope of the same log's Allan
  * variance of block means, tau 36 s .. 15 min (tools/drift_allan.py; docs/estimator-design.md
- * "Integrity", "Drift since the start"): 0.76 mm 1σ after an hour, 1.5 mm after four. */
+ * "Integrity", "Drift since the start"): 0.76 mm 1σ after an hour, 1.5 mm after four.
+ * rate bound 1000 m°/s: a plate turning at 1°/s at most. Docking standards bound contact
+ * rates at about 0.2°/s per axis (the International Docking System Standard's capture
+ * envelope); a bench plate turned by hand reaches 10°/s: a mission sets its own. */
 #define ATTITUDE_RANGE_MAX_MM_DEFAULT        4000u
 #define ATTITUDE_PARITY_SIGMAS_Q8_DEFAULT    (4u * 256u)
 #define ATTITUDE_MOTION_SIGMAS_Q8_DEFAULT    (4u * 256u)
@@ -216,6 +223,7 @@ struct attitude_state {
 #define ATTITUDE_DRIFT_FLAG_UM_DEFAULT       500u
 #define ATTITUDE_PERIOD_US_DEFAULT           20000u
 #define ATTITUDE_OFFSET_WALK_UM2_H_DEFAULT   576000u
+#define ATTITUDE_MAX_RATE_MDEG_S_DEFAULT     1000u
 
 /*
  * The default configuration as an initializer, so a const configuration (the
@@ -242,6 +250,7 @@ struct attitude_state {
         .drift_flag_um = ATTITUDE_DRIFT_FLAG_UM_DEFAULT, .drift_shift = 4,                         \
         .period_us = ATTITUDE_PERIOD_US_DEFAULT,                                                   \
         .offset_walk_um2_h = ATTITUDE_OFFSET_WALK_UM2_H_DEFAULT,                                   \
+        .max_rate_mdeg_s = ATTITUDE_MAX_RATE_MDEG_S_DEFAULT,                                       \
         .calibration = {.calibrated = false},                                                      \
     }
 

@@ -53,6 +53,9 @@
 /* The row period's bounds (µs): the trace format's 1..10 000 ms. */
 #define INTEGRITY_PERIOD_US_MIN 1000u
 #define INTEGRITY_PERIOD_US_MAX 10000000u
+/* The largest rate bound: 360°/s, a turn a second, far beyond any plate a capture
+ * interface closes on (the bound's products stay within 64 bits below it). */
+#define INTEGRITY_MAX_RATE_MDEG_S_MAX 360000u
 
 /* The three axes of an estimate, as y = a·tan α, y = a·tan β and x̄. */
 enum integrity_axis { INTEGRITY_ALPHA = 0, INTEGRITY_BETA = 1, INTEGRITY_DISTANCE = 2 };
@@ -70,6 +73,9 @@ struct integrity_config {
     uint32_t offset_walk_um2_h;   /* prior random-walk rate of each offset, µm²/h */
     uint32_t calibration_age_s;   /* the calibration's age at the start: the walk's time
                                      is this plus rows × period */
+    uint32_t max_rate_mdeg_s;     /* the plate's rate bound, millidegrees per second
+                                     (0: a plate known to be still): the lag a ramp at
+                                     up to this rate leaves, as a prior on α and β */
     /* What the head's calibration leaves, per sensor (estimator/calibration.h; the parts'
      * spread for an uncalibrated head): 1σ of its offset and gain errors and their
      * correlation. Each sensor mean's variance carries them at its distance. */
