@@ -255,19 +255,20 @@ static void oscillation(const struct integrity_config *cfg, const struct window_
  * centroid of n rows a period T apart). Its variance as a uniform error over ±that lag
  * is lag²/3: a ramp exactly at the bound sits at √3 of it. 0 for a still plate.
  */
-static fix_q32_t rate_bound_lag2(const struct integrity_config *cfg, uint32_t n, fix_q32_t tan_q32) {
+static fix_q32_t rate_bound_lag2(const struct integrity_config *cfg, uint32_t n,
+                                 fix_q32_t tan_q32) {
     if (cfg->max_rate_mdeg_s == 0u || n < 2u) {
         return 0;
     }
     /* a·ω in µm/s: a [µm] · ω [m°/s] · π/180000, π as 355/113 (8.5e-8 relative) */
-    const int64_t rate_um_s = fix_muldiv_s64((int64_t)cfg->arm_um * cfg->max_rate_mdeg_s, 355,
-                                             113 * 180000, NULL);
+    const int64_t rate_um_s =
+        fix_muldiv_s64((int64_t)cfg->arm_um * cfg->max_rate_mdeg_s, 355, 113 * 180000, NULL);
     const int64_t span_us = (int64_t)(n - 1u) * cfg->period_us / 2;
     const int64_t lag_um = fix_muldiv_s64(rate_um_s, span_us, 1000000, NULL);
     /* Q32 mm, times sec²θ = 1 + tan²θ (the axis is a·tan θ) */
     const fix_q32_t lag = fix_muldiv_s64(lag_um, FIX_Q32_ONE, 1000, NULL);
-    const fix_q32_t sec2 = fix_sat_add_s64(FIX_Q32_ONE, fix_muldiv_s64(tan_q32, tan_q32,
-                                                                        FIX_Q32_ONE, NULL));
+    const fix_q32_t sec2 =
+        fix_sat_add_s64(FIX_Q32_ONE, fix_muldiv_s64(tan_q32, tan_q32, FIX_Q32_ONE, NULL));
     const fix_q32_t lag_sec2 = fix_muldiv_s64(lag, sec2, FIX_Q32_ONE, NULL);
     return integrity_square_q32(lag_sec2) / 3;
 }

@@ -250,8 +250,7 @@ struct attitude_state {
         .drift_flag_um = ATTITUDE_DRIFT_FLAG_UM_DEFAULT, .drift_shift = 4,                         \
         .period_us = ATTITUDE_PERIOD_US_DEFAULT,                                                   \
         .offset_walk_um2_h = ATTITUDE_OFFSET_WALK_UM2_H_DEFAULT,                                   \
-        .max_rate_mdeg_s = ATTITUDE_MAX_RATE_MDEG_S_DEFAULT,                                       \
-        .calibration = {.calibrated = false},                                                      \
+        .max_rate_mdeg_s = ATTITUDE_MAX_RATE_MDEG_S_DEFAULT, .calibration = {.calibrated = false}, \
     }
 
 /* Fills cfg with ATTITUDE_CONFIG_DEFAULT. */
