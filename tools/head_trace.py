@@ -54,6 +54,7 @@ def head_of(path):
 def main():
     args = sys.argv[1:]
     if args and args[0] in ("--help", "-h"):
+        print("usage: head_trace.py FIXTURE.csv RECORDING.csv OUT.csv [--seed S]\n")
         print(__doc__.strip())
         return
     seed = 1
