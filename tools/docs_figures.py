@@ -24,6 +24,8 @@ instruction counts under QEMU -icount, linked image sizes):
   fault-campaign  host_sim campaign --seed 1
   bench           instruction counts from build/qemu/bench.json
   images          flash, RAM and worst-case stack of the m4 and m0plus flight images
+  bench-estimator the estimator benchmark, bench_estimator --seeds 50 (needs the real
+                  VL53L0X log beside the repository: docs/reference/scenarios.md)
 """
 import argparse
 import difflib
@@ -217,7 +219,31 @@ def gen_images(a):
     return "\n".join(out)
 
 
-GENERATORS = {"demo": gen_demo, "demo-head": gen_demo_head, "demo-seeds": gen_demo_seeds,
+def gen_bench_estimator(a):
+    exe = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(a.host_sim))),
+                       "bench_estimator", "bench_estimator")
+    if not os.access(exe, os.X_OK):
+        raise Missing("%s: not built (cmake --build --preset host-release --target"
+                      " bench_estimator)" % exe)
+    r = subprocess.run([exe, "--seeds", "50"], capture_output=True, text=True)
+    if r.returncode == 1 and "real" in r.stderr.lower():
+        raise Missing("bench_estimator needs the real VL53L0X log: %s" % r.stderr.strip())
+    if r.returncode != 0:
+        sys.exit("docs_figures.py: %s --seeds 50 failed (exit %d):\n%s" % (
+            exe, r.returncode, r.stderr.strip()))
+    out = []
+    for line in r.stdout.strip().split("\n"):
+        if line.startswith("# "):
+            continue  # the program's title: the page has its own
+        if line.startswith("## "):
+            line = "#" + re.sub(r"\s*\(issue \d+\)", "", line)
+        out.append(line)
+    while out and not out[0].strip():
+        out.pop(0)
+    return "\n".join(out)
+
+
+GENERATORS = {"bench-estimator": gen_bench_estimator, "demo": gen_demo, "demo-head": gen_demo_head, "demo-seeds": gen_demo_seeds,
               "fault-campaign": gen_fault_campaign, "bench": gen_bench, "images": gen_images}
 
 
