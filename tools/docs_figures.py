@@ -24,6 +24,7 @@ instruction counts under QEMU -icount, linked image sizes):
   fault-campaign  host_sim campaign --seed 1
   bench           instruction counts from build/qemu/bench.json
   images          flash, RAM and worst-case stack of the m4 and m0plus flight images
+  calibration-report  the sd on real recordings (tools/calibration_report.py; the same log)
   bench-estimator the estimator benchmark, bench_estimator --seeds 50 (needs the real
                   VL53L0X log beside the repository: docs/reference/scenarios.md)
 """
@@ -38,6 +39,7 @@ import sys
 import tempfile
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+PY = "/usr/bin/python3"
 DEMO_TRACE = os.path.join(ROOT, "traces", "demo", "realnoise_demo.csv")
 MARK = re.compile(r"^<!-- figures:([a-z0-9-]+) -->$")
 REGENERATE = "tools/docs_figures.py (after cmake --build --preset host-release --target host_sim" \
@@ -243,7 +245,32 @@ def gen_bench_estimator(a):
     return "\n".join(out)
 
 
-GENERATORS = {"bench-estimator": gen_bench_estimator, "demo": gen_demo, "demo-head": gen_demo_head, "demo-seeds": gen_demo_seeds,
+def real_log():
+    shared = os.environ.get("TOF_SHARED_DIR") or os.path.join(os.path.dirname(ROOT), "shared")
+    log = os.path.join(shared, "traces", "external", "tomisuarez2_TimeOfFlightCalibration",
+                       "static_tof_dist_data_1_h.csv")
+    if not os.path.exists(log):
+        raise Missing("%s not found: the one-hour VL53L0X log is not in this repository"
+                      " (docs/reference/scenarios.md, \"Real noise\")" % log)
+    return log
+
+
+def gen_calibration_report(a):
+    log = real_log()
+    h = need_host_sim(a)
+    with tempfile.TemporaryDirectory() as d:
+        text = run([PY, os.path.join(ROOT, "tools", "calibration_report.py"), h, log, d])
+    table = []
+    for line in text.split("\n"):
+        if not line.startswith("|"):
+            if table:
+                break
+            continue
+        table.append(line)
+    return "\n".join(table)
+
+
+GENERATORS = {"calibration-report": gen_calibration_report, "bench-estimator": gen_bench_estimator, "demo": gen_demo, "demo-head": gen_demo_head, "demo-seeds": gen_demo_seeds,
               "fault-campaign": gen_fault_campaign, "bench": gen_bench, "images": gen_images}
 
 
