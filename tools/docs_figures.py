@@ -25,6 +25,9 @@ instruction counts under QEMU -icount, linked image sizes):
   bench           instruction counts from build/qemu/bench.json
   images          flash, RAM and worst-case stack of the m4 and m0plus flight images
   calibration-report  the sd on real recordings (tools/calibration_report.py; the same log)
+  bench-calibration, bench-calibration-1002, bench-calibration-loose
+                  heads calibrated exactly, as stated, off by their sd, and not at all
+                  (bench_calibration, seeds 1001-1003)
   bench-estimator the estimator benchmark, bench_estimator --seeds 50 (needs the real
                   VL53L0X log beside the repository: docs/reference/scenarios.md)
 """
@@ -276,7 +279,27 @@ def gen_calibration_report(a):
     return "\n".join(table)
 
 
-GENERATORS = {"calibration-report": gen_calibration_report, "bench-estimator": gen_bench_estimator, "demo": gen_demo, "demo-head": gen_demo_head, "demo-seeds": gen_demo_seeds,
+def bench_calibration(a, args, all_rows_only):
+    exe = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(a.host_sim))),
+                       "bench_estimator", "bench_calibration")
+    if not os.access(exe, os.X_OK):
+        raise Missing("%s: not built (cmake --build --preset host-release --target"
+                      " bench_calibration)" % exe)
+    rows = [l for l in run([exe] + args).split("\n") if l.startswith("|")]
+    if all_rows_only:
+        rows = rows[:2] + [l for l in rows[2:] if l.split("|")[3].strip() == "all"]
+    return "\n".join(rows)
+
+
+GENERATORS = {
+    "bench-calibration": lambda a: bench_calibration(a, ["--seed", "1001", "--heads", "2000"],
+                                                     False),
+    "bench-calibration-1002": lambda a: bench_calibration(
+        a, ["--seed", "1002", "--heads", "2000"], True),
+    "bench-calibration-loose": lambda a: bench_calibration(
+        a, ["--seed", "1003", "--heads", "2000", "--offset-sd-um", "214", "--gain-sd-ppm",
+            "1500"], True),
+    "calibration-report": gen_calibration_report, "bench-estimator": gen_bench_estimator, "demo": gen_demo, "demo-head": gen_demo_head, "demo-seeds": gen_demo_seeds,
               "fault-campaign": gen_fault_campaign, "bench": gen_bench, "images": gen_images}
 
 
