@@ -28,6 +28,9 @@ instruction counts under QEMU -icount, linked image sizes):
   bench-calibration, bench-calibration-1002, bench-calibration-loose
                   heads calibrated exactly, as stated, off by their sd, and not at all
                   (bench_calibration, seeds 1001-1003)
+  ref-tracking, ref-tracking-sweep
+                  the Kalman filter against the optimal filter (tests/reference/ref_tracking;
+                  the sweep: --sweep 6 15, held-out seeds)
   bench-estimator the estimator benchmark, bench_estimator --seeds 50 (needs the real
                   VL53L0X log beside the repository: docs/reference/scenarios.md)
 """
@@ -291,7 +294,27 @@ def bench_calibration(a, args, all_rows_only):
     return "\n".join(rows)
 
 
+def ref_tracking(a, args, first_table_after):
+    exe = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(
+        os.path.abspath(a.host_sim)))), "tests", "reference", "ref_tracking")
+    if not os.access(exe, os.X_OK):
+        raise Missing("%s: not built (cmake --build --preset host-release --target"
+                      " ref_tracking)" % exe)
+    lines = run([exe] + args).split("\n")
+    if first_table_after:
+        lines = lines[next(i for i, l in enumerate(lines) if first_table_after in l):]
+    table = []
+    for l in lines:
+        if l.startswith("|"):
+            table.append(l)
+        elif table:
+            break
+    return "\n".join(table)
+
+
 GENERATORS = {
+    "ref-tracking": lambda a: ref_tracking(a, [], "test_at_the_optimum"),
+    "ref-tracking-sweep": lambda a: ref_tracking(a, ["--sweep", "6", "15"], None),
     "bench-calibration": lambda a: bench_calibration(a, ["--seed", "1001", "--heads", "2000"],
                                                      False),
     "bench-calibration-1002": lambda a: bench_calibration(
