@@ -28,6 +28,7 @@ instruction counts under QEMU -icount, linked image sizes):
   bench-calibration, bench-calibration-1002, bench-calibration-loose
                   heads calibrated exactly, as stated, off by their sd, and not at all
                   (bench_calibration, seeds 1001-1003)
+  bench-steps     step detection delays (bench_estimator --steps --seeds 100)
   ref-tracking, ref-tracking-sweep
                   the Kalman filter against the optimal filter (tests/reference/ref_tracking;
                   the sweep: --sweep 6 15, held-out seeds)
@@ -312,7 +313,18 @@ def ref_tracking(a, args, first_table_after):
     return "\n".join(table)
 
 
+def gen_bench_steps(a):
+    exe = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(a.host_sim))),
+                       "bench_estimator", "bench_estimator")
+    if not os.access(exe, os.X_OK):
+        raise Missing("%s: not built (cmake --build --preset host-release --target"
+                      " bench_estimator)" % exe)
+    return "\n".join(l for l in run([exe, "--steps", "--seeds", "100"]).split("\n")
+                     if l.startswith("|"))
+
+
 GENERATORS = {
+    "bench-steps": gen_bench_steps,
     "ref-tracking": lambda a: ref_tracking(a, [], "test_at_the_optimum"),
     "ref-tracking-sweep": lambda a: ref_tracking(a, ["--sweep", "6", "15"], None),
     "bench-calibration": lambda a: bench_calibration(a, ["--seed", "1001", "--heads", "2000"],
