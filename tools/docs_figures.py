@@ -28,6 +28,8 @@ instruction counts under QEMU -icount, linked image sizes):
   bench-calibration, bench-calibration-1002, bench-calibration-loose
                   heads calibrated exactly, as stated, off by their sd, and not at all
                   (bench_calibration, seeds 1001-1003)
+  ramps, ramps-summary
+                  the sd row by row on ramps (tests/estimator/test_est_ramps --table)
   bench-steps     step detection delays (bench_estimator --steps --seeds 100)
   ref-tracking, ref-tracking-sweep
                   the Kalman filter against the optimal filter (tests/reference/ref_tracking;
@@ -323,7 +325,66 @@ def gen_bench_steps(a):
                      if l.startswith("|"))
 
 
+_RAMPS = {}
+
+
+def ramps_output(a):
+    if "text" not in _RAMPS:
+        exe = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(
+            os.path.abspath(a.host_sim)))), "tests", "estimator", "test_est_ramps")
+        if not os.access(exe, os.X_OK):
+            raise Missing("%s: not built (cmake --build --preset host-release --target"
+                          " test_est_ramps)" % exe)
+        _RAMPS["text"] = run([exe, "--table"])
+    return _RAMPS["text"]
+
+
+def gen_ramps(a):
+    out = []
+    for line in ramps_output(a).strip().split("\n"):
+        if line.endswith(")") and line.split(" (")[0] in ("Tuning set", "Held-out set"):
+            line = "**%s**" % line
+        out.append(line)
+    return "\n".join(out)
+
+
+def gen_ramps_summary(a):
+    """Per set, mode and estimator: the lines missing the goals and the worst figures."""
+    groups, order, set_name = {}, [], None
+    for line in ramps_output(a).split("\n"):
+        if line.startswith("Tuning set"):
+            set_name = "tuning"
+        elif line.startswith("Held-out set"):
+            set_name = "held out"
+        if not line.startswith("| ") or line.startswith("| °/s"):
+            continue
+        c = [x.strip() for x in line.strip("|").split("|")]
+        key = (set_name, c[3], c[4])
+        if key not in groups:
+            groups[key] = []
+            order.append(key)
+        v = [float(x) for x in c[6:16]]
+        groups[key].append(v)
+    out = ["| set | mode | estimator | lines missing (strict) | missing (silent) | lowest ≤3sd |"
+           " highest >6sd | highest >3sd silent | highest >6sd silent |",
+           "| --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: |"]
+    for key in order:
+        rows = groups[key]
+        strict = sum(1 for v in rows if min(v[0], v[5]) < 95.0 or max(v[1], v[6]) > 0.1)
+        silent = sum(1 for v in rows if max(v[2], v[7]) > 5.0 or max(v[3], v[8]) > 0.1)
+        out.append("| %s | %s | %s | %d of %d | %d | %.2f %% | %.3f %% | %.2f %% | %.3f %% |" % (
+            key[0], key[1], key[2], strict, len(rows), silent,
+            min(min(v[0], v[5]) for v in rows), max(max(v[1], v[6]) for v in rows),
+            max(max(v[2], v[7]) for v in rows), max(max(v[3], v[8]) for v in rows)))
+    out.append("")
+    out.append("Strict: a line with either axis below 95 % within 3 sd or above 0.1 % beyond"
+               " 6 sd; silent: above 5 % beyond 3 sd or above 0.1 % beyond 6 sd without `motion`.")
+    return "\n".join(out)
+
+
 GENERATORS = {
+    "ramps": gen_ramps,
+    "ramps-summary": gen_ramps_summary,
     "bench-steps": gen_bench_steps,
     "ref-tracking": lambda a: ref_tracking(a, [], "test_at_the_optimum"),
     "ref-tracking-sweep": lambda a: ref_tracking(a, ["--sweep", "6", "15"], None),
