@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Writes every table of measured figures in docs/ and README.md from the tools' output.
 
-    tools/docs_figures.py [--check] [--host-sim PATH] [--build-root DIR] [--only NAME,...]
+    tools/docs_figures.py [--check [--expensive]] [--host-sim PATH] [--build-root DIR]
+                          [--only NAME,...]
 
 A table lives between two marker lines in the Markdown:
 
@@ -28,6 +29,8 @@ instruction counts under QEMU -icount, linked image sizes):
   bench-calibration, bench-calibration-1002, bench-calibration-loose
                   heads calibrated exactly, as stated, off by their sd, and not at all
                   (bench_calibration, seeds 1001-1003)
+  drift           long static recordings (tools/drift_report.py --quick; the same log;
+                  about 2 minutes: --check runs it only with --expensive)
   ramps, ramps-summary
                   the sd row by row on ramps (tests/estimator/test_est_ramps --table)
   bench-steps     step detection delays (bench_estimator --steps --seeds 100)
@@ -382,7 +385,25 @@ def gen_ramps_summary(a):
     return "\n".join(out)
 
 
+def gen_drift(a):
+    log = real_log()
+    h = need_host_sim(a)
+    with tempfile.TemporaryDirectory() as d:
+        # exit status 1 means "a row misses a goal": the table is still the figures
+        r = subprocess.run([PY, os.path.join(ROOT, "tools", "drift_report.py"), h, log,
+                            os.path.join(d, "drift"), "--quick"], capture_output=True, text=True)
+    rows = [l for l in r.stdout.split("\n") if l.startswith("|")]
+    if r.returncode not in (0, 1) or not rows:
+        sys.exit("docs_figures.py: drift_report.py failed (exit %d):\n%s" % (
+            r.returncode, r.stderr.strip()))
+    return "\n".join(rows)
+
+
+# Generators too slow for every ctest run: --check skips them unless --expensive.
+EXPENSIVE = {"drift": "about 2 minutes of 4-hour replays"}
+
 GENERATORS = {
+    "drift": gen_drift,
     "ramps": gen_ramps,
     "ramps-summary": gen_ramps_summary,
     "bench-steps": gen_bench_steps,
@@ -439,6 +460,8 @@ def main():
     ap.add_argument("--build-root", default=os.path.join(ROOT, "build"),
                     help="folder holding the presets' builds (default: build/)")
     ap.add_argument("--only", help="comma-separated generator names (default: all)")
+    ap.add_argument("--expensive", action="store_true",
+                    help="--check: also the slow generators (%s)" % ", ".join(sorted(EXPENSIVE)))
     a = ap.parse_args()
     only = set(a.only.split(",")) if a.only else set(GENERATORS)
     unknown = only - set(GENERATORS)
@@ -453,6 +476,12 @@ def main():
         rel = os.path.relpath(path, ROOT)
         for name, first, end in reversed(found):
             if name not in only:
+                continue
+            if a.check and name in EXPENSIVE and not a.expensive:
+                print("SKIPPED figures:%s in %s: expensive (%s); check it with"
+                      " tools/docs_figures.py --check --expensive --only %s" % (
+                          name, rel, EXPENSIVE[name], name))
+                skipped += 1
                 continue
             if name not in cache:
                 try:
