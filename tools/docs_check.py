@@ -171,19 +171,25 @@ class Tools:
                 break
         self.skipped = set()
 
+    def find(self, presets, name):
+        """A program in a preset's build tree, wherever its CMake folder puts it."""
+        for preset in presets:
+            tree = os.path.join(self.build_root, preset)
+            for d, subdirs, files in os.walk(tree):
+                subdirs[:] = [x for x in subdirs if x != "CMakeFiles"]
+                if name in files and os.access(os.path.join(d, name), os.X_OK):
+                    return os.path.join(d, name)
+        return None
+
     def argv(self, tool):
         if tool.startswith("host_sim"):
             if self.host_sim is None:
                 return None
             sub = tool.split()[1:] if " " in tool else []
             return [self.host_sim] + sub + ["--help"]
-        if tool == "tof_twin":
-            p = os.path.join(self.build_root, "twin", "twin", "tof_twin")
-            return [p, "--help"] if os.access(p, os.X_OK) else None
-        if tool == "bench_estimator":
-            p = os.path.join(self.build_root, "host-release", "host_sim", "bench_estimator",
-                             "bench_estimator")
-            return [p, "--help"] if os.access(p, os.X_OK) else None
+        if tool in ("tof_twin", "bench_estimator"):
+            p = self.find(("twin",) if tool == "tof_twin" else ("host-release", "host"), tool)
+            return [p, "--help"] if p else None
         return [PY, os.path.join(ROOT, "tools", tool), "--help"]
 
     def help(self, tool):

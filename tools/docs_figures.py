@@ -71,6 +71,18 @@ def run(cmd):
     return r.stdout
 
 
+def find_exe(a, name):
+    """A program of the host_sim's build tree (build/<preset>/), wherever its CMake folder
+    puts it (tests/<component>/, host_sim/...)."""
+    tree = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(a.host_sim))))
+    for d, subdirs, files in os.walk(tree):
+        subdirs[:] = [x for x in subdirs if x != "CMakeFiles"]
+        if name in files and os.access(os.path.join(d, name), os.X_OK):
+            return os.path.join(d, name)
+    raise Missing("%s: not built in %s (cmake --build --preset host-release --target %s)"
+                  % (name, tree, name))
+
+
 def need_host_sim(a):
     if not os.access(a.host_sim, os.X_OK):
         raise Missing("%s: no host_sim (cmake --build --preset host-release --target host_sim)"
@@ -234,11 +246,7 @@ def gen_images(a):
 
 
 def gen_bench_estimator(a):
-    exe = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(a.host_sim))),
-                       "bench_estimator", "bench_estimator")
-    if not os.access(exe, os.X_OK):
-        raise Missing("%s: not built (cmake --build --preset host-release --target"
-                      " bench_estimator)" % exe)
+    exe = find_exe(a, "bench_estimator")
     r = subprocess.run([exe, "--seeds", "50"], capture_output=True, text=True)
     if r.returncode == 1 and "real" in r.stderr.lower():
         raise Missing("bench_estimator needs the real VL53L0X log: %s" % r.stderr.strip())
@@ -289,11 +297,7 @@ def gen_calibration_report(a):
 
 
 def bench_calibration(a, args, all_rows_only):
-    exe = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(a.host_sim))),
-                       "bench_estimator", "bench_calibration")
-    if not os.access(exe, os.X_OK):
-        raise Missing("%s: not built (cmake --build --preset host-release --target"
-                      " bench_calibration)" % exe)
+    exe = find_exe(a, "bench_calibration")
     rows = [l for l in run([exe] + args).split("\n") if l.startswith("|")]
     if all_rows_only:
         rows = rows[:2] + [l for l in rows[2:] if l.split("|")[3].strip() == "all"]
@@ -301,11 +305,7 @@ def bench_calibration(a, args, all_rows_only):
 
 
 def ref_tracking(a, args, first_table_after):
-    exe = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(
-        os.path.abspath(a.host_sim)))), "tests", "reference", "ref_tracking")
-    if not os.access(exe, os.X_OK):
-        raise Missing("%s: not built (cmake --build --preset host-release --target"
-                      " ref_tracking)" % exe)
+    exe = find_exe(a, "ref_tracking")
     lines = run([exe] + args).split("\n")
     if first_table_after:
         lines = lines[next(i for i, l in enumerate(lines) if first_table_after in l):]
@@ -319,11 +319,7 @@ def ref_tracking(a, args, first_table_after):
 
 
 def gen_bench_steps(a):
-    exe = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(a.host_sim))),
-                       "bench_estimator", "bench_estimator")
-    if not os.access(exe, os.X_OK):
-        raise Missing("%s: not built (cmake --build --preset host-release --target"
-                      " bench_estimator)" % exe)
+    exe = find_exe(a, "bench_estimator")
     return "\n".join(l for l in run([exe, "--steps", "--seeds", "100"]).split("\n")
                      if l.startswith("|"))
 
@@ -333,11 +329,7 @@ _RAMPS = {}
 
 def ramps_output(a):
     if "text" not in _RAMPS:
-        exe = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(
-            os.path.abspath(a.host_sim)))), "tests", "estimator", "test_est_ramps")
-        if not os.access(exe, os.X_OK):
-            raise Missing("%s: not built (cmake --build --preset host-release --target"
-                          " test_est_ramps)" % exe)
+        exe = find_exe(a, "test_est_ramps")
         _RAMPS["text"] = run([exe, "--table"])
     return _RAMPS["text"]
 
