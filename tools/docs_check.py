@@ -21,7 +21,8 @@ help: each tool's options and subcommands are taken from its own --help, and
 - its scenario list equals `host_sim scenario --help`'s, and host_sim's subcommands named
   anywhere exist;
 - every command in docs/how-to/command-the-unit.md's command table is accepted by
-  `tools/tof_telemetry.py --send`.
+  `tools/tof_telemetry.py --send`;
+- every relative link points at a file that exists and, with a #fragment, at a heading.
 A tool that is not built (tof_twin without the twin preset) is skipped with a line saying
 so. Exit status 1 on any mismatch, each printed as file:line: what.
 """
@@ -349,9 +350,41 @@ def check_telemetry_commands(problems):
         problems.append("%s: no command table found" % rel(path))
 
 
+def anchor(heading):
+    """GitHub's anchor of a Markdown heading."""
+    h = heading.strip().lower()
+    h = re.sub(r"[^\w\- ]", "", h)
+    return h.replace(" ", "-")
+
+
+def check_links(problems):
+    """Every relative link of the docs points at a file that exists, and at a heading of it."""
+    for path in markdown_files():
+        with open(path) as f:
+            text = f.read()
+        for n, line in enumerate(text.split("\n"), 1):
+            for m in re.finditer(r"\]\(([^)\s]+)\)", line):
+                target = m.group(1)
+                if re.match(r"^[a-z]+:", target):
+                    continue
+                file_part, _, frag = target.partition("#")
+                full = os.path.normpath(os.path.join(os.path.dirname(path), file_part)) \
+                    if file_part else path
+                if not os.path.exists(full):
+                    problems.append("%s:%d: link to %s: no such file" % (rel(path), n, target))
+                    continue
+                if frag and full.endswith(".md"):
+                    with open(full) as g:
+                        heads = {anchor(h) for h in re.findall(r"^#+ (.*)$", g.read(), re.M)}
+                    if frag not in heads:
+                        problems.append("%s:%d: link to %s: no heading '%s' there" % (
+                            rel(path), n, target, frag))
+
+
 def cmd_help(a):
     tools = Tools(a.build_root)
     problems = []
+    check_links(problems)
     subs = host_sim_subcommands(tools)
     checked = 0
     for path in markdown_files():
