@@ -31,6 +31,9 @@ instruction counts under QEMU -icount, linked image sizes):
                   (bench_calibration, seeds 1001-1003)
   drift           long static recordings (tools/drift_report.py --quick; the same log;
                   about 2 minutes: --check runs it only with --expensive)
+  fixture-calibration
+                  the calibration fit over 100 seeds of each fixture scenario
+                  (tests/calibrate/measure_fixture.sh; expensive, like drift)
   ramps, ramps-summary
                   the sd row by row on ramps (tests/estimator/test_est_ramps --table)
   bench-steps     step detection delays (bench_estimator --steps --seeds 100)
@@ -391,10 +394,49 @@ def gen_drift(a):
     return "\n".join(rows)
 
 
+FIXTURE_ROWS = (
+    ("fixture", "`fixture` (σ = 2 mm)"),
+    ("fixture-ar1", "`fixture-ar1` (φ = 0.9, τ = 19)"),
+    ("fixture-drift", "`fixture-drift` (±0.5 mm over the run)"),
+    ("fixture-one-distance", "`fixture-one-distance` (100 mm; offsets only, against offset"
+                             " + (gain − 1)·100)"),
+    ("fixture-realnoise", "`fixture-realnoise` (the real VL53L0X recording)"),
+)
+
+
+def gen_fixture_calibration(a):
+    real_log()  # fixture-realnoise needs it
+    h = need_host_sim(a)
+    out = ["| scenario | mean stated offset sd | RMS actual offset error | RMS error / sd |"
+           " max \\|error\\|/sd | mean gain sd | readings per station the noise alone needs"
+           " for 0.05 mm (median) | mean inflation (variance factor) |",
+           "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+    env = dict(os.environ, H=h)
+    for name, label in FIXTURE_ROWS:
+        r = subprocess.run(["sh", os.path.join(ROOT, "tests", "calibrate", "measure_fixture.sh"),
+                            name, "100"], capture_output=True, text=True, env=env, cwd=ROOT)
+        m = re.search(r"mean stated offset sd ([\d.]+) mm, RMS offset error ([\d.]+) mm, RMS z"
+                      r" ([\d.]+), max \|z\| ([\d.]+), mean gain sd ([\w.]+), median"
+                      r" readings/station for 0.05 mm (\d+), mean inflation ([\d.]+)", r.stdout)
+        if r.returncode != 0 or not m:
+            sys.exit("docs_figures.py: measure_fixture.sh %s failed (exit %d):\n%s%s" % (
+                name, r.returncode, r.stdout, r.stderr))
+        g = m.groups()
+        gain = "—" if g[4] == "nan" else g[4]
+        out.append("| %s | %s mm | %s mm | %s | %s | %s | %s | %s |" % (
+            label, g[0], g[1], g[2], g[3], gain, "{:,}".format(int(g[5])), g[6]))
+    out.append("")
+    out.append("`H=build/host-release/host_sim/app/host_sim tests/calibrate/measure_fixture.sh"
+               " NAME 100`: 100 seeds each, 400 fits (every sensor).")
+    return "\n".join(out)
+
+
 # Generators too slow for every ctest run: --check skips them unless --expensive.
-EXPENSIVE = {"drift": "about 2 minutes of 4-hour replays"}
+EXPENSIVE = {"drift": "about 2 minutes of 4-hour replays",
+             "fixture-calibration": "500 fixture runs and fits, a few minutes"}
 
 GENERATORS = {
+    "fixture-calibration": gen_fixture_calibration,
     "drift": gen_drift,
     "ramps": gen_ramps,
     "ramps-summary": gen_ramps_summary,
