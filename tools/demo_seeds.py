@@ -2,6 +2,7 @@
 """The demo's calibrated head over many fixture seeds, against an exactly known head.
 
     tools/demo_seeds.py [--host-sim PATH] [--seeds FIRST-LAST] [--json OUT.json]
+                        [--max-ratio R]
 
 For each seed S: `host_sim scenario fixture --seed S` builds a head with random offsets and
 gains and records it in the simulated fixture, `host_sim calibrate` fits it, and
@@ -10,7 +11,8 @@ through that head; the consensus estimator then replays it with the fitted calib
 The reference is the same recording replayed with its exactly known head (offset 0,
 gain 1). Prints one row per seed and the median and worst ratio of RMS errors
 (calibrated / exact) for α and β; --json writes the same figures. Every step is seeded,
-so the output is the same on every run of the same build. Exit status 1 if a tool fails.
+so the output is the same on every run of the same build. Exit status 1 if a tool fails,
+or with --max-ratio R if any seed's α or β ratio exceeds R (the goal is 1.10).
 """
 import argparse
 import json
@@ -57,6 +59,8 @@ def main():
     ap.add_argument("--seeds", type=seed_range, default=seed_range("1-12"),
                     help="fixture seeds FIRST-LAST (default 1-12)")
     ap.add_argument("--json", help="write the figures to this file")
+    ap.add_argument("--max-ratio", type=float,
+                    help="exit status 1 if any seed's ratio to the exact head exceeds this")
     a = ap.parse_args()
     if not os.access(a.host_sim, os.X_OK):
         sys.exit("demo_seeds.py: %s: no host_sim binary (cmake --build --preset host-release"
@@ -101,6 +105,13 @@ def main():
         with open(a.json, "w") as f:
             json.dump(out, f, indent=1, sort_keys=True)
             f.write("\n")
+    if a.max_ratio is not None:
+        over = ["seed %d: α %.3f, β %.3f" % (r["seed"], r["alpha_ratio"], r["beta_ratio"])
+                for r in rows if max(r["alpha_ratio"], r["beta_ratio"]) > a.max_ratio]
+        if over:
+            sys.exit("demo_seeds.py: calibrated head beyond %.2f × the exact one: %s" % (
+                a.max_ratio, "; ".join(over)))
+        print("every seed within %.2f × the exactly known head" % a.max_ratio)
 
 
 if __name__ == "__main__":
