@@ -31,6 +31,7 @@ instruction counts under QEMU -icount, linked image sizes):
                   (bench_calibration, seeds 1001-1003)
   drift           long static recordings (tools/drift_report.py --quick; the same log;
                   about 2 minutes: --check runs it only with --expensive)
+  bus-bench       the driver's bring-up time and bus load (tests/drivers/drv_bench_bus)
   fixture-calibration
                   the calibration fit over 100 seeds of each fixture scenario
                   (tests/calibrate/measure_fixture.sh; expensive, like drift)
@@ -435,7 +436,22 @@ def gen_fixture_calibration(a):
 EXPENSIVE = {"drift": "about 2 minutes of 4-hour replays",
              "fixture-calibration": "500 fixture runs and fits, a few minutes"}
 
+def gen_bus_bench(a):
+    """drv_bench_bus's output as it prints it; where it stops on an error, that error."""
+    exe = find_exe(a, "drv_bench_bus")
+    r = subprocess.run([exe], capture_output=True, text=True)
+    out = [l for l in r.stdout.strip().split("\n") if not l.startswith("# drv_bench_bus")]
+    out = [("#" + l) if l.startswith("## ") else l for l in out]
+    while out and not out[0].strip():
+        out.pop(0)
+    if r.returncode != 0:
+        out += ["", "**drv_bench_bus stops here** (exit status %d): `%s`" % (
+            r.returncode, r.stderr.strip())]
+    return "\n".join(out)
+
+
 GENERATORS = {
+    "bus-bench": gen_bus_bench,
     "fixture-calibration": gen_fixture_calibration,
     "drift": gen_drift,
     "ramps": gen_ramps,
