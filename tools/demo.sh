@@ -4,7 +4,7 @@
 # VL53 device models, the drivers, the fault manager and all four estimators —
 # print the summary table and write the estimates, a JSON report and a plot to out/.
 # Extra arguments go to `host_sim replay` (e.g. --faults nack=0.01 --seed 3).
-# Then a head as built (issue 23, docs/calibration.md): a simulated head whose parts have
+# Then a head as built (docs/how-to/calibrate-a-head.md): a simulated head whose parts have
 # offsets and gains is calibrated in a simulated fixture (`host_sim calibrate`), and the same
 # recording seen through that head is replayed before and after: the table says what the
 # calibration buys and what an uncalibrated head honestly says.
@@ -24,7 +24,7 @@ echo
 echo "== a head as built: fixture, host_sim calibrate, the recording before and after"
 $H scenario fixture --seed 7 --trace-out out/fixture.csv
 $H calibrate out/fixture.csv --out out/head.cal --report out/head.cal.json 2>out/head.cal.log
-tools/head_trace.py out/fixture.csv traces/demo/realnoise_demo.csv out/head_demo.csv
+tools/head_trace.py out/fixture.csv traces/demo/realnoise_demo.csv out/head_demo.csv --seed 7
 $H replay out/head_demo.csv --estimator consensus --quiet --out out/head_before.est.csv \
   --report out/head_before.report.json
 $H replay out/head_demo.csv --estimator consensus --quiet --calibration out/head.cal \

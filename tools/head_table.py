@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""The demo's before/after table of a head's calibration (tools/demo.sh, issue 23).
+"""The demo's before/after table of a head's calibration (tools/demo.sh).
 
     tools/head_table.py FIXTURE.csv HEAD.cal BEFORE.report.json AFTER.report.json
 

@@ -1,18 +1,26 @@
 #!/usr/bin/env python3
-"""A recording seen through a simulated head as built (the demo, issue 23).
+"""A recording seen through a simulated head as built (the demo's second half).
 
-    tools/head_trace.py FIXTURE.csv RECORDING.csv OUT.csv
+    tools/head_trace.py FIXTURE.csv RECORDING.csv OUT.csv [--seed S]
 
 FIXTURE.csv is a `host_sim scenario fixture...` trace: its `sim_offset_mm` and `sim_gain`
 keys say what the simulated head truly is. RECORDING.csv is a trace of an exactly known
 head (`offset_mm=0,...`, e.g. traces/demo/realnoise_demo.csv). OUT.csv is the recording
-as that head reports it, raw = gain * reading + offset rounded to whole mm (DESIGN.md §2;
-the recording's own noise is scaled by the gain too, as a real part's would be), with the
+as that head reports it, raw = gain * (reading + u) + offset rounded to whole mm
+(docs/explanation/calibration-model.md; the recording's own noise is scaled by the gain
+too, as a real part's would be), with the
 recording's calibration keys removed: an uncalibrated head, as a logger writes it. The
 truth columns are kept. Readings a part never gives as a distance (0, 8190 and above)
 are kept as they are.
+
+u is uniform in [-0.5, 0.5) from a generator seeded by --seed (default 1): a whole-mm
+reading stands for any distance within its millimetre. Without u the second rounding
+would be a fixed function of the reading, not dithered by the noise, and would leave
+each sensor a constant bias of up to half a millimetre that no calibration sees (0.78°
+of α on fixture seed 1).
 """
 import math
+import random
 import sys
 
 CAL_KEYS = ("offset_mm", "offset_sd_mm", "gain", "gain_sd", "offset_gain_corr", "calibration")
@@ -44,8 +52,22 @@ def head_of(path):
 
 
 def main():
-    if len(sys.argv) != 4:
-        fail("usage: head_trace.py FIXTURE.csv RECORDING.csv OUT.csv")
+    args = sys.argv[1:]
+    if args and args[0] in ("--help", "-h"):
+        print("usage: head_trace.py FIXTURE.csv RECORDING.csv OUT.csv [--seed S]\n")
+        print(__doc__.strip())
+        return
+    seed = 1
+    if len(args) == 5 and args[3] == "--seed":
+        try:
+            seed = int(args[4])
+        except ValueError:
+            fail("--seed: not an integer '%s'" % args[4])
+        args = args[:3]
+    if len(args) != 3:
+        fail("usage: head_trace.py FIXTURE.csv RECORDING.csv OUT.csv [--seed S]")
+    sys.argv[1:] = args
+    rng = random.Random(seed)
     off, gain = head_of(sys.argv[1])
     out = []
     cols = None
@@ -75,7 +97,12 @@ def main():
                 except ValueError:
                     fail("%s:%d: column %d: not an integer range '%s'" % (sys.argv[2], n, i + 1, v[i]))
                 if 0 < r < 8190:
-                    v[i] = str(max(1, int(math.floor(gain[k] * r + off[k] + 0.5))))
+                    spread = r + rng.random() - 0.5
+                    raw = int(math.floor(gain[k] * spread + off[k] + 0.5))
+                    if raw < 1:
+                        fail("%s:%d: column %d: %d mm through this head is %d mm, not a"
+                             " distance a part reports" % (sys.argv[2], n, i + 1, r, raw))
+                    v[i] = str(raw)
             out.append(",".join(v))
     with open(sys.argv[3], "w") as f:
         f.write("\n".join(out) + "\n")
