@@ -8,8 +8,8 @@
   others, calls one defined in A) in LOOP_FREE_DIRS: calls point down the layers;
 - tests are sorted by component only: every folder directly under tests/ is named after a
   component (a top-level code folder, or a sub-folder of one with its own CMakeLists.txt,
-  like hostlib/scene or firmware/telemetry), or is tests/common (helpers every test may
-  use). Unit, fuzz, reference and bench are ctest labels, not folders.
+  like hostlib/scene or firmware/telemetry), tests/tools (the project's tools and the
+  docs checked against the code) or tests/common (helpers every test may use). Unit, fuzz, reference and bench are ctest labels, not folders.
 
 A light C reader, not a compiler: comments, strings and preprocessor lines are blanked,
 functions are the brace blocks at file scope whose head ends in a parameter list, and a
@@ -202,7 +202,7 @@ def test_folder_findings(root):
     tests = os.path.join(root, "tests")
     if not os.path.isdir(tests):
         return []
-    allowed = component_names(root) | {"common"}
+    allowed = component_names(root) | {"common", "tools"}
     return [f"tests/{d}:1: a test folder not named after a component (tests/<component>/; "
             "kinds of test are ctest labels)"
             for d in sorted(os.listdir(tests))
