@@ -33,4 +33,6 @@ echo "== static analysis"
 cmake --build --preset host --target analyze
 echo "== benchmark: exact instruction counts under QEMU -> build/qemu/bench.json"
 cmake --build --preset qemu --target bench
+echo "== docs: the instruction counts and image sizes they quote equal the bench's"
+python3 tools/docs_figures.py --check --only bench,images
 echo "== all tests passed"
