@@ -79,7 +79,8 @@ static struct tally run_head(enum attitude_window_mode mode, double rate, double
     rng.state = seed;
     struct attitude_config cfg;
     attitude_config_default(&cfg);
-    if (calibrated) { /* calibrated at the start: the walk is what follows */
+    cfg.max_rate_mdeg_s = 0; /* a still plate: no rate bound's prior (a fixture) */
+    if (calibrated) {        /* calibrated at the start: the walk is what follows */
         test_calibration_exact(&cfg.calibration);
     }
     cfg.mode = mode;
@@ -197,6 +198,7 @@ static void test_walk_fixed_point(void **state) {
     for (unsigned p = 0; p < 2u; ++p) {
         struct attitude_config cfg;
         attitude_config_default(&cfg);
+        cfg.max_rate_mdeg_s = 0; /* a still plate: no rate bound's prior (a fixture) */
         test_calibration_exact(&cfg.calibration);
         cfg.period_us = periods[p];
         cfg.estimators = ATTITUDE_EST_BIT(ATTITUDE_EST_CONSENSUS);
@@ -232,6 +234,7 @@ static void test_white_head_half_hour(void **state) {
             rng.state = 0xA24BAED4963EE407u + 97u * seed + i;
             struct attitude_config cfg;
             attitude_config_default(&cfg);
+            cfg.max_rate_mdeg_s = 0; /* a still plate: no rate bound's prior (a fixture) */
             test_calibration_exact(&cfg.calibration);
             cfg.estimators = ATTITUDE_EST_BIT(ATTITUDE_EST_CONSENSUS);
             assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_NONE);
@@ -280,6 +283,7 @@ static void test_smooth_drift(void **state) {
     rng.state = 0xBF58476D1CE4E5B9u;
     struct attitude_config cfg;
     attitude_config_default(&cfg);
+    cfg.max_rate_mdeg_s = 0; /* a still plate: no rate bound's prior (a fixture) */
     test_calibration_exact(&cfg.calibration);
     cfg.period_us = 20000u;
     cfg.estimators = ATTITUDE_EST_BIT(ATTITUDE_EST_CONSENSUS);
@@ -323,11 +327,13 @@ static void test_period_checked(void **state) {
     for (unsigned i = 0; i < 3u; ++i) {
         struct attitude_config cfg;
         attitude_config_default(&cfg);
+        cfg.max_rate_mdeg_s = 0; /* a still plate: no rate bound's prior (a fixture) */
         cfg.period_us = bad[i];
         assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_INTEGRITY);
     }
     struct attitude_config cfg;
     attitude_config_default(&cfg);
+    cfg.max_rate_mdeg_s = 0; /* a still plate: no rate bound's prior (a fixture) */
     assert_int_equal(cfg.period_us, 20000u);
     cfg.period_us = 1000u;
     assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_NONE);

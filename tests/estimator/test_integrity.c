@@ -50,6 +50,7 @@ static const bool all_present[4] = {true, true, true, true};
 static void init(enum attitude_window_mode mode) {
     struct attitude_config cfg;
     attitude_config_default(&cfg);
+    cfg.max_rate_mdeg_s = 0;                  /* a still plate: no rate bound's prior (a fixture) */
     test_calibration_exact(&cfg.calibration); /* ideal sensors: an exact calibration */
     cfg.window = N;
     cfg.mode = mode;
@@ -167,18 +168,22 @@ static void test_integrity_config_checked(void **state) {
     (void)state;
     struct attitude_config cfg;
     attitude_config_default(&cfg);
+    cfg.max_rate_mdeg_s = 0;                  /* a still plate: no rate bound's prior (a fixture) */
     test_calibration_exact(&cfg.calibration); /* ideal sensors: an exact calibration */
     cfg.range_max_mm = 8190;                  /* a no-target value cannot be a range */
     assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_INTEGRITY);
     attitude_config_default(&cfg);
+    cfg.max_rate_mdeg_s = 0;                  /* a still plate: no rate bound's prior (a fixture) */
     test_calibration_exact(&cfg.calibration); /* ideal sensors: an exact calibration */
     cfg.parity_sigmas_q8 = 255;
     assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_INTEGRITY);
     attitude_config_default(&cfg);
+    cfg.max_rate_mdeg_s = 0;                  /* a still plate: no rate bound's prior (a fixture) */
     test_calibration_exact(&cfg.calibration); /* ideal sensors: an exact calibration */
     cfg.motion_sigmas_q8 = 0;
     assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_INTEGRITY);
     attitude_config_default(&cfg);
+    cfg.max_rate_mdeg_s = 0;                  /* a still plate: no rate bound's prior (a fixture) */
     test_calibration_exact(&cfg.calibration); /* ideal sensors: an exact calibration */
     cfg.drift_shift = 9;
     assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_INTEGRITY);
@@ -552,6 +557,7 @@ static void test_drift_learnt(void **state) {
     rng.state = DRIFT_SEED; /* its own noise, whatever ran before */
     struct attitude_config cfg;
     attitude_config_default(&cfg);
+    cfg.max_rate_mdeg_s = 0;                  /* a still plate: no rate bound's prior (a fixture) */
     test_calibration_exact(&cfg.calibration); /* ideal sensors: an exact calibration */
     cfg.window = N;
     cfg.drift_flag_um = 300;
