@@ -434,14 +434,10 @@ static void gate_sensors(const struct window_state *w, const uint16_t count[ANGL
     }
     for (unsigned k = 0; k < ANGLES_SENSORS; ++k) {
         if (gate_on[k]) {
-            /* The readings are whole mm, so each deviation |x − median| is within 1/2 mm of
-             * the unrounded one, and the MAD within 1/2 mm of the noise's: it reads 1 mm at
-             * σ 1.5–2.2 mm (1.35 expected at 2), and a gate of 5·1.4826·1 mm rejected a good
-             * sensor in 5–17 % of clean windows. The scale takes the top of that interval,
-             * MAD + 1/2 mm (x2: + 1): never below the noise's for whole-mm readings. A short
-             * window's MAD also scatters (relative sd about 1.2/√n: 0.26 at n = 20), so it
-             * is widened by (n + 8)/n (1.4 at 20, 1.03 at 250): 1.3 % of clean 20-row
-             * windows rejected a good sensor without it. */
+            /* Whole-mm readings put the MAD within 1/2 mm of the noise's (it reads 1 mm at
+             * σ 2 mm: a gate of 5·1.4826·1 mm rejected a good sensor in up to 17 % of clean
+             * windows): the scale takes MAD + 1/2 mm (x2: + 1), widened by (n + 8)/n for a
+             * short window's own scatter (relative sd about 1.2/√n). */
             const uint64_t mad_q = (uint64_t)(mad_x2[k] + 1) * (count[k] + 8u);
             const int64_t mad_n = (int64_t)fix_div_u64_u16(mad_q << 8, count[k]); /* Q8 */
             const int64_t scaled = (mad_n * MAD_TO_SIGMA_Q16 * w->cfg.gate_sigmas_q8) >> 32;
