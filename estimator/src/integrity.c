@@ -30,13 +30,16 @@ static bool implausible(uint16_t mm, uint16_t range_max_mm) {
     return (uint16_t)(mm - 1u) >= range_max_mm;
 }
 
-/* The ring pass: per-sensor reasons of the readings the window holds, and the ramp sums
- * of the readings the window statistics used (valid and inside the gate). Not inlined: the
+/* The ring pass: per-sensor reasons of the readings the window holds, the ramp sums of the
+ * readings the window statistics used (valid and inside the gate), and the oscillation
+ * test's sums of the rows with all four valid (the gate's outliers too: one sensor's moves
+ * u_α or u_β and p alike, so the test's excess keeps its mean). Not inlined: the
  * per-row loop keeps the registers to itself (Cortex-M4 bench: about 3,000 fewer
  * instructions per window end than inlined into integrity_assess). */
 FIX_NOINLINE attitude_why_t scan_rows(const struct integrity_config *cfg,
                                       const struct window_state *w, const struct window_stats *s,
-                                      struct integrity_ramp_sums r[ANGLES_SENSORS]) {
+                                      struct integrity_ramp_sums r[ANGLES_SENSORS],
+                                      struct integrity_osc_sums *osc) {
     attitude_why_t why = 0;
     uint16_t idx = w->oldest;
     const uint32_t eighth = ((uint32_t)w->fill + 7u) / 8u;
@@ -101,6 +104,9 @@ FIX_NOINLINE attitude_why_t scan_rows(const struct integrity_config *cfg,
                 }
             }
         }
+        if (valid == ANGLES_ALL_SENSORS) {
+            integrity_oscillation_row(osc, row->range_mm);
+        }
     }
     return why;
 }
@@ -145,7 +151,7 @@ void integrity_assess(struct integrity_state *st, const struct integrity_config 
     (void)memset(out, 0, sizeof *out);
     st->rows = rows; /* the drift allowance's time: rows × period since the start */
     /* the ramp sums: zeroed above; in out, not on the window-end stack */
-    out->why = scan_rows(cfg, w, s, out->ramp);
+    out->why = scan_rows(cfg, w, s, out->ramp, &out->osc);
     struct integrity_noise_sums sums;
     integrity_noise_budget(st, cfg, s, out, &sums);
     integrity_motion_sensors(w, s, out);
