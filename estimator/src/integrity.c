@@ -161,6 +161,11 @@ void integrity_assess(struct integrity_state *st, const struct integrity_config 
     integrity_axes_coeffs(out->used, &ac);
     fix_q32_t lag2[INTEGRITY_AXES];
     integrity_motion_axes(st, cfg, w, s, learn, &ac, out, lag2);
+    /* The walk since the start may move all four offsets together (temperature, the
+     * cover's reflectance): the parity cannot see it and α, β do not feel it, but x̄ takes
+     * all of it, where the per-sensor allowances gave it a quarter. The distance carries
+     * the whole prior walk as well (a quarter too much when the walks are independent). */
+    lag2[INTEGRITY_DISTANCE] = fix_sat_add_s64(lag2[INTEGRITY_DISTANCE], st->walk_mm2);
     axes_extra(out, &ac, lag2);
     if (learn) {
         integrity_motion_remember(st, s, out);
