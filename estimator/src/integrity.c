@@ -31,13 +31,16 @@ static bool implausible(uint16_t mm, uint16_t range_max_mm) {
     return (uint16_t)(mm - 1u) >= range_max_mm;
 }
 
-/* The ring pass: per-sensor reasons of the readings the window holds, and the ramp sums
- * of the readings the window statistics used (valid and inside the gate). Not inlined: the
+/* The ring pass: per-sensor reasons of the readings the window holds, the ramp sums of the
+ * readings the window statistics used (valid and inside the gate), and the oscillation
+ * test's sums of the rows with all four valid (the gate's outliers too: one sensor's moves
+ * u_α or u_β and p alike, so the test's excess keeps its mean). Not inlined: the
  * per-row loop keeps the registers to itself (Cortex-M4 bench: about 3,000 fewer
  * instructions per window end than inlined into integrity_assess). */
 FIX_NOINLINE attitude_why_t scan_rows(const struct integrity_config *cfg,
                                       const struct window_state *w, const struct window_stats *s,
-                                      struct integrity_ramp_sums r[ANGLES_SENSORS]) {
+                                      struct integrity_ramp_sums r[ANGLES_SENSORS],
+                                      struct integrity_osc_sums *osc) {
     attitude_why_t why = 0;
     uint16_t idx = w->oldest;
     const uint32_t eighth = ((uint32_t)w->fill + 7u) / 8u;
@@ -102,6 +105,9 @@ FIX_NOINLINE attitude_why_t scan_rows(const struct integrity_config *cfg,
                 }
             }
         }
+        if (valid == ANGLES_ALL_SENSORS) {
+            integrity_oscillation_row(osc, row->range_mm);
+        }
     }
     return why;
 }
@@ -146,7 +152,7 @@ void integrity_assess(struct integrity_state *st, const struct integrity_config 
     (void)memset(out, 0, sizeof *out);
     st->rows = rows; /* the drift allowance's time: rows × period since the start */
     /* the ramp sums: zeroed above; in out, not on the window-end stack */
-    out->why = scan_rows(cfg, w, s, out->ramp);
+    out->why = scan_rows(cfg, w, s, out->ramp, &out->osc);
     if (st->walk_mm2 == 0 && cfg->calibration_age_s != 0u) {
         /* a calibration older than the start: its walk counts from the first window, not
          * from the first block's end (integrity_parity) */
@@ -161,6 +167,11 @@ void integrity_assess(struct integrity_state *st, const struct integrity_config 
     integrity_axes_coeffs(out->used, &ac);
     fix_q32_t lag2[INTEGRITY_AXES];
     integrity_motion_axes(st, cfg, w, s, learn, &ac, out, lag2);
+    /* The walk since the start may move all four offsets together (temperature, the
+     * cover's reflectance): the parity cannot see it and α, β do not feel it, but x̄ takes
+     * all of it, where the per-sensor allowances gave it a quarter. The distance carries
+     * the whole prior walk as well (a quarter too much when the walks are independent). */
+    lag2[INTEGRITY_DISTANCE] = fix_sat_add_s64(lag2[INTEGRITY_DISTANCE], st->walk_mm2);
     axes_extra(out, &ac, lag2);
     if (learn) {
         integrity_motion_remember(st, s, out);

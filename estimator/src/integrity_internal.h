@@ -7,7 +7,11 @@
  *   integrity_noise.c   each sensor's noise budget: white, drift, prior, rounding
  *   integrity_parity.c  the parity test and the drift it teaches
  *   integrity_motion.c  motion: ramps, late steps, the steady-motion lag and its history
+ *   integrity_oscillation.c  motion whatever its shape: the angle combinations' scatter
+ *                       against the parity's (integrity.c's ring pass feeds its sums,
+ *                       integrity_motion.c asks for its verdict)
  *   integrity_axes.c    the axes' least-squares combinations over a sensor set
+ *   integrity_math.c    the shared significance test and square (every file above)
  *
  * Units as estimator/integrity.h: Q32 mm and Q32 mm².
  */
@@ -23,18 +27,12 @@
 #define Q32_TWELFTH ((fix_q32_t)357913941)
 #define Q32_QUARTER ((fix_q32_t)1073741824)
 
-/* v² > k²·var for v in Q32 mm, var in Q32 mm², k in Q8: exact in 128 bits. */
-static inline bool integrity_beyond(fix_q32_t v, fix_q32_t var, uint16_t k_q8) {
-    const fix_s128 v2 = fix_s128_mul(v, v); /* Q64 */
-    const fix_s128 lim =
-        fix_s128_shl(fix_s128_mul((int64_t)k_q8 * (int64_t)k_q8, var), 16u); /* Q64 */
-    return fix_s128_cmp(v2, lim) > 0;
-}
+/* v² > k²·var for v in Q32 mm, var in Q32 mm², k in Q8: exact in 128 bits
+ * (integrity_math.c: one copy for every file of the family). */
+bool integrity_beyond(fix_q32_t v, fix_q32_t var, uint16_t k_q8);
 
-/* v² in Q32 mm² from Q32 mm, saturating. */
-static inline fix_q32_t integrity_square_q32(fix_q32_t v) {
-    return fix_s128_to_s64(fix_s128_shr_round(fix_s128_mul(v, v), FIX_Q32_SHIFT), NULL);
-}
+/* v² in Q32 mm² from Q32 mm, saturating (integrity_math.c). */
+fix_q32_t integrity_square_q32(fix_q32_t v);
 
 /* (v µm)² in Q32 mm²: v² · 2^32 / 10^6 as v² · round(2^52 / 10^6) / 2^20 (relative error
  * below 10^-10, and no division at the window end). */
@@ -118,5 +116,18 @@ void integrity_motion_axes(struct integrity_state *st, const struct integrity_co
 /* At the end of a block: this block's sensor set and means join the history. */
 void integrity_motion_remember(struct integrity_state *st, const struct window_stats *s,
                                const struct integrity_window *out);
+
+/* --- integrity_oscillation.c --------------------------------------------------------- */
+
+/* One row with all four readings valid into the sums, in the window's order (oldest first;
+ * out->osc zeroed before the first). */
+void integrity_oscillation_row(struct integrity_osc_sums *o,
+                               const uint16_t range_mm[ANGLES_SENSORS]);
+
+/* Motion whatever its shape, from out->osc: the lag² (Q32 mm²) an excess scatter of the
+ * angle combinations over the parity's adds to each angle axis (the motion may be all in
+ * one; 0 when no excess is beyond INTEGRITY_MOTION_ALLOW), and out->moved of both angle
+ * axes when one is beyond motion_sigmas. */
+fix_q32_t integrity_oscillation(const struct integrity_config *cfg, struct integrity_window *out);
 
 #endif /* ESTIMATOR_INTEGRITY_INTERNAL_H */

@@ -181,79 +181,13 @@ static fix_q32_t block_values(const struct integrity_state *st, const struct win
     return var;
 }
 
-/* An oscillation, or any motion whose window mean hides it (a near-whole period leaves no
- * ramp and no late step): the angle combinations α5 = atan((x_C − x_A)/2a) and β5 scatter
- * within the window by the noise of their sensors plus whatever the plate does, while the
- * parity angle α1 − α4 ≈ −(x_A + x_C − x_B − x_D)/a, which no rigid plate motion moves,
- * scatters by the noise alone, and a quarter of its variance is exactly the noise share of
- * var(α5) + var(β5) whatever each sensor's σ. The excess E = var(α5) + var(β5) − P (P that
- * quarter; udeg², complete rows, the window's own covariances: no cost per row) is the
- * motion's variance. Under noise alone its sd is about P·√(3/m), m = rows − 1 (the three
- * sample variances' χ² spreads, equal σ). Beyond INTEGRITY_MOTION_ALLOW that many sd it goes
- * into each axis' lag² as 2·min(E, the axis' own variance): the largest squared distance of
- * a sinusoid from its mean is twice its variance, so the row's attitude is covered however
- * the period falls in the window; beyond motion_sigmas the window has moved (`motion`). */
-#define OSCILLATION_MIN_ROWS 8u
-#define OSCILLATION_SMALL_M  16u
-/* mm per µdeg at arm a (small angles: a·π/(180·10^6) = a_um · 1.7453e-11), as a_um · this
- * / 2^48: round(2^48 · π / 1.8e11) = 4913 (0.01 % high, the conservative side) */
-#define OSCILLATION_MM_PER_UDEG_Q48 4913
-
-/* E beyond k sd of its noise: E > 0 and E² · m > k² · 3 · P² (k in Q8), in 128 bits. */
-static bool oscillation_beyond(int64_t e, int64_t p, uint32_t m, uint16_t k_q8) {
-    if (e <= 0) {
-        return false;
-    }
-    const fix_s128 lhs = fix_s128_shl(
-        fix_s128_mul(fix_s128_to_s64(fix_s128_shr_round(fix_s128_mul(e, e), 32u), NULL),
-                     (int64_t)m),
-        16u);
-    const fix_s128 rhs =
-        fix_s128_mul(3 * (int64_t)k_q8 * (int64_t)k_q8,
-                     fix_s128_to_s64(fix_s128_shr_round(fix_s128_mul(p, p), 32u), NULL));
-    return fix_s128_cmp(lhs, rhs) > 0;
-}
-
-/* The oscillation test of a window with complete rows: per angle axis, the lag² it adds
- * (Q32 mm², 0 when E is not beyond INTEGRITY_MOTION_ALLOW) and `moved`. */
-static void oscillation(const struct integrity_config *cfg, const struct window_stats *s,
-                        struct integrity_window *out, fix_q32_t lag2_mm2[2]) {
-    lag2_mm2[0] = 0;
-    lag2_mm2[1] = 0;
-    if (s->complete < OSCILLATION_MIN_ROWS) {
-        return;
-    }
-    const int64_t(*ca)[ANGLES_PER_AXIS] = s->alpha.cov;
-    const int64_t va = ca[4][4];
-    const int64_t vb = s->beta.cov[4][4];
-    const int64_t p = fix_asr_s64(ca[0][0] + ca[3][3] - 2 * ca[0][3], 2u);
-    const int64_t e = va + vb - p;
-    const uint32_t m = (uint32_t)s->complete - 1u;
-    if (!oscillation_beyond(e, p, m, INTEGRITY_MOTION_ALLOW_Q8)) {
-        return;
-    }
-    /* `motion` beyond k·√(1 + 16/m) sd: at small m the sample variances' ratio has a long
-     * right tail (an F distribution) that the Gaussian k alone would call motion in 1–2 % of
-     * still windows of 20 rows */
-    const bool moved =
-        oscillation_beyond(e, p, m * m / (m + OSCILLATION_SMALL_M), cfg->motion_sigmas_q8);
-    const int64_t g = (int64_t)cfg->arm_um * OSCILLATION_MM_PER_UDEG_Q48; /* mm/µdeg, Q48 */
-    const int64_t own[2] = {va, vb};
-    for (unsigned ax = 0; ax < 2u; ++ax) {
-        const int64_t v2 = 2 * (e < own[ax] ? e : own[ax]); /* µdeg² */
-        /* v2 · g² / 2^64 in Q32 mm²: v2 < 2^50, g < 2^32 */
-        const int64_t t = fix_mul_shr_s64(v2, g, 32u, NULL);
-        lag2_mm2[ax] = fix_mul_shr_s64(t, g, 32u, NULL);
-        out->moved[ax] = out->moved[ax] || moved;
-    }
-}
-
 /*
  * The rate bound's prior on an angle axis (Q32 mm², in a·tan units): a ramp at up to
  * max_rate that the window's statistics cannot tell from noise still leaves the window's
  * estimate behind the attitude at its last row by up to a·sec²θ·ω·(n − 1)·T/2 (the
- * centroid of n rows a period T apart). Its variance as a uniform error over ±that lag
- * is lag²/3: a ramp exactly at the bound sits at √3 of it. 0 for a still plate.
+ * centroid of n rows a period T apart; any motion whose rate stays within the bound
+ * leaves no more). Its variance as a uniform error over ±that lag is lag²/3: a ramp
+ * exactly at the bound sits at √3 of it. 0 for a still plate.
  */
 static fix_q32_t rate_bound_lag2(const struct integrity_config *cfg, uint32_t n,
                                  fix_q32_t tan_q32) {
@@ -295,8 +229,7 @@ void integrity_motion_axes(struct integrity_state *st, const struct integrity_co
     const uint32_t n_less_one = n >= 2u ? n - 1u : 0u;
     const int32_t gain_q31 =
         n >= 2u ? (int32_t)fix_div_u64_u16((uint64_t)n_less_one << 31, 6u * n) : 0;
-    fix_q32_t osc_lag2[2];
-    oscillation(cfg, s, out, osc_lag2);
+    const fix_q32_t osc_lag2 = integrity_oscillation(cfg, out); /* both angle axes' */
     for (unsigned ax = 0; ax < INTEGRITY_AXES; ++ax) {
         lag2_mm2[ax] = 0;
         const int8_t *c = ac->c[ax];
@@ -318,10 +251,10 @@ void integrity_motion_axes(struct integrity_state *st, const struct integrity_co
          * whichever is larger */
         const fix_q32_t seen = allow ? integrity_square_q32(out->lag_mm[ax]) : 0;
         lag2_mm2[ax] = seen > st->steady_lag2_mm2[ax] ? seen : st->steady_lag2_mm2[ax];
-        if (ax < 2u && osc_lag2[ax] > lag2_mm2[ax]) {
-            lag2_mm2[ax] = osc_lag2[ax];
+        if (ax != (unsigned)INTEGRITY_DISTANCE && osc_lag2 > lag2_mm2[ax]) {
+            lag2_mm2[ax] = osc_lag2;
         }
-        /* ... or, at least, what a ramp within the plate's rate bound may leave unseen */
+        /* ... or, at least, what a motion within the plate's rate bound may leave unseen */
         const fix_q32_t bound2 = ax < 2u ? rate_bound_lag2(cfg, n, out->tan_q32[ax]) : 0;
         if (bound2 > lag2_mm2[ax]) {
             lag2_mm2[ax] = bound2;

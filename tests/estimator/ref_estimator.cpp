@@ -106,7 +106,8 @@ Eigen::Matrix<double, 5, 1> angles(const std::array<uint16_t, 4> &r, double arm,
     return a * kUdegPerRad;
 }
 
-/* The window gate (window_stats.h): median, MAD, k·1.4826·MAD with a floor. */
+/* The window gate (window_stats.h): median, MAD, k·1.4826·(MAD + 1/2 mm)·(m + 8)/m with a
+ * floor. */
 std::vector<uint8_t> gate(const std::vector<Row> &rows, const attitude_config &cfg) {
     std::vector<uint8_t> used(rows.size());
     for (size_t i = 0; i < rows.size(); ++i) {
@@ -130,7 +131,10 @@ std::vector<uint8_t> gate(const std::vector<Row> &rows, const attitude_config &c
             d.push_back(std::abs(2 * x - med_x2));
         }
         std::sort(d.begin(), d.end());
-        double thr = std::floor(d[(m - 1) / 2] * (97163.0 / 65536.0) * cfg.gate_sigmas_q8 / 256.0);
+        /* (MAD + 1/2 mm) (m + 8)/m: whole-mm readings and a short window's scatter */
+        const double md = static_cast<double>(m);
+        const double mad_n = std::floor((d[(m - 1) / 2] + 1) * (md + 8.0) * 256.0 / md);
+        double thr = std::floor(mad_n * 97163.0 * cfg.gate_sigmas_q8 / 4294967296.0);
         thr = std::max(thr, 2.0 * cfg.gate_floor_mm);
         for (size_t i = 0; i < rows.size(); ++i) {
             if ((rows[i].valid & (1u << k)) && std::abs(2 * rows[i].r[k] - med_x2) > thr) {

@@ -153,6 +153,60 @@ static void test_walk_four_hours(void **state) {
     }
 }
 
+/* All four offsets walking together (one walk at the prior's rate: a temperature or
+ * reflectance change moves every part alike), four hours as above: invisible to the
+ * parity and to α and β, the whole walk is in x̄; 24 heads tumbling, 4 sliding. The
+ * distance is scored: ≥ 95 % of
+ * answered rows within 3 sd, ≤ 0.1 % beyond 6 sd (before the distance carried the common
+ * walk: about half within 3 sd). */
+static void test_common_walk_in_distance(void **state) {
+    (void)state;
+    const double step =
+        sqrt(ATTITUDE_OFFSET_WALK_UM2_H_DEFAULT * 1e-6 * (PERIOD_US / 1e6) / 3600.0);
+    for (unsigned m = 0; m < 2u; ++m) {
+        unsigned rows = 0, within3 = 0, beyond6 = 0;
+        const unsigned heads = m == 0u ? 24u : 4u; /* sliding: fewer (its cost) */
+        for (unsigned s = 0; s < heads; ++s) {
+            rng.state = 0x3C6EF372FE94F82Bu + 0x9E3779B97F4A7C15u * s;
+            struct attitude_config cfg;
+            attitude_config_default(&cfg);
+            test_calibration_exact(&cfg.calibration);
+            cfg.mode = m == 0u ? ATTITUDE_TUMBLING : ATTITUDE_SLIDING;
+            cfg.period_us = PERIOD_US;
+            cfg.estimators = ATTITUDE_EST_BIT(ATTITUDE_EST_CONSENSUS);
+            assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_NONE);
+            double x[4];
+            ideal(x);
+            double walk = 0;
+            for (unsigned i = 0; i < ROWS; ++i) {
+                walk += step * test_gauss(&rng);
+                uint16_t r[4];
+                for (unsigned k = 0; k < 4; ++k) {
+                    r[k] = (uint16_t)lround(x[k] + walk + 2.0 * test_gauss(&rng));
+                }
+                if (!attitude_push_sample(&st, r, all_ok, all_present, &out)) {
+                    continue;
+                }
+                const struct attitude_estimate *e = &out.est[ATTITUDE_EST_CONSENSUS];
+                if (!e->distance_valid || e->distance_sd_um <= 0) {
+                    continue;
+                }
+                const double err = fabs(e->distance_um / 1000.0 - 500.0);
+                const double sd = e->distance_sd_um / 1000.0;
+                rows++;
+                within3 += err <= 3 * sd ? 1u : 0u;
+                beyond6 += err > 6 * sd ? 1u : 0u;
+            }
+        }
+        print_message("common walk, %s: distance within 3 sd %.2f %%, beyond 6 sd %.3f %% of %u\n",
+                      m == 0u ? "tumbling" : "sliding", 100.0 * within3 / rows,
+                      100.0 * beyond6 / rows, rows);
+        assert_true(rows > 0u);
+        assert_true(within3 >= 0.95 * rows);
+        assert_true(beyond6 <= 0.001 * rows);
+    }
+}
+
 /* A 6 mm step of one offset after an hour (a per-sensor mean square of 9 mm² in the
  * parity, beyond 9 × the allowance of 0.59 mm² then) is `recalibrate` in most windows of
  * the quarter hour after it (from 400 s after it: the learning follows with gain 1/16 per block); a
@@ -350,6 +404,7 @@ int main(void) {
         cmocka_unit_test(test_white_head_half_hour),
         cmocka_unit_test(test_smooth_drift),
         cmocka_unit_test(test_recalibrate),
+        cmocka_unit_test(test_common_walk_in_distance),
         cmocka_unit_test(test_uncalibrated_never_recalibrate),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

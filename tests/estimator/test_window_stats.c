@@ -9,6 +9,7 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <cmocka.h>
@@ -212,9 +213,10 @@ static void test_gate_rejects_gross_outliers_only(void **state) {
     assert_memory_equal(&st.alpha, &st2.alpha, sizeof st.alpha);
     assert_memory_equal(&st.beta, &st2.beta, sizeof st.beta);
     assert_int_equal(st.complete, 96);
-    /* the median of B is ~100 mm (x2 = 200) and the half width a few mm */
+    /* the median of B is ~100 mm (x2 = 200) and the half width 5 · 1.4826 · (MAD + 1/2 mm)
+     * · 108/100, about 20 mm at this noise (σ ≈ 3 mm), short of the smallest outlier */
     assert_true(abs(st.sensor[1].median_x2_mm - 200) <= 4);
-    assert_true(st.sensor[1].gate_x2_mm >= 6 && st.sensor[1].gate_x2_mm < 40);
+    assert_true(st.sensor[1].gate_x2_mm >= 6 && st.sensor[1].gate_x2_mm <= 40);
     check_against_direct(&other, &st2); /* the flagged twin, checked directly */
 }
 
@@ -263,7 +265,9 @@ static void test_gate_median_mad_against_sorting(void **state) {
             }
             qsort(devs, (size_t)m, sizeof devs[0], cmp_int);
             const int64_t mad2 = devs[(m - 1) / 2];
-            const int64_t scaled = (mad2 * 97163 * win.cfg.gate_sigmas_q8) >> 24;
+            /* (MAD + 1/2 mm) (m + 8)/m, in Q8: whole-mm readings, a short window's scatter */
+            const int64_t mad_n = ((mad2 + 1) * (m + 8) * 256) / m;
+            const int64_t scaled = (mad_n * 97163 * win.cfg.gate_sigmas_q8) >> 32;
             const int64_t floor2 = 2 * (int64_t)win.cfg.gate_floor_mm;
             assert_int_equal(st.sensor[k].gate_x2_mm, scaled > floor2 ? scaled : floor2);
         }
@@ -282,8 +286,9 @@ static void test_all_equal_readings_zero_variance(void **state) {
         assert_true(st.sensor[k].var_mm2 == 0);
         assert_int_equal(st.sensor[k].rejected, 0);
         assert_int_equal(st.sensor[k].used, 50);
-        /* MAD is 0: the floor (3 mm, x2 = 6) is what the gate applies */
-        assert_int_equal(st.sensor[k].gate_x2_mm, 6);
+        /* MAD is 0 on whole-mm readings: the noise's may be up to 1/2 mm, so the gate is
+         * 5 · 1.4826 · 1/2 mm · 58/50 = 4.3 mm (x2 = 8, floored), above the floor's 3 */
+        assert_int_equal(st.sensor[k].gate_x2_mm, 8);
     }
     for (unsigned i = 0; i < 5; ++i) {
         for (unsigned j = 0; j < 5; ++j) {

@@ -124,6 +124,26 @@ struct integrity_ramp_sums {
     int32_t tail_out_sx;
 };
 
+/* Block lengths 2^0 .. 2^(INTEGRITY_OSC_LEVELS − 1) rows of the oscillation test. */
+#define INTEGRITY_OSC_LEVELS 6u
+
+/* One level's block sums of u_α = x_C − x_A and u_β = x_B − x_D (integrity_oscillation.c). */
+struct integrity_osc_level {
+    int32_t run[2];  /* the open block's sums (|.| < 2^16 · 32) */
+    int32_t sum[2];  /* Σ closed block sums (|.| < 2^16 · 1024) */
+    int64_t sum2[2]; /* Σ closed block sums² */
+    uint32_t blocks; /* closed blocks */
+};
+
+/* The oscillation test's sums over the window's used complete rows: every level's blocks,
+ * and the parity's Σp, Σp² (p = x_A + x_C − x_B − x_D). */
+struct integrity_osc_sums {
+    struct integrity_osc_level level[INTEGRITY_OSC_LEVELS];
+    int64_t sp;
+    int64_t spp;
+    uint32_t n;
+};
+
 /* The facts of one window, common to every estimator. */
 struct integrity_window {
     attitude_why_t why;                  /* per-sensor bits (no-target, range, flagged, missing)
@@ -139,6 +159,7 @@ struct integrity_window {
     fix_q32_t lag_var_mm2[INTEGRITY_AXES];           /* its white-noise variance */
     bool moved[INTEGRITY_AXES];                      /* lag beyond motion_sigmas: `motion` */
     struct integrity_ramp_sums ramp[ANGLES_SENSORS]; /* scratch of the motion statistics */
+    struct integrity_osc_sums osc;                   /* scratch of the oscillation test */
     fix_q32_t motion_mm[3][ANGLES_SENSORS];          /* per sensor: ramp lag, newest N/8 and N/4 */
     fix_q32_t motion_var_mm2[3][ANGLES_SENSORS];     /* ... and their white-noise variances */
     fix_q32_t extra_var_mm2[INTEGRITY_AXES];         /* what each axis adds to a window estimator's
