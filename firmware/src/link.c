@@ -459,7 +459,8 @@ void tof_link_poll(struct tof_link *link) {
         return;
     }
     save_poll(link); /* not inlined for the same reason as send_health() */
-    if (link->cal_age != NULL && link->cal_age->counting && !tof_record_busy(link->records)) {
+    if (link->cal_age != NULL && link->cal_age->counting &&
+        (link->records == NULL || !tof_record_busy(link->records))) {
         /* never while the record's erase runs in the background: one storage, one operation */
         (void)tof_cal_age_poll(link->cal_age, tof_app_now_us(link->app));
         (void)tof_app_set_calibration_age(link->app, age_now_s(link), false);
