@@ -464,6 +464,7 @@ int tof_app_set_period(struct tof_app *app, uint32_t period_ms) {
     struct attitude_config est = app->estimator.cfg;
     int rc = tof_estimator_period(&est, next.estimator.period_us);
     if (rc == ATTITUDE_ERR_NONE) {
+        est.calibration_age_s = tof_app_calibration_age_s(app); /* the walk goes on */
         rc = attitude_init(&app->estimator, &est); /* checked first: a refusal changes nothing */
     }
     if (rc != ATTITUDE_ERR_NONE) {
