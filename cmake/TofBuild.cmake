@@ -27,7 +27,10 @@ if(CMAKE_CROSSCOMPILING)
   option(TOF_LTO "Link-time optimisation of the firmware images" ${TOF_LTO_DEFAULT})
   set(lto_flags "")
   if(TOF_LTO)
-    set(lto_flags -flto)
+    # Functions called once are not inlined across files at the link: merged into their one
+    # caller they made the image larger and the deepest frames deeper (m4 60,972 -> 60,720 B,
+    # worst stack 2,364 -> 2,168 B; m0plus 65,192 -> 64,276 B, 2,712 -> 2,332 B).
+    set(lto_flags -flto -fno-inline-functions-called-once)
   endif()
   list(REMOVE_DUPLICATES TOF_CORES)
   foreach(core IN LISTS TOF_CORES)

@@ -42,9 +42,16 @@ function(tof_stm32_board board core irqs openocd_cfg ld)
     target_link_options(${name} PRIVATE -L${PROJECT_SOURCE_DIR}/boards/cortex-m)
   endforeach()
   # The flight image's flash and RAM by part, and its stack margin (tools/image_budget.py).
+  # Link-time optimised: the parts from the ELF's debug information (the map names only the
+  # link's partitions).
+  set(budget_elf "")
+  if(TOF_LTO)
+    string(REGEX REPLACE "nm$" "" tools_prefix "${CMAKE_NM}")
+    set(budget_elf --elf $<TARGET_FILE:${image}> --tools ${tools_prefix})
+  endif()
   add_custom_target(budget
     COMMAND /usr/bin/python3 ${PROJECT_SOURCE_DIR}/tools/image_budget.py
-            $<TARGET_FILE_DIR:${image}>/${image}.map
+            $<TARGET_FILE_DIR:${image}>/${image}.map ${budget_elf}
             --stack $<TARGET_FILE_DIR:${image}>/${image}.stack.json ${TOF_BUDGET_ARGS}
     DEPENDS ${image}
     COMMENT "Flash, RAM and stack of ${image} by part" VERBATIM)

@@ -10,6 +10,8 @@
 #include "board.h"
 #include "board_hal.h"
 #include "firmware/app.h"
+#include "firmware/calibration_record.h"
+#include "firmware/config.h"
 #include "firmware/link.h"
 #include "firmware/record.h"
 #include "firmware/text.h"
@@ -54,7 +56,15 @@ int main(void) {
     if (tof_record_init(&records, storage, 2u, 3u) == 0) {
         tof_link_set_records(&link, &records); /* none: defaults, `save` refused */
         if (tof_cal_age_init(&cal_age, storage, 0u, 1u) == 0) {
-            tof_link_set_cal_age(&link, &cal_age); /* none: the age counts from each boot */
+            /* the stored calibration's age, its pages read before the application's timeline
+             * starts (the link's start hands it to the estimator); none: from each boot */
+            (void)tof_record_load(&records);
+            const uint16_t tag = tof_cal_tag(&records);
+            const struct hal_time t = board_hal_time();
+            (void)tof_cal_age_boot(&cal_age, tag != 0u, tag,
+                                   tof_app_default_config.cal_off_allowance_s,
+                                   t.ops->now_us(t.ctx));
+            tof_link_set_cal_age(&link, &cal_age);
         }
     }
     platform = (struct tof_platform){

@@ -287,7 +287,14 @@ static uint32_t idle_time_us(const struct tof_app *app, uint64_t now_us) {
     if (app->deferred_count != 0u) {
         return 0u; /* a held-back sample: its iteration comes at once */
     }
-    const uint32_t lead = app->phase_us > app->cfg.idle_us ? app->phase_us - app->cfg.idle_us : 0u;
+    /* The phase is a first reading's time once read: a reading that takes longer on the wire
+     * than an idle step (a 100 kHz bus: 3.5 ms) must wake that much earlier too, or each
+     * sample's phase comes later than the last and the reads fall behind the parts (found by
+     * host_sim --i2c-khz 100: 0.9 ms a sample, a reading lost every 11 samples). */
+    const uint32_t read_us = tof_app_sample_bus_us(app->cfg.i2c_khz) / TOF_SENSORS;
+    const uint32_t early =
+        read_us > app->cfg.idle_us ? app->cfg.idle_us + read_us : app->cfg.idle_us;
+    const uint32_t lead = app->phase_us > early ? app->phase_us - early : 0u;
     const uint64_t next_slot = app->assembler.origin_us +
                                (uint64_t)app->assembler.next_index * app->assembler_cfg.period_us +
                                lead;
@@ -457,6 +464,7 @@ int tof_app_set_period(struct tof_app *app, uint32_t period_ms) {
     struct attitude_config est = app->estimator.cfg;
     int rc = tof_estimator_period(&est, next.estimator.period_us);
     if (rc == ATTITUDE_ERR_NONE) {
+        est.calibration_age_s = tof_app_calibration_age_s(app); /* the walk goes on */
         rc = attitude_init(&app->estimator, &est); /* checked first: a refusal changes nothing */
     }
     if (rc != ATTITUDE_ERR_NONE) {

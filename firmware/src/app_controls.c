@@ -13,6 +13,7 @@ int tof_app_set_window(struct tof_app *app, uint16_t window, bool sliding) {
     tof_estimator_mode_process_noise(&next); /* Q = 0: auto when sliding (issue 24) */
     /* attitude_init() checks window and mode before it touches the state, and the rest
      * of the configuration was accepted at init: a refusal changes nothing. */
+    next.calibration_age_s = tof_app_calibration_age_s(app);
     return attitude_init(&app->estimator, &next);
 }
 
@@ -26,6 +27,7 @@ int tof_app_set_process_noise(struct tof_app *app, uint32_t qd_um2_per_s, uint32
     }
     /* attitude_init() checks the whole configuration before it touches the state (the
      * Kalman filter's Q included): a refusal changes nothing. */
+    next.calibration_age_s = tof_app_calibration_age_s(app);
     return attitude_init(&app->estimator, &next);
 }
 
@@ -38,6 +40,13 @@ int tof_app_set_calibration(struct tof_app *app, const struct calibration_head *
 
 void tof_app_get_calibration(const struct tof_app *app, struct calibration_head *out) {
     *out = app->estimator.cfg.calibration;
+}
+
+uint32_t tof_app_calibration_age_s(const struct tof_app *app) {
+    const struct attitude_state *st = &app->estimator;
+    const uint64_t s =
+        (uint64_t)st->cfg.calibration_age_s + (uint64_t)st->rows * st->cfg.period_us / 1000000u;
+    return s > UINT32_MAX ? UINT32_MAX : (uint32_t)s;
 }
 
 int tof_app_set_calibration_age(struct tof_app *app, uint32_t age_s, bool restart) {
@@ -54,6 +63,7 @@ int tof_app_set_arm(struct tof_app *app, int32_t arm_um) {
     struct attitude_config next = app->estimator.cfg;
     next.arm_um = arm_um;
     /* as tof_app_set_window(): checked before the state is touched, a refusal changes nothing */
+    next.calibration_age_s = tof_app_calibration_age_s(app);
     return attitude_init(&app->estimator, &next);
 }
 

@@ -23,7 +23,11 @@
 #define TOF_PERIOD_MS 40u
 #define TOF_BUDGET_MS 33u /* the longest budget that fits 40 ms with the 4 ms margin */
 #endif
-#define TOF_MAX_SKEW_US    5000u
+#if TOF_I2C_KHZ == 400
+#define TOF_MAX_SKEW_US 5000u
+#else
+#define TOF_MAX_SKEW_US 16000u /* four readings one after the other: 14.1 ms at 100 kHz */
+#endif
 #define TOF_IDLE_US        1000u  /* data-ready latency bound when idle */
 #define TOF_LOOP_BUDGET_US 40000u /* >= one sensor re-init (boot 1.2 ms + config) + 4 polls */
 
@@ -32,9 +36,9 @@ _Static_assert(TOF_PERIOD_MS >= TOF_BUDGET_MS + VL53_IMP_MARGIN_MS,
 _Static_assert(TOF_MAX_SKEW_US < TOF_PERIOD_MS * 1000u / 2u,
                "skew must stay below half a period so slots cannot be confused");
 _Static_assert(TOF_IDLE_US < TOF_MAX_SKEW_US, "idle sleep must be shorter than the skew window");
-_Static_assert(2u * ((TOF_SAMPLE_BUS_BITS * 1000u + TOF_I2C_KHZ - 1u) / TOF_I2C_KHZ) <=
-                   TOF_PERIOD_MS * 1000u,
-               "the default period's readings take at most half of it on the bus");
+_Static_assert(TOF_MAX_SKEW_US >= (TOF_SAMPLE_BUS_BITS * 1000u + TOF_I2C_KHZ - 1u) / TOF_I2C_KHZ +
+                                      TOF_SKEW_SLACK_US,
+               "the skew window covers a sample's readings one after the other on the bus");
 
 const struct tof_app_config tof_app_default_config = {
     /* 0x29 is the power-on default (VL53L1X datasheet DS12385 §2.5.2); 0x30.. are free
@@ -59,12 +63,13 @@ const struct tof_app_config tof_app_default_config = {
     .i2c_khz = TOF_I2C_KHZ,
 };
 
+uint32_t tof_app_sample_bus_us(uint16_t i2c_khz) {
+    return i2c_khz == 0u ? UINT32_MAX : (TOF_SAMPLE_BUS_BITS * 1000u + i2c_khz - 1u) / i2c_khz;
+}
+
 bool tof_app_bus_fits(uint32_t period_ms, uint16_t i2c_khz) {
-    if (i2c_khz == 0u) {
-        return false;
-    }
-    const uint64_t wire_us = ((uint64_t)TOF_SAMPLE_BUS_BITS * 1000u + i2c_khz - 1u) / i2c_khz;
-    return 2u * wire_us <= (uint64_t)period_ms * 1000u;
+    const uint64_t skew_us = (uint64_t)tof_app_sample_bus_us(i2c_khz) + TOF_SKEW_SLACK_US;
+    return 2u * skew_us < (uint64_t)period_ms * 1000u;
 }
 
 const char *tof_app_config_check(const struct tof_app_config *cfg) {
@@ -133,7 +138,8 @@ int tof_app_config_period(struct tof_app_config *cfg, uint32_t period_ms) {
     }
     const uint32_t period_us = period_ms * 1000u;
     cfg->timing = timing;
-    cfg->max_skew_us = period_us / 4u;
+    const uint32_t bus_skew_us = tof_app_sample_bus_us(cfg->i2c_khz) + TOF_SKEW_SLACK_US;
+    cfg->max_skew_us = period_us / 4u > bus_skew_us ? period_us / 4u : bus_skew_us;
     cfg->idle_us = period_us / 20u < TOF_IDLE_US ? period_us / 20u : TOF_IDLE_US;
     cfg->health.silence_to_lost_ms = 3u * period_ms;
     cfg->health.recovery_timeout_ms = 5u * period_ms;

@@ -120,19 +120,29 @@ static void on_estimate(void *ctx, const struct tof_estimate_record *record) {
 
 static void send_calibration(struct tof_link *link);
 
-/* A new calibration in force (a re-zero's or one written): its age starts at 0, kept from now
- * (a storage error leaves it counting from now all the same: state FAILED in the status). */
-static void age_restart(struct tof_link *link) {
-    const uint64_t now_us = tof_app_now_us(link->app);
-    if (link->cal_age != NULL) {
-        (void)tof_cal_age_restart(link->cal_age, tof_cal_tag(link->records), now_us);
-    }
-    (void)tof_app_set_calibration_age(link->app, 0u, true);
+/* Around a calibration write (a re-zero's or one written): the estimator takes the new
+ * calibration at age 0 in the write's own restart (attitude_init() runs once); once it is in
+ * force its age restarts on storage, kept from now (a storage error leaves it counting from now
+ * all the same: state FAILED in the status); a refused one leaves the age as it was. */
+static uint32_t age_hold(struct tof_link *link) {
+    const uint32_t before = link->app->estimator.cfg.calibration_age_s;
+    (void)tof_app_set_calibration_age(link->app, 0u, false);
+    return before;
 }
 
-/* The calibration's age now: kept on storage, else 0 (none kept: it counts from the boot). */
+static void age_after_write(struct tof_link *link, enum tof_cal_state st, uint32_t before) {
+    if (st != TOF_CAL_APPLIED) {
+        (void)tof_app_set_calibration_age(link->app, before, false);
+    } else if (link->cal_age != NULL) {
+        (void)tof_cal_age_restart(link->cal_age, tof_cal_tag(link->records),
+                                  tof_app_now_us(link->app));
+    }
+}
+
+/* The calibration's age the estimator counts (tof_app_calibration_age_s()): the stored age at
+ * boot plus its rows since, on every target alike. */
 static uint32_t age_now_s(struct tof_link *link) {
-    return link->cal_age != NULL ? tof_cal_age_now_s(link->cal_age, tof_app_now_us(link->app)) : 0u;
+    return tof_app_calibration_age_s(link->app);
 }
 
 /* The re-zero's last sample is in: the offsets refitted, saved and in force (or the reason
@@ -143,7 +153,9 @@ static void finish_rezero(struct tof_link *link) {
     int error = 0;
     enum tof_cal_state st = TOF_CAL_REJECTED;
     if (tof_rezero_fit(&link->rezero, &now, &next)) {
+        const uint32_t age_before = age_hold(link);
         st = tof_cal_write_head(link->records, link->app, &next, &error);
+        age_after_write(link, st, age_before);
     }
     link->rezero.wanted = 0u;
     tof_app_set_raw_output(link->app, link->rezero_raw);
@@ -151,9 +163,6 @@ static void finish_rezero(struct tof_link *link) {
     link->cal_state = (uint8_t)st; /* this message says how the re-zero went */
     send_calibration(link);
     link->cal_state = st == TOF_CAL_APPLIED ? (uint8_t)st : kept;
-    if (st == TOF_CAL_APPLIED) {
-        age_restart(link);
-    }
 }
 
 static void on_sample(void *ctx, const struct tof_sample *sample) {
@@ -227,10 +236,11 @@ static uint8_t estimator_result(int err) {
 
 /* write-calibration (docs/telemetry.md): saved and in force, or refused as it stands. */
 static uint8_t write_calibration(struct tof_link *link, const uint8_t *section, int *error) {
+    const uint32_t age_before = age_hold(link);
     const enum tof_cal_state st = tof_cal_write(link->records, link->app, section, error);
+    age_after_write(link, st, age_before);
     if (st == TOF_CAL_APPLIED) {
         link->cal_state = (uint8_t)st; /* what the status frame says from now on */
-        age_restart(link);
         return TLM_RESULT_OK;
     }
     return st == TOF_CAL_CORRUPT || st == TOF_CAL_VERSION ? TLM_RESULT_OUT_OF_RANGE
@@ -459,10 +469,10 @@ void tof_link_poll(struct tof_link *link) {
         return;
     }
     save_poll(link); /* not inlined for the same reason as send_health() */
-    if (link->cal_age != NULL && link->cal_age->counting && !tof_record_busy(link->records)) {
+    if (link->cal_age != NULL && link->cal_age->counting &&
+        (link->records == NULL || !tof_record_busy(link->records))) {
         /* never while the record's erase runs in the background: one storage, one operation */
         (void)tof_cal_age_poll(link->cal_age, tof_app_now_us(link->app));
-        (void)tof_app_set_calibration_age(link->app, age_now_s(link), false);
     }
     uint8_t buf[TOF_LINK_RX_PER_POLL];
     const struct tlm_frame_sink sink = {.on_frame = on_frame, .on_reject = on_reject, .ctx = link};
@@ -483,13 +493,13 @@ static void service_start(void *ctx, struct tof_app *app) {
     tof_link_bind(link, app);
     /* the settings in force: their process noise is what `save` keeps until a command */
     link->record_state = (uint8_t)tof_settings_boot(link->records, app, &link->process_noise);
-    link->cal_state = (uint8_t)tof_cal_boot(link->records, app); /* the head's calibration */
-    if (link->cal_age != NULL) { /* its age: stored, plus the time the unit may have been off */
-        (void)tof_cal_age_boot(link->cal_age, link->cal_state == TOF_CAL_APPLIED,
-                               tof_cal_tag(link->records), app->cfg.cal_off_allowance_s,
-                               tof_app_now_us(app));
-        (void)tof_app_set_calibration_age(app, age_now_s(link), true);
+    if (link->cal_age != NULL) {
+        /* the stored calibration's age (tof_cal_age_boot(), before the application's timeline
+         * started): the calibration's boot below restarts the estimator with it */
+        (void)tof_app_set_calibration_age(
+            app, tof_cal_age_now_s(link->cal_age, tof_app_now_us(app)), false);
     }
+    link->cal_state = (uint8_t)tof_cal_boot(link->records, app); /* the head's calibration */
     tof_link_send_status(link);
 }
 

@@ -161,6 +161,8 @@ static const char replay_help[] =
     "  --faults-until ROW   stop injecting faults at trace row ROW (>= 1)\n"
     "  --seed S             seed of the fault injection (default 1)\n"
     "  --i2c-log BUS.csv    every bus transaction: t_us,addr,write,read,result (docs/driver.md)\n"
+    "  --i2c-khz K          the simulated bus clock, 100 or 400 (default 400): the board\n"
+    "                       images' TOF_I2C_KHZ; a period the bus cannot carry is refused\n"
     "  --process-noise Q    Kalman random-walk intensities QD,QT in mm²/s (x̄; a·tan α and\n"
     "                       a·tan β; Q per row = q·period), or auto (learned); default 0\n"
     "                       in tumbling mode, auto in sliding mode (0,0 for Q = 0 there)\n"
@@ -277,6 +279,15 @@ int cli_parse_replay(int argc, char **argv, struct replay_args *out) {
             if ((out->i2c_log_path = option_value(cmd, argc, argv, &i)) == NULL) {
                 return -1;
             }
+        } else if (strcmp(arg, "--i2c-khz") == 0) {
+            if ((v = option_value(cmd, argc, argv, &i)) == NULL) {
+                return -1;
+            }
+            uint64_t khz = 0;
+            if (!cli_parse_u64(v, 100, 400, &khz) || (khz != 100u && khz != 400u)) {
+                return usage_error(cmd, "--i2c-khz: expected 100 or 400", v);
+            }
+            out->i2c_khz = (unsigned)khz;
         } else if (strcmp(arg, "--faults") == 0) {
             if ((out->faults = option_value(cmd, argc, argv, &i)) == NULL) {
                 return -1;

@@ -5,6 +5,7 @@
  *                             [--out EST.csv] [--report REPORT.json] [--plot FIG.png]
  *                             [--faults SPEC] [--seed S] [--i2c-log BUS.csv]
  *                             [--process-noise QD,QT | --process-noise auto]
+ *                             [--i2c-khz 100|400]
  *   host_sim scenario NAME [--seed S] --trace-out TRACE.csv
  *   host_sim calibrate CAL_TRACE.csv --out HEAD.cal [--report CAL.json]   (calibrate.h)
  *   host_sim camera ...      (synthetic ToF camera + pose pipeline; see docs/pose.md)
@@ -36,12 +37,13 @@ struct replay_args {
     bool process_noise_given;     /* --process-noise given: else the mode's default (sliding:
                                      auto, tumbling: 0; tof_estimator_mode_process_noise) */
     const char *i2c_log_path;     /* --i2c-log BUS.csv: every bus transaction (NULL: none) */
+    unsigned i2c_khz;             /* --i2c-khz: the simulated bus clock, 100 or 400 (0: 400) */
     unsigned distance_mode;       /* --distance-mode: 0 unset (the trace's, else from its
                                      readings), else enum vl53_distance_mode */
     const char *calibration_path; /* --calibration HEAD.cal (wins over the trace's keys) */
     bool max_rate_given;          /* --max-rate DEG_S given (wins over the trace's key) */
     uint32_t max_rate_mdeg_s;     /* ... its value, m°/s */
-    const char *commands[16]; /* --command ROW:TEXT, in order (replay_commands.h parses) */
+    const char *commands[16];     /* --command ROW:TEXT, in order (replay_commands.h parses) */
     unsigned command_count;
 };
 

@@ -149,6 +149,7 @@ static int configure_world(struct replay *r) {
     }
     r->faults.seed = (uint32_t)(r->args->seed ^ (r->args->seed >> 32));
     sim_replay_init(&r->sim, scene_row_stream_source(&r->stream), period_us, &r->faults);
+    r->sim.rig.bus.bus_hz = (uint32_t)r->app_cfg.i2c_khz * 1000u; /* --i2c-khz */
     r->platform = (struct tof_platform){
         .board_name = "host_sim",
         .i2c = r->sim.rig.i2c,
@@ -186,6 +187,23 @@ static int configure(struct replay *r) {
                 (unsigned)vl53_shortest_budget_ms(r->distance.mode), VL53_IMP_MARGIN_MS);
         return -1;
     }
+    r->app_cfg.i2c_khz = (uint16_t)(r->args->i2c_khz != 0u ? r->args->i2c_khz : 400u);
+    if (!tof_app_bus_fits(r->period_ms, r->app_cfg.i2c_khz)) {
+        uint32_t shortest = r->period_ms;
+        while (shortest < 10000u && !tof_app_bus_fits(shortest, r->app_cfg.i2c_khz)) {
+            ++shortest;
+        }
+        fprintf(stderr,
+                "host_sim replay: %s: period_ms %u at --i2c-khz %u: a sample's four readings take "
+                "%u us on the bus, and with their %u us of slack that is not under half the "
+                "period; the unit refuses it (at %u kHz the shortest period is %u ms)\n",
+                r->args->trace_path, r->period_ms, (unsigned)r->app_cfg.i2c_khz,
+                (unsigned)tof_app_sample_bus_us(r->app_cfg.i2c_khz), TOF_SKEW_SLACK_US,
+                (unsigned)r->app_cfg.i2c_khz, (unsigned)shortest);
+        return -1;
+    }
+    /* the timing again at this bus clock: the skew window covers the slower readings */
+    (void)tof_app_config_period(&r->app_cfg, r->period_ms);
     /* The plate's rate bound: the option, else the trace's key, else the unit's default. */
     if (r->args->max_rate_given) {
         r->app_cfg.estimator.max_rate_mdeg_s = r->args->max_rate_mdeg_s;

@@ -116,14 +116,18 @@ static void boot(bool with_age) {
         t.platform.xshut_pin[i] = SIM_RIG_XSHUT_PIN(i);
         t.platform.gpio1_pin[i] = SIM_RIG_GPIO1_PIN(i);
     }
-    assert_int_equal(tof_app_init(&t.app, &t.platform, &tof_app_default_config), 0);
     sim_flash_power_on(&flash);
     assert_int_equal(tof_record_init(&store, sim_flash_hal(&flash), 2u, 3u), HAL_OK);
     tof_link_set_records(&t.link, &store);
-    if (with_age) {
+    if (with_age) { /* as the board's main: the age booted before the application */
         assert_int_equal(tof_cal_age_init(&age, sim_flash_hal(&flash), 0u, 1u), HAL_OK);
+        (void)tof_record_load(&store);
+        const uint16_t tag = tof_cal_tag(&store);
+        (void)tof_cal_age_boot(&age, tag != 0u, tag, tof_app_default_config.cal_off_allowance_s,
+                               t.rig.time.ops->now_us(t.rig.time.ctx));
         tof_link_set_cal_age(&t.link, &age);
     }
+    assert_int_equal(tof_app_init(&t.app, &t.platform, &tof_app_default_config), 0);
     tof_link_service_ops.start(&t.link, &t.app);
     decode_output();
     assert_int_equal(t.statuses, 1);

@@ -158,9 +158,15 @@ void tof_app_get_calibration(const struct tof_app *app, struct calibration_head 
 
 /* The calibration's age `age_s` (firmware/cal_age.h) for the estimator: with `restart`, the
  * estimators restart with it now (attitude_init(): its attitude_error, nothing changed on a
- * refusal); without, it is only kept for their next restart (a command's), their running
- * walk growing on its own meanwhile. */
+ * refusal); without, it is the age their next restart starts from when that restart sets none
+ * of its own (tof_app_set_calibration()'s, a new calibration's). */
 int tof_app_set_calibration_age(struct tof_app *app, uint32_t age_s, bool restart);
+
+/* The calibration's age the estimator's walk counts now, seconds: the age it started from plus
+ * the rows since then at its period (the estimator's own clock, the same on every target). A
+ * restart for another window, process noise, arm or period carries it on; one for another
+ * calibration takes the age set for it. */
+uint32_t tof_app_calibration_age_s(const struct tof_app *app);
 
 /* The head's arm a (µm) in force from the next sample: the estimators restart, as after
  * tof_app_set_window(). ATTITUDE_ERR_NONE, or attitude_init()'s attitude_error unchanged

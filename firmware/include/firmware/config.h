@@ -40,9 +40,17 @@ struct tof_app_config {
  * average (tests/drivers/bench_bus.c, drv_bench_bus: 1,406 bits at 4 x 50 Hz). */
 #define TOF_SAMPLE_BUS_BITS 1406u
 
-/* True when a sample's readings (TOF_SAMPLE_BUS_BITS at `i2c_khz`) take at most half of
- * `period_ms` on the wire, the other half left to the estimator's window end and the link:
- * at 400 kHz 3.5 ms (every VL53L1X period fits), at 100 kHz 14.1 ms (29 ms and longer). */
+/* The wire time of one sample's readings at `i2c_khz`, µs, rounded up (0 kHz: UINT32_MAX). */
+uint32_t tof_app_sample_bus_us(uint16_t i2c_khz);
+
+/* The readings of one sample are read one after the other: the last lands this long after the
+ * first, so a sample's skew window (max_skew_us) covers it with TOF_SKEW_SLACK_US to spare. */
+#define TOF_SKEW_SLACK_US 1000u
+
+/* True when a sample's readings fit `period_ms` at `i2c_khz`: their wire time plus
+ * TOF_SKEW_SLACK_US (the skew window they need, which must stay under half the period) is
+ * under half of it, the other half left to the estimator's window end and the link. At
+ * 400 kHz 3.5 ms (every VL53L1X period fits), at 100 kHz 14.1 ms (31 ms and longer). */
 bool tof_app_bus_fits(uint32_t period_ms, uint16_t i2c_khz);
 
 /* One day: a unit off longer than that before its use is re-zeroed first, or its mission sets
@@ -70,7 +78,8 @@ int tof_app_config_for_replay(struct tof_app_config *cfg, int32_t arm_um, uint32
 
 /*
  * `cfg` at sample period `period_ms` (its distance mode kept): the timing (the longest VL53L1X
- * budget of the mode that leaves the inter-measurement margin), the skew, idle time and
+ * budget of the mode that leaves the inter-measurement margin), the skew (a quarter of the
+ * period, at least a sample's wire time at cfg->i2c_khz plus TOF_SKEW_SLACK_US), idle time and
  * health timeouts scaled to the period, and the estimator's clock (period_us). The one rule
  * of tof_app_config_for_replay() and of the set-period command (tof_app_set_period()).
  * HAL_OK, or HAL_ERR_INVALID with `cfg` unchanged when no timing of the mode fits or the bus

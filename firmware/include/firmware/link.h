@@ -80,10 +80,12 @@ void tof_link_init(struct tof_link *link, struct hal_serial serial);
  * applies the saved ones (firmware/settings.h), `save` writes them. Call before the start. */
 void tof_link_set_records(struct tof_link *link, struct tof_record_store *store);
 
-/* Keep the calibration's age in `age` (initialised with tof_cal_age_init() on the same storage
- * as the records, other pages): the service's start hands the stored age plus the
- * configuration's off allowance to the estimator, each poll keeps it, a new calibration starts
- * it at 0, and the status frame reports it. Call before the start. */
+/* Keep the calibration's age in `age` (on the same storage as the records, other pages, and
+ * booted with tof_cal_age_boot() for the record's calibration, tof_cal_tag(), before
+ * tof_app_init(): its scan of the pages stays off the application's timeline): the service's
+ * start hands that age to the estimator, each poll keeps it on storage, a new calibration
+ * starts it at 0, and the status frame reports the age the estimator counts. Call before the
+ * start. */
 void tof_link_set_cal_age(struct tof_link *link, struct tof_cal_age *age);
 
 /* Attach the application the commands act on (after tof_app_init). */
