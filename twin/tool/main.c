@@ -175,6 +175,9 @@ static int preload_records(struct run *r) {
 
 /* EST.csv with its header, the UART capture and the I2C log if asked for. 0, or -1. */
 static int open_outputs(struct run *r) {
+    if (r->a.out == NULL) {
+        return 0; /* --pty: the rows go to the host on the line */
+    }
     r->est = fopen(r->a.out, "w");
     if (r->est == NULL || fputs(TOF_EST_CSV_HEADER, r->est) == EOF) {
         fprintf(stderr, "tof_twin: %s: %s\n", r->a.out, strerror(errno));
@@ -199,6 +202,7 @@ static int open_outputs(struct run *r) {
  * power-on reset. */
 static void wire(struct run *r, uint32_t period_ms, const struct sim_fault_config *faults) {
     twin_world_init(&r->w, r->rows, r->row_count, period_ms * 1000u, faults);
+    r->w.loop = r->a.pty;
     r->t.world = &r->w;
     r->t.rcc.hsi_broken = r->a.hsi_fail;
     r->t.i2c.spurious_berr_ppm = r->a.spurious_berr_ppm;
@@ -214,7 +218,7 @@ static void wire(struct run *r, uint32_t period_ms, const struct sim_fault_confi
 }
 
 static uint64_t end_us(const struct run *r) {
-    if (!r->w.origin_set) {
+    if (!r->w.origin_set || r->a.pty) {
         return UINT64_MAX;
     }
     /* Every trace row measured, its estimate sent (one health frame is ~20 ms of UART). */
@@ -273,7 +277,10 @@ static int judge(const struct run *r, bool finished, double max_s) {
 /* Close the outputs, write coverage, summary and report. The exit status. */
 static int finish(struct run *r, bool finished, double max_s, double host_s) {
     int rc = judge(r, finished, max_s);
-    fclose(r->est);
+    if (r->est != NULL) {
+        fclose(r->est);
+    }
+    tof_twin_pty_close(r);
     if (r->uart != NULL) {
         fclose(r->uart);
     }
@@ -297,6 +304,7 @@ static int finish(struct run *r, bool finished, double max_s, double host_s) {
 
 int main(int argc, char **argv) {
     struct run *r = &R;
+    r->pty.fd = -1;
     if (tof_twin_parse_args(argc, argv, &r->a) != 0 || select_estimator(r) != 0) {
         return 2;
     }
@@ -318,13 +326,20 @@ int main(int argc, char **argv) {
     if (load_firmware(r) != 0 || preload_records(r) != 0 || open_outputs(r) != 0) {
         return 1;
     }
+    if (r->a.pty && tof_twin_pty_open(r) != 0) {
+        return 1;
+    }
     wire(r, period_ms, &faults);
 
+    /* --pty runs until a signal (or --max-sim-s): 10^6 s bound the simulated time. */
     const double trace_s = (double)r->row_count * period_ms / 1000.0;
-    const double max_s = r->a.max_sim_s > 0.0 ? r->a.max_sim_s : trace_s + 30.0;
+    const double max_s = r->a.max_sim_s > 0.0 ? r->a.max_sim_s : r->a.pty ? 1e6 : trace_s + 30.0;
     const clock_t c0 = clock();
     run_to_end(r, (uint64_t)(max_s * 1e12));
     const double host_s = (double)(clock() - c0) / CLOCKS_PER_SEC;
-    const bool finished = r->t.stop == TWIN_STOP_LIMIT && twin_now_us(&r->t) >= end_us(r);
+    const bool finished = r->a.pty
+                              ? tof_twin_pty_stopped_by_signal(r) ||
+                                    (r->t.stop == TWIN_STOP_LIMIT && r->a.max_sim_s > 0.0)
+                              : r->t.stop == TWIN_STOP_LIMIT && twin_now_us(&r->t) >= end_us(r);
     return finish(r, finished, max_s, host_s);
 }

@@ -61,7 +61,9 @@ static void on_answer(struct run *r, const struct tlm_ack *ack) {
         }
     }
     if (k == r->nsent) {
-        ++r->commands_unmatched;
+        if (r->pty.fd < 0 || !tof_twin_pty_answer(r, ack)) {
+            ++r->commands_unmatched;
+        }
         return;
     }
     if (k != r->next_ack) {
@@ -148,6 +150,9 @@ static void on_estimate(struct run *r, const struct tlm_estimate *m) {
                                    ATTITUDE_WHY_MISSING(2) | ATTITUDE_WHY_MISSING(3);
     if ((e.why & missing) != 0u) {
         ++r->rows_missing; /* a reading lost: the sensor's data came too late or not at all */
+    }
+    if (r->est == NULL) {
+        return; /* --pty without --out */
     }
     char line[TOF_EST_CSV_ROW_MAX];
     struct tof_text txt;
@@ -311,6 +316,9 @@ void tof_twin_host_poll(void *ctx) {
     if (r->nsent < r->ncmds) {
         send_queued(r);
     }
+    if (r->pty.fd >= 0) {
+        tof_twin_pty_poll(r);
+    }
 }
 
 static void on_reject(void *ctx, const struct tlm_reject *reject) {
@@ -323,6 +331,9 @@ void tof_twin_on_uart_byte(void *ctx, uint8_t byte, uint64_t now_ps) {
     r->now_ps = now_ps;
     if (r->uart != NULL) {
         fputc(byte, r->uart);
+    }
+    if (r->pty.fd >= 0) {
+        tof_twin_pty_on_byte(r, byte);
     }
     /* Text (boot banner, FAULT: lines) is what a terminal shows between frames. */
     if (byte == '\n') {
