@@ -1172,7 +1172,12 @@ def main(argv=None):
     cal.add_argument("--arm-mm", default="30", help="arm_mm of a new calibration trace (30)")
     cal.add_argument("--period-ms", type=int, default=20,
                      help="period_ms of a new calibration trace (20)")
-    args = ap.parse_args(argv)
+    argv = list(sys.argv[1:] if argv is None else argv)
+    for i in range(len(argv) - 1):
+        if argv[i] == "--station" and argv[i + 1].startswith("-"):
+            # a station at a negative alpha ("-5,5,165") is its value, not an option
+            argv[i:i + 2] = ["--station=" + argv[i + 1], ""]
+    args = ap.parse_args([a for a in argv if a != ""])
     if args.send_cal or args.read_cal or args.record_station:
         if args.record_station and not args.station:
             ap.exit(1, "tof_telemetry: --record-station needs --station ALPHA,BETA,DISTANCE\n")
