@@ -97,7 +97,8 @@ TYPES = {
     T_REZERO: ("re-zero", ACCEPT_COMMANDS, 2),
 }
 
-RESULTS = ["ok", "unknown-type", "bad-length", "out-of-range", "state"]
+RESULTS = ["ok", "unknown-type", "bad-length", "out-of-range", "state", "other-head",
+           "other-parts", "other-mode", "other-budget", "other-arm", "busy"]
 R_OK, R_UNKNOWN_TYPE, R_BAD_LENGTH, R_OUT_OF_RANGE = 0, 1, 2, 3
 ESTIMATORS = ["consensus", "consensus-paper", "kalman", "mean"]
 STATUSES = ["ok", "degraded", "invalid"]
@@ -122,7 +123,28 @@ RECORD_STATES = ["none", "loaded", "corrupt", "version", "rejected", "no-storage
 # The status frame's calibration state: what the firmware found of the head's calibration
 # at boot (firmware/calibration_record.h enum tof_cal_state); all but applied: uncalibrated.
 CAL_STATES = ["none", "applied", "corrupt", "version", "other-head", "other-mode", "rejected",
-              "no-storage", "other-parts"]
+              "no-storage", "other-parts", "other-budget", "other-arm"]
+# What a refusal of the head's calibration means and what to do (a nack's result, or the
+# status frame's calibration state).
+CAUSES = {
+    "other-head": "the calibration was made on another head (head_id differs): send this "
+                  "head's HEAD.cal, or calibrate this head (docs/calibration.md)",
+    "other-parts": "the calibration was made with other parts (a part's NVM identity "
+                   "differs: a sensor was replaced): calibrate the head again",
+    "other-mode": "the calibration was made in another distance mode: calibrate in the "
+                  "unit's mode, or give the file's distance_mode correctly",
+    "other-budget": "the calibration was made at another timing budget (set-period changes "
+                    "it): calibrate at the unit's period, or set-period back",
+    "other-arm": "the calibration was made at another arm (arm_mm): set-arm back to the "
+                 "calibration's arm, or calibrate at this arm",
+    "busy": "a re-zero or a record write is in progress: wait for its answer (the "
+            "calibration message, or the save's ack) and send again",
+    "corrupt": "the section's values are out of range or do not add up",
+    "version": "a section version this firmware does not read",
+    "no-storage": "the board has no record storage",
+    "rejected": "the estimator refused the values",
+    "none": "no calibration stored: send one with --send-cal HEAD.cal",
+}
 SENSORS = "ABCD"
 WINDOW_MIN, WINDOW_MAX = 2, 255
 PROCESS_NOISE_AUTO = 0x01  # set-process-noise flags; every other bit is out of range
@@ -712,6 +734,8 @@ def nack_text(m):
     text = "nack %s" % name
     if m["error"] != 0:
         text += ", error %d %s" % (m["error"], ATTITUDE_ERRORS.get(m["error"], "(unknown code)"))
+    if name in CAUSES:
+        text += ": " + CAUSES[name]
     return text
 
 
@@ -773,6 +797,8 @@ class Printer:
         self.estimates = []
         self.last_seq = None
         self.lost_frames = 0
+        self.reboots = 0
+        self.latest_ms = None  # the unit's latest time seen (uptime, t_ms): a restart goes back
         if csv_type == "estimate":
             out.write(",".join(ESTIMATE_CSV) + "\n")
         elif csv_type == "raw":
@@ -790,8 +816,20 @@ class Printer:
                 self.out.write(format_reject(ftype, seq, length, result) + "\n")
             return
         _, ftype, seq, payload = event
-        self._track_sequence(seq)
         fields, result = parse(ftype, payload)
+        # The boot's status frame is sequence 0 with an uptime below what was seen: the unit
+        # restarted (its numbering starts again), not 255 frames lost.
+        now_ms = None if fields is None else fields.get("uptime_ms", fields.get("t_ms"))
+        if (ftype == T_STATUS and seq == 0 and fields is not None and self.latest_ms is not None
+                and now_ms < self.latest_ms):
+            self.reboots += 1
+            self.last_seq = None
+            if self.csv_type is None:
+                self.out.write("# the unit restarted (boot status, uptime %d ms)\n" % now_ms)
+            self.latest_ms = now_ms
+        elif now_ms is not None:
+            self.latest_ms = now_ms if self.latest_ms is None else max(self.latest_ms, now_ms)
+        self._track_sequence(seq)
         if result != R_OK:
             counters["out_of_range"] += result == R_OUT_OF_RANGE
             if self.csv_type is None:
@@ -1031,9 +1069,15 @@ def _read_back(port, seq, printer, decoder, timeout=1.0):
     return tap.got[-1] if tap.got else None
 
 
-def write_head_cal(path, message, source):
-    """The calibration message's section as HEAD.cal at path; its state on stdout."""
-    text = tof_calibration.section_to_head_cal(message["section"], source)
+def write_head_cal(path, message, source, arm_um=None):
+    """The calibration message's section as HEAD.cal at path; its state on stdout. Raises
+    CalibrationError when the unit holds none."""
+    state = CAL_STATES[message["state"]]
+    if not any(message["section"]):
+        raise tof_calibration.CalibrationError(
+            "the unit holds no calibration (state=%s): nothing written to %s; send one with "
+            "--send-cal HEAD.cal (docs/calibration.md)" % (state, path))
+    text = tof_calibration.section_to_head_cal(message["section"], source, arm_um)
     with open(path, "w") as f:
         f.write(text)
     return "calibration state=%s written to %s" % (CAL_STATES[message["state"]], path)
@@ -1042,11 +1086,15 @@ def write_head_cal(path, message, source):
 def calibration_main(args, ap):
     """--send-cal, --read-cal, --record-station. Returns the exit status."""
     section = None
+    if args.send_cal and args.file:
+        ap.exit(1, "tof_telemetry: --send-cal %s: a capture file (--file %s) cannot be sent "
+                   "to; give the unit's --port, or --write-commands FILE for the frames\n"
+                % (args.send_cal, args.file))
     if args.send_cal:
         try:
-            with open(args.send_cal) as f:
-                section = tof_calibration.head_cal_to_section(
-                    f.read(), args.send_cal, args.cal_mode, args.cal_budget_ms)
+            text = tof_calibration.read_text_file(args.send_cal)
+            section = tof_calibration.head_cal_to_section(
+                text, args.send_cal, args.cal_mode, args.cal_budget_ms)
         except (OSError, tof_calibration.CalibrationError) as e:
             ap.exit(1, "tof_telemetry: --send-cal %s\n" % e)
         if args.write_commands:
@@ -1062,7 +1110,10 @@ def calibration_main(args, ap):
             got = _collect(chunks, decoder, T_CALIBRATION, 1 << 30)
             if not got:
                 ap.exit(1, "tof_telemetry: %s: no calibration message\n" % args.file)
-            print(write_head_cal(args.read_cal, got[-1], args.file))
+            try:
+                print(write_head_cal(args.read_cal, got[-1], args.file))
+            except tof_calibration.CalibrationError as e:
+                ap.exit(1, "tof_telemetry: --read-cal: %s\n" % e)
         if args.record_station:
             raw = _collect(chunks, decoder, T_RAW_SAMPLE, args.readings)
             return _append_station(args, ap, raw[:args.readings])
@@ -1088,7 +1139,10 @@ def calibration_main(args, ap):
                 back = _read_back(port, seq, printer, decoder)
                 if back is None:
                     ap.exit(1, "tof_telemetry: --read-cal: no calibration message\n")
-                print(write_head_cal(args.read_cal, back, args.port))
+                try:
+                    print(write_head_cal(args.read_cal, back, args.port))
+                except tof_calibration.CalibrationError as e:
+                    ap.exit(1, "tof_telemetry: --read-cal: %s\n" % e)
                 seq = (seq + 1) & 0xFF
             if args.record_station:
                 send_command(port, "raw on", seq, printer.handle, decoder=decoder)
@@ -1107,10 +1161,10 @@ def _append_station(args, ap, raw):
                 % (len(raw), args.readings))
     try:
         alpha, beta, distance = args.station.split(",")
-        n = tof_calibration.append_station(args.record_station, raw, alpha, beta, distance,
-                                           args.arm_mm, args.period_ms,
-                                           args.cal_mode or "short",
-                                           args.cal_budget_ms or 15)
+        n = tof_calibration.append_station(
+            args.record_station, raw, alpha, beta, distance, args.arm_mm, args.period_ms,
+            args.cal_mode or "short",
+            args.cal_budget_ms if args.cal_budget_ms is not None else 15)
     except (ValueError, AttributeError, tof_calibration.CalibrationError) as e:
         ap.exit(1, "tof_telemetry: --station ALPHA,BETA,DISTANCE: %s\n" % e)
     print("station alpha=%s beta=%s distance_mm=%s: %d rows appended to %s"
@@ -1178,6 +1232,14 @@ def main(argv=None):
             # a station at a negative alpha ("-5,5,165") is its value, not an option
             argv[i:i + 2] = ["--station=" + argv[i + 1], ""]
     args = ap.parse_args([a for a in argv if a != ""])
+    if args.cal_budget_ms is not None and not 1 <= args.cal_budget_ms <= 65535:
+        ap.exit(2, "tof_telemetry: --cal-budget-ms %d: a timing budget is 1..65535 ms\n"
+                % args.cal_budget_ms)
+    if args.period_ms is not None and not PERIOD_MIN_MS <= args.period_ms <= PERIOD_MAX_MS:
+        ap.exit(2, "tof_telemetry: --period-ms %d: a period is %d..%d ms\n"
+                % (args.period_ms, PERIOD_MIN_MS, PERIOD_MAX_MS))
+    if args.readings is not None and not 1 <= args.readings <= 100000:
+        ap.exit(2, "tof_telemetry: --readings %d: 1..100000 raw samples\n" % args.readings)
     if args.send_cal or args.read_cal or args.record_station:
         if args.record_station and not args.station:
             ap.exit(1, "tof_telemetry: --record-station needs --station ALPHA,BETA,DISTANCE\n")
@@ -1248,6 +1310,9 @@ def main(argv=None):
     sys.stdout.flush()
     if printer.lost_frames:
         sys.stderr.write("# lost_frames=%d (sequence gaps)\n" % printer.lost_frames)
+    if printer.reboots:
+        sys.stderr.write("# reboots=%d (the unit restarted; its sequence numbers start again)\n"
+                         % printer.reboots)
     if args.plot and live is not None:
         live.save(args.plot)
     elif args.plot:

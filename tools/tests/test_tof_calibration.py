@@ -100,7 +100,7 @@ class TelemetryTest(unittest.TestCase):
         self.assertEqual((result, fields["state"]), (t.R_OK, 1))
         self.assertEqual(t.parse(t.T_CALIBRATION, bytes([0]) + bytes(84))[1], t.R_OK)
         self.assertEqual(t.parse(t.T_CALIBRATION, bytes([8]) + bytes(84))[1], t.R_OK)  # other-parts
-        self.assertEqual(t.parse(t.T_CALIBRATION, bytes([9]) + bytes(84))[1], t.R_OUT_OF_RANGE)
+        self.assertEqual(t.parse(t.T_CALIBRATION, bytes([len(t.CAL_STATES)]) + bytes(84))[1], t.R_OUT_OF_RANGE)
         self.assertEqual(t.parse(t.T_WRITE_CALIBRATION, bytes(84))[1], t.R_OUT_OF_RANGE)
         status, result = t.parse(t.T_STATUS, bytes([0, 1, 0, t.PROTOCOL_VERSION]) + struct.pack(
             "<IHBBBBHBBI", 1000, 100, 0, 0, 1, 0, 20, 0, 5, 30000))
