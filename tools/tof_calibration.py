@@ -18,6 +18,8 @@ Used by tof_telemetry.py (--send-cal, --read-cal, --record-station).
 import decimal
 import os
 import struct
+import sys
+import zlib
 
 SECTION_ID = 2
 SECTION_VERSION = 1
@@ -109,15 +111,53 @@ def read_text_file(path):
                                % (path, data.count(b"\n", 0, e.start) + 1, data[e.start])) from None
 
 
+CHECKSUM_PREFIX = "# checksum=crc32:"
+
+
+def with_checksum(text):
+    """HEAD.cal text with its last line: the CRC-32 (zlib's) of every byte before it."""
+    return text + CHECKSUM_PREFIX + "%08x\n" % zlib.crc32(text.encode("utf-8"))
+
+
+def check_checksum(text, name="HEAD.cal", warn=sys.stderr):
+    """A cut or edited HEAD.cal is an error naming file and line (head_cal.c's rules); one
+    without a checksum line (written before checksums) is read with a warning on `warn`."""
+    if text and not text.endswith("\n"):
+        raise CalibrationError("%s:%d: the last line has no line end: the file was cut"
+                               % (name, text.count("\n") + 1))
+    lines = text.split("\n")
+    at = [i for i, line in enumerate(lines) if line.startswith(CHECKSUM_PREFIX)]
+    if not at:
+        if warn is not None:
+            warn.write("warning: %s: no checksum line (a file written before checksums): read "
+                       "as it stands; a cut or edited file cannot be told from it\n" % name)
+        return
+    if len(at) > 1:
+        raise CalibrationError("%s:%d: a second checksum line (the first on line %d)"
+                               % (name, at[1] + 1, at[0] + 1))
+    later = [i for i in range(at[0] + 1, len(lines)) if lines[i].strip()]
+    if later:
+        raise CalibrationError("%s:%d: content after the checksum line (line %d): the file "
+                               "was edited or joined" % (name, later[0] + 1, at[0] + 1))
+    body = "\n".join(lines[:at[0]]) + "\n"
+    got = lines[at[0]][len(CHECKSUM_PREFIX):].rstrip("\r")
+    want = "%08x" % zlib.crc32(body.encode("utf-8"))
+    if got != want:
+        raise CalibrationError("%s:%d: checksum crc32:%s does not match the content before it "
+                               "(crc32:%s): the file was cut or edited"
+                               % (name, at[0] + 1, got[:16], want))
+
+
 def read_head_cal(text, name="HEAD.cal"):
     """The keys of a HEAD.cal text: {key: value string} and {key: line}; checks the
-    version line and the line syntax (the full rules are head_cal.c's)."""
+    version line, the checksum line and the line syntax (the full rules are head_cal.c's)."""
+    check_checksum(text, name)
     lines = text.lstrip("\ufeff").splitlines()
     if not lines or lines[0].strip() != "# tof-head-cal v1":
         raise CalibrationError("%s:1: the first line must be '# tof-head-cal v1'" % name)
     keys, where = {}, {}
     for n, line in enumerate(lines[1:], start=2):
-        if not line.strip():
+        if not line.strip() or line.startswith(CHECKSUM_PREFIX):
             continue
         if not line.startswith("#"):
             raise CalibrationError("%s:%d: not a '# key=value' line" % (name, n))
@@ -219,7 +259,7 @@ def section_to_head_cal(section, source="the flight unit", arm_um=None):
     if arm_um is not None:
         lines.append("# arm_mm=" + _exact(arm_um, 3))
     lines.append("# source=%s" % source)
-    return "\n".join(lines) + "\n"
+    return with_checksum("\n".join(lines) + "\n")
 
 
 # --- the fixture station recorder ---------------------------------------------

@@ -1069,6 +1069,37 @@ def _read_back(port, seq, printer, decoder, timeout=1.0):
     return tap.got[-1] if tap.got else None
 
 
+def _unit_status(port, seq, printer, decoder, timeout=1.0):
+    """status-request on `port`: the status message (fields) or None."""
+    tap = _Tap(T_STATUS, printer.handle)
+    send_command(port, "status", seq, tap, decoder=decoder)
+    if not tap.got:
+        tap.got = _collect(serial_chunks(port, timeout), decoder, T_STATUS, 1, printer.handle)
+    return tap.got[-1] if tap.got else None
+
+
+def _check_arm(path, text, status):
+    """A HEAD.cal whose arm_mm is not the unit's arm would not calibrate it (other-arm): the
+    message naming both, or None."""
+    keys, where = tof_calibration.read_head_cal(text, path)
+    if "arm_mm" not in keys:
+        return None
+    try:
+        arm_um = int(decimal_units(keys["arm_mm"], 3))
+    except (TypeError, ValueError):
+        return "%s: arm_mm: not a plain decimal, got '%s'" % (where["arm_mm"], keys["arm_mm"])
+    if arm_um != status["arm_um"]:
+        return ("%s: arm_mm=%s, but the unit's arm is %s mm (other-arm): %s"
+                % (where["arm_mm"], keys["arm_mm"], fixed(status["arm_um"], 3),
+                   CAUSES["other-arm"]))
+    return None
+
+
+def decimal_units(text, decimals):
+    """text as an integer count of 10^-decimals, or None (tof_calibration's rounding)."""
+    return tof_calibration._units(text, decimals)
+
+
 def write_head_cal(path, message, source, arm_um=None):
     """The calibration message's section as HEAD.cal at path; its state on stdout. Raises
     CalibrationError when the unit holds none."""
@@ -1127,6 +1158,13 @@ def calibration_main(args, ap):
     with port:
         try:
             if section is not None:
+                status = _unit_status(port, seq, printer, decoder)
+                seq = (seq + 1) & 0xFF
+                why = None if status is None else _check_arm(args.send_cal, text, status)
+                if status is None:
+                    ap.exit(1, "tof_telemetry: --send-cal: no status from the unit\n")
+                if why is not None:
+                    ap.exit(1, "tof_telemetry: --send-cal %s\n" % why)
                 send_command(port, "write-calibration " + section.hex(), seq, printer.handle,
                              decoder=decoder)
                 back = _read_back(port, (seq + 1) & 0xFF, printer, decoder)
@@ -1136,11 +1174,16 @@ def calibration_main(args, ap):
                       % CAL_STATES[back["state"]])
                 seq = (seq + 2) & 0xFF
             if args.read_cal:
+                status = _unit_status(port, seq, printer, decoder)
+                seq = (seq + 1) & 0xFF
                 back = _read_back(port, seq, printer, decoder)
                 if back is None:
                     ap.exit(1, "tof_telemetry: --read-cal: no calibration message\n")
                 try:
-                    print(write_head_cal(args.read_cal, back, args.port))
+                    # the arm it is bound to: the unit's while it is applied (other-arm: not)
+                    arm = (status["arm_um"] if status is not None
+                           and CAL_STATES[back["state"]] == "applied" else None)
+                    print(write_head_cal(args.read_cal, back, args.port, arm))
                 except tof_calibration.CalibrationError as e:
                     ap.exit(1, "tof_telemetry: --read-cal: %s\n" % e)
                 seq = (seq + 1) & 0xFF
@@ -1291,12 +1334,24 @@ def main(argv=None):
                     seq = (args.first_seq if args.first_seq is not None
                            else int(time.time() * 1000)) & 0xFF
                     for text in args.send:
+                        tap = _Tap(T_STATUS, printer.handle)
                         try:
-                            send_command(port, text, seq, printer.handle, decoder=decoder)
+                            send_command(port, text, seq, tap, decoder=decoder)
                         except CommandFailed as e:
                             sys.stdout.flush()
                             ap.exit(1, "tof_telemetry: --send %s\n" % e)
                         seq = (seq + 1) & 0xFF
+                        if text.split()[:1] in (["set-arm"], ["set-period"]):
+                            # the status frame after its ack: does the calibration still hold?
+                            got = tap.got or _collect(serial_chunks(port, 1.0), decoder,
+                                                      T_STATUS, 1, printer.handle)
+                            state = CAL_STATES[got[-1]["calibration"]] if got else None
+                            if state in CAUSES and state != "none":
+                                sys.stdout.flush()
+                                sys.stderr.write(
+                                    "tof_telemetry: note: '%s' acknowledged; the unit's "
+                                    "calibration no longer holds (calibration=%s): %s\n"
+                                    % (text, state, CAUSES[state]))
                 try:
                     run_stream(serial_chunks(port, args.duration), decoder, printer,
                                idle_flush=True, live=live)

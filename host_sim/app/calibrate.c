@@ -285,6 +285,35 @@ static int check_range(const char *trace, const struct calfit_result *res) {
     return rc;
 }
 
+/* The stations' means scattering about the fit this many times more (in variance) than
+ * their noise explains is not a head to calibrate but a wrong geometry: a wrong arm_mm (40 mm
+ * for a 30 mm head: 15-33 on 6 stations of 100 readings, 214-239 on the fixture's 20 of
+ * 750), or station truths that are not the fixture's. Correct fixtures stay far below it:
+ * 0.6-2.9 for the fixture, fixture-ar1, fixture-drift and fixture-one-distance scenarios
+ * (seeds 1-3), 9.8-44 for fixture-realnoise (recorded noise the model does not describe).
+ * A ratio between those and this bound only widens the stated sd (calfit.h). */
+#define GEOMETRY_SCATTER_MAX 100.0
+
+/* A fit whose scatter says the geometry is wrong is an error naming the sensor and the
+ * figure: nothing written. 0, or -1 after the message. */
+static int check_scatter(const char *trace, const struct calfit_data *d,
+                         const struct calfit_result *res) {
+    int rc = 0;
+    for (unsigned k = 0; k < 4u; ++k) {
+        const struct calfit_sensor *s = &res->sensor[k];
+        if (s->dof > 0u && !(s->chi2_red <= GEOMETRY_SCATTER_MAX)) {
+            fprintf(stderr,
+                    "host_sim calibrate: %s: sensor %c: scatter ratio %.1f over %u dof (more "
+                    "than %.0f): the station means do not fit any offset and gain at arm_mm "
+                    "%.6g; check the trace's arm_mm and the stations' alpha, beta, distance: "
+                    "nothing written\n",
+                    trace, 'A' + k, s->chi2_red, s->dof, GEOMETRY_SCATTER_MAX, d->arm_mm);
+            rc = -1;
+        }
+    }
+    return rc;
+}
+
 static void summary(const char *trace, const struct calfit_data *d, const struct calfit_result *res,
                     const struct cal_binding *b) {
     fprintf(stderr,
@@ -344,8 +373,10 @@ int calibrate_main(int argc, char **argv) {
     }
     if (rc == 0) {
         summary(a.trace, &d, &res, &bind);
-        rc = check_range(a.trace, &res) == 0 && write_cal(a.out, a.trace, &d, &res, &bind) == 0 ? 0
-                                                                                                : 1;
+        rc = check_range(a.trace, &res) == 0 && check_scatter(a.trace, &d, &res) == 0 &&
+                     write_cal(a.out, a.trace, &d, &res, &bind) == 0
+                 ? 0
+                 : 1;
     }
     if (rc == 0 && a.report != NULL) {
         FILE *f = fopen(a.report, "wb");

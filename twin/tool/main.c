@@ -145,8 +145,25 @@ static int preload_records(struct run *r) {
         return -1;
     }
     uint8_t *mem = &r->t.flash[TWIN_RECORDS_BASE - TWIN_FLASH_BASE];
-    /* bound as the HEAD.cal states (head, mode, budget): the flight image's boot refuses
-     * what a flight unit would, and the report's calibration_state says so */
+    /* A unit's storage (--flash-in) is never overwritten from the trace's keys: only by an
+     * explicit --calibration, and then it says so. */
+    if (r->a.flash_in != NULL && r->a.calibration == NULL && cal.cal.calibrated) {
+        fprintf(stderr,
+                "tof_twin: note: %s: the trace's calibration keys are not written over the "
+                "unit's storage from --flash-in %s: the unit runs with the calibration it "
+                "stores; pass --calibration HEAD.cal to write one\n",
+                r->a.trace, r->a.flash_in);
+        cal.cal.calibrated = false;
+    } else if (r->a.flash_in != NULL && cal.cal.calibrated) {
+        fprintf(stderr,
+                "tof_twin: note: --calibration %s written into the unit's storage from "
+                "--flash-in %s (record section 2, in place of any calibration there)\n",
+                r->a.calibration, r->a.flash_in);
+    }
+    r->cal_preloaded = cal.cal.calibrated;
+    snprintf(r->cal_source, sizeof r->cal_source, "%s", cal.source);
+    /* bound as the HEAD.cal states (head, mode, budget, arm): the flight image's boot
+     * refuses what a flight unit would, and the report's calibration_state says so */
     if (cal_apply_preload(&cal.cal, &r->cfg, &cal.made_in, mem, &flash, &store) != 0) {
         return -1;
     }
@@ -163,6 +180,12 @@ static int preload_records(struct run *r) {
             .period_ms = (uint16_t)r->cfg.timing.inter_measurement_ms,
         };
         (void)tof_record_load(&store); /* the record in use, whose other sections are kept */
+        if (r->a.flash_in != NULL) {
+            fprintf(stderr,
+                    "tof_twin: note: %s: arm_mm %.3f, period_ms %u written into the unit's "
+                    "settings from --flash-in %s (as set-arm, set-period and save would)\n",
+                    r->a.trace, r->meta.arm_mm, (unsigned)s.period_ms, r->a.flash_in);
+        }
         if (tof_settings_save(&store, &s) != HAL_OK) {
             fprintf(stderr, "tof_twin: internal: the settings do not make a record\n");
             return -1;

@@ -132,6 +132,9 @@ struct run {
     bool save_sent;
     uint64_t health_frames;
     struct tof_twin_pty pty;
+    bool cal_preloaded;   /* a calibration was written into the record pages (preload) */
+    char cal_source[320]; /* where it came from */
+    bool cal_warned;
 };
 
 /* ---- tof_twin_args.c ---- */

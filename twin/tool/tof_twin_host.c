@@ -252,6 +252,19 @@ static void on_frame(void *ctx, const struct tlm_frame *frame) {
         r->status_resets = r->t.stats.resets;
         ++r->boots;
         r->boot_status = *st;
+        if (r->cal_preloaded && !r->cal_warned && st->calibration != TLM_CAL_APPLIED) {
+            /* as host_sim replay warns: the flight image's boot refused it */
+            static const char *const state[] = {
+                "none",     "applied",    "corrupt",     "version",      "other-head", "other-mode",
+                "rejected", "no-storage", "other-parts", "other-budget", "other-arm"};
+            fprintf(stderr,
+                    "tof_twin: warning: %s: not applied by the flight image's boot "
+                    "(calibration=%s), as a flight unit would refuse it; the head is "
+                    "uncalibrated\n",
+                    r->cal_source,
+                    st->calibration <= TLM_CAL_STATE_LAST ? state[st->calibration] : "?");
+            r->cal_warned = true;
+        }
         /* What was sent before the reset and not answered is lost with it (a power cut during
          * `save`): no answer will come, the answers that come next are to this boot's. */
         for (unsigned k = 0; k < r->nsent; ++k) {
