@@ -1172,6 +1172,14 @@ def calibration_main(args, ap):
                     ap.exit(1, "tof_telemetry: --send-cal: the calibration read back differs\n")
                 print("calibration written, saved and read back: state=%s"
                       % CAL_STATES[back["state"]])
+                keys = tof_calibration.read_head_cal(text, args.send_cal)[0]
+                if "head_id" not in keys and not any(k.startswith("part_id_") for k in keys):
+                    sys.stdout.flush()
+                    sys.stderr.write(
+                        "tof_telemetry: note: %s names no head (head_id) and no parts "
+                        "(part_id_A..D): the unit binds it to the parts it runs, and cannot tell "
+                        "it from another head's; check the estimates are ok at a known "
+                        "station\n" % args.send_cal)
                 seq = (seq + 2) & 0xFF
             if args.read_cal:
                 status = _unit_status(port, seq, printer, decoder)

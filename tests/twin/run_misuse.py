@@ -213,8 +213,11 @@ def main():
     arm40 = head_cal(w("arm40.cal"), "# arm_mm=40\n")
     check("send_cal_other_arm", unit.tool("--send-cal", arm40), 1,
           r"arm40.cal:4: arm_mm=40, but the unit's arm is 30\.000 mm \(other-arm\)")
-    check("send_cal_good", unit.tool("--send-cal", good), 0,
-          r"read back: state=applied", where="stdout")
+    p = check("send_cal_good", unit.tool("--send-cal", good), 0,
+              r"read back: state=applied", where="stdout")
+    if "names no head (head_id) and no parts" not in p.stderr:
+        fail("send_cal_good: no note that a HEAD.cal naming no head cannot be told from "
+             "another head's:\n" + p.stderr)
     check("write_during_rezero_busy",
           unit.tool("--send", "re-zero 100", "--send", "write-calibration " + section_hex(good)),
           1, r"nack busy: a re-zero or a record write is in progress")

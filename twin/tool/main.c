@@ -4,12 +4,15 @@
  *   tof_twin FIRMWARE.elf TRACE.csv [--estimator NAME] [--window N] [--mode tumbling|sliding]
  *            [--faults SPEC] [--seed S] --out EST.csv [--uart-out CAPTURE.bin]
  *            [--i2c-log BUS.csv] [--strict] [--coverage FILE] [--report FILE.json]
- *            [--hsi-fail] [--spurious-berr PPM] [--max-sim-s S]
+ *            [--hsi-fail] [--spurious-berr PPM] [--max-sim-s S] [--calibration HEAD.cal]
+ *            [--command ROW:TEXT]... [--save] [--flash-cut N] [--flash-in F] [--flash-out F]
+ *   tof_twin FIRMWARE.elf TRACE.csv --pty [...]   (USART2 on a pseudo-terminal: `pty PATH`)
  *
  * This file sets the run up and runs it; the options are read by tof_twin_args.c, the
  * firmware's UART telemetry is decoded by tof_twin_host.c with the project's decoder
  * (firmware/telemetry) and written through firmware/est_csv, the rows host_sim writes, and
- * tof_twin_report.c writes the summary, report and coverage.
+ * tof_twin_report.c writes the summary, report and coverage; tof_twin_pty.c puts the line on
+ * a pseudo-terminal.
  */
 #include <errno.h>
 #include <math.h>
