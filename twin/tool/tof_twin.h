@@ -2,7 +2,8 @@
  * The tof_twin command-line tool's own state, shared by its files: the options
  * (tof_twin_args.c), the host side of the UART that decodes the firmware's telemetry into
  * EST.csv rows (tof_twin_host.c), the line on a pseudo-terminal (tof_twin_pty.c), the
- * coverage file, summary and report (tof_twin_report.c) and the run itself (main.c). The twin (struct twin, twin.h) knows nothing of it.
+ * coverage file, summary and report (tof_twin_report.c) and the run itself (main.c). The
+ * twin (struct twin, twin.h) knows nothing of it.
  */
 #ifndef TWIN_TOF_TWIN_H
 #define TWIN_TOF_TWIN_H
