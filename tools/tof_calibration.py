@@ -18,6 +18,8 @@ Used by tof_telemetry.py (--send-cal, --read-cal, --record-station).
 import decimal
 import os
 import struct
+import sys
+import zlib
 
 SECTION_ID = 2
 SECTION_VERSION = 1
@@ -94,15 +96,68 @@ def _values(key, text, where):
     return out
 
 
+def read_text_file(path):
+    """A HEAD.cal's text: UTF-8 without NUL bytes (a binary file is refused, naming the
+    line of its first NUL or undecodable byte, as host_sim's reader does)."""
+    with open(path, "rb") as f:
+        data = f.read()
+    at = data.find(b"\0")
+    if at >= 0:
+        raise CalibrationError("%s:%d: NUL byte: not a text file" % (path, data.count(b"\n", 0, at) + 1))
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as e:
+        raise CalibrationError("%s:%d: not UTF-8 text (byte 0x%02x)"
+                               % (path, data.count(b"\n", 0, e.start) + 1, data[e.start])) from None
+
+
+CHECKSUM_PREFIX = "# checksum=crc32:"
+
+
+def with_checksum(text):
+    """HEAD.cal text with its last line: the CRC-32 (zlib's) of every byte before it."""
+    return text + CHECKSUM_PREFIX + "%08x\n" % zlib.crc32(text.encode("utf-8"))
+
+
+def check_checksum(text, name="HEAD.cal", warn=sys.stderr):
+    """A cut or edited HEAD.cal is an error naming file and line (head_cal.c's rules); one
+    without a checksum line (written before checksums) is read with a warning on `warn`."""
+    if text and not text.endswith("\n"):
+        raise CalibrationError("%s:%d: the last line has no line end: the file was cut"
+                               % (name, text.count("\n") + 1))
+    lines = text.split("\n")
+    at = [i for i, line in enumerate(lines) if line.startswith(CHECKSUM_PREFIX)]
+    if not at:
+        if warn is not None:
+            warn.write("warning: %s: no checksum line (a file written before checksums): read "
+                       "as it stands; a cut or edited file cannot be told from it\n" % name)
+        return
+    if len(at) > 1:
+        raise CalibrationError("%s:%d: a second checksum line (the first on line %d)"
+                               % (name, at[1] + 1, at[0] + 1))
+    later = [i for i in range(at[0] + 1, len(lines)) if lines[i].strip()]
+    if later:
+        raise CalibrationError("%s:%d: content after the checksum line (line %d): the file "
+                               "was edited or joined" % (name, later[0] + 1, at[0] + 1))
+    body = "\n".join(lines[:at[0]]) + "\n"
+    got = lines[at[0]][len(CHECKSUM_PREFIX):].rstrip("\r")
+    want = "%08x" % zlib.crc32(body.encode("utf-8"))
+    if got != want:
+        raise CalibrationError("%s:%d: checksum crc32:%s does not match the content before it "
+                               "(crc32:%s): the file was cut or edited"
+                               % (name, at[0] + 1, got[:16], want))
+
+
 def read_head_cal(text, name="HEAD.cal"):
     """The keys of a HEAD.cal text: {key: value string} and {key: line}; checks the
-    version line and the line syntax (the full rules are head_cal.c's)."""
+    version line, the checksum line and the line syntax (the full rules are head_cal.c's)."""
+    check_checksum(text, name)
     lines = text.lstrip("\ufeff").splitlines()
     if not lines or lines[0].strip() != "# tof-head-cal v1":
         raise CalibrationError("%s:1: the first line must be '# tof-head-cal v1'" % name)
     keys, where = {}, {}
     for n, line in enumerate(lines[1:], start=2):
-        if not line.strip():
+        if not line.strip() or line.startswith(CHECKSUM_PREFIX):
             continue
         if not line.startswith("#"):
             raise CalibrationError("%s:%d: not a '# key=value' line" % (name, n))
@@ -115,6 +170,20 @@ def read_head_cal(text, name="HEAD.cal"):
             raise CalibrationError("%s:%d: %s given twice" % (name, n, key))
         keys[key], where[key] = value.strip(), "%s:%d" % (name, n)
     return keys, where
+
+
+def _integer(keys, where, key, default, lo, hi, name):
+    """keys[key] (else default) as an integer lo..hi; the error names the value, the range
+    and where it came from."""
+    text = keys.get(key, str(default))
+    at = where.get(key, "%s: (default or option)" % name)
+    try:
+        v = int(text)
+    except ValueError:
+        raise CalibrationError("%s: %s: not an integer, got '%s'" % (at, key, text)) from None
+    if not lo <= v <= hi:
+        raise CalibrationError("%s: %s %d is outside %d..%d" % (at, key, v, lo, hi))
+    return v
 
 
 def head_cal_to_section(text, name="HEAD.cal", mode=None, budget_ms=None, head_id=None):
@@ -132,14 +201,24 @@ def head_cal_to_section(text, name="HEAD.cal", mode=None, budget_ms=None, head_i
         raise CalibrationError("%s: offset_gain_corr without gain and gain_sd" % name)
     vals = {k: _values(k, keys[k], where[k]) for k in _KEYS if k in keys}
     zeros = [0, 0, 0, 0]
-    head = int(keys.get("head_id", head_id if head_id is not None else 0))
+    if mode is not None and "distance_mode" in keys and keys["distance_mode"] != mode:
+        raise CalibrationError("%s: distance_mode=%s, but --cal-mode %s: the file says the "
+                               "mode it was made in; drop --cal-mode or correct the file"
+                               % (where["distance_mode"], keys["distance_mode"], mode))
+    if (budget_ms is not None and "timing_budget_ms" in keys
+            and keys["timing_budget_ms"] != str(budget_ms)):
+        raise CalibrationError("%s: timing_budget_ms=%s, but --cal-budget-ms %d: the file "
+                               "says the budget it was made with; drop --cal-budget-ms or "
+                               "correct the file"
+                               % (where["timing_budget_ms"], keys["timing_budget_ms"], budget_ms))
+    head = _integer(keys, where, "head_id", head_id if head_id is not None else 0, 0,
+                    2 ** 32 - 1, name)
     mode_name = keys.get("distance_mode", mode or DEFAULT_MODE)
     if mode_name not in MODES:
         raise CalibrationError("%s: distance_mode must be short or long, got '%s'"
-                               % (name, mode_name))
-    budget = int(keys.get("timing_budget_ms", budget_ms or DEFAULT_BUDGET_MS))
-    if not 0 < head < 2 ** 32 and head != 0 or not 0 < budget < 2 ** 16:
-        raise CalibrationError("%s: head_id or timing_budget_ms out of range" % name)
+                               % (where.get("distance_mode", name), mode_name))
+    budget = _integer(keys, where, "timing_budget_ms",
+                      budget_ms if budget_ms is not None else DEFAULT_BUDGET_MS, 1, 65535, name)
     out = struct.pack("<BBH", SECTION_ID, SECTION_VERSION, SECTION_LEN)
     out += struct.pack("<IBBH", head, MODES[mode_name], FLAG_GAINS if has_gain else 0, budget)
     for i in range(4):
@@ -154,7 +233,7 @@ def _exact(units, decimals):
     return format(decimal.Decimal(units).scaleb(-decimals), "f")
 
 
-def section_to_head_cal(section, source="the flight unit"):
+def section_to_head_cal(section, source="the flight unit", arm_um=None):
     """HEAD.cal text of record section 2 (84 bytes). Raises CalibrationError for a section
     that is not one (all zero: none stored)."""
     if len(section) != 4 + SECTION_LEN or not any(section):
@@ -176,8 +255,11 @@ def section_to_head_cal(section, source="the flight unit"):
                   "# offset_gain_corr=" + ",".join(
                       format(decimal.Decimal(v) / 32768, "f") for v in col(4))]
     lines += ["# head_id=%d" % head, "# distance_mode=%s" % mode_name,
-              "# timing_budget_ms=%d" % budget, "# source=%s" % source]
-    return "\n".join(lines) + "\n"
+              "# timing_budget_ms=%d" % budget]
+    if arm_um is not None:
+        lines.append("# arm_mm=" + _exact(arm_um, 3))
+    lines.append("# source=%s" % source)
+    return with_checksum("\n".join(lines) + "\n")
 
 
 # --- the fixture station recorder ---------------------------------------------

@@ -97,7 +97,8 @@ TYPES = {
     T_REZERO: ("re-zero", ACCEPT_COMMANDS, 2),
 }
 
-RESULTS = ["ok", "unknown-type", "bad-length", "out-of-range", "state"]
+RESULTS = ["ok", "unknown-type", "bad-length", "out-of-range", "state", "other-head",
+           "other-parts", "other-mode", "other-budget", "other-arm", "busy"]
 R_OK, R_UNKNOWN_TYPE, R_BAD_LENGTH, R_OUT_OF_RANGE = 0, 1, 2, 3
 ESTIMATORS = ["consensus", "consensus-paper", "kalman", "mean"]
 STATUSES = ["ok", "degraded", "invalid"]
@@ -122,9 +123,30 @@ RECORD_STATES = ["none", "loaded", "corrupt", "version", "rejected", "no-storage
 # The status frame's calibration state: what the firmware found of the head's calibration
 # at boot (firmware/calibration_record.h enum tof_cal_state); all but applied: uncalibrated.
 CAL_STATES = ["none", "applied", "corrupt", "version", "other-head", "other-mode", "rejected",
-              "no-storage", "other-parts"]
+              "no-storage", "other-parts", "other-budget", "other-arm"]
 # the status frame's cal_age (protocol 6): how the calibration's age is known
 CAL_AGE_STATES = ["none", "kept", "unknown", "failed"]
+# What a refusal of the head's calibration means and what to do (a nack's result, or the
+# status frame's calibration state).
+CAUSES = {
+    "other-head": "the calibration was made on another head (head_id differs): send this "
+                  "head's HEAD.cal, or calibrate this head (docs/calibration.md)",
+    "other-parts": "the calibration was made with other parts (a part's NVM identity "
+                   "differs: a sensor was replaced): calibrate the head again",
+    "other-mode": "the calibration was made in another distance mode: calibrate in the "
+                  "unit's mode, or give the file's distance_mode correctly",
+    "other-budget": "the calibration was made at another timing budget (set-period changes "
+                    "it): calibrate at the unit's period, or set-period back",
+    "other-arm": "the calibration was made at another arm (arm_mm): set-arm back to the "
+                 "calibration's arm, or calibrate at this arm",
+    "busy": "a re-zero or a record write is in progress: wait for its answer (the "
+            "calibration message, or the save's ack) and send again",
+    "corrupt": "the section's values are out of range or do not add up",
+    "version": "a section version this firmware does not read",
+    "no-storage": "the board has no record storage",
+    "rejected": "the estimator refused the values",
+    "none": "no calibration stored: send one with --send-cal HEAD.cal",
+}
 SENSORS = "ABCD"
 WINDOW_MIN, WINDOW_MAX = 2, 255
 PROCESS_NOISE_AUTO = 0x01  # set-process-noise flags; every other bit is out of range
@@ -717,6 +739,8 @@ def nack_text(m):
     text = "nack %s" % name
     if m["error"] != 0:
         text += ", error %d %s" % (m["error"], ATTITUDE_ERRORS.get(m["error"], "(unknown code)"))
+    if name in CAUSES:
+        text += ": " + CAUSES[name]
     return text
 
 
@@ -778,6 +802,8 @@ class Printer:
         self.estimates = []
         self.last_seq = None
         self.lost_frames = 0
+        self.reboots = 0
+        self.latest_ms = None  # the unit's latest time seen (uptime, t_ms): a restart goes back
         if csv_type == "estimate":
             out.write(",".join(ESTIMATE_CSV) + "\n")
         elif csv_type == "raw":
@@ -795,8 +821,20 @@ class Printer:
                 self.out.write(format_reject(ftype, seq, length, result) + "\n")
             return
         _, ftype, seq, payload = event
-        self._track_sequence(seq)
         fields, result = parse(ftype, payload)
+        # The boot's status frame is sequence 0 with an uptime below what was seen: the unit
+        # restarted (its numbering starts again), not 255 frames lost.
+        now_ms = None if fields is None else fields.get("uptime_ms", fields.get("t_ms"))
+        if (ftype == T_STATUS and seq == 0 and fields is not None and self.latest_ms is not None
+                and now_ms < self.latest_ms):
+            self.reboots += 1
+            self.last_seq = None
+            if self.csv_type is None:
+                self.out.write("# the unit restarted (boot status, uptime %d ms)\n" % now_ms)
+            self.latest_ms = now_ms
+        elif now_ms is not None:
+            self.latest_ms = now_ms if self.latest_ms is None else max(self.latest_ms, now_ms)
+        self._track_sequence(seq)
         if result != R_OK:
             counters["out_of_range"] += result == R_OUT_OF_RANGE
             if self.csv_type is None:
@@ -1036,9 +1074,46 @@ def _read_back(port, seq, printer, decoder, timeout=1.0):
     return tap.got[-1] if tap.got else None
 
 
-def write_head_cal(path, message, source):
-    """The calibration message's section as HEAD.cal at path; its state on stdout."""
-    text = tof_calibration.section_to_head_cal(message["section"], source)
+def _unit_status(port, seq, printer, decoder, timeout=1.0):
+    """status-request on `port`: the status message (fields) or None."""
+    tap = _Tap(T_STATUS, printer.handle)
+    send_command(port, "status", seq, tap, decoder=decoder)
+    if not tap.got:
+        tap.got = _collect(serial_chunks(port, timeout), decoder, T_STATUS, 1, printer.handle)
+    return tap.got[-1] if tap.got else None
+
+
+def _check_arm(path, text, status):
+    """A HEAD.cal whose arm_mm is not the unit's arm would not calibrate it (other-arm): the
+    message naming both, or None."""
+    keys, where = tof_calibration.read_head_cal(text, path)
+    if "arm_mm" not in keys:
+        return None
+    try:
+        arm_um = int(decimal_units(keys["arm_mm"], 3))
+    except (TypeError, ValueError):
+        return "%s: arm_mm: not a plain decimal, got '%s'" % (where["arm_mm"], keys["arm_mm"])
+    if arm_um != status["arm_um"]:
+        return ("%s: arm_mm=%s, but the unit's arm is %s mm (other-arm): %s"
+                % (where["arm_mm"], keys["arm_mm"], fixed(status["arm_um"], 3),
+                   CAUSES["other-arm"]))
+    return None
+
+
+def decimal_units(text, decimals):
+    """text as an integer count of 10^-decimals, or None (tof_calibration's rounding)."""
+    return tof_calibration._units(text, decimals)
+
+
+def write_head_cal(path, message, source, arm_um=None):
+    """The calibration message's section as HEAD.cal at path; its state on stdout. Raises
+    CalibrationError when the unit holds none."""
+    state = CAL_STATES[message["state"]]
+    if not any(message["section"]):
+        raise tof_calibration.CalibrationError(
+            "the unit holds no calibration (state=%s): nothing written to %s; send one with "
+            "--send-cal HEAD.cal (docs/calibration.md)" % (state, path))
+    text = tof_calibration.section_to_head_cal(message["section"], source, arm_um)
     with open(path, "w") as f:
         f.write(text)
     return "calibration state=%s written to %s" % (CAL_STATES[message["state"]], path)
@@ -1047,11 +1122,15 @@ def write_head_cal(path, message, source):
 def calibration_main(args, ap):
     """--send-cal, --read-cal, --record-station. Returns the exit status."""
     section = None
+    if args.send_cal and args.file:
+        ap.exit(1, "tof_telemetry: --send-cal %s: a capture file (--file %s) cannot be sent "
+                   "to; give the unit's --port, or --write-commands FILE for the frames\n"
+                % (args.send_cal, args.file))
     if args.send_cal:
         try:
-            with open(args.send_cal) as f:
-                section = tof_calibration.head_cal_to_section(
-                    f.read(), args.send_cal, args.cal_mode, args.cal_budget_ms)
+            text = tof_calibration.read_text_file(args.send_cal)
+            section = tof_calibration.head_cal_to_section(
+                text, args.send_cal, args.cal_mode, args.cal_budget_ms)
         except (OSError, tof_calibration.CalibrationError) as e:
             ap.exit(1, "tof_telemetry: --send-cal %s\n" % e)
         if args.write_commands:
@@ -1067,7 +1146,10 @@ def calibration_main(args, ap):
             got = _collect(chunks, decoder, T_CALIBRATION, 1 << 30)
             if not got:
                 ap.exit(1, "tof_telemetry: %s: no calibration message\n" % args.file)
-            print(write_head_cal(args.read_cal, got[-1], args.file))
+            try:
+                print(write_head_cal(args.read_cal, got[-1], args.file))
+            except tof_calibration.CalibrationError as e:
+                ap.exit(1, "tof_telemetry: --read-cal: %s\n" % e)
         if args.record_station:
             raw = _collect(chunks, decoder, T_RAW_SAMPLE, args.readings)
             return _append_station(args, ap, raw[:args.readings])
@@ -1081,6 +1163,13 @@ def calibration_main(args, ap):
     with port:
         try:
             if section is not None:
+                status = _unit_status(port, seq, printer, decoder)
+                seq = (seq + 1) & 0xFF
+                why = None if status is None else _check_arm(args.send_cal, text, status)
+                if status is None:
+                    ap.exit(1, "tof_telemetry: --send-cal: no status from the unit\n")
+                if why is not None:
+                    ap.exit(1, "tof_telemetry: --send-cal %s\n" % why)
                 send_command(port, "write-calibration " + section.hex(), seq, printer.handle,
                              decoder=decoder)
                 back = _read_back(port, (seq + 1) & 0xFF, printer, decoder)
@@ -1088,12 +1177,28 @@ def calibration_main(args, ap):
                     ap.exit(1, "tof_telemetry: --send-cal: the calibration read back differs\n")
                 print("calibration written, saved and read back: state=%s"
                       % CAL_STATES[back["state"]])
+                keys = tof_calibration.read_head_cal(text, args.send_cal)[0]
+                if "head_id" not in keys and not any(k.startswith("part_id_") for k in keys):
+                    sys.stdout.flush()
+                    sys.stderr.write(
+                        "tof_telemetry: note: %s names no head (head_id) and no parts "
+                        "(part_id_A..D): the unit binds it to the parts it runs, and cannot tell "
+                        "it from another head's; check the estimates are ok at a known "
+                        "station\n" % args.send_cal)
                 seq = (seq + 2) & 0xFF
             if args.read_cal:
+                status = _unit_status(port, seq, printer, decoder)
+                seq = (seq + 1) & 0xFF
                 back = _read_back(port, seq, printer, decoder)
                 if back is None:
                     ap.exit(1, "tof_telemetry: --read-cal: no calibration message\n")
-                print(write_head_cal(args.read_cal, back, args.port))
+                try:
+                    # the arm it is bound to: the unit's while it is applied (other-arm: not)
+                    arm = (status["arm_um"] if status is not None
+                           and CAL_STATES[back["state"]] == "applied" else None)
+                    print(write_head_cal(args.read_cal, back, args.port, arm))
+                except tof_calibration.CalibrationError as e:
+                    ap.exit(1, "tof_telemetry: --read-cal: %s\n" % e)
                 seq = (seq + 1) & 0xFF
             if args.record_station:
                 send_command(port, "raw on", seq, printer.handle, decoder=decoder)
@@ -1112,10 +1217,10 @@ def _append_station(args, ap, raw):
                 % (len(raw), args.readings))
     try:
         alpha, beta, distance = args.station.split(",")
-        n = tof_calibration.append_station(args.record_station, raw, alpha, beta, distance,
-                                           args.arm_mm, args.period_ms,
-                                           args.cal_mode or "short",
-                                           args.cal_budget_ms or 15)
+        n = tof_calibration.append_station(
+            args.record_station, raw, alpha, beta, distance, args.arm_mm, args.period_ms,
+            args.cal_mode or "short",
+            args.cal_budget_ms if args.cal_budget_ms is not None else 15)
     except (ValueError, AttributeError, tof_calibration.CalibrationError) as e:
         ap.exit(1, "tof_telemetry: --station ALPHA,BETA,DISTANCE: %s\n" % e)
     print("station alpha=%s beta=%s distance_mm=%s: %d rows appended to %s"
@@ -1177,7 +1282,20 @@ def main(argv=None):
     cal.add_argument("--arm-mm", default="30", help="arm_mm of a new calibration trace (30)")
     cal.add_argument("--period-ms", type=int, default=20,
                      help="period_ms of a new calibration trace (20)")
-    args = ap.parse_args(argv)
+    argv = list(sys.argv[1:] if argv is None else argv)
+    for i in range(len(argv) - 1):
+        if argv[i] == "--station" and argv[i + 1].startswith("-"):
+            # a station at a negative alpha ("-5,5,165") is its value, not an option
+            argv[i:i + 2] = ["--station=" + argv[i + 1], ""]
+    args = ap.parse_args([a for a in argv if a != ""])
+    if args.cal_budget_ms is not None and not 1 <= args.cal_budget_ms <= 65535:
+        ap.exit(2, "tof_telemetry: --cal-budget-ms %d: a timing budget is 1..65535 ms\n"
+                % args.cal_budget_ms)
+    if args.period_ms is not None and not PERIOD_MIN_MS <= args.period_ms <= PERIOD_MAX_MS:
+        ap.exit(2, "tof_telemetry: --period-ms %d: a period is %d..%d ms\n"
+                % (args.period_ms, PERIOD_MIN_MS, PERIOD_MAX_MS))
+    if args.readings is not None and not 1 <= args.readings <= 100000:
+        ap.exit(2, "tof_telemetry: --readings %d: 1..100000 raw samples\n" % args.readings)
     if args.send_cal or args.read_cal or args.record_station:
         if args.record_station and not args.station:
             ap.exit(1, "tof_telemetry: --record-station needs --station ALPHA,BETA,DISTANCE\n")
@@ -1229,12 +1347,24 @@ def main(argv=None):
                     seq = (args.first_seq if args.first_seq is not None
                            else int(time.time() * 1000)) & 0xFF
                     for text in args.send:
+                        tap = _Tap(T_STATUS, printer.handle)
                         try:
-                            send_command(port, text, seq, printer.handle, decoder=decoder)
+                            send_command(port, text, seq, tap, decoder=decoder)
                         except CommandFailed as e:
                             sys.stdout.flush()
                             ap.exit(1, "tof_telemetry: --send %s\n" % e)
                         seq = (seq + 1) & 0xFF
+                        if text.split()[:1] in (["set-arm"], ["set-period"]):
+                            # the status frame after its ack: does the calibration still hold?
+                            got = tap.got or _collect(serial_chunks(port, 1.0), decoder,
+                                                      T_STATUS, 1, printer.handle)
+                            state = CAL_STATES[got[-1]["calibration"]] if got else None
+                            if state in CAUSES and state != "none":
+                                sys.stdout.flush()
+                                sys.stderr.write(
+                                    "tof_telemetry: note: '%s' acknowledged; the unit's "
+                                    "calibration no longer holds (calibration=%s): %s\n"
+                                    % (text, state, CAUSES[state]))
                 try:
                     run_stream(serial_chunks(port, args.duration), decoder, printer,
                                idle_flush=True, live=live)
@@ -1248,6 +1378,9 @@ def main(argv=None):
     sys.stdout.flush()
     if printer.lost_frames:
         sys.stderr.write("# lost_frames=%d (sequence gaps)\n" % printer.lost_frames)
+    if printer.reboots:
+        sys.stderr.write("# reboots=%d (the unit restarted; its sequence numbers start again)\n"
+                         % printer.reboots)
     if args.plot and live is not None:
         live.save(args.plot)
     elif args.plot:

@@ -19,7 +19,9 @@ _Static_assert(TOF_CAL_NONE == (int)TLM_CAL_NONE && TOF_CAL_APPLIED == (int)TLM_
                    TOF_CAL_OTHER_MODE == (int)TLM_CAL_OTHER_MODE &&
                    TOF_CAL_REJECTED == (int)TLM_CAL_REJECTED &&
                    TOF_CAL_NO_STORAGE == (int)TLM_CAL_NO_STORAGE &&
-                   TOF_CAL_OTHER_PARTS == (int)TLM_CAL_OTHER_PARTS,
+                   TOF_CAL_OTHER_PARTS == (int)TLM_CAL_OTHER_PARTS &&
+                   TOF_CAL_OTHER_BUDGET == (int)TLM_CAL_OTHER_BUDGET &&
+                   TOF_CAL_OTHER_ARM == (int)TLM_CAL_OTHER_ARM,
                "calibration states are the status frame's codes");
 
 #define PER_SENSOR   18u /* i32 offset, i32 gain, u32 offset sd, u32 gain sd, i16 corr */
@@ -28,8 +30,10 @@ _Static_assert(TOF_CAL_NONE == (int)TLM_CAL_NONE && TOF_CAL_APPLIED == (int)TLM_
 _Static_assert(SENSORS_AT + CALIBRATION_SENSORS * PER_SENSOR == TOF_CALIBRATION_V1_LENGTH,
                "section 2 version 1 is 80 bytes");
 _Static_assert(TOF_CALIBRATION_V1_LENGTH + CALIBRATION_SENSORS * PART_ID_SIZE ==
-                   TOF_CALIBRATION_LENGTH,
+                   TOF_CALIBRATION_V2_LENGTH,
                "version 2 is version 1 and the four parts' identities");
+_Static_assert(TOF_CALIBRATION_V2_LENGTH + 4u == TOF_CALIBRATION_LENGTH,
+               "version 3 is version 2 and the arm");
 _Static_assert(TOF_CAL_WIRE_SIZE == TLM_CAL_SECTION_LEN, "the commands carry version 1");
 _Static_assert(TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH + TOF_SECTION_HEADER +
                        TOF_SETTINGS_LENGTH <=
@@ -110,7 +114,8 @@ static bool decode_sensor(const uint8_t *v, bool has_gain, unsigned i,
 /* The body length of calibration section version `version`, or 0 for one not read. */
 static uint16_t body_length(uint8_t version) {
     return version == 1u   ? (uint16_t)TOF_CALIBRATION_V1_LENGTH
-           : version == 2u ? (uint16_t)TOF_CALIBRATION_LENGTH
+           : version == 2u ? (uint16_t)TOF_CALIBRATION_V2_LENGTH
+           : version == 3u ? (uint16_t)TOF_CALIBRATION_LENGTH
                            : 0u;
 }
 
@@ -144,7 +149,12 @@ enum tof_cal_state tof_cal_decode(const uint8_t *payload, uint16_t len,
         if (!decode_sensor(v, has_gain, i, &c)) {
             return TOF_CAL_CORRUPT;
         }
-        b.part_id[i] = body == TOF_CALIBRATION_LENGTH ? get_part_id(v, i) : 0u;
+        b.part_id[i] = body >= TOF_CALIBRATION_V2_LENGTH ? get_part_id(v, i) : 0u;
+    }
+    b.arm_um =
+        body == TOF_CALIBRATION_LENGTH ? as_i32(le_get_u32(&v[TOF_CALIBRATION_V2_LENGTH])) : 0;
+    if (b.arm_um < 0) {
+        return TOF_CAL_CORRUPT;
     }
     if ((b.mode != (uint8_t)VL53_DISTANCE_SHORT && b.mode != (uint8_t)VL53_DISTANCE_LONG) ||
         b.budget_ms == 0u) {
@@ -177,6 +187,13 @@ int tof_cal_bind_parts(const uint8_t *section, const uint64_t part_id[CALIBRATIO
     return HAL_OK;
 }
 
+void tof_cal_bind_arm(uint8_t *section, int32_t arm_um) {
+    uint8_t *arm = &section[TOF_SECTION_HEADER + TOF_CALIBRATION_V2_LENGTH];
+    if (le_get_u32(arm) == 0u && arm_um > 0) {
+        le_put_u32(arm, (uint32_t)arm_um);
+    }
+}
+
 void tof_cal_running_parts(const struct tof_app *app, uint64_t running[CALIBRATION_SENSORS]) {
     for (unsigned i = 0; i < CALIBRATION_SENSORS; ++i) {
         running[i] = vl53_part_id(&app->array.dev[i]);
@@ -203,8 +220,27 @@ enum tof_cal_state tof_cal_check(const struct tof_cal_binding *bind,
             return TOF_CAL_OTHER_PARTS;
         }
     }
-    return bind->mode == mine.mode && bind->budget_ms == mine.budget_ms ? TOF_CAL_APPLIED
-                                                                        : TOF_CAL_OTHER_MODE;
+    if (bind->mode != mine.mode) {
+        return TOF_CAL_OTHER_MODE;
+    }
+    if (bind->budget_ms != mine.budget_ms) {
+        return TOF_CAL_OTHER_BUDGET;
+    }
+    return bind->arm_um != 0 && bind->arm_um != cfg->estimator.arm_um ? TOF_CAL_OTHER_ARM
+                                                                      : TOF_CAL_APPLIED;
+}
+
+/* tof_cal_check() against the application as it runs: the arm in force is the estimator's
+ * (set-arm changes it, not the compiled configuration). */
+static enum tof_cal_state check_in_force(const struct tof_cal_binding *bind,
+                                         const struct tof_app *app,
+                                         const uint64_t running[CALIBRATION_SENSORS]) {
+    const enum tof_cal_state st = tof_cal_check(bind, &app->cfg, running);
+    if (st != TOF_CAL_APPLIED && st != TOF_CAL_OTHER_ARM) {
+        return st;
+    }
+    return bind->arm_um != 0 && bind->arm_um != app->estimator.cfg.arm_um ? TOF_CAL_OTHER_ARM
+                                                                          : TOF_CAL_APPLIED;
 }
 
 enum tof_cal_state tof_cal_boot(struct tof_record_store *store, struct tof_app *app) {
@@ -243,7 +279,7 @@ enum tof_cal_state tof_cal_recheck(const struct tof_record_store *store, struct 
     uint64_t running[CALIBRATION_SENSORS];
     tof_cal_running_parts(app, running);
     if (state == TOF_CAL_APPLIED) {
-        state = tof_cal_check(&bind, &app->cfg, running);
+        state = check_in_force(&bind, app, running);
     }
     if (state == TOF_CAL_APPLIED && tof_app_set_calibration(app, &cal) != 0) {
         state = TOF_CAL_REJECTED;
@@ -267,12 +303,13 @@ enum tof_cal_state tof_cal_write(struct tof_record_store *store, struct tof_app 
     static uint8_t stored[TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH];
     enum tof_cal_state state = TOF_CAL_VERSION;
     if (tof_cal_bind_parts(section, running, stored) == HAL_OK) {
+        tof_cal_bind_arm(stored, app->estimator.cfg.arm_um); /* written at the arm in force */
         state = tof_cal_decode(stored, (uint16_t)sizeof stored, &cal, &bind);
     } else if (section[0] != TOF_SECTION_CALIBRATION || body_length(section[1]) != 0u) {
         state = TOF_CAL_CORRUPT; /* not a calibration section, or a wrong length */
     }
     if (state == TOF_CAL_APPLIED) {
-        state = tof_cal_check(&bind, &app->cfg, running);
+        state = check_in_force(&bind, app, running);
     }
     if (state == TOF_CAL_NONE) {
         state = TOF_CAL_CORRUPT; /* not a calibration section at all */

@@ -234,17 +234,37 @@ static uint8_t estimator_result(int err) {
                : TLM_RESULT_STATE;
 }
 
-/* write-calibration (docs/telemetry.md): saved and in force, or refused as it stands. */
+/* write-calibration (docs/telemetry.md): saved and in force, or refused naming the cause.
+ * Refused as busy while a re-zero runs (its result would overwrite this one) or a record
+ * write is in progress (the record in use is about to change): never acknowledged and then
+ * lost. */
 static uint8_t write_calibration(struct tof_link *link, const uint8_t *section, int *error) {
+    if (link->rezero.wanted != 0u || link->save_pending) {
+        return TLM_RESULT_BUSY;
+    }
     const uint32_t age_before = age_hold(link);
     const enum tof_cal_state st = tof_cal_write(link->records, link->app, section, error);
     age_after_write(link, st, age_before);
-    if (st == TOF_CAL_APPLIED) {
+    switch (st) {
+    case TOF_CAL_APPLIED:
         link->cal_state = (uint8_t)st; /* what the status frame says from now on */
         return TLM_RESULT_OK;
+    case TOF_CAL_CORRUPT:
+    case TOF_CAL_VERSION:
+        return TLM_RESULT_OUT_OF_RANGE;
+    case TOF_CAL_OTHER_HEAD:
+        return TLM_RESULT_OTHER_HEAD;
+    case TOF_CAL_OTHER_PARTS:
+        return TLM_RESULT_OTHER_PARTS;
+    case TOF_CAL_OTHER_MODE:
+        return TLM_RESULT_OTHER_MODE;
+    case TOF_CAL_OTHER_BUDGET:
+        return TLM_RESULT_OTHER_BUDGET;
+    case TOF_CAL_OTHER_ARM:
+        return TLM_RESULT_OTHER_ARM;
+    default:
+        return TLM_RESULT_STATE; /* no storage, or the estimator refused it (*error says) */
     }
-    return st == TOF_CAL_CORRUPT || st == TOF_CAL_VERSION ? TLM_RESULT_OUT_OF_RANGE
-                                                          : TLM_RESULT_STATE;
 }
 
 /* re-zero: refused without a calibration in force or while one runs; else samples are
@@ -253,7 +273,10 @@ static uint8_t write_calibration(struct tof_link *link, const uint8_t *section, 
 static uint8_t start_rezero(struct tof_link *link, uint16_t samples) {
     struct calibration_head now;
     tof_app_get_calibration(link->app, &now);
-    if (!now.calibrated || link->rezero.wanted != 0u) {
+    if (link->rezero.wanted != 0u || link->save_pending) {
+        return TLM_RESULT_BUSY; /* one re-zero at a time; not while the record is written */
+    }
+    if (!now.calibrated) {
         return TLM_RESULT_STATE;
     }
     if (!tof_rezero_start(&link->rezero, samples)) {
@@ -280,6 +303,11 @@ static void send_calibration(struct tof_link *link) {
 static uint8_t apply_geometry(struct tof_link *link, const struct tlm_command *cmd, int *error) {
     if (cmd->type == TLM_TYPE_SET_ARM) {
         *error = tof_app_set_arm(link->app, (int32_t)cmd->u.arm_um);
+        if (*error == 0) {
+            /* the stored calibration holds at its own arm only (other-arm elsewhere); the
+             * status frame after the ack says which */
+            link->cal_state = (uint8_t)tof_cal_recheck(link->records, link->app);
+        }
         return estimator_result(*error);
     }
     const uint16_t budget_ms = link->app->cfg.timing.budget_ms;
@@ -363,6 +391,13 @@ static uint8_t apply(struct tof_link *link, const struct tlm_command *cmd, int *
     }
 }
 
+/* The commands whose ack a status frame follows: a status request, and set-arm and
+ * set-period, which can take the stored calibration out of force (or back into it). */
+static bool status_follows(uint8_t type) {
+    return type == TLM_TYPE_STATUS_REQUEST || type == TLM_TYPE_SET_ARM ||
+           type == TLM_TYPE_SET_PERIOD;
+}
+
 /* A retry of the command answered last (the same bytes: sequence, type and payload)? Then
  * answer it as before without applying it again: its answer was lost, not the command. */
 static bool answer_retry(struct tof_link *link, const struct tlm_frame *frame) {
@@ -373,7 +408,7 @@ static bool answer_retry(struct tof_link *link, const struct tlm_frame *frame) {
     }
     ++link->commands_repeated;
     answer(link, frame->seq, frame->type, link->last_result, link->last_error);
-    if (link->last_result == TLM_RESULT_OK && frame->type == TLM_TYPE_STATUS_REQUEST) {
+    if (link->last_result == TLM_RESULT_OK && status_follows(frame->type)) {
         tof_link_send_status(link);
     }
     if (link->last_result == TLM_RESULT_OK && frame->type == TLM_TYPE_READ_CALIBRATION) {
@@ -412,7 +447,7 @@ static void on_frame(void *ctx, const struct tlm_frame *frame) {
     memcpy(link->last_payload, frame->payload, link->last_length);
     link->last_result = result;
     link->last_error = (int8_t)error;
-    if (result == TLM_RESULT_OK && frame->type == TLM_TYPE_STATUS_REQUEST) {
+    if (result == TLM_RESULT_OK && status_follows(frame->type)) {
         tof_link_send_status(link);
     }
     if (result == TLM_RESULT_OK && frame->type == TLM_TYPE_READ_CALIBRATION) {

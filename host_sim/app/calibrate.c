@@ -13,6 +13,7 @@
 #include "firmware/config.h"
 #include "hal/hal_err.h"
 #include "replay_mode.h"
+#include "scene/geometry.h"
 #include "scene/trace.h"
 
 const char calibrate_help[] =
@@ -25,7 +26,11 @@ const char calibrate_help[] =
     "gain left at the parts' stated spread with its correlation to the offset written, so\n"
     "the sd is exact at the fixture's distance and grows away from it. The HEAD.cal is\n"
     "bound to the configuration the trace was recorded in: its '# distance_mode=' and\n"
-    "'# timing_budget_ms=', else the mode and budget host_sim replay would run it in.\n"
+    "'# timing_budget_ms=', else the mode and budget host_sim replay would run it in, and\n"
+    "to its arm_mm (written as arm_mm). The file ends with a checksum line of its content.\n"
+    "Nothing is written for a fit no VL53 part can have (offset beyond 100 mm, gain outside\n"
+    "0.9..1.1), whose station means fit another arm in every sensor (more than 5 sd from\n"
+    "arm_mm), or whose scatter ratio exceeds 100 (wrong station truths).\n"
     "options:\n"
     "  --out HEAD.cal       the head-calibration file (DESIGN.md section 6a); required\n"
     "  --report CAL.json    the fit per sensor and the residuals per station\n"
@@ -285,6 +290,131 @@ static int check_range(const char *trace, const struct calfit_result *res) {
     return rc;
 }
 
+/* The stations' means scattering about the fit this many times more (in variance) than
+ * their noise explains is not a head to calibrate but a wrong geometry: a wrong arm_mm (40 mm
+ * for a 30 mm head: 15-33 on 6 stations of 100 readings, 214-239 on the fixture's 20 of
+ * 750), or station truths that are not the fixture's. Correct fixtures stay far below it:
+ * 0.6-2.9 for the fixture, fixture-ar1, fixture-drift and fixture-one-distance scenarios
+ * (seeds 1-3), 9.8-44 for fixture-realnoise (recorded noise the model does not describe).
+ * A ratio between those and this bound only widens the stated sd (calfit.h). */
+#define GEOMETRY_SCATTER_MAX 100.0
+
+/* An arm error this many sd from 0 in every sensor, all of the same sign, is a wrong arm_mm.
+ * Chosen before looking: it refused none of 40 correct fixture traces (fixture, fixture-ar1,
+ * fixture-drift, fixture-realnoise, fixture-one-distance, seeds 1-8) and refuses the
+ * fixture (20 stations x 750 readings, arm 30 mm) stated at 32 mm or more (11.7 sd), and 6
+ * stations of 100 readings stated at 40 mm (5.5-11.5 sd). */
+#define ARM_ERROR_T_MIN 5.0
+
+/*
+ * Sensor k's station means fitted with an arm error as a third parameter: mean = g·x + o +
+ * c·u, u the change of the true distance x per mm of arm (scene_ideal_distances), by
+ * weighted least squares (weights 1/mean_sd²). *arm_err_mm = c/g, *t = c over its sd, the
+ * sd scaled by the reduced chi-square of this fit when above 1 (scatter the arm does not
+ * explain widens it). false when it cannot be fitted (fewer than 4 stations, singular).
+ */
+static bool arm_error(const struct calfit_data *d, unsigned k, const struct calfit_sensor *s,
+                      double *arm_err_mm, double *t) {
+    double m[3][3] = {{0}}, v[3] = {0};
+    unsigned n = 0;
+    for (size_t j = 0; j < d->n_stations; ++j) {
+        const struct calfit_station *st = &d->stations[j];
+        if (!st->used[k] || !(st->mean_sd_mm[k] > 0.0)) {
+            continue;
+        }
+        double x1[4];
+        scene_ideal_distances(d->arm_mm + 1.0, st->distance_mm, st->alpha_deg, st->beta_deg, x1);
+        const double f[3] = {st->x_mm[k], 1.0, x1[k] - st->x_mm[k]};
+        const double w = 1.0 / (st->mean_sd_mm[k] * st->mean_sd_mm[k]);
+        for (unsigned a = 0; a < 3u; ++a) {
+            v[a] += w * f[a] * st->mean_mm[k];
+            for (unsigned b = 0; b < 3u; ++b) {
+                m[a][b] += w * f[a] * f[b];
+            }
+        }
+        ++n;
+    }
+    /* the inverse by cofactors */
+    const double det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) -
+                       m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+                       m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+    if (n < 4u || !(fabs(det) > 0.0) || !s->dof) {
+        return false;
+    }
+    double inv[3][3];
+    for (unsigned a = 0; a < 3u; ++a) {
+        for (unsigned b = 0; b < 3u; ++b) {
+            const unsigned r0 = (b + 1u) % 3u, r1 = (b + 2u) % 3u;
+            const unsigned c0 = (a + 1u) % 3u, c1 = (a + 2u) % 3u;
+            inv[a][b] = (m[r0][c0] * m[r1][c1] - m[r0][c1] * m[r1][c0]) / det;
+        }
+    }
+    double p[3];
+    for (unsigned a = 0; a < 3u; ++a) {
+        p[a] = inv[a][0] * v[0] + inv[a][1] * v[1] + inv[a][2] * v[2];
+    }
+    double chi2 = 0.0;
+    for (size_t j = 0; j < d->n_stations; ++j) {
+        const struct calfit_station *st = &d->stations[j];
+        if (!st->used[k] || !(st->mean_sd_mm[k] > 0.0)) {
+            continue;
+        }
+        double x1[4];
+        scene_ideal_distances(d->arm_mm + 1.0, st->distance_mm, st->alpha_deg, st->beta_deg, x1);
+        const double r =
+            st->mean_mm[k] - (p[0] * st->x_mm[k] + p[1] + p[2] * (x1[k] - st->x_mm[k]));
+        chi2 += r * r / (st->mean_sd_mm[k] * st->mean_sd_mm[k]);
+    }
+    const double red = chi2 / (double)(n - 3u);
+    const double sd = sqrt(inv[2][2] * (red > 1.0 ? red : 1.0));
+    if (!(sd > 0.0) || !(p[0] > 0.0)) {
+        return false;
+    }
+    *arm_err_mm = p[2] / p[0];
+    *t = p[2] / sd;
+    return true;
+}
+
+/* A fit whose scatter says the geometry is wrong is an error naming the sensor and the
+ * figure: nothing written. Two ways: every sensor's station means fit a common arm error
+ * far beyond its sd (ARM_ERROR_T_MIN), or a scatter ratio beyond GEOMETRY_SCATTER_MAX.
+ * 0, or -1 after the message. */
+static int check_scatter(const char *trace, const struct calfit_data *d,
+                         const struct calfit_result *res) {
+    int rc = 0;
+    double err[4], t[4];
+    bool all = res->gains;
+    for (unsigned k = 0; k < 4u && all; ++k) {
+        all = arm_error(d, k, &res->sensor[k], &err[k], &t[k]) && fabs(t[k]) > ARM_ERROR_T_MIN &&
+              (t[k] > 0.0) == (t[0] > 0.0);
+    }
+    for (unsigned k = 0; k < 4u && all; ++k) {
+        fprintf(stderr,
+                "host_sim calibrate: %s: sensor %c: scatter ratio %.1f over %u dof; its station "
+                "means fit an arm of %.3f mm (%.1f sd from the trace's arm_mm %.6g, every "
+                "sensor alike): the trace's arm_mm is not the head's: nothing written\n",
+                trace, 'A' + k, res->sensor[k].chi2_red, res->sensor[k].dof, d->arm_mm + err[k],
+                fabs(t[k]), d->arm_mm);
+        rc = -1;
+    }
+    if (rc != 0) {
+        return rc;
+    }
+    for (unsigned k = 0; k < 4u; ++k) {
+        const struct calfit_sensor *s = &res->sensor[k];
+        if (s->dof > 0u && !(s->chi2_red <= GEOMETRY_SCATTER_MAX)) {
+            fprintf(stderr,
+                    "host_sim calibrate: %s: sensor %c: scatter ratio %.1f over %u dof (more "
+                    "than %.0f): the station means do not fit any offset and gain at arm_mm "
+                    "%.6g; check the trace's arm_mm and the stations' alpha, beta, distance: "
+                    "nothing written\n",
+                    trace, 'A' + k, s->chi2_red, s->dof, GEOMETRY_SCATTER_MAX, d->arm_mm);
+            rc = -1;
+        }
+    }
+    return rc;
+}
+
 static void summary(const char *trace, const struct calfit_data *d, const struct calfit_result *res,
                     const struct cal_binding *b) {
     fprintf(stderr,
@@ -344,8 +474,10 @@ int calibrate_main(int argc, char **argv) {
     }
     if (rc == 0) {
         summary(a.trace, &d, &res, &bind);
-        rc = check_range(a.trace, &res) == 0 && write_cal(a.out, a.trace, &d, &res, &bind) == 0 ? 0
-                                                                                                : 1;
+        rc = check_range(a.trace, &res) == 0 && check_scatter(a.trace, &d, &res) == 0 &&
+                     write_cal(a.out, a.trace, &d, &res, &bind) == 0
+                 ? 0
+                 : 1;
     }
     if (rc == 0 && a.report != NULL) {
         FILE *f = fopen(a.report, "wb");

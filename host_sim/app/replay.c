@@ -289,8 +289,15 @@ static int run(struct replay *r) {
     r->cal_state = (int)tof_cal_boot(&r->records, &r->app);
     if (r->cal.cal.calibrated &&
         (r->cal_state == TOF_CAL_OTHER_MODE || r->cal_state == TOF_CAL_OTHER_HEAD ||
-         r->cal_state == TOF_CAL_OTHER_PARTS)) {
-        if (r->cal_state == TOF_CAL_OTHER_PARTS) {
+         r->cal_state == TOF_CAL_OTHER_PARTS || r->cal_state == TOF_CAL_OTHER_BUDGET ||
+         r->cal_state == TOF_CAL_OTHER_ARM)) {
+        if (r->cal_state == TOF_CAL_OTHER_ARM) {
+            fprintf(stderr,
+                    "host_sim replay: warning: %s was made at another arm (its arm_mm key) than "
+                    "this replay's %.3f mm: not applied, as the flight unit would refuse it "
+                    "(other-arm); the head is uncalibrated\n",
+                    r->cal.source, r->app_cfg.estimator.arm_um / 1000.0);
+        } else if (r->cal_state == TOF_CAL_OTHER_PARTS) {
             fprintf(stderr,
                     "host_sim replay: warning: %s was made with other parts (its part_id_A..D "
                     "keys) than the simulated head's: not applied, as the flight unit would "

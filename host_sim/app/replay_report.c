@@ -3,6 +3,7 @@
 
 #include <errno.h>
 #include <string.h>
+#include "firmware/calibration_record.h"
 
 /* The time base in words: where the period the replay runs at came from. */
 static const char *time_base(const struct replay *r, char *buf, size_t len) {
@@ -122,12 +123,13 @@ static void write_calibration(FILE *f, const struct replay *r, unsigned e) {
 /* The head's calibration as the firmware's boot put it into the estimator's configuration
  * (attitude_config.calibration), and where it came from. */
 static void write_head_calibration(FILE *f, const struct replay *r) {
-    static const char *const states[] = {"none",     "applied",    "corrupt",
-                                         "version",  "other-head", "other-mode",
-                                         "rejected", "no-storage", "other-parts"};
+    static const char *const states[] = {"none",        "applied",      "corrupt",  "version",
+                                         "other-head",  "other-mode",   "rejected", "no-storage",
+                                         "other-parts", "other-budget", "other-arm"};
     const struct calibration_head *c = &r->app.estimator.cfg.calibration;
     fprintf(f, "  \"calibration\": {\"source\": \"%s\", \"state\": \"%s\", \"calibrated\": %s",
-            r->cal.source, r->cal_state >= 0 && r->cal_state <= 8 ? states[r->cal_state] : "?",
+            r->cal.source,
+            r->cal_state >= 0 && r->cal_state <= TOF_CAL_STATE_LAST ? states[r->cal_state] : "?",
             c->calibrated ? "true" : "false");
     const char *const names[5] = {"offset_um", "gain_ppm", "offset_sd_um", "gain_sd_ppm",
                                   "offset_gain_corr_q15"};

@@ -120,6 +120,20 @@ static void test_write_reads_back(void **state) {
         assert_true(fabs(back.gain_sd[k] - cal.gain_sd[k]) <= 1e-12);
     }
     assert_string_equal(head_cal_extra(&back, "stations"), "20");
+    assert_true(back.checksummed);
+    /* Its checksum line catches a cut and an edit, naming the line (DESIGN.md §6a). */
+    assert_int_equal(head_cal_parse(buf, (size_t)len - 3u, "w.cal", &back, err, sizeof err), -1);
+    assert_non_null(strstr(err, "the file was cut"));
+    char *digit = strstr(buf, "offset_mm=-3.");
+    assert_non_null(digit);
+    digit[11] = '4'; /* -3.1 -> -4.1: the same length, a different head */
+    assert_int_equal(head_cal_parse(buf, (size_t)len, "w.cal", &back, err, sizeof err), -1);
+    assert_non_null(strstr(err, "does not match the content before it"));
+    assert_true(strncmp(err, "w.cal:8:", 8u) == 0);
+    /* a file without one (written before checksums) reads as it stands */
+    static const char v1[] = "# tof-head-cal v1\n# offset_mm=1,2,3,4\n# offset_sd_mm=1,1,1,1\n";
+    assert_int_equal(head_cal_parse(v1, sizeof v1 - 1u, "v1.cal", &back, err, sizeof err), 0);
+    assert_false(back.checksummed);
     /* Offsets only: no gain keys are written. */
     cal.has_gain = false;
     f = fmemopen(buf, sizeof buf, "w");

@@ -157,7 +157,7 @@ static void test_another_section_version_is_not_applied(void **state) {
     const struct tof_cal_binding b = mine();
     uint8_t section[TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH];
     assert_int_equal(tof_cal_encode(&cal, true, &b, section), HAL_OK);
-    section[1] = 3u; /* a later firmware's layout */
+    section[1] = 4u; /* a later firmware's layout */
     assert_int_equal(tof_section_save(&store, section), HAL_OK);
     assert_int_equal(boot(), TOF_CAL_VERSION);
     assert_uncalibrated();
@@ -188,7 +188,7 @@ static void test_another_mode_or_budget_is_not_applied(void **state) {
     b = mine();
     b.budget_ms = (uint16_t)(b.budget_ms + 1u);
     save_cal(&cal, true, &b);
-    assert_int_equal(boot(), TOF_CAL_OTHER_MODE);
+    assert_int_equal(boot(), TOF_CAL_OTHER_BUDGET);
     assert_uncalibrated();
 }
 
@@ -269,7 +269,7 @@ static void test_version_2_keeps_the_parts_identities(void **state) {
     assert_int_equal(tof_cal_encode(&cal, true, &b, wire), HAL_OK);
     assert_int_equal(tof_cal_bind_parts(wire, b.part_id, s), HAL_OK);
     assert_int_equal(s[0], TOF_SECTION_CALIBRATION);
-    assert_int_equal(s[1], 2u);
+    assert_int_equal(s[1], 3u);
     assert_int_equal(s[2] | s[3] << 8, TOF_CALIBRATION_LENGTH);
     assert_memory_equal(&s[TOF_SECTION_HEADER], &wire[TOF_SECTION_HEADER], 80u); /* v1's bytes */
     struct calibration_head out;

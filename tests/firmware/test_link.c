@@ -745,7 +745,7 @@ static void test_arm_and_period_by_command_and_kept(void **state) {
     assert_int_equal(t.acks, 4);
     assert_int_equal(t.last_status.arm_um, 45250u);
     assert_int_equal(t.last_status.period_ms, 33u);
-    assert_int_equal(t.last_status.calibration, TLM_CAL_OTHER_MODE); /* made at budget 15 */
+    assert_int_equal(t.last_status.calibration, TLM_CAL_OTHER_BUDGET); /* made at budget 15 */
     assert_false(t.app.estimator.cfg.calibration.calibrated);
     assert_int_equal(t.app.estimator.cfg.arm_um, 45250);
     assert_int_equal(t.app.estimator.cfg.period_us, 33000u);
@@ -783,7 +783,7 @@ static void test_arm_and_period_by_command_and_kept(void **state) {
     assert_int_equal(t.last_status.record, TLM_RECORD_LOADED);
     assert_int_equal(t.last_status.arm_um, 45250u);
     assert_int_equal(t.last_status.period_ms, 33u);
-    assert_int_equal(t.last_status.calibration, TLM_CAL_OTHER_MODE);
+    assert_int_equal(t.last_status.calibration, TLM_CAL_OTHER_BUDGET);
     assert_int_equal(t.app.estimator.cfg.kalman_process_noise_um2[0], 66000u);
     const uint32_t after_boot = t.app.counters.samples;
     run_ms(3300);
@@ -821,7 +821,7 @@ static void test_a_saved_calibration_is_applied_at_boot(void **state) {
     store_offsets_calibration(&b);
     setup(NULL);
     boot_with_records();
-    assert_int_equal(t.last_status.calibration, TLM_CAL_OTHER_MODE);
+    assert_int_equal(t.last_status.calibration, TLM_CAL_OTHER_BUDGET);
     assert_false(t.app.estimator.cfg.calibration.calibrated);
 }
 
@@ -915,9 +915,16 @@ static void test_rezero_refits_the_offsets(void **state) {
     push_command(&cmd, 2);
     cmd = (struct tlm_command){.type = TLM_TYPE_REZERO, .u.rezero_samples = 50};
     push_command(&cmd, 3);
+    /* a calibration while the re-zero runs: refused as busy (its result would overwrite
+     * this one), never acknowledged and then lost */
+    cmd = (struct tlm_command){.type = TLM_TYPE_WRITE_CALIBRATION};
+    assert_int_equal(tof_cal_encode(&cal, true, &b, cmd.u.cal_section), HAL_OK);
+    push_command(&cmd, 4);
     t.raw = t.calibrations = 0;
     run_ms(50u * 20u + 200u);
     decode_output();
+    assert_int_equal(t.acks, 2); /* the calibration and the re-zero; not the one during it */
+    assert_int_equal(t.last_nack_result, TLM_RESULT_BUSY);
     assert_int_equal(t.raw, 0);
     assert_int_equal(t.calibrations, 1);
     assert_int_equal(t.last_calibration.state, TLM_CAL_APPLIED);
@@ -939,6 +946,37 @@ static void test_rezero_refits_the_offsets(void **state) {
     boot_with_records();
     assert_int_equal(t.last_status.calibration, TLM_CAL_APPLIED);
     assert_int_equal(t.app.estimator.cfg.calibration.offset_um[2], now.offset_um[2]);
+}
+
+/* The arm is part of the calibration: one written at 30 mm is bound to it; set-arm 40 takes
+ * it out of force (the status frame after the ack says other-arm, the head uncalibrated),
+ * set-arm 30 puts it back. */
+static void test_set_arm_takes_the_calibration_out_of_force(void **state) {
+    (void)state;
+    assert_int_equal(sim_flash_init(&saved_flash, 2u, 2048u), HAL_OK);
+    boot_with_records();
+    const struct calibration_head cal = {.calibrated = true,
+                                         .offset_um = {1500, -800, -1200, 600},
+                                         .offset_sd_um = {40, 40, 40, 40}};
+    struct tlm_command cmd = {.type = TLM_TYPE_WRITE_CALIBRATION};
+    const struct tof_cal_binding b = tof_cal_binding_of(&t.app.cfg);
+    assert_int_equal(tof_cal_encode(&cal, false, &b, cmd.u.cal_section), HAL_OK);
+    push_command(&cmd, 1);
+    cmd = (struct tlm_command){.type = TLM_TYPE_SET_ARM, .u.arm_um = 40000u};
+    push_command(&cmd, 2);
+    run_ms(100);
+    decode_output();
+    assert_int_equal(t.nacks, 0);
+    assert_int_equal(t.acks, 2);
+    assert_int_equal(t.last_status.arm_um, 40000u);
+    assert_int_equal(t.last_status.calibration, TLM_CAL_OTHER_ARM);
+    assert_false(t.app.estimator.cfg.calibration.calibrated);
+    cmd = (struct tlm_command){.type = TLM_TYPE_SET_ARM, .u.arm_um = 30000u};
+    push_command(&cmd, 3);
+    run_ms(100);
+    decode_output();
+    assert_int_equal(t.last_status.calibration, TLM_CAL_APPLIED);
+    assert_true(t.app.estimator.cfg.calibration.calibrated);
 }
 
 static void test_save_without_storage_is_refused(void **state) {
@@ -979,6 +1017,7 @@ int main(void) {
         cmocka_unit_test_setup(test_a_saved_calibration_is_applied_at_boot, setup),
         cmocka_unit_test_setup(test_write_and_read_calibration_by_command, setup),
         cmocka_unit_test_setup(test_rezero_refits_the_offsets, setup),
+        cmocka_unit_test_setup(test_set_arm_takes_the_calibration_out_of_force, setup),
         cmocka_unit_test_setup(test_save_without_storage_is_refused, setup),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -527,7 +527,7 @@ static void test_raw_health_ack_status_validation(void **state) {
 
     const struct tlm_ack good_ack = {.echo_seq = 0, .command = TLM_TYPE_STOP, .result = 0};
     assert_int_equal(tlm_encode_ack(0, &good_ack, out, sizeof out), 11);
-    out[5 + 2] = 5; /* result */
+    out[5 + 2] = TLM_RESULT_LAST + 1; /* result */
     frame = raw_frame(TLM_TYPE_ACK, &out[5], TLM_LEN_ACK);
     assert_int_equal(tlm_parse_telemetry(&frame, &msg, NULL), TLM_RESULT_OUT_OF_RANGE);
     /* The error code: negative, carried unchanged by a nack, never in an ack. */
@@ -548,8 +548,8 @@ static void test_raw_health_ack_status_validation(void **state) {
     assert_int_equal(tlm_encode_ack(0, &ack_with_error, out, sizeof out), HAL_ERR_INVALID);
 
     const size_t status_bytes[] = {3, 10, 11, 12, 13, 16, 17, 20, 26};
-    const uint8_t status_bad[] = {
-        TLM_PROTOCOL_VERSION + 1u, 2, 4, 2, 2, 6, 9, 0x10, 4}; /* protocol,
+    const uint8_t status_bad[] = {TLM_PROTOCOL_VERSION + 1u, 2, 4, 2, 2, 6,
+                                  TLM_CAL_STATE_LAST + 1u,   0x10, 4}; /* protocol,
 mode, estimator, bools, record state, calibration state, arm > 1000 mm, age state */
     for (size_t i = 0; i < 9; ++i) {
         status = sample_status();

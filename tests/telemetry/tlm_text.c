@@ -11,14 +11,15 @@ static const char *const estimator_names[] = {"consensus", "consensus-paper", "k
 static const char *const status_names[] = {"ok", "degraded", "invalid"};
 static const char *const record_names[] = {"none",    "loaded",   "corrupt",
                                            "version", "rejected", "no-storage"};
-static const char *const cal_names[] = {"none",     "applied",    "corrupt",
-                                        "version",  "other-head", "other-mode",
-                                        "rejected", "no-storage", "other-parts"};
+static const char *const cal_names[] = {"none",        "applied",      "corrupt",  "version",
+                                        "other-head",  "other-mode",   "rejected", "no-storage",
+                                        "other-parts", "other-budget", "other-arm"};
 static const char *const cal_age_names[] = {"none", "kept", "unknown", "failed"};
 static const char *const health_names[] = {"healthy", "suspect", "lost", "recovering"};
 static const char *const mode_names[] = {"tumbling", "sliding"};
-static const char *const result_names[] = {"ok", "unknown-type", "bad-length", "out-of-range",
-                                           "state"};
+static const char *const result_names[] = {
+    "ok",          "unknown-type", "bad-length",   "out-of-range", "state", "other-head",
+    "other-parts", "other-mode",   "other-budget", "other-arm",    "busy"};
 
 /* value / 10^digits as exact decimal text, e.g. -1500000, 6 -> "-1.500000". */
 static void print_fixed(FILE *out, int32_t value, int digits) {

@@ -100,7 +100,7 @@ class TelemetryTest(unittest.TestCase):
         self.assertEqual((result, fields["state"]), (t.R_OK, 1))
         self.assertEqual(t.parse(t.T_CALIBRATION, bytes([0]) + bytes(84))[1], t.R_OK)
         self.assertEqual(t.parse(t.T_CALIBRATION, bytes([8]) + bytes(84))[1], t.R_OK)  # other-parts
-        self.assertEqual(t.parse(t.T_CALIBRATION, bytes([9]) + bytes(84))[1], t.R_OUT_OF_RANGE)
+        self.assertEqual(t.parse(t.T_CALIBRATION, bytes([len(t.CAL_STATES)]) + bytes(84))[1], t.R_OUT_OF_RANGE)
         self.assertEqual(t.parse(t.T_WRITE_CALIBRATION, bytes(84))[1], t.R_OUT_OF_RANGE)
         status, result = t.parse(t.T_STATUS, bytes([0, 1, 0, t.PROTOCOL_VERSION]) + struct.pack(
             "<IHBBBBHBBIIB", 1000, 100, 0, 0, 1, 0, 20, 0, 5, 30000, 7200, 1))
@@ -161,3 +161,63 @@ class TelemetryTest(unittest.TestCase):
 
 if __name__ == "__main__":
     unittest.main()
+
+
+class ChecksumTest(unittest.TestCase):
+    """HEAD.cal's last line: the CRC-32 of the content before it (DESIGN.md section 6a)."""
+
+    def test_written_files_read_back_without_warning(self):
+        text = c.section_to_head_cal(FIRMWARE_SECTION, "unit")
+        self.assertRegex(text.splitlines()[-1], r"^# checksum=crc32:[0-9a-f]{8}$")
+        warn = io.StringIO()
+        c.check_checksum(text, "back.cal", warn)
+        self.assertEqual(warn.getvalue(), "")
+        self.assertEqual(c.head_cal_to_section(text, "back.cal"), FIRMWARE_SECTION)
+
+    def test_the_crc_is_zlibs_and_head_cal_cs(self):
+        # CRC-32/IEEE check value, as head_cal.c's crc32_of() computes it
+        self.assertEqual(c.with_checksum("123456789")[9:], "# checksum=crc32:cbf43926\n")
+
+    def test_cut_or_edited_is_an_error_naming_the_line(self):
+        text = c.section_to_head_cal(FIRMWARE_SECTION, "unit")
+        with self.assertRaisesRegex(c.CalibrationError, r"^cut.cal:\d+: the last line has no "
+                                                        r"line end: the file was cut"):
+            c.check_checksum(text[:-3], "cut.cal")
+        cut_line = text[:text.rindex("# checksum")]  # the whole checksum line gone: a v1 file
+        with self.assertRaisesRegex(c.CalibrationError, r"edited.cal:11: checksum crc32:\w+ "
+                                                        r"does not match"):
+            c.check_checksum(text.replace("head_id=7", "head_id=8"), "edited.cal")
+        with self.assertRaisesRegex(c.CalibrationError, r"joined.cal:12: content after the "
+                                                        r"checksum line"):
+            c.check_checksum(text + "# gain=1,1,1,1\n", "joined.cal")
+        warn = io.StringIO()
+        c.check_checksum(cut_line, "v1.cal", warn)
+        self.assertIn("v1.cal: no checksum line", warn.getvalue())
+
+    def test_binary_file_is_refused_naming_the_line(self):
+        with tempfile.TemporaryDirectory() as d:
+            path = os.path.join(d, "bin.cal")
+            with open(path, "wb") as f:
+                f.write(b"# tof-head-cal v1\n# x\x00y\n")
+            with self.assertRaisesRegex(c.CalibrationError, r"bin.cal:2: NUL byte"):
+                c.read_text_file(path)
+
+
+class RefusalTest(unittest.TestCase):
+    def test_nacks_name_cause_and_remedy(self):
+        for result in range(5, len(t.RESULTS)):
+            text = t.nack_text({"result": result, "error": 0})
+            self.assertIn(t.RESULTS[result] + ": ", text)
+            self.assertIn(t.CAUSES[t.RESULTS[result]], text)
+
+    def test_a_restart_is_not_counted_as_lost_frames(self):
+        out = io.StringIO()
+        p = t.Printer(out)
+        status = struct.pack("<BBBBIHBBBBHBBI", 0, 1, 0, t.PROTOCOL_VERSION, 5000, 100, 0, 0,
+                             1, 0, 20, 0, 1, 30000)
+        p.handle(("frame", t.T_STATUS, 0, status), {})
+        p.handle(("frame", t.T_STATUS, 7, status), {})
+        boot = status[:4] + struct.pack("<I", 130) + status[8:]
+        p.handle(("frame", t.T_STATUS, 0, boot), {})
+        self.assertEqual((p.lost_frames, p.reboots), (6, 1))
+        self.assertIn("the unit restarted (boot status, uptime 130 ms)", out.getvalue())

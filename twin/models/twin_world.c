@@ -23,10 +23,10 @@ static int row_next(void *ctx, unsigned sensor, uint32_t sample_index, struct si
         *out = (struct sim_range){.present = false};
         return 0;
     }
-    if ((uint64_t)row >= w->row_count) {
+    if ((uint64_t)row >= w->row_count && !w->loop) {
         return 1; /* the trace is over */
     }
-    const struct scene_row *r = &w->rows[row];
+    const struct scene_row *r = &w->rows[(uint64_t)row % w->row_count];
     *out = (struct sim_range){.distance_mm = r->range_mm[sensor],
                               .range_status = r->status[sensor],
                               .present = r->present[sensor]};

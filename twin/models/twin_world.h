@@ -30,6 +30,7 @@ struct twin_world {
      * begins at boot_origin_us and is trace row boot_row. */
     uint64_t boot_origin_us;
     int64_t boot_row;
+    bool loop; /* after the last row, row 0 again (tof_twin --pty: the sensors never run dry) */
     int source_error;
     FILE *i2c_log;
     uint64_t transfers;

@@ -4,12 +4,15 @@
  *   tof_twin FIRMWARE.elf TRACE.csv [--estimator NAME] [--window N] [--mode tumbling|sliding]
  *            [--faults SPEC] [--seed S] --out EST.csv [--uart-out CAPTURE.bin]
  *            [--i2c-log BUS.csv] [--strict] [--coverage FILE] [--report FILE.json]
- *            [--hsi-fail] [--spurious-berr PPM] [--max-sim-s S]
+ *            [--hsi-fail] [--spurious-berr PPM] [--max-sim-s S] [--calibration HEAD.cal]
+ *            [--command ROW:TEXT]... [--save] [--flash-cut N] [--flash-in F] [--flash-out F]
+ *   tof_twin FIRMWARE.elf TRACE.csv --pty [...]   (USART2 on a pseudo-terminal: `pty PATH`)
  *
  * This file sets the run up and runs it; the options are read by tof_twin_args.c, the
  * firmware's UART telemetry is decoded by tof_twin_host.c with the project's decoder
  * (firmware/telemetry) and written through firmware/est_csv, the rows host_sim writes, and
- * tof_twin_report.c writes the summary, report and coverage.
+ * tof_twin_report.c writes the summary, report and coverage; tof_twin_pty.c puts the line on
+ * a pseudo-terminal.
  */
 #include <errno.h>
 #include <math.h>
@@ -159,8 +162,25 @@ static int preload_records(struct run *r) {
         return -1;
     }
     uint8_t *mem = &r->t.flash[TWIN_RECORDS_BASE - TWIN_FLASH_BASE + TWIN_RECORD_PAGE_AT];
-    /* bound as the HEAD.cal states (head, mode, budget): the flight image's boot refuses
-     * what a flight unit would, and the report's calibration_state says so */
+    /* A unit's storage (--flash-in) is never overwritten from the trace's keys: only by an
+     * explicit --calibration, and then it says so. */
+    if (r->a.flash_in != NULL && r->a.calibration == NULL && cal.cal.calibrated) {
+        fprintf(stderr,
+                "tof_twin: note: %s: the trace's calibration keys are not written over the "
+                "unit's storage from --flash-in %s: the unit runs with the calibration it "
+                "stores; pass --calibration HEAD.cal to write one\n",
+                r->a.trace, r->a.flash_in);
+        cal.cal.calibrated = false;
+    } else if (r->a.flash_in != NULL && cal.cal.calibrated) {
+        fprintf(stderr,
+                "tof_twin: note: --calibration %s written into the unit's storage from "
+                "--flash-in %s (record section 2, in place of any calibration there)\n",
+                r->a.calibration, r->a.flash_in);
+    }
+    r->cal_preloaded = cal.cal.calibrated;
+    snprintf(r->cal_source, sizeof r->cal_source, "%s", cal.source);
+    /* bound as the HEAD.cal states (head, mode, budget, arm): the flight image's boot
+     * refuses what a flight unit would, and the report's calibration_state says so */
     if (cal_apply_preload(&cal.cal, &r->cfg, &cal.made_in, mem, &flash, &store) != 0) {
         return -1;
     }
@@ -177,6 +197,12 @@ static int preload_records(struct run *r) {
             .period_ms = (uint16_t)r->cfg.timing.inter_measurement_ms,
         };
         (void)tof_record_load(&store); /* the record in use, whose other sections are kept */
+        if (r->a.flash_in != NULL) {
+            fprintf(stderr,
+                    "tof_twin: note: %s: arm_mm %.3f, period_ms %u written into the unit's "
+                    "settings from --flash-in %s (as set-arm, set-period and save would)\n",
+                    r->a.trace, r->meta.arm_mm, (unsigned)s.period_ms, r->a.flash_in);
+        }
         if (tof_settings_save(&store, &s) != HAL_OK) {
             fprintf(stderr, "tof_twin: internal: the settings do not make a record\n");
             return -1;
@@ -189,6 +215,9 @@ static int preload_records(struct run *r) {
 
 /* EST.csv with its header, the UART capture and the I2C log if asked for. 0, or -1. */
 static int open_outputs(struct run *r) {
+    if (r->a.out == NULL) {
+        return 0; /* --pty: the rows go to the host on the line */
+    }
     r->est = fopen(r->a.out, "w");
     if (r->est == NULL || fputs(TOF_EST_CSV_HEADER, r->est) == EOF) {
         fprintf(stderr, "tof_twin: %s: %s\n", r->a.out, strerror(errno));
@@ -213,6 +242,7 @@ static int open_outputs(struct run *r) {
  * power-on reset. */
 static void wire(struct run *r, uint32_t period_ms, const struct sim_fault_config *faults) {
     twin_world_init(&r->w, r->rows, r->row_count, period_ms * 1000u, faults);
+    r->w.loop = r->a.pty;
     r->t.world = &r->w;
     r->t.rcc.hsi_broken = r->a.hsi_fail;
     r->t.i2c.spurious_berr_ppm = r->a.spurious_berr_ppm;
@@ -228,7 +258,7 @@ static void wire(struct run *r, uint32_t period_ms, const struct sim_fault_confi
 }
 
 static uint64_t end_us(const struct run *r) {
-    if (!r->w.origin_set) {
+    if (!r->w.origin_set || r->a.pty) {
         return UINT64_MAX;
     }
     /* Every trace row measured, its estimate sent (one health frame is ~20 ms of UART). */
@@ -287,7 +317,10 @@ static int judge(const struct run *r, bool finished, double max_s) {
 /* Close the outputs, write coverage, summary and report. The exit status. */
 static int finish(struct run *r, bool finished, double max_s, double host_s) {
     int rc = judge(r, finished, max_s);
-    fclose(r->est);
+    if (r->est != NULL) {
+        fclose(r->est);
+    }
+    tof_twin_pty_close(r);
     if (r->uart != NULL) {
         fclose(r->uart);
     }
@@ -311,6 +344,7 @@ static int finish(struct run *r, bool finished, double max_s, double host_s) {
 
 int main(int argc, char **argv) {
     struct run *r = &R;
+    r->pty.fd = -1;
     if (tof_twin_parse_args(argc, argv, &r->a) != 0 || select_estimator(r) != 0) {
         return 2;
     }
@@ -332,13 +366,20 @@ int main(int argc, char **argv) {
     if (load_firmware(r) != 0 || preload_records(r) != 0 || open_outputs(r) != 0) {
         return 1;
     }
+    if (r->a.pty && tof_twin_pty_open(r) != 0) {
+        return 1;
+    }
     wire(r, period_ms, &faults);
 
+    /* --pty runs until a signal (or --max-sim-s): 10^6 s bound the simulated time. */
     const double trace_s = (double)r->row_count * period_ms / 1000.0;
-    const double max_s = r->a.max_sim_s > 0.0 ? r->a.max_sim_s : trace_s + 30.0;
+    const double max_s = r->a.max_sim_s > 0.0 ? r->a.max_sim_s : r->a.pty ? 1e6 : trace_s + 30.0;
     const clock_t c0 = clock();
     run_to_end(r, (uint64_t)(max_s * 1e12));
     const double host_s = (double)(clock() - c0) / CLOCKS_PER_SEC;
-    const bool finished = r->t.stop == TWIN_STOP_LIMIT && twin_now_us(&r->t) >= end_us(r);
+    const bool finished = r->a.pty
+                              ? tof_twin_pty_stopped_by_signal(r) ||
+                                    (r->t.stop == TWIN_STOP_LIMIT && r->a.max_sim_s > 0.0)
+                              : r->t.stop == TWIN_STOP_LIMIT && twin_now_us(&r->t) >= end_us(r);
     return finish(r, finished, max_s, host_s);
 }

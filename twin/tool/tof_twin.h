@@ -1,8 +1,9 @@
 /*
  * The tof_twin command-line tool's own state, shared by its files: the options
  * (tof_twin_args.c), the host side of the UART that decodes the firmware's telemetry into
- * EST.csv rows (tof_twin_host.c), the coverage file, summary and report (tof_twin_report.c)
- * and the run itself (main.c). The twin (struct twin, twin.h) knows nothing of it.
+ * EST.csv rows (tof_twin_host.c), the line on a pseudo-terminal (tof_twin_pty.c), the
+ * coverage file, summary and report (tof_twin_report.c) and the run itself (main.c). The
+ * twin (struct twin, twin.h) knows nothing of it.
  */
 #ifndef TWIN_TOF_TWIN_H
 #define TWIN_TOF_TWIN_H
@@ -39,6 +40,36 @@ struct host_command {
     bool answered;
 };
 
+/* A command frame a host sent over the pseudo-terminal, waiting for its answer. */
+struct pty_command {
+    uint8_t seq, type;
+    uint64_t last_byte_ps; /* its last stop bit ends then */
+};
+#define TOF_TWIN_PTY_PENDING 32u
+
+/* --pty: USART2 on a pseudo-terminal (tof_twin_pty.c). */
+struct tof_twin_pty {
+    int fd; /* the master, -1 without --pty */
+    char path[128];
+    bool line_open; /* a program has the slave open */
+    bool paced;     /* simulated time held to the host's clock */
+    int64_t anchor_host_ns;
+    uint64_t anchor_sim_ps; /* the pair of times pacing started from */
+    int64_t slept_ns, behind_max_ns;
+    uint8_t in[512];
+    size_t in_len; /* the host's bytes the receiver's queue could not take yet */
+    uint8_t out[8192];
+    size_t out_len;         /* the firmware's bytes for the host, written at the next poll */
+    uint64_t byte_end_ps;   /* the end of the host byte being decoded */
+    struct tlm_decoder dec; /* the host's command frames (ack latency) */
+    struct pty_command pending[TOF_TWIN_PTY_PENDING];
+    unsigned npending;
+    uint32_t opens, commands, answered, nacked;
+    uint64_t ack_latency_max_ps, ack_latency_sum_ps;
+    uint64_t bytes_in, bytes_out, dropped, unheard;
+    int stop_signal;
+};
+
 struct args {
     const char *elf, *trace, *out, *uart_out, *i2c_log, *coverage, *report, *faults;
     const char *estimator;
@@ -53,6 +84,7 @@ struct args {
     const char *calibration; /* --calibration HEAD.cal: preloaded as the record's section 2 */
     uint32_t spurious_berr_ppm;
     double max_sim_s;
+    bool pty; /* --pty: USART2 on a pseudo-terminal, the trace looping, until a signal */
     struct user_command commands[TOF_TWIN_USER_COMMANDS]; /* --command, in order */
     unsigned ncommands;
 };
@@ -100,6 +132,10 @@ struct run {
     struct tlm_status boot_status; /* the last boot's status frame (its saved settings) */
     bool save_sent;
     uint64_t health_frames;
+    struct tof_twin_pty pty;
+    bool cal_preloaded;   /* a calibration was written into the record pages (preload) */
+    char cal_source[320]; /* where it came from */
+    bool cal_warned;
 };
 
 /* ---- tof_twin_args.c ---- */
@@ -117,6 +153,27 @@ void tof_twin_on_uart_byte(void *ctx, uint8_t byte, uint64_t now_ps);
 /* The host's timers between emulation slices (struct twin host_poll, ctx: struct run): the
  * commands due, sent back to back at the line rate. */
 void tof_twin_host_poll(void *ctx);
+
+/* ---- tof_twin_pty.c: --pty ---- */
+
+/* The pseudo-terminal opened (raw, 115200 Bd), `pty PATH` on stdout, SIGINT and SIGTERM
+ * caught to end the run cleanly. 0, or -1 (message on stderr). */
+int tof_twin_pty_open(struct run *r);
+void tof_twin_pty_close(struct run *r);
+
+/* Between emulation slices: a line opened or closed, the host's bytes in, the firmware's
+ * out, and the pacing (sleeps while simulated time would run ahead of the host's clock). */
+void tof_twin_pty_poll(struct run *r);
+
+/* A byte the firmware sent, for the host on the line (dropped while none is open). */
+void tof_twin_pty_on_byte(struct run *r, uint8_t byte);
+
+/* An answer to a command the host sent over the line: true if it was one (its latency
+ * counted), false if not. */
+bool tof_twin_pty_answer(struct run *r, const struct tlm_ack *ack);
+
+/* The run was ended by SIGINT or SIGTERM (the way a --pty run ends). */
+bool tof_twin_pty_stopped_by_signal(const struct run *r);
 
 /* ---- tof_twin_report.c ---- */
 

@@ -9,13 +9,67 @@
 #include "tof_twin.h"
 
 static void usage(FILE *f) {
-    fputs("usage: tof_twin FIRMWARE.elf TRACE.csv [--estimator consensus|kalman|...] [--window N]\n"
-          "                [--mode tumbling|sliding] [--faults SPEC] [--seed S] --out EST.csv\n"
-          "                [--uart-out CAPTURE.bin] [--i2c-log BUS.csv] [--strict]\n"
-          "                [--coverage FILE] [--report FILE.json] [--hsi-fail]\n"
-          "                [--spurious-berr PPM] [--max-sim-s S] [--late-command]\n"
-          "                [--save] [--flash-cut N] [--flash-in FILE] [--flash-out FILE]\n"
-          "                [--calibration HEAD.cal] [--command ROW:TEXT]...\n",
+    fputs("usage: tof_twin FIRMWARE.elf TRACE.csv --out EST.csv [options]\n"
+          "       tof_twin FIRMWARE.elf TRACE.csv --pty [--flash-in FILE] [--flash-out FILE] "
+          "[options]\n"
+          "The flight ELF on the emulated STM32L476 against the simulated sensor head fed by "
+          "TRACE.csv\n"
+          "(README \"Digital twin\", DESIGN.md section 6). Its EST.csv rows equal host_sim "
+          "replay's.\n"
+          "\n"
+          "host_sim replay's options the flight image honours:\n"
+          "  --estimator NAME      consensus (default), consensus-paper, kalman or mean: the "
+          "rows of EST.csv\n"
+          "  --window N            2..255 (default 100, the image's; another needs "
+          "--late-command)\n"
+          "  --mode tumbling|sliding  (default tumbling; sliding needs --late-command)\n"
+          "  --faults SPEC         sensor and bus faults (host_sim replay --faults)\n"
+          "  --seed S              seed of the faults (default 0)\n"
+          "  --calibration HEAD.cal  the head's calibration, preloaded as the stored record's "
+          "section\n"
+          "                        (written to the record: says so on stderr; refused: says why)\n"
+          "  --command ROW:TEXT    a command (tof_telemetry.py --send syntax) sent when trace "
+          "row ROW\n"
+          "                        is sampled; repeatable, in order (at most 16)\n"
+          "  --i2c-log BUS.csv     every I2C transaction (t_us,addr,write,read,result)\n"
+          "Outputs:\n"
+          "  --out EST.csv         the estimates (required unless --pty)\n"
+          "  --uart-out CAPTURE.bin  every byte the firmware sent on USART2\n"
+          "  --report FILE.json    the run's figures (watchdog_resets, hardfaults, "
+          "loop_overruns,\n"
+          "                        loop_max_us, uart_overruns, commands_sent, commands_acked, "
+          "pty_*, ...)\n"
+          "  --coverage FILE       executed flash address ranges\n"
+          "The serial line:\n"
+          "  --pty                 USART2 on a pseudo-terminal: the first line on stdout is "
+          "`pty PATH`\n"
+          "                        (tools/tof_telemetry.py --port PATH). Simulated time never "
+          "runs\n"
+          "                        ahead of the host's clock while a line is open; with none "
+          "open the\n"
+          "                        twin runs free until the trace's first pass is over. The "
+          "trace\n"
+          "                        loops; the run ends on SIGINT or SIGTERM (or --max-sim-s), "
+          "then\n"
+          "                        writes --flash-out and --report\n"
+          "Storage (the record pages, 4096 bytes: settings and calibration):\n"
+          "  --flash-in FILE       the record pages at power-on (a unit's storage from an "
+          "earlier run)\n"
+          "  --flash-out FILE      the record pages at the end of the run\n"
+          "  --save                send `save` once the options' settings are in force\n"
+          "  --flash-cut N         power cut at the Nth flash erase or double-word program\n"
+          "The twin's own:\n"
+          "  --late-command        accept a window or mode the rows cannot match (they arrive "
+          "by command)\n"
+          "  --strict              stop at the first access the reference manual forbids\n"
+          "  --hsi-fail            HSI16 never becomes ready (the firmware's clock fallback)\n"
+          "  --spurious-berr PPM   errata ES0250 spurious BERR on PPM of the I2C bytes "
+          "(0..1000000)\n"
+          "  --max-sim-s S         stop after S seconds of simulated time (default: the trace "
+          "+ 30 s)\n"
+          "  --help, -h            this text\n"
+          "Exit status: 0 done; 1 the run or an output failed (message on stderr); 2 bad "
+          "options.\n",
           f);
 }
 
@@ -113,7 +167,11 @@ static int value_option(const char *o, char **argv, int *i, struct args *a) {
 /* The positionals and --out are given; a window or mode other than the flight image's
  * needs --late-command. 0, or -1 after a message. */
 static int check_settings(const struct args *a) {
-    if (a->elf == NULL || a->trace == NULL || a->out == NULL) {
+    if (a->elf == NULL || a->trace == NULL || (a->out == NULL && !a->pty)) {
+        fprintf(stderr, "tof_twin: %s\n",
+                a->elf == NULL     ? "missing FIRMWARE.elf"
+                : a->trace == NULL ? "missing TRACE.csv"
+                                   : "missing --out EST.csv (or --pty)");
         usage(stderr);
         return -1;
     }
@@ -158,6 +216,8 @@ int tof_twin_parse_args(int argc, char **argv, struct args *a) {
             a->late_command = true;
         } else if (strcmp(o, "--save") == 0) {
             a->save = true;
+        } else if (strcmp(o, "--pty") == 0) {
+            a->pty = true;
         } else if (o[0] == '-' && o[1] == '-' && !has) {
             fprintf(stderr, "tof_twin: %s needs a value\n", o);
             return -1;

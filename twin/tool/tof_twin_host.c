@@ -61,7 +61,9 @@ static void on_answer(struct run *r, const struct tlm_ack *ack) {
         }
     }
     if (k == r->nsent) {
-        ++r->commands_unmatched;
+        if (r->pty.fd < 0 || !tof_twin_pty_answer(r, ack)) {
+            ++r->commands_unmatched;
+        }
         return;
     }
     if (k != r->next_ack) {
@@ -148,6 +150,9 @@ static void on_estimate(struct run *r, const struct tlm_estimate *m) {
                                    ATTITUDE_WHY_MISSING(2) | ATTITUDE_WHY_MISSING(3);
     if ((e.why & missing) != 0u) {
         ++r->rows_missing; /* a reading lost: the sensor's data came too late or not at all */
+    }
+    if (r->est == NULL) {
+        return; /* --pty without --out */
     }
     char line[TOF_EST_CSV_ROW_MAX];
     struct tof_text txt;
@@ -247,6 +252,19 @@ static void on_frame(void *ctx, const struct tlm_frame *frame) {
         r->status_resets = r->t.stats.resets;
         ++r->boots;
         r->boot_status = *st;
+        if (r->cal_preloaded && !r->cal_warned && st->calibration != TLM_CAL_APPLIED) {
+            /* as host_sim replay warns: the flight image's boot refused it */
+            static const char *const state[] = {
+                "none",     "applied",    "corrupt",     "version",      "other-head", "other-mode",
+                "rejected", "no-storage", "other-parts", "other-budget", "other-arm"};
+            fprintf(stderr,
+                    "tof_twin: warning: %s: not applied by the flight image's boot "
+                    "(calibration=%s), as a flight unit would refuse it; the head is "
+                    "uncalibrated\n",
+                    r->cal_source,
+                    st->calibration <= TLM_CAL_STATE_LAST ? state[st->calibration] : "?");
+            r->cal_warned = true;
+        }
         /* What was sent before the reset and not answered is lost with it (a power cut during
          * `save`): no answer will come, the answers that come next are to this boot's. */
         for (unsigned k = 0; k < r->nsent; ++k) {
@@ -311,6 +329,9 @@ void tof_twin_host_poll(void *ctx) {
     if (r->nsent < r->ncmds) {
         send_queued(r);
     }
+    if (r->pty.fd >= 0) {
+        tof_twin_pty_poll(r);
+    }
 }
 
 static void on_reject(void *ctx, const struct tlm_reject *reject) {
@@ -323,6 +344,9 @@ void tof_twin_on_uart_byte(void *ctx, uint8_t byte, uint64_t now_ps) {
     r->now_ps = now_ps;
     if (r->uart != NULL) {
         fputc(byte, r->uart);
+    }
+    if (r->pty.fd >= 0) {
+        tof_twin_pty_on_byte(r, byte);
     }
     /* Text (boot banner, FAULT: lines) is what a terminal shows between frames. */
     if (byte == '\n') {

@@ -38,6 +38,16 @@ void tof_twin_print_summary(const struct run *r, bool finished, double host_s) {
             finished ? "done" : "FAILED", (double)twin_now_ps(&r->t) / 1e12, host_s, minsn,
             host_s > 0 ? minsn / host_s : 0.0, r->estimates, r->written, r->boots,
             r->t.stats.watchdog_resets, r->t.stats.hardfaults, r->unflagged_wrong);
+    const struct tof_twin_pty *p = &r->pty;
+    if (r->a.pty) {
+        fprintf(stderr,
+                "tof_twin: pty %s: %u opens, %u commands, %u answered (%u nacks), ack latency "
+                "max %.3f ms simulated, %" PRIu64 " bytes in, %" PRIu64 " out, %" PRIu64
+                " dropped, %.2f s slept\n",
+                p->path, p->opens, p->commands, p->answered, p->nacked,
+                (double)p->ack_latency_max_ps / 1e9, p->bytes_in, p->bytes_out, p->dropped,
+                (double)p->slept_ns / 1e9);
+    }
 }
 
 int tof_twin_write_report(const struct run *r, bool finished, double host_s) {
@@ -65,7 +75,13 @@ int tof_twin_write_report(const struct run *r, bool finished, double host_s) {
             " \"status_confirmed\": %u, \"rows_missing\": %" PRIu64 ", \"irqs\": %" PRIu64 ",\n"
             " \"record_state\": %u, \"calibration_state\": %u, \"boot_window\": %u,"
             " \"boot_sliding\": %u,"
-            " \"flash_erases\": %u, \"flash_programs\": %u, \"flash_cuts\": %u}\n",
+            " \"flash_erases\": %u, \"flash_programs\": %u, \"flash_cuts\": %u,\n"
+            " \"pty\": %s, \"pty_opens\": %u, \"pty_commands\": %u, \"pty_answered\": %u,"
+            " \"pty_nacked\": %u, \"pty_ack_latency_max_us\": %" PRIu64 ","
+            " \"pty_ack_latency_mean_us\": %" PRIu64 ",\n"
+            " \"pty_bytes_in\": %" PRIu64 ", \"pty_bytes_out\": %" PRIu64 ","
+            " \"pty_dropped\": %" PRIu64 ", \"pty_unheard\": %" PRIu64 ", \"pty_slept_s\": %.3f,"
+            " \"pty_behind_max_ms\": %.3f}\n",
             finished ? "true" : "false", finished ? "" : r->t.stop_msg,
             (double)twin_now_ps(&r->t) / 1e12, host_s, r->t.stats.instructions,
             host_s > 0 ? minsn / host_s : 0.0, r->t.stats.warps, r->t.stats.mmio_reads,
@@ -80,7 +96,11 @@ int tof_twin_write_report(const struct run *r, bool finished, double host_s) {
             r->status_confirmed, r->rows_missing, r->t.stats.irqs, r->boot_status.record,
             r->boot_status.calibration, r->boot_status.window_n,
             r->boot_status.mode == TLM_WINDOW_SLIDING ? 1u : 0u, r->t.flash_pe.erases,
-            r->t.flash_pe.programs, r->t.flash_pe.cuts);
+            r->t.flash_pe.programs, r->t.flash_pe.cuts, r->a.pty ? "true" : "false", r->pty.opens,
+            r->pty.commands, r->pty.answered, r->pty.nacked, r->pty.ack_latency_max_ps / 1000000u,
+            r->pty.answered > 0u ? r->pty.ack_latency_sum_ps / r->pty.answered / 1000000u : 0u,
+            r->pty.bytes_in, r->pty.bytes_out, r->pty.dropped, r->pty.unheard,
+            (double)r->pty.slept_ns / 1e9, (double)r->pty.behind_max_ns / 1e6);
     fclose(f);
     return 0;
 }

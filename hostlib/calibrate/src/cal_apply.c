@@ -3,6 +3,7 @@
 #include "calibrate/cal_apply.h"
 
 #include <errno.h>
+#include <math.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -51,6 +52,15 @@ static int read_binding(const struct head_cal *hc, const char *path, struct cal_
         }
         b->has_budget = true;
         b->budget_ms = (uint16_t)ms;
+    }
+    if ((v = head_cal_extra(hc, "arm_mm")) != NULL) {
+        const double mm = strtod(v, &end);
+        if (end == v || *end != '\0' || !(mm >= 1.0 && mm <= 1000.0)) {
+            snprintf(err, errlen, "%s: arm_mm '%s' is not a number 1..1000", path, v);
+            return -1;
+        }
+        b->has_arm = true;
+        b->arm_um = (int32_t)lround(mm * 1000.0);
     }
     for (unsigned i = 0; i < 4u; ++i) {
         char key[16];
@@ -189,6 +199,9 @@ int cal_apply_preload(const struct trace_v1_cal *cal, const struct tof_app_confi
         fprintf(stderr, "internal: the calibration does not make a record\n");
         return -1;
     }
+    /* bound to the arm it was made at: the file's, else the configuration's */
+    tof_cal_bind_arm(section,
+                     made_in != NULL && made_in->has_arm ? made_in->arm_um : cfg->estimator.arm_um);
     const int at = store->current < 0
                        ? -1
                        : tof_section_find(store->payload, store->length, TOF_SECTION_CALIBRATION);

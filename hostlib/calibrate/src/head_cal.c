@@ -4,6 +4,8 @@
 #include <errno.h>
 #include <math.h>
 #include <stdarg.h>
+#include <stdint.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -36,6 +38,21 @@ void head_cal_begin(struct head_cal_reader *r, const char *name) {
         snprintf(r->name, sizeof r->name, "...%s", name + n - (sizeof r->name - 4u));
     }
 }
+
+/* CRC-32, IEEE 802.3 polynomial 0xEDB88320 reflected, init and final xor 0xFFFFFFFF (the
+ * check value of "123456789" is 0xCBF43926). */
+static uint32_t crc32_of(const char *data, size_t len) {
+    uint32_t crc = 0xFFFFFFFFu;
+    for (size_t i = 0; i < len; ++i) {
+        crc ^= (uint8_t)data[i];
+        for (unsigned b = 0; b < 8u; ++b) {
+            crc = (crc >> 1) ^ (0xEDB88320u & (0u - (crc & 1u)));
+        }
+    }
+    return crc ^ 0xFFFFFFFFu;
+}
+
+#define CHECKSUM_PREFIX "# checksum=crc32:"
 
 static bool is_blank(char c) {
     return c == ' ' || c == '\t';
@@ -223,7 +240,8 @@ int head_cal_parse(const char *text, size_t len, const char *name, struct head_c
     if (len >= 3u && memcmp(text, "\xEF\xBB\xBF", 3u) == 0) {
         at = 3u; /* a UTF-8 byte-order mark, as some editors write */
     }
-    unsigned line = 0;
+    unsigned line = 0, checksum_line = 0u, after_checksum = 0u;
+    size_t checksum_at = 0u;
     int rc = 0;
     while (rc == 0 && at < len) {
         const char *nl = memchr(text + at, '\n', len - at);
@@ -246,13 +264,51 @@ int head_cal_parse(const char *text, size_t len, const char *name, struct head_c
             if (n != 17u || memcmp(s, "# tof-head-cal v1", 17u) != 0) {
                 rc = fail(r, 1u, 1u, "expected '# tof-head-cal v1' as the first line");
             }
+        } else if (n >= sizeof CHECKSUM_PREFIX - 1u &&
+                   memcmp(s, CHECKSUM_PREFIX, sizeof CHECKSUM_PREFIX - 1u) == 0) {
+            if (checksum_line != 0u) {
+                rc = fail(r, line, 1u, "a second checksum line (the first on line %u)",
+                          checksum_line);
+            }
+            checksum_line = line;
+            checksum_at = at;
         } else {
+            if (checksum_line != 0u && after_checksum == 0u) {
+                size_t k = 0;
+                while (k < n && is_blank(s[k])) {
+                    ++k;
+                }
+                after_checksum = k < n ? line : 0u;
+            }
             rc = parse_line(r, s, n, line);
         }
         at = next;
     }
     if (rc == 0 && line == 0u) {
         rc = fail(r, 1u, 1u, "empty file (expected '# tof-head-cal v1')");
+    }
+    if (rc == 0 && len > 0u && text[len - 1u] != '\n') {
+        rc = fail(r, line, 0u, "the last line has no line end: the file was cut");
+    }
+    if (rc == 0 && after_checksum != 0u) {
+        rc = fail(r, after_checksum, 1u,
+                  "content after the checksum line (line %u): the file was edited or joined",
+                  checksum_line);
+    }
+    if (rc == 0 && checksum_line != 0u) {
+        const char *v = text + checksum_at + sizeof CHECKSUM_PREFIX - 1u;
+        const char *nl = memchr(v, '\n', len - (size_t)(v - text));
+        size_t vn = nl != NULL ? (size_t)(nl - v) : len - (size_t)(v - text);
+        vn -= vn > 0u && v[vn - 1u] == '\r' ? 1u : 0u;
+        char want[12];
+        snprintf(want, sizeof want, "%08x", crc32_of(text, checksum_at));
+        if (vn != 8u || memcmp(v, want, 8u) != 0) {
+            rc = fail(r, checksum_line, (unsigned)sizeof CHECKSUM_PREFIX,
+                      "checksum crc32:%.*s does not match the content before it (crc32:%s): "
+                      "the file was cut or edited",
+                      (int)(vn < 16u ? vn : 16u), v, want);
+        }
+        r->cal.checksummed = rc == 0;
     }
     if (rc == 0) {
         rc = head_cal_finish(r);
@@ -291,6 +347,13 @@ int head_cal_load(const char *path, struct head_cal *cal, char *err, size_t errl
         rc = -1;
     } else {
         rc = head_cal_parse(buf, n, path, cal, err, errlen);
+        if (rc == 0 && !cal->checksummed) {
+            fprintf(stderr,
+                    "warning: %s: no checksum line (a file written before checksums): read as "
+                    "it stands; a cut or edited file cannot be told from it. Write it again "
+                    "(host_sim calibrate) to add one\n",
+                    path);
+        }
     }
     free(buf);
     fclose(f);
@@ -306,9 +369,28 @@ const char *head_cal_extra(const struct head_cal *cal, const char *key) {
     return NULL;
 }
 
-static int write_four(FILE *f, const char *key, const double v[HEAD_CAL_SENSORS]) {
+/* The file's text as it is written, before its checksum line. */
+struct text_out {
+    char buf[HEAD_CAL_MAX_KEYS * (HEAD_CAL_KEY_MAX + HEAD_CAL_VALUE_MAX + 4u) + 64u];
+    size_t len;
+    bool overflow;
+};
+
+__attribute__((format(printf, 2, 3))) static void put(struct text_out *o, const char *fmt, ...) {
+    va_list ap;
+    va_start(ap, fmt);
+    const int n = vsnprintf(o->buf + o->len, sizeof o->buf - o->len, fmt, ap);
+    va_end(ap);
+    if (n < 0 || (size_t)n >= sizeof o->buf - o->len) {
+        o->overflow = true;
+        return;
+    }
+    o->len += (size_t)n;
+}
+
+static void write_four(struct text_out *o, const char *key, const double v[HEAD_CAL_SENSORS]) {
     /* %.10g: 1e-9 relative, well below any sd a fit states. */
-    return fprintf(f, "# %s=%.10g,%.10g,%.10g,%.10g\n", key, v[0], v[1], v[2], v[3]) < 0 ? -1 : 0;
+    put(o, "# %s=%.10g,%.10g,%.10g,%.10g\n", key, v[0], v[1], v[2], v[3]);
 }
 
 static bool extra_ok(const char *kv) {
@@ -327,18 +409,28 @@ static bool extra_ok(const char *kv) {
 }
 
 int head_cal_write(FILE *f, const struct head_cal *cal, const char *const *extra) {
-    if (fputs("# tof-head-cal v1\n", f) < 0 || write_four(f, "offset_mm", cal->offset_mm) != 0 ||
-        write_four(f, "offset_sd_mm", cal->offset_sd_mm) != 0) {
-        return -1;
-    }
-    if (cal->has_gain &&
-        (write_four(f, "gain", cal->gain) != 0 || write_four(f, "gain_sd", cal->gain_sd) != 0)) {
-        return -1;
+    static struct text_out o; /* ~12 KB */
+    o.len = 0u;
+    o.overflow = false;
+    put(&o, "# tof-head-cal v1\n");
+    write_four(&o, "offset_mm", cal->offset_mm);
+    write_four(&o, "offset_sd_mm", cal->offset_sd_mm);
+    if (cal->has_gain) {
+        write_four(&o, "gain", cal->gain);
+        write_four(&o, "gain_sd", cal->gain_sd);
     }
     for (size_t i = 0; extra != NULL && extra[i] != NULL; ++i) {
-        if (!extra_ok(extra[i]) || fprintf(f, "# %s\n", extra[i]) < 0) {
+        if (!extra_ok(extra[i])) {
             return -1;
         }
+        put(&o, "# %s\n", extra[i]);
     }
-    return 0;
+    if (o.overflow) {
+        return -1;
+    }
+    /* the last line: the checksum of everything before it (head_cal.h) */
+    return fwrite(o.buf, 1u, o.len, f) != o.len ||
+                   fprintf(f, CHECKSUM_PREFIX "%08x\n", crc32_of(o.buf, o.len)) < 0
+               ? -1
+               : 0;
 }

@@ -47,8 +47,15 @@ enum tlm_result {
     TLM_RESULT_BAD_LENGTH = 2,   /* payload length differs from the type's fixed length */
     TLM_RESULT_OUT_OF_RANGE = 3, /* a field holds a value outside its documented range */
     TLM_RESULT_STATE = 4,        /* valid, but refused in the current state (firmware's call) */
+    /* A calibration refused, by its cause (write-calibration; docs/telemetry.md): */
+    TLM_RESULT_OTHER_HEAD = 5,   /* made on another head (head_id) */
+    TLM_RESULT_OTHER_PARTS = 6,  /* made with other parts (a part's NVM identity) */
+    TLM_RESULT_OTHER_MODE = 7,   /* made in another distance mode */
+    TLM_RESULT_OTHER_BUDGET = 8, /* made at another timing budget */
+    TLM_RESULT_OTHER_ARM = 9,    /* made at another arm */
+    TLM_RESULT_BUSY = 10,        /* a re-zero or a record write in progress: send again after it */
 };
-#define TLM_RESULT_LAST TLM_RESULT_STATE
+#define TLM_RESULT_LAST TLM_RESULT_BUSY
 
 /* A validated frame. `payload` points into the decoder's buffer or the caller's. */
 struct tlm_frame {

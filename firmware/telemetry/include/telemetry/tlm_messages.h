@@ -245,17 +245,19 @@ enum tlm_record_state {
  * boot (the values of firmware/calibration_record.h's enum tof_cal_state). Every state but
  * applied leaves the head uncalibrated: no estimate is `ok`. */
 enum tlm_cal_state {
-    TLM_CAL_NONE = 0,        /* none stored */
-    TLM_CAL_APPLIED = 1,     /* this head's, this configuration's: in force */
-    TLM_CAL_CORRUPT = 2,     /* no valid record, or values out of range */
-    TLM_CAL_VERSION = 3,     /* a version this firmware does not read */
-    TLM_CAL_OTHER_HEAD = 4,  /* made on another head */
-    TLM_CAL_OTHER_MODE = 5,  /* made in another distance mode or timing budget */
-    TLM_CAL_REJECTED = 6,    /* refused by the estimator */
-    TLM_CAL_NO_STORAGE = 7,  /* the board has no record storage */
-    TLM_CAL_OTHER_PARTS = 8, /* made with other parts (a part's NVM identity differs) */
+    TLM_CAL_NONE = 0,         /* none stored */
+    TLM_CAL_APPLIED = 1,      /* this head's, this configuration's: in force */
+    TLM_CAL_CORRUPT = 2,      /* no valid record, or values out of range */
+    TLM_CAL_VERSION = 3,      /* a version this firmware does not read */
+    TLM_CAL_OTHER_HEAD = 4,   /* made on another head */
+    TLM_CAL_OTHER_MODE = 5,   /* made in another distance mode */
+    TLM_CAL_REJECTED = 6,     /* refused by the estimator */
+    TLM_CAL_NO_STORAGE = 7,   /* the board has no record storage */
+    TLM_CAL_OTHER_PARTS = 8,  /* made with other parts (a part's NVM identity differs) */
+    TLM_CAL_OTHER_BUDGET = 9, /* made at another timing budget */
+    TLM_CAL_OTHER_ARM = 10,   /* made at another arm (set-arm since) */
 };
-#define TLM_CAL_STATE_LAST TLM_CAL_OTHER_PARTS
+#define TLM_CAL_STATE_LAST TLM_CAL_OTHER_ARM
 
 /* The calibration message (TLM_TYPE_CALIBRATION): what the firmware holds. */
 struct tlm_calibration {

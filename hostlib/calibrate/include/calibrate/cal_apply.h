@@ -21,8 +21,9 @@
  * as tools/tof_telemetry.py --read-cal writes them, and part_id_A..part_id_D, the parts' NVM
  * identities, docs/calibration.md): each used when present. */
 struct cal_apply_binding {
-    bool has_head, has_mode, has_budget;
+    bool has_head, has_mode, has_budget, has_arm;
     uint32_t head_id;
+    int32_t arm_um; /* the arm_mm key, in um */
     uint8_t mode; /* enum vl53_distance_mode */
     uint16_t budget_ms;
     uint64_t part_id[4]; /* A..D; 0: the key is absent (the record binds no part) */
@@ -49,8 +50,8 @@ int cal_apply_load(const char *path, struct trace_v1_cal *out, struct cal_apply_
 #define CAL_APPLY_PAGE_SIZE 2048u
 
 /* Record storage (`flash`: two CAL_APPLY_PAGE_SIZE pages, erased, or a copy of `pages_in`
- * when not NULL) holding `cal`'s section made in `cfg`'s configuration (each part `made_in`
- * states, when not NULL, instead: the boot then refuses what the flight unit would) in place of any
+ * when not NULL) holding `cal`'s section made in `cfg`'s configuration and arm (each part,
+ * and the arm, `made_in` states, when not NULL, instead: the boot then refuses what the flight unit would) in place of any
  * calibration there (every other section kept; nothing written for an uncalibrated head),
  * and a store over it for the firmware's boot. 0, or -1 (said on stderr). */
 int cal_apply_preload(const struct trace_v1_cal *cal, const struct tof_app_config *cfg,

@@ -38,6 +38,7 @@ struct head_cal {
     char key[HEAD_CAL_MAX_KEYS][HEAD_CAL_KEY_MAX];
     char value[HEAD_CAL_MAX_KEYS][HEAD_CAL_VALUE_MAX];
     unsigned line[HEAD_CAL_MAX_KEYS];
+    bool checksummed; /* the file ends with its checksum line, which matched */
 };
 
 /* Where keys come from, for messages: "name:line:col: what". */
@@ -69,12 +70,18 @@ int head_cal_finish(struct head_cal_reader *r);
  * Reads a HEAD.cal from the len bytes at text (name for messages): the first line
  * "# tof-head-cal v1" (a UTF-8 byte-order mark and CRLF endings are accepted), then
  * "# key=value" lines, comment lines ("# text" without '=') and blank lines; anything
- * else is an error. Returns 0 with *cal filled, or -1 with "name:line:col: what" in err.
+ * else is an error. The last line "# checksum=crc32:XXXXXXXX" (8 lowercase hex digits) is
+ * the CRC-32 (IEEE 802.3, as zlib's crc32) of every byte before it: a mismatch, or anything
+ * but blank lines after it, is an error (the file was cut or edited). A file without that
+ * line (written before checksums) is read as it stands, cal->checksummed false; one whose
+ * last line has no line end is an error either way (cut). Returns 0 with *cal filled, or -1
+ * with "name:line:col: what" in err.
  */
 int head_cal_parse(const char *text, size_t len, const char *name, struct head_cal *cal, char *err,
                    size_t errlen);
 
-/* head_cal_parse of the file at path. Returns 0, or -1 with the message in err. */
+/* head_cal_parse of the file at path; a file without a checksum line gets a warning on
+ * stderr saying how it is read. Returns 0, or -1 with the message in err. */
 int head_cal_load(const char *path, struct head_cal *cal, char *err, size_t errlen);
 
 /* Value of key in cal (NULL if absent), e.g. the project's keys (docs/calibration.md). */
