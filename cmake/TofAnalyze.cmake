@@ -2,7 +2,7 @@
 # code (estimator/, drivers/, hal/, firmware/) and the camera pose module (pose/),
 # and cppcheck's MISRA C:2012 addon over estimator/ and drivers/, failing on any
 # finding. MISRA findings pass only under a documented deviation
-# (tools/misra/deviations.txt, reasons in docs/reliability.md), applied by
+# (tools/misra/deviations.txt, reasons in docs/explanation/reliability.md), applied by
 # tools/misra/misra_check.py, which names file:line:column and rule otherwise.
 if(CMAKE_CROSSCOMPILING)
   return()

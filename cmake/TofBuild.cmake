@@ -95,7 +95,7 @@ endfunction()
 # tof_image(NAME CORE LINKER_SCRIPT DEPS ... SOURCES ... [NO_FLOAT] [FLIGHT])
 # A firmware ELF with a map file, a .bin, a size report and the image checks:
 # no heap function may be linked; with NO_FLOAT, no floating-point helper; with FLIGHT,
-# the flight budget (issue 22's decision: 64 KiB of flash, 16 KiB of RAM with the stack).
+# the flight budget (64 KiB of flash, 16 KiB of RAM with the stack).
 function(tof_image name)
   cmake_parse_arguments(ARG "NO_FLOAT;FLIGHT" "CORE;LINKER_SCRIPT" "SOURCES;DEPS" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})

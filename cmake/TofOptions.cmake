@@ -10,7 +10,7 @@
 #                     the QEMU replay and the benchmarks.
 #
 # The Kalman filter is one filter for any Q, the same code in every build (no option).
-# Flight image (NUCLEO-L476RG): consensus;kalman (docs/benchmarks.md).
+# Flight image (NUCLEO-L476RG): consensus;kalman (docs/reference/performance.md).
 set(tof_all_estimators consensus consensus-paper kalman mean) # ATTITUDE_EST_BIT order
 
 if(NOT DEFINED TOF_ESTIMATORS_DEFAULT)

@@ -2,7 +2,7 @@
 #   no heap: malloc/free/... or _sbrk linked in  -> build fails
 #   NO_FLOAT: any soft-float or FPU helper linked -> build fails
 #   FLIGHT_BUDGET: flash (text + data) above 64 KiB or RAM (data + bss, the stack the
-#   linker script reserves included) above 16 KiB -> build fails (DESIGN.md §7, issue 22)
+#   linker script reserves included) above 16 KiB -> build fails (docs/reference/performance.md)
 # Usage: cmake -DNM=... -DELF=... [-DNO_FLOAT=1] [-DSIZE=... -DFLIGHT_BUDGET=1] -P check_image.cmake
 execute_process(COMMAND ${NM} --defined-only --format=posix ${ELF}
                 OUTPUT_VARIABLE syms RESULT_VARIABLE rc)

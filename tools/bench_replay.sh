@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Replay speed benchmark (host_sim issue goal: >= 1,000,000 four-sensor samples/s on one
+# Replay speed benchmark (goal: >= 1,000,000 four-sensor samples/s on one
 # core with the host-release preset). Writes a 1,000,000-row trace (the table1 scenario
 # repeated, time stamps renumbered) and times `host_sim replay` on it: the trace goes
 # through the simulated bus, the VL53 models, the drivers, the fault manager and all

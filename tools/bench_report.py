@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Collect the on-target benchmark into bench.json (DESIGN.md §7).
+"""Collect the on-target benchmark into bench.json (docs/reference/performance.md).
 
 Runs each benchmark image under QEMU with -icount shift=7 (exact instruction
 counts, boards/mps2/insn_counter.h), parses its "BENCH cpu impl op insn" lines,

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""The sd calibration table of docs/estimator-benchmark.md.
+"""The sd calibration table of docs/explanation/accuracy.md.
 
 Replays the bundled recording (traces/demo) and the traces tools/real_traces.py builds
 from a real VL53 log, tumbling and sliding, and prints per trace, mode and estimator
@@ -10,7 +10,7 @@ Usage: calibration_report.py HOST_SIM LOG.csv WORKDIR
   HOST_SIM  the host_sim binary (e.g. build/host-release/host_sim/app/host_sim)
   LOG.csv   a one-column real log (../shared/traces/external/tomisuarez2_TimeOfFlightCalibration/
             static_tof_dist_data_1_h.csv)
-Exit status 1 when a goal of the issue is missed (>= 95 % within 3 sd per axis, <= 0.1 %
+Exit status 1 when a goal is missed (>= 95 % within 3 sd per axis, <= 0.1 %
 beyond 6 sd, RMS err / RMS sd >= 0.5, >= 95 % answered), with the rows that miss it.
 """
 import json

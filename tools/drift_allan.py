@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""The drift model of docs/estimator-design.md "Drift since the start", measured.
+"""The drift model of docs/explanation/estimators.md "Drift since the start", measured.
 
 Reads a one-column static log (e.g. ../shared/traces/external/tomisuarez2_TimeOfFlightCalibration/
 static_tof_dist_data_1_h.csv: one VL53L0X, 200,244 readings over 3,600 s) and prints

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""The long-static table of docs/estimator-benchmark.md "Drift since the start".
+"""The long-static table of docs/explanation/accuracy.md "Drift since the start".
 
 Builds long static traces with tools/drift_traces.py from a real one-column log (stretches
 and joins other than tools/real_traces.py's, plus random-walk drifts at multiples of the

@@ -97,7 +97,7 @@ def main(argv):
         f.write("# tof-trace v1\n")
         f.write(f"# arm_mm={ARM_MM:.1f}\n# period_ms={period_ms}\n")
         # each stretch is centred on its own mean and added to the ideal distances: the
-        # head is known exactly (DESIGN.md §5), so the trace says so (else: uncalibrated)
+        # head is known exactly (docs/reference/trace-format.md), so the trace says so (else: uncalibrated)
         f.write("# offset_mm=0,0,0,0\n# offset_sd_mm=0,0,0,0\n# gain=1,1,1,1\n# gain_sd=0,0,0,0\n")
         f.write(f"# source={os.path.basename(args[0])} s {t0:.0f}..{hi / per_s:.0f} "
                 f"walk {walk}x{rate:.0f} um2/h (tools/drift_traces.py)\n")

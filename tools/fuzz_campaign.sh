@@ -1,5 +1,5 @@
 #!/bin/sh
-# The fuzzing campaign of docs/reliability.md: every libFuzzer target of the
+# The fuzzing campaign of docs/explanation/reliability.md: every libFuzzer target of the
 # project for SECONDS each (default 600), two at a time (the machine has two
 # cores), each on its committed seeds plus a corpus kept in OUT/<target>/corpus,
 # then one table of executions per second, coverage and crashes.

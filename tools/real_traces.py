@@ -4,7 +4,7 @@
 The noise is real: a static sensor's recording (one reading per line, e.g. the
 tomisuarez2/TimeOfFlightCalibration VL53L0X log in ../shared/traces/external) is split
 into four disjoint consecutive blocks, one per sensor A..D; each block minus its own mean
-(the sensor's offset calibration) is added to the ideal distances of DESIGN.md §2 for a
+(the sensor's offset calibration) is added to the ideal distances of docs/explanation/architecture.md for a
 known attitude schedule, with a uniform ±0.5 mm dither, and rounded to whole millimetres
 as the parts report them. The slow drift, the distribution and the autocorrelation of
 each block are the recording's; only the four sensors being one sensor at four times is
@@ -16,7 +16,7 @@ Schedules (20 ms rows, a = 30 mm, x̄ = 100 mm):
   moving   smooth motion: α = 3°·sin(2πt/60 s), β = 2°·sin(2πt/45 s + 1)
 
 Usage: real_traces.py LOG.csv OUTDIR [--rows N] [--seed S]
-Writes OUTDIR/real_static.csv and OUTDIR/real_moving.csv (trace v1, DESIGN.md §5).
+Writes OUTDIR/real_static.csv and OUTDIR/real_moving.csv (trace v1, docs/reference/trace-format.md).
 """
 import math
 import os
@@ -74,7 +74,7 @@ def write(path, source, noise, truth, seed):
         f.write("# tof-trace v1\n")
         f.write(f"# arm_mm={ARM_MM:.1f}\n# period_ms={PERIOD_MS}\n")
         # each stretch is centred on its own mean and added to the ideal distances: the
-        # head is known exactly (DESIGN.md §5), so the trace says so (else: uncalibrated)
+        # head is known exactly (docs/reference/trace-format.md), so the trace says so (else: uncalibrated)
         f.write("# offset_mm=0,0,0,0\n# offset_sd_mm=0,0,0,0\n# gain=1,1,1,1\n# gain_sd=0,0,0,0\n")
         f.write(f"# source=real noise of {os.path.basename(source)} (tools/real_traces.py)\n")
         f.write("t_ms,a_mm,b_mm,c_mm,d_mm,a_st,b_st,c_st,d_st,alpha_deg,beta_deg\n")

@@ -14,7 +14,7 @@ Rules (an upper bound under the project's rules, not a proof):
   address is taken: with --elf, the functions whose (Thumb) address appears as a
   word anywhere in the image (ops tables, literal pools); without it, any function
   no one calls directly. A function already on the path is skipped there;
-- ... narrowed by the member it goes through (DESIGN.md §4: every function pointer is an
+- ... narrowed by the member it goes through (docs/explanation/architecture.md: every function pointer is an
   ops-struct member, `x->ops->now_us(...)`): with --narrow, a call through member `m`
   reaches the functions the image's sources (the files of its linked functions) store
   into a member named `m` (`.m = f` or `->m = f`) plus every address-taken function

@@ -1,16 +1,16 @@
 #!/usr/bin/python3
-"""The head's calibration between its two forms (docs/calibration.md, issue 23).
+"""The head's calibration between its two forms (docs/how-to/calibrate-a-head.md).
 
-- HEAD.cal text (DESIGN.md section 6a) <-> the flight unit's record section 2 version 1
+- HEAD.cal text (docs/reference/calibration-file.md) <-> the flight unit's record section 2 version 1
   (firmware/calibration_record.h), which travels as it is stored in the telemetry's
-  write-calibration command and calibration message (docs/telemetry.md). The decimal
+  write-calibration command and calibration message (docs/reference/telemetry-protocol.md). The decimal
   conversion is the trace reader's (trace/src/trace_v1_cal.c), exactly: offsets and their sd
   to 1 um, gains read to 1e-9 then to 1 ppm of (gain - 1), gain sd to 1 ppm, the
   offset-gain correlation to Q15, each rounded half away from zero; a section read back
   and written again as HEAD.cal gives the same bytes.
 - a fixture station recorder: raw readings (the firmware's raw-sample messages) with the
   station's stated reference (alpha, beta, x-bar) appended as rows of a calibration trace
-  (trace v1 with the truth columns, docs/calibration.md "The calibration trace").
+  (trace v1 with the truth columns, docs/how-to/calibrate-a-head.md "The calibration trace").
 
 Used by tof_telemetry.py (--send-cal, --read-cal, --record-station).
 """

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Decode the ToF firmware's binary telemetry (docs/telemetry.md).
+"""Decode the ToF firmware's binary telemetry (docs/reference/telemetry-protocol.md).
 
 Reads a serial port or a capture file, decodes every frame with the same
 CRC-16/CCITT-FALSE and the same resynchronisation rule as the firmware's
@@ -16,7 +16,7 @@ CSV), counts malformed frames, and optionally plots the estimates.
 nack (matched by the protocol's sequence number), a lost one is sent again with
 the same sequence number (the firmware answers a repeat without applying it
 twice), and a nack or no answer stops the tool with status 1 and a message that
-names it (docs/telemetry.md, "Commands from a host").
+names it (docs/reference/telemetry-protocol.md, "Commands from a host").
 
 Commands for --send: "set-window N [tumbling|sliding]", "estimator NAME"
 (consensus, consensus-paper, kalman, mean), "start", "stop", "status",
@@ -36,7 +36,7 @@ import time
 
 import tof_calibration
 
-# --- protocol constants (docs/telemetry.md; tlm_frame.h, tlm_messages.h) ----
+# --- protocol constants (docs/reference/telemetry-protocol.md; tlm_frame.h, tlm_messages.h) ----
 
 SYNC0 = 0xA5
 SYNC1 = 0x5A
@@ -63,8 +63,8 @@ T_STATUS_REQUEST = 0x85
 T_RAW_STREAM = 0x86
 T_SET_PROCESS_NOISE = 0x87
 T_SAVE = 0x88
-T_SET_ARM = 0x89              # u32 arm_um: the head's arm a (issue 22)
-T_SET_PERIOD = 0x8A           # u16 period_ms: the sample period (issue 22)
+T_SET_ARM = 0x89              # u32 arm_um: the head's arm a
+T_SET_PERIOD = 0x8A           # u16 period_ms: the sample period
 ARM_MIN_UM, ARM_MAX_UM = 1000, 1000000
 PERIOD_MIN_MS, PERIOD_MAX_MS = 1, 10000
 T_CALIBRATION = 0x10          # the answer to read-calibration
@@ -106,8 +106,8 @@ STATUSES = ["ok", "degraded", "invalid"]
 # (estimator/integrity.h, estimator/attitude.h; named as attitude_why_format() names them).
 WHY_PER_SENSOR = ["no-target", "range", "flagged", "missing", "rejected"]  # bit 4*g + k
 WHY_WINDOW = ["parity", "motion", "drift"]                                 # bits 20..22
-WHY_UNCALIBRATED_BIT = 23  # "uncalibrated": the head has no calibration (issue 23)
-WHY_RECALIBRATE_BIT = 24  # "recalibrate": the drift shown exceeds the allowance (issue 23)
+WHY_UNCALIBRATED_BIT = 23  # "uncalibrated": the head has no calibration
+WHY_RECALIBRATE_BIT = 24  # "recalibrate": the drift shown exceeds the allowance
 WHY_REASON_SHIFT = 32  # bit 32 + r for enum attitude_reason r (r = 0, "none", has no bit)
 ATTITUDE_REASONS = [
     "none", "flagged-data", "sensor-missing", "kalman-restarted", "alpha-unobservable",
@@ -130,7 +130,7 @@ CAL_AGE_STATES = ["none", "kept", "unknown", "failed"]
 # status frame's calibration state).
 CAUSES = {
     "other-head": "the calibration was made on another head (head_id differs): send this "
-                  "head's HEAD.cal, or calibrate this head (docs/calibration.md)",
+                  "head's HEAD.cal, or calibrate this head (docs/how-to/calibrate-a-head.md)",
     "other-parts": "the calibration was made with other parts (a part's NVM identity "
                    "differs: a sensor was replaced): calibrate the head again",
     "other-mode": "the calibration was made in another distance mode: calibrate in the "
@@ -298,7 +298,7 @@ class Decoder:
 
 # --- message payloads: parse with the firmware's validation rules -----------
 
-ESTIMATE_FORMAT = "<IIBBBiiiiiiiQ"  # docs/telemetry.md 5.1
+ESTIMATE_FORMAT = "<IIBBBiiiiiiiQ"  # docs/reference/telemetry-protocol.md 5.1
 
 
 def _value_and_sd_agree(value, sd):
@@ -356,7 +356,7 @@ def _health(p):
 def _ack(p):
     # error: the firmware's own negative code behind a nack, unchanged (an attitude_error
     # of estimator/attitude.h for set-window and select-estimator); 0 in an ack. Each
-    # module's codes have a block of their own (docs/errors.md: -1..-31 hal_err,
+    # module's codes have a block of their own (docs/reference/errors.md: -1..-31 hal_err,
     # -64..-79 attitude_error), so the number alone says whose it is.
     echo_seq, command, result, error = struct.unpack("<BBBb", p)
     valid = result < len(RESULTS) and error <= 0 and (result != R_OK or error == 0)
@@ -711,7 +711,7 @@ def command_payload(text):
 
 
 # The firmware's own codes behind a nack (the ack's `error`): estimator/attitude.h's
-# enum attitude_error (docs/errors.md: -64..-79); tools/tests checks them against the header.
+# enum attitude_error (docs/reference/errors.md: -64..-79); tools/tests checks them against the header.
 ATTITUDE_ERRORS = {
     -64: "ATTITUDE_ERR_ARM", -65: "ATTITUDE_ERR_WINDOW", -66: "ATTITUDE_ERR_MODE",
     -67: "ATTITUDE_ERR_ESTIMATORS", -68: "ATTITUDE_ERR_TOLERANCE",
@@ -785,7 +785,7 @@ def encode_commands(texts, first_seq=0):
 
 # --- output sinks -------------------------------------------------------------
 
-# EST.csv's columns first (DESIGN.md section 6), then what only telemetry has.
+# EST.csv's columns first (docs/reference/tools.md), then what only telemetry has.
 ESTIMATE_CSV = ["t_ms", "alpha_deg", "beta_deg", "distance_mm", "status", "alpha_sd_deg",
                 "beta_sd_deg", "distance_sd_mm", "why", "estimator", "window", "sensors",
                 "flatness_um", "seq"]
@@ -1112,7 +1112,7 @@ def write_head_cal(path, message, source, arm_um=None):
     if not any(message["section"]):
         raise tof_calibration.CalibrationError(
             "the unit holds no calibration (state=%s): nothing written to %s; send one with "
-            "--send-cal HEAD.cal (docs/calibration.md)" % (state, path))
+            "--send-cal HEAD.cal (docs/how-to/calibrate-a-head.md)" % (state, path))
     text = tof_calibration.section_to_head_cal(message["section"], source, arm_um)
     with open(path, "w") as f:
         f.write(text)
@@ -1230,7 +1230,7 @@ def _append_station(args, ap, raw):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(
-        description="Decode the ToF firmware's binary telemetry (docs/telemetry.md).")
+        description="Decode the ToF firmware's binary telemetry (docs/reference/telemetry-protocol.md).")
     src = ap.add_mutually_exclusive_group(required=True)
     src.add_argument("--port", help="serial device, e.g. /dev/ttyACM0")
     src.add_argument("--file", help="capture file of raw telemetry bytes")
@@ -1257,7 +1257,7 @@ def main(argv=None):
                     help="with --live: keep only the newest N estimates on screen")
     ap.add_argument("--strict", action="store_true",
                     help="exit with status 1 if any malformed frame was seen")
-    cal = ap.add_argument_group("the head's calibration (docs/calibration.md)")
+    cal = ap.add_argument_group("the head's calibration (docs/how-to/calibrate-a-head.md)")
     cal.add_argument("--send-cal", metavar="HEAD.cal",
                      help="send HEAD.cal as the calibration (write-calibration: saved and in "
                           "force), then read it back and compare")

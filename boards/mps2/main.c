@@ -140,9 +140,9 @@ static int parse_args(char **trace, char **out, uint16_t *window, bool *sliding)
     return 0;
 }
 
-/* The trace's calibration keys (DESIGN.md §5) as the flight unit keeps them: record section 2
- * in the record storage, which the firmware's boot reads (as host_sim replay does). A
- * calibration=FILE is host_sim's to read: refused here. 0, or -1 (said). */
+/* The trace's calibration keys (docs/reference/trace-format.md) as the flight unit keeps them:
+ * record section 2 in the record storage, which the firmware's boot reads (as host_sim replay
+ * does). A calibration=FILE is host_sim's to read: refused here. 0, or -1 (said). */
 static int apply_trace_calibration(void) {
     const struct trace_v1_cal *tc = &q.trace.reader.meta.cal;
     if ((tc->keys & TRACE_CAL_KEY_FILE) != 0u) {

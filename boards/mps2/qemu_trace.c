@@ -150,7 +150,8 @@ static int source_next(void *ctx, unsigned sensor, uint32_t sample_index, struct
     if (rc != 0) {
         return rc;
     }
-    const bool missing = row->status[sensor] == TRACE_STATUS_NO_READING; /* docs/traces.md */
+    const bool missing =
+        row->status[sensor] == TRACE_STATUS_NO_READING; /* docs/reference/trace-format.md */
     *out = (struct sim_range){.distance_mm = row->range_mm[sensor],
                               .range_status = missing ? 0u : row->status[sensor],
                               .present = !missing};

@@ -1,5 +1,5 @@
 /*
- * The QEMU replay image's trace input: trace v1 (DESIGN.md §5) read through
+ * The QEMU replay image's trace input: trace v1 (docs/reference/trace-format.md) read through
  * semihosting by the one trace v1 reader (trace/trace_v1.h), so its rules and messages
  * ("file:line:column: what") are host_sim's. It keeps the last rows in a ring for the
  * device models and the output, and chooses the parts' distance mode by sim/'s policy

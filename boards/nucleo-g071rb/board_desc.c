@@ -1,7 +1,7 @@
 /*
  * NUCLEO-G071RB board description for the shared STM32 board HAL
- * (boards/stm32/stm32_board.c): pins, addresses, alternate functions and clocks (docs/boards.md has
- * the pin map, clock choice, I2C timing and watchdog figures).
+ * (boards/stm32/stm32_board.c): pins, addresses, alternate functions and clocks
+ * (docs/explanation/boards.md has the pin map, clock choice, I2C timing and watchdog figures).
  *
  * Clock: SYSCLK = HSISYS = HSI16 / 1 = 16 MHz, the reset configuration
  * (RM0444 §5.2), made explicit here; flash stays at 0 wait states (RM0444 "Embedded
@@ -81,7 +81,8 @@ void stm32_board_peripheral_clocks_init(void) {
 
 /* No record storage on this board yet: the STM32G0's flash interface differs from the L4's in
  * its page numbering and busy flags (RM0444 §3), and no driver for it has been written and
- * tested. The firmware runs on defaults and refuses `save` (docs/boards.md "Records"). */
+ * tested. The firmware runs on defaults and refuses `save` (docs/explanation/boards.md "Records").
+ */
 struct hal_records stm32_board_records(struct hal_time time) {
     (void)time;
     const struct hal_records none = {.ops = NULL, .ctx = NULL, .geometry = {0}};

@@ -1,12 +1,12 @@
 /*
  * NUCLEO-L476RG board description for the shared STM32 board HAL
- * (boards/stm32/stm32_board.c): pins, addresses, alternate functions and clocks (docs/boards.md has
- * the pin map, clock choice, I2C timing and watchdog figures).
+ * (boards/stm32/stm32_board.c): pins, addresses, alternate functions and clocks
+ * (docs/explanation/boards.md has the pin map, clock choice, I2C timing and watchdog figures).
  *
  * Clock: SYSCLK = 64 MHz from the main PLL fed by HSI16 (AHB and APB prescalers left
  * at /1), 3 flash wait states: a window's end at N = 255 takes 220k-370k instructions
  * depending on the data, which at 16 MHz made the worst loop 19.5 ms against a 20 ms
- * period, and 11.7 ms at 32 MHz on a held-out trace (docs/boards.md "Clock tree").
+ * period, and 11.7 ms at 32 MHz on a held-out trace (docs/explanation/boards.md "Clock tree").
  * I2C1 takes HSI16 directly as its kernel clock, so its timing does not depend on SYSCLK;
  * SysTick and the USART divisor follow the clock the RCC reports (stm32_board_sysclk_hz).
  */
@@ -52,7 +52,7 @@ const struct stm32_board_desc stm32_board_desc = {
 
 /* SYSCLK = HSI16 / M x N / R from the main PLL (RM0351 §6.2.5 "PLL"): 16 MHz / 1 x 8 / 2 =
  * 64 MHz, the VCO at 128 MHz (input 4..16 MHz, VCO 64..344 MHz: RM0351 §6.4.4). Why 64 MHz
- * (the worst loop against the power): docs/boards.md "Clock tree". */
+ * (the worst loop against the power): docs/explanation/boards.md "Clock tree". */
 #define L476_PLL_N      8u
 #define L476_PLL_R_DIV  2u
 #define L476_PLL_R_BITS ((L476_PLL_R_DIV / 2u - 1u) << L476_RCC_PLLCFGR_PLLR_SHIFT)

@@ -4,7 +4,7 @@
  * board folder describes itself in board_desc.c; boards/stm32/stm32_board.c implements this
  * header once for all of them.
  *
- * Numbered GPIO pins (both boards, Arduino connector, docs/boards.md):
+ * Numbered GPIO pins (both boards, Arduino connector, docs/explanation/boards.md):
  *   0..3  XSHUT of sensors A..D  (D2..D5, open-drain outputs, start low)
  *   4..7  GPIO1 of sensors A..D  (D6..D9, inputs with pull-up)
  */
@@ -46,7 +46,7 @@ struct hal_watchdog board_hal_watchdog(void);
 struct hal_log board_hal_log(void);
 
 /* Record storage: the pages the board's linker script reserves for records (ops NULL on a
- * board without; docs/boards.md "Records"). */
+ * board without; docs/explanation/boards.md "Records"). */
 struct hal_records board_hal_records(void);
 
 /* Error counters of the I2C bus, for status telemetry. */

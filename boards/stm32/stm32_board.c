@@ -3,7 +3,7 @@
  * SysTick time, USART2 log and telemetry, the sensor GPIOs, I2C1 at 400 kHz and
  * the independent watchdog. What differs per board is in its descriptor and its
  * clock functions (stm32_board.h; boards/nucleo-<board>/board_desc.c). Pin map, clock
- * choice, I2C timing and watchdog figures: docs/boards.md.
+ * choice, I2C timing and watchdog figures: docs/explanation/boards.md.
  */
 #include "board_hal.h"
 
@@ -74,7 +74,8 @@ int board_hal_init(void) {
         return err; /* the UART comes up at the reset clock if board_fault() reports this */
     }
     stm32_board_peripheral_clocks_init();
-    const uint32_t core_hz = stm32_board_sysclk_hz(); /* the board's clock (docs/boards.md) */
+    const uint32_t core_hz =
+        stm32_board_sysclk_hz(); /* the board's clock (docs/explanation/boards.md) */
     log_uart_init(core_hz);
 
     board_gpio = (struct stm32_gpio){d->sensor_pins, 2u * BOARD_HAL_SENSOR_COUNT};

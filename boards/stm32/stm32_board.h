@@ -17,7 +17,7 @@
 #include "stm32_i2c.h"
 
 /* The boards' I2C kernel clock is HSI16 (one TIMINGR for all); the core clock is each
- * board's (stm32_board_sysclk_hz; docs/boards.md "Clock"). */
+ * board's (stm32_board_sysclk_hz; docs/explanation/boards.md "Clock"). */
 #define STM32_BOARD_LOG_BAUD 115200u
 
 struct stm32_board_desc {
@@ -34,7 +34,7 @@ struct stm32_board_desc {
 
 extern const struct stm32_board_desc stm32_board_desc;
 
-/* Switch SYSCLK to the board's core clock (docs/boards.md "Clock"). HAL_OK or
+/* Switch SYSCLK to the board's core clock (docs/explanation/boards.md "Clock"). HAL_OK or
  * HAL_ERR_TIMEOUT (bounded polls). */
 int stm32_board_clock_init(void);
 

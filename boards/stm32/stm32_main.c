@@ -3,7 +3,7 @@
  * (clocks, SysTick time, I²C1 at 400 kHz, sensor GPIOs, USART2, watchdog), the
  * application, and the telemetry link on USART2 (ST-LINK virtual COM port).
  * The boot banner and fault messages go to the same port as text before and
- * outside telemetry frames; the frame decoder skips them (docs/telemetry.md).
+ * outside telemetry frames; the frame decoder skips them (docs/reference/telemetry-protocol.md).
  */
 #include <stddef.h>
 
@@ -79,7 +79,8 @@ int main(void) {
                       BOARD_HAL_XSHUT_PIN(3)},
         .gpio1_pin = {BOARD_HAL_GPIO1_PIN(0), BOARD_HAL_GPIO1_PIN(1), BOARD_HAL_GPIO1_PIN(2),
                       BOARD_HAL_GPIO1_PIN(3)},
-        .sensor_pads_at_avdd = true, /* the NUCLEO boards' 3V3 pull-ups (docs/driver.md) */
+        .sensor_pads_at_avdd =
+            true, /* the NUCLEO boards' 3V3 pull-ups (docs/explanation/driver-and-bus.md) */
     };
     const struct tof_app_service telemetry = {.ops = &tof_link_service_ops, .ctx = &link};
 #if defined(TWIN_TEST_HANG)

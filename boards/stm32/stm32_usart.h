@@ -24,12 +24,13 @@
  * bytes) also by a status frame (23): at most 34 bytes of answer per command.
  *
  * Transmit. What one loop iteration can queue at once, with the frame sizes of
- * docs/telemetry.md (overhead 7 bytes): a window's estimates (4 estimators x 54 = 216 with
- * every estimator built in, 108 in the flight image), a raw sample 24, the health frame 151
- * (at most once a second), a status 23, the answers to a burst 8 x 34 = 272: 686 bytes, plus
+ * docs/reference/telemetry-protocol.md (overhead 7 bytes): a window's estimates (4 estimators x 54
+ * = 216 with every estimator built in, 108 in the flight image), a raw sample 24, the health frame
+ * 151 (at most once a second), a status 23, the answers to a burst 8 x 34 = 272: 686 bytes, plus
  * what the line has not yet drained of the iteration before (every mode sends < 70 % of the
- * line's rate, docs/telemetry.md, so less than one period's 230 bytes is left): 916 < 1024.
- * A frame that does not fit whole is dropped and counted (link tx_dropped), never half sent.
+ * line's rate, docs/reference/telemetry-protocol.md, so less than one period's 230 bytes is left):
+ * 916 < 1024. A frame that does not fit whole is dropped and counted (link tx_dropped), never half
+ * sent.
  *
  * Receive. The main loop drains the buffer once per iteration; an idle loop sleeps until the
  * next sample, so the longest gap between two drains is one sample period plus the longest

@@ -4,7 +4,7 @@ set(TOF_BOARDS nucleo-l476rg)
 set(TOF_BOARD_DIRS nucleo-l476rg)
 # The flight image (cmake/TofOptions.cmake): the product's two estimators only (the paper's
 # rule and the plain mean are comparison baselines for host_sim, the QEMU replay and the
-# benchmarks; docs/benchmarks.md has the flash each choice costs).
+# benchmarks; docs/reference/performance.md has the flash each choice costs).
 set(TOF_ESTIMATORS_DEFAULT consensus kalman)
 # Link-time optimisation (cmake/TofBuild.cmake): what it saves and costs in flash and stack,
 # tools/image_budget.py (the `budget` target).

@@ -2,7 +2,7 @@
 include(${CMAKE_CURRENT_LIST_DIR}/arm-none-eabi.cmake)
 # -fno-jump-tables: ARMv6-M has no TBB/TBH, so GCC's switch tables go through libgcc's
 # __gnu_thumb1_case_* helpers; compare chains are smaller here (the NUCLEO-G071RB image
-# 48 B smaller, session 10, when it had 0 B left of its 64 KiB budget).
+# 48 B smaller, which its 64 KiB budget needed).
 set(TOF_CORE_FLAGS_cortex-m0plus -mcpu=cortex-m0plus -mthumb -mfloat-abi=soft -fno-jump-tables)
 set(TOF_CORE_NAME_cortex-m0plus cortex-m0plus)
 list(APPEND TOF_CORES cortex-m0plus)

@@ -87,7 +87,7 @@ int32_t attitude_extra_sd(const struct attitude_state *st, fix_q32_t var_mm2, un
     if (st->cal_spread) {
         /* the slope 3 sd of y nearer 0 (where atan is steepest): a calibration error of
          * tens of mm moves the estimate by tens of degrees, and the slope at the estimate
-         * would under-state how far the truth may be (docs/estimator-design.md
+         * would under-state how far the truth may be (docs/explanation/estimators.md
          * "Calibration"); sqrt(Q32 mm²) is Q16 mm, as a Q32 slope · 2^16 / a mm, with the
          * window's reciprocal of a (2^(31 + shift) / a mm) */
         const struct angles_arm *arm = &st->window.arm;
@@ -101,7 +101,7 @@ int32_t attitude_extra_sd(const struct attitude_state *st, fix_q32_t var_mm2, un
 }
 
 /*
- * The integrity of one estimate (docs/estimator-design.md "Integrity"): the why set from
+ * The integrity of one estimate (docs/explanation/estimators.md "Integrity"): the why set from
  * the window's facts and the estimator's own counts and reason, the sd from the
  * estimator's white-noise 1σ (white_*) and what the window adds (drift, prior, rounding,
  * a failed parity, motion), and the status: ok only with both angles and an empty set.

@@ -29,7 +29,7 @@ void attitude_common_fields(const struct window_stats *w, struct attitude_estima
  * integrity. */
 void attitude_finish_status(struct attitude_estimate *e, bool alpha_ok, bool beta_ok);
 
-/* The integrity of one estimate (docs/estimator-design.md "Integrity"): the why set from
+/* The integrity of one estimate (docs/explanation/estimators.md "Integrity"): the why set from
  * the window's facts and the estimator's own counts and reason, the sd from the
  * estimator's white-noise 1σ (white_*) and what the window adds (drift, prior, rounding,
  * a failed parity, motion, and extra_* of the estimator's own), and the status: ok only

@@ -154,7 +154,7 @@ static int32_t lag_beyond_noise(const struct attitude_state *st, int64_t delta, 
     return d * d > var ? (int32_t)fix_isqrt_u64(d * d - var) : 0;
 }
 
-/* The lag learnt across blocks (issue 24): one window's comparison has the window's own
+/* The lag learnt across blocks: one window's comparison has the window's own
  * noise (3° at N = 10, σ 7 mm), so a filter that outlives its windows and lags a slow
  * motion by less than that (Q = 0, or a Q too small: 1.7° at 0.1°/s) answered `ok` 6 of its
  * sd off. The mean of the comparisons over blocks of N rows (gain 1/b for the first 16

@@ -6,7 +6,8 @@ static const uint8_t bit_b = ANGLES_BIT(ANGLES_B);
 static const uint8_t bit_c = ANGLES_BIT(ANGLES_C);
 static const uint8_t bit_d = ANGLES_BIT(ANGLES_D);
 
-/* α needs A and C, or B and D plus one of A, C (DESIGN.md §2 model, rank of H). */
+/* α needs A and C, or B and D plus one of A, C (docs/explanation/architecture.md model, rank of H).
+ */
 static bool alpha_observable(uint8_t s) {
     const bool ac = (s & (bit_a | bit_c)) == (bit_a | bit_c);
     const bool bd = (s & (bit_b | bit_d)) == (bit_b | bit_d);

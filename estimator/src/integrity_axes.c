@@ -3,8 +3,8 @@
 
 #include "integrity_internal.h"
 
-/* DESIGN.md §2: α needs A and C (y = (x_C − x_A)/2), or one of them with B and D (their
- * midpoint stands for x̄); β likewise. */
+/* docs/explanation/architecture.md: α needs A and C (y = (x_C − x_A)/2), or one of them with B and
+ * D (their midpoint stands for x̄); β likewise. */
 int integrity_axis_coeffs(enum integrity_axis axis, uint8_t used, int8_t c[ANGLES_SENSORS]) {
     static const int8_t table[9][ANGLES_SENSORS] = {
         {-1, 0, 1, 0}, {0, -1, 2, -1}, {-2, 1, 0, 1}, /* α: A+C, C+B+D, A+B+D */

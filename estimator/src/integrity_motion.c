@@ -16,7 +16,7 @@ static void tail_step(const struct integrity_ramp_sums *r, unsigned t, fix_q32_t
     const int32_t m = r->tail_n[t];
     /* A plate that moved late in the window puts its newest readings outside the window's
      * gate, which then hides the move from the estimate and from this statistic alike (a
-     * 10°/s ramp after a hold: 2.6° off with a 0.2° sd, issue 24). When the gate dropped at
+     * 10°/s ramp after a hold: 2.6° off with a 0.2° sd). When the gate dropped at
      * least as many of the newest N/8 rows' readings as it kept, they are a move, not
      * outliers (2 % gross outliers put half of a tail outside it once in 10^7 windows): the
      * step is their mean with the kept ones against the window mean, variance s²(1/m + 1/n)
@@ -69,7 +69,7 @@ static void ramp(const struct integrity_ramp_sums *r, int64_t last, fix_q32_t s2
     /* The noise is the scatter about the ramp, not about the mean: a sensor's variance
      * holds all of its motion, the distance's too, which cancels in the angles (a 5 mm/s
      * approach put 52 mm² into each sensor's variance of a 255-row window and hid a 1°/s
-     * tilt's 2.5° lag from every test, issue 24). The ramp explains sxy²/(n sxx) of the sum
+     * tilt's 2.5° lag from every test). The ramp explains sxy²/(n sxx) of the sum
      * of squares (Q32: (sxy/(n sxx)) sxy); the rest over n − 2 degrees of freedom, never
      * below the rounding's 1/12 mm². */
     const fix_q32_t b = fix_mul_shr_s64(sxy, rm, shift, NULL); /* sxy/(n sxx), Q32 */

@@ -3,9 +3,9 @@
 
 /* What sensor k's calibration leaves in its corrected reading at distance x (Q32 mm), as a
  * variance (Q32 mm²): the error of (raw − offset)/gain is about −(δo + x·δg), so
- * var = σo² + (x·σg)² + 2·x·ρ·σo·σg (docs/calibration.md, `offset_gain_corr`). At gain 1
- * (the 1/gain² it omits is within ±0.2 of 1 for gains within ±10 %). 0 for a calibration
- * stated exact. */
+ * var = σo² + (x·σg)² + 2·x·ρ·σo·σg (docs/how-to/calibrate-a-head.md, `offset_gain_corr`). At gain
+ * 1 (the 1/gain² it omits is within ±0.2 of 1 for gains within ±10 %). 0 for a calibration stated
+ * exact. */
 static fix_q32_t calibration_var(const struct integrity_config *cfg, unsigned k, fix_q32_t x_mm) {
     const int64_t so = cfg->cal_offset_sd_um[k];
     const int64_t x_um = fix_asr_s64(x_mm * 1000, FIX_Q32_SHIFT); /* |x| < 2^48 */

@@ -47,8 +47,9 @@ static void learn_drift(struct integrity_state *st, const struct integrity_confi
 
 /* The prior walk's variance at rows since the start: offset_walk (µm²/h) · (the calibration's
  * age at the start + rows · period) (µs) / 3.6e9 µs/h, in µm², then as Q32 mm² (saturating: it
- * grows, it is never capped). Never scaled down by what the parity shows: docs/estimator-design.md,
- * "Drift since the start" (session 10: a smooth drift's short spans hid its long ones). */
+ * grows, it is never capped). Never scaled down by what the parity shows:
+ * docs/explanation/estimators.md, "Drift since the start" (a smooth drift's short spans hide its
+ * long ones). */
 fix_q32_t integrity_prior_walk(const struct integrity_config *cfg, uint32_t rows) {
     bool sat = false;
     const int64_t us =
@@ -89,7 +90,7 @@ void integrity_parity(struct integrity_state *st, const struct integrity_config 
         out->why |= ATTITUDE_WHY_PARITY;
     }
     /* `drift` only when the learnt drift is both large and significant: its scatter from
-     * white noise alone crossed the flag at short windows and high noise (issue 24: N = 20,
+     * white noise alone crossed the flag at short windows and high noise (N = 20,
      * σ 7.3 mm, 35 % of windows); the sd keeps the whole learnt drift (integrity_noise.c) */
     if (st->drift_mm2 > integrity_um2_to_q32(cfg->drift_flag_um) &&
         integrity_beyond(st->drift_mm2, st->drift_var_mm4, INTEGRITY_DRIFT_SIGNIFICANCE_Q8)) {

@@ -12,7 +12,7 @@
  * each increment of the walk enters D with weight min(t, 2B − t)), and the sum S of the
  * squared row differences (Δy)² over the same 2B rows has E[S] = 2B(2w_y + q_y), so
  *     q_y = E[D² − S/2] / (B(2B² + 1)/3 − B)
- * whatever w_y: each block's noise is taken from its own rows (issue 24: subtracting the
+ * whatever w_y: each block's noise is taken from its own rows (subtracting the
  * learnt R instead biased the samples by its own error, up to 25 %, times the noise/q
  * ratio, 360 at B = 32 for q_t 0.01 mm²/s at σ 7 mm). q_y = 16 q_x̄, 4 q_t, 4 q_t: one block
  * gives a sample of q_x̄ and of q_t (both slopes share it, as --process-noise QD,QT does).
@@ -81,14 +81,14 @@ static int32_t adapt_bound(int64_t v) {
     return (int32_t)(v > lim ? lim : (v < -lim ? -lim : v));
 }
 
-/* A fall of q (issue 24): the running means forget at 2^-6 a sample, 2 000 rows at level
+/* A fall of q: the running means forget at 2^-6 a sample, 2 000 rows at level
  * 0 and 4^l times that above, so after q falls a hundredfold the old q stays in them for
  * thousands of rows. Each level and group runs a CUSUM test of "this sample's D² is what
  * the level's mean predicts" against "a sixteenth of it": x = D²/E[D²] with
  * E[D²] = q̄·(c_B − B) + S/2 (q̄ the level's mean, S the sample's own (Δy)² sum), one χ²
  * draw per axis (one for x̄, two for the slopes), log-likelihood ratio per sample
  * k/2·(ln 16 − 15 x) for k axes, summed and floored at 0. Past 10 every level of the group
- * forgets (its samples start again). Measured (ref_tracking --trace, issue 24): after
+ * forgets (its samples start again). Measured (ref_tracking --trace): after
  * q_t 1 -> 0.01 mm²/s at σ 3 mm, found 580 to 1 350 rows later; on stationary walks, one
  * false alarm in 18 runs of 20 000 rows. Armed once a level has 16 samples. */
 static void adapt_fall(struct kalman_cov *cv, unsigned l, unsigned g,

@@ -6,15 +6,15 @@
  * With Q > 0 and R constant, P converges to the fixed point of the Riccati recursion, and
  * with it the four scalar updates' gains: once a row with all four readings (every one a
  * block update, none gated out) leaves P settled (below), its gains are kept and the following rows
- * with all four readings are x += k_s e_s alone, A..D, P left at that fixed point (tests/estimator/ref_tracking.cpp:
- * the ratio to the optimal filter is unchanged to three decimals). Anything else ends it: a reading
- * missing, one outside the gate's sure-accept bound (the row then runs in full, gated
- * exactly), an R or Q change, a reset. */
+ * with all four readings are x += k_s e_s alone, A..D, P left at that fixed point
+ * (tests/estimator/ref_tracking.cpp: the ratio to the optimal filter is unchanged to three
+ * decimals). Anything else ends it: a reading missing, one outside the gate's sure-accept bound
+ * (the row then runs in full, gated exactly), an R or Q change, a reset. */
 #define STEADY_TOL_SHIFT 8u
 /* With process_noise_auto the Q itself is learnt to within a factor 1.5 (kalman_adapt.c),
  * so gains within 2^-5 of the fixed point's (P settled to 2^-4 of Q a row) cost nothing
- * measurable (tests/estimator/ref_tracking.cpp: the sweep's ratios unchanged to 0.01), while a Q change
- * settles in fewer full rows: the M4 cost of a row with `auto` 2 082 -> 1 892 (issue 24). */
+ * measurable (tests/estimator/ref_tracking.cpp: the sweep's ratios unchanged to 0.01), while a Q
+ * change settles in fewer full rows: the M4 cost of a row with `auto` 2 082 -> 1 892. */
 #define STEADY_TOL_SHIFT_AUTO 4u
 
 /* One steady row, all four readings; false (x unchanged) when one may be gated out or

@@ -8,12 +8,11 @@
 #include "estimator/window_stats.h"
 #include "fixmath_internal.h"
 
-/* One reading corrected (DESIGN.md §2: true = (raw − offset)/gain), in fine units:
- * d = raw − offset, true = d + round(d·r/2^32) with r = 1/gain − 1 in Q32, computed as
- * the high word of d·2^32 + 2^31 + d·r (one multiply-accumulate on a Cortex-M). The
- * product stays below 2^59 and the sum below 2^63 (|d| < 2^27, |r| < 2^31).
- * Deterministic, so a row dropped later subtracts exactly what it added; identity
- * (offset 0, r 0) gives raw · 1024 exactly. */
+/* One reading corrected (docs/explanation/architecture.md: true = (raw − offset)/gain), in fine
+ * units: d = raw − offset, true = d + round(d·r/2^32) with r = 1/gain − 1 in Q32, computed as the
+ * high word of d·2^32 + 2^31 + d·r (one multiply-accumulate on a Cortex-M). The product stays below
+ * 2^59 and the sum below 2^63 (|d| < 2^27, |r| < 2^31). Deterministic, so a row dropped later
+ * subtracts exactly what it added; identity (offset 0, r 0) gives raw · 1024 exactly. */
 FIX_INLINE int32_t window_correct_one(const struct window_state *w, unsigned k, uint16_t raw) {
     const int32_t d = (int32_t)raw * ANGLES_FINE_ONE - w->cal_offset_fine[k];
     const int64_t prod = (int64_t)d * w->cal_inv_gain_q32[k];
@@ -33,7 +32,7 @@ FIX_INLINE void window_correct(const struct window_state *w,
  * rounding error carried to the next row (error feedback): whole mm rounded alone would
  * leave the fraction of a calibration's offset in every reading (raw readings are whole
  * mm), a bias of up to 0.5 mm per sensor in the filter, 0.48° of α at a = 30 mm (an
- * independent review, session 10: the filter's RMS error 1.69× the true calibration's);
+ * independent review: without it the filter's RMS error 1.69× the true calibration's);
  * carried, the whole-mm readings of any run of rows sum to the exact ones within 0.5 mm,
  * so the filter's averages hold no bias. An identity calibration (or whole-mm offsets
  * with gain 1) leaves the carry at 1/2 mm and the readings as they came. The carry stays
@@ -48,7 +47,7 @@ FIX_INLINE void window_correct_newest_one(struct window_state *w, unsigned k, ui
 }
 
 /* window_correct() of the newest row into newest_fine and newest_mm, unrolled: it runs on
- * every row (issue 23's budget: 60 instructions a row on the Cortex-M4). */
+ * every row (a budget of 60 instructions a row on the Cortex-M4). */
 FIX_INLINE void window_correct_newest(struct window_state *w,
                                       const uint16_t range_mm[ANGLES_SENSORS]) {
     window_correct_newest_one(w, 0u, range_mm[0]);

@@ -6,7 +6,7 @@
 #include "fixmath_internal.h"
 #include "window_internal.h"
 
-_Static_assert(WINDOW_MAX_SAMPLES >= 255u, "the issue asks for windows of at least 255 rows");
+_Static_assert(WINDOW_MAX_SAMPLES >= 255u, "windows of at least 255 rows are required");
 _Static_assert(WINDOW_MAX_SAMPLES <= 1024u, "exact 64-bit sums of angle products need N <= 1024");
 _Static_assert(sizeof(struct window_row) == 10u, "a window row is 10 bytes (the RAM budget)");
 

@@ -348,8 +348,8 @@ int tof_app_init(struct tof_app *app, const struct tof_platform *platform,
             .timing = cfg->timing,
             .pads_at_avdd = platform->sensor_pads_at_avdd,
             /* The part has no CRC: a distance that differs on a 2-byte re-read is refused, so
-             * a flipped bit cannot reach an `ok` window (docs/driver.md "Integrity"; bus
-             * load 14.35 % at 4 x 50 Hz, within the 15 % goal). */
+             * a flipped bit cannot reach an `ok` window (docs/explanation/driver-and-bus.md
+             * "Integrity"; bus load 14.35 % at 4 x 50 Hz, within the 15 % goal). */
             .verify_distance = true,
             .bus_hz = (uint32_t)cfg->i2c_khz * 1000u, /* the call budgets' wire time */
         };
@@ -507,7 +507,7 @@ int tof_app_set_period(struct tof_app *app, uint32_t period_ms) {
 
 /* Not inlined: its line buffer stays off the main loop's stack (tools/stack_check.py). The
  * code, not its message: the messages' table (estimator/src/attitude_text.c, 1.6 KB) would be
- * the flight image's only use of it, and the 64 KiB budget is full; docs/errors.md and
+ * the flight image's only use of it, and the 64 KiB budget is full; docs/reference/errors.md and
  * tools/tof_telemetry.py name every code, and the codes' blocks are disjoint. */
 static __attribute__((noinline)) void
 log_init_failure(const struct tof_app *app, const struct tof_platform *platform, int rc) {
@@ -517,7 +517,7 @@ log_init_failure(const struct tof_app *app, const struct tof_platform *platform,
     tof_text_str(&t, app->estimator_error != 0 ? "init failed: estimator error "
                                                : "init failed: error ");
     tof_text_i64(&t, rc);
-    tof_text_str(&t, " (docs/errors.md)");
+    tof_text_str(&t, " (docs/reference/errors.md)");
     tof_log_line(platform, line);
 }
 

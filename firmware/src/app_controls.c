@@ -10,7 +10,7 @@ int tof_app_set_window(struct tof_app *app, uint16_t window, bool sliding) {
     struct attitude_config next = app->estimator.cfg;
     next.window = window;
     next.mode = sliding ? ATTITUDE_SLIDING : ATTITUDE_TUMBLING;
-    tof_estimator_mode_process_noise(&next); /* Q = 0: auto when sliding (issue 24) */
+    tof_estimator_mode_process_noise(&next); /* Q = 0: auto when sliding */
     /* attitude_init() checks window and mode before it touches the state, and the rest
      * of the configuration was accepted at init: a refusal changes nothing. */
     next.calibration_age_s = tof_app_calibration_age_s(app);

@@ -102,7 +102,7 @@ static bool decode_sensor(const uint8_t *v, bool has_gain, unsigned i,
     cal->offset_gain_corr_q15[i] =
         (int16_t)(corr <= 0x7FFFu ? (int32_t)corr : (int32_t)corr - 65536);
     if (!has_gain) {
-        /* no gain stored: gain 1 with the parts' spread (DESIGN.md §6a) */
+        /* no gain stored: gain 1 with the parts' spread (docs/reference/calibration-file.md) */
         if (cal->gain_ppm[i] != 0 || cal->gain_sd_ppm[i] != 0u) {
             return false;
         }

@@ -144,7 +144,7 @@ int tof_app_config_period(struct tof_app_config *cfg, uint32_t period_ms) {
     cfg->health.silence_to_lost_ms = 3u * period_ms;
     cfg->health.recovery_timeout_ms = 5u * period_ms;
     cfg->health.suspect_timeout_ms = 10u * period_ms;
-    cfg->estimator.period_us = period_us; /* the drift allowance's clock (issue 23) */
+    cfg->estimator.period_us = period_us; /* the drift allowance's clock */
     return HAL_OK;
 }
 

@@ -1,4 +1,4 @@
-/* The estimate CSV rows of DESIGN.md §6, integer text only (see firmware/est_csv.h). */
+/* The estimate CSV rows of docs/reference/tools.md, integer text only (see firmware/est_csv.h). */
 #include "firmware/est_csv.h"
 
 void tof_est_csv_row(struct tof_text *t, uint32_t t_ms, const struct attitude_estimate *e) {

@@ -1,7 +1,7 @@
 /*
  * Little-endian u32 in byte buffers, for the record's header and its sections (record.c,
- * settings.c, calibration_record.c; docs/firmware.md "Records"): one reading, whatever the
- * core's own byte order.
+ * settings.c, calibration_record.c; docs/explanation/firmware.md "Records"): one reading, whatever
+ * the core's own byte order.
  */
 #ifndef FIRMWARE_SRC_LE_BYTES_H
 #define FIRMWARE_SRC_LE_BYTES_H

@@ -42,7 +42,7 @@ static void send_estimates(struct tof_link *link, const struct tof_estimate_reco
             used = (uint8_t)(used | (est->counts[k].used > 0u ? 1u << k : 0u));
         }
         /* Each value with its sd, or neither: what the estimator could not estimate has
-         * no sd either (docs/telemetry.md). */
+         * no sd either (docs/reference/telemetry-protocol.md). */
         const bool a = est->alpha_valid, b = est->beta_valid, d = est->distance_valid;
         const struct tlm_estimate msg = {
             .t_ms = (uint32_t)(record->t_us / 1000u),
@@ -82,8 +82,8 @@ static __attribute__((noinline)) void send_health(struct tof_link *link) {
     msg.bus.busy = h.errors_by_code[-HAL_ERR_BUS_BUSY];
     msg.bus.timeout = h.errors_by_code[-HAL_ERR_TIMEOUT];
     msg.bus.stuck = h.errors_by_code[-HAL_ERR_BUS_STUCK];
-    /* The frame has no room for the rest (docs/telemetry.md §5.3): every other hal code,
-     * HAL_ERR_DEVICE among them, and any other module's code count as "other". */
+    /* The frame has no room for the rest (docs/reference/telemetry-protocol.md §5.3): every other
+     * hal code, HAL_ERR_DEVICE among them, and any other module's code count as "other". */
     for (unsigned slot = 0; slot < TOF_ERROR_SLOTS; ++slot) {
         const bool own_field =
             slot == (unsigned)-HAL_ERR_ADDR_NACK || slot == (unsigned)-HAL_ERR_DATA_NACK ||
@@ -234,8 +234,8 @@ static uint8_t estimator_result(int err) {
                : TLM_RESULT_STATE;
 }
 
-/* write-calibration (docs/telemetry.md): saved and in force, or refused naming the cause.
- * Refused as busy while a re-zero runs (its result would overwrite this one) or a record
+/* write-calibration (docs/reference/telemetry-protocol.md): saved and in force, or refused naming
+ * the cause. Refused as busy while a re-zero runs (its result would overwrite this one) or a record
  * write is in progress (the record in use is about to change): never acknowledged and then
  * lost. */
 static uint8_t write_calibration(struct tof_link *link, const uint8_t *section, int *error) {
@@ -297,7 +297,7 @@ static void send_calibration(struct tof_link *link) {
     send(link, frame, tlm_encode_calibration(link->seq, &msg, frame, sizeof frame));
 }
 
-/* set-arm and set-period (issue 22: geometry and rate at run time). A new period changes the
+/* set-arm and set-period (geometry and rate at run time). A new period changes the
  * timing budget, which the stored calibration is bound to: it is checked again, and the
  * status frame says whether it still holds. */
 static uint8_t apply_geometry(struct tof_link *link, const struct tlm_command *cmd, int *error) {

@@ -21,7 +21,8 @@ const char calibrate_help[] =
     "Fits each sensor's offset and gain (raw = gain * true + offset) from a fixture trace's\n"
     "stations: runs of rows with the same truth alpha_deg, beta_deg, distance_mm (rows\n"
     "without truth, the fixture moving, and readings whose status is not 0 are not used),\n"
-    "with their sd from the stations' noise and scatter (docs/calibration.md). With one\n"
+    "with their sd from the stations' noise and scatter (docs/how-to/calibrate-a-head.md). With "
+    "one\n"
     "fixture distance only the gains are not determined: offsets fitted at gain 1, and the\n"
     "gain left at the parts' stated spread with its correlation to the offset written, so\n"
     "the sd is exact at the fixture's distance and grows away from it. The HEAD.cal is\n"
@@ -32,7 +33,8 @@ const char calibrate_help[] =
     "0.9..1.1), whose station means fit another arm in every sensor (more than 5 sd from\n"
     "arm_mm), or whose scatter ratio exceeds 100 (wrong station truths).\n"
     "options:\n"
-    "  --out HEAD.cal       the head-calibration file (DESIGN.md section 6a); required\n"
+    "  --out HEAD.cal       the head-calibration file (docs/reference/calibration-file.md); "
+    "required\n"
     "  --report CAL.json    the fit per sensor and the residuals per station\n"
     "  --help, -h           this text\n"
     "exit status: 0 written, 1 bad input or a trace it cannot fit, 2 bad command line\n";
@@ -83,8 +85,8 @@ static int parse(int argc, char **argv, struct calibrate_args *a) {
 }
 
 /* The configuration the fixture's readings were taken in, which the HEAD.cal is bound to
- * (docs/calibration.md, "What binds a record"): without it a calibration made in one mode
- * would be applied in another. */
+ * (docs/how-to/calibrate-a-head.md, "What binds a record"): without it a calibration made in one
+ * mode would be applied in another. */
 struct cal_binding {
     enum vl53_distance_mode mode;
     unsigned budget_ms;

@@ -1,6 +1,6 @@
 /*
- * host_sim calibrate CAL_TRACE.csv --out HEAD.cal [--report CAL.json] (DESIGN.md §6, §6a;
- * docs/calibration.md): fits each sensor's offset and gain from a fixture trace's
+ * host_sim calibrate CAL_TRACE.csv --out HEAD.cal [--report CAL.json] (docs/reference/tools.md,
+ * §6a; docs/how-to/calibrate-a-head.md): fits each sensor's offset and gain from a fixture trace's
  * stations and writes the head-calibration file.
  */
 #ifndef HOST_SIM_CALIBRATE_H

@@ -21,7 +21,7 @@ static void json_string(FILE *f, const char *s) {
 }
 
 /* What more readings per station would give: the offset's sd from the noise alone falls as
- * 1/sqrt(n); reaching 0.05 mm (issue 23's goal) takes n · (sd / 0.05)² readings. A scatter
+ * 1/sqrt(n); reaching 0.05 mm (the calibration's goal) takes n · (sd / 0.05)² readings. A scatter
  * between stations beyond the noise (inflation > 1) does not fall with n: more stations. */
 static double readings_for(const struct calfit_sensor *s, double per_station, double target) {
     const double r = s->offset_sd_within_mm / target;

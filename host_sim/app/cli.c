@@ -146,21 +146,23 @@ bool cli_wants_help(int argc, char **argv) {
 /* Each subcommand's options, one per line (keep in step with its parser). */
 static const char replay_help[] =
     "usage: host_sim replay TRACE.csv [options]\n"
-    "Feeds a trace v1 file (docs/traces.md) through the simulated VL53 sensors and I2C bus\n"
+    "Feeds a trace v1 file (docs/reference/trace-format.md) through the simulated VL53 sensors and "
+    "I2C bus\n"
     "into the firmware pipeline and its estimators; windows are counted in trace rows.\n"
     "options:\n"
     "  --estimator NAME     primary estimator: consensus (default), consensus-paper, kalman,\n"
     "                       mean (all four run; this one leads the summary and the plot)\n"
     "  --window N           samples per window, 2..255 (default 100)\n"
     "  --mode MODE          tumbling (default) or sliding\n"
-    "  --out EST.csv        estimates, one row per estimate (DESIGN.md section 6)\n"
+    "  --out EST.csv        estimates, one row per estimate (docs/reference/tools.md)\n"
     "  --report REPORT.json statistics, time base, bus and firmware counters\n"
     "  --plot FIG.png       estimates against truth (tools/plot_replay.py, matplotlib)\n"
     "  --faults SPEC        bus faults kind=probability[,...] per transaction; kinds: nack\n"
     "                       stretch reset drdy_high drdy_low garbage bitflip stuck\n"
     "  --faults-until ROW   stop injecting faults at trace row ROW (>= 1)\n"
     "  --seed S             seed of the fault injection (default 1)\n"
-    "  --i2c-log BUS.csv    every bus transaction: t_us,addr,write,read,result (docs/driver.md)\n"
+    "  --i2c-log BUS.csv    every bus transaction: t_us,addr,write,read,result "
+    "(docs/explanation/driver-and-bus.md)\n"
     "  --i2c-khz K          the simulated bus clock, 100 or 400 (default 400): the board\n"
     "                       images' TOF_I2C_KHZ; a period the bus cannot carry is refused\n"
     "  --process-noise Q    Kalman random-walk intensities QD,QT in mm²/s (x̄; a·tan α and\n"
@@ -169,21 +171,22 @@ static const char replay_help[] =
     "  --distance-mode M    the parts' mode: short (to 1360 mm) or long (to 4000 mm); default:\n"
     "                       the trace's '# distance_mode=', else long when it holds readings\n"
     "                       above 1360 mm and its period admits long mode, else short\n"
-    "  --calibration F      the head's calibration, a HEAD.cal (docs/calibration.md); wins\n"
+    "  --calibration F      the head's calibration, a HEAD.cal (docs/how-to/calibrate-a-head.md); "
+    "wins\n"
     "                       over the trace's keys; neither: an uncalibrated head, never ok\n"
     "  --max-rate DEG_S     the plate's rate bound in °/s, 0..360 (0: a still plate, e.g. a\n"
     "                       fixture); wins over the trace's '# max_rate_deg_s='; default 1\n"
     "  --command ROW:TEXT   a host's command (tools/tof_telemetry.py --send syntax: set-window\n"
     "                       50 sliding, estimator kalman, process-noise auto, raw on, ...)\n"
     "                       to the firmware's link at 115200 Bd when row ROW's slot is half\n"
-    "                       over; repeatable, in order (DESIGN.md section 6)\n"
+    "                       over; repeatable, in order (docs/reference/tools.md)\n"
     "  --quiet              no summary table on stdout\n"
     "  --help, -h           this text\n"
     "exit status: 0 done, 1 bad input or a failed run, 2 bad command line\n";
 
 static const char scenario_help[] =
     "usage: host_sim scenario NAME [--seed S] --trace-out TRACE.csv\n"
-    "Writes a named synthetic scenario as a trace v1 file (docs/traces.md).\n"
+    "Writes a named synthetic scenario as a trace v1 file (docs/reference/trace-format.md).\n"
     "options:\n"
     "  --seed S             seed of the scenario's noise (default 1)\n"
     "  --trace-out FILE     where to write it ('-' is stdout); required\n"
@@ -194,7 +197,7 @@ static const char scenario_help[] =
 static const char campaign_help[] =
     "usage: host_sim campaign [--trace T.csv] [--seed S] [--markdown FILE.md]\n"
     "Runs every bus fault kind alone and mixed over a trace and checks that no run hangs\n"
-    "and no wrong estimate goes unflagged (docs/fault-campaign.md).\n"
+    "and no wrong estimate goes unflagged (docs/reference/fault-campaign.md).\n"
     "options:\n"
     "  --trace T.csv        the trace to replay (default: the bundled demo trace)\n"
     "  --seed S             seed of the fault injection (default 1)\n"
@@ -215,7 +218,7 @@ bool cli_print_help(const char *cmd, const char *const *scenario_names, FILE *f)
             fprintf(f, " %s", scenario_names[i]);
         }
         for (size_t i = 0; fixture_names[i] != NULL; ++i) {
-            fprintf(f, " %s", fixture_names[i]); /* docs/calibration.md */
+            fprintf(f, " %s", fixture_names[i]); /* docs/how-to/calibrate-a-head.md */
         }
         fputc('\n', f);
     } else {
@@ -371,7 +374,7 @@ int cli_parse_replay(int argc, char **argv, struct replay_args *out) {
         return usage_error(cmd, "missing TRACE.csv", NULL);
     }
     if (out->estimator == NULL) {
-        out->estimator = "consensus"; /* the product's default (DESIGN.md §6) */
+        out->estimator = "consensus"; /* the product's default (docs/reference/tools.md) */
     }
     return 0;
 }

@@ -1,5 +1,5 @@
 /*
- * host_sim command line (DESIGN.md §6; names are an interface, keep them):
+ * host_sim command line (docs/reference/tools.md; names are an interface, keep them):
  *
  *   host_sim replay TRACE.csv --estimator NAME [--window N] [--mode tumbling|sliding]
  *                             [--out EST.csv] [--report REPORT.json] [--plot FIG.png]
@@ -8,7 +8,7 @@
  *                             [--i2c-khz 100|400]
  *   host_sim scenario NAME [--seed S] --trace-out TRACE.csv
  *   host_sim calibrate CAL_TRACE.csv --out HEAD.cal [--report CAL.json]   (calibrate.h)
- *   host_sim camera ...      (synthetic ToF camera + pose pipeline; see docs/pose.md)
+ *   host_sim camera ...      (synthetic ToF camera + pose pipeline; see docs/explanation/pose.md)
  */
 #ifndef HOST_SIM_CLI_H
 #define HOST_SIM_CLI_H

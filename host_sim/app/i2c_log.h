@@ -1,6 +1,6 @@
 /*
  * host_sim's --i2c-log: every transaction of the simulated bus written to a CSV file in
- * the format of sim/sim_i2c_csv.h (DESIGN.md §6), through the bus's log sink.
+ * the format of sim/sim_i2c_csv.h (docs/reference/tools.md), through the bus's log sink.
  */
 #ifndef HOST_SIM_I2C_LOG_H
 #define HOST_SIM_I2C_LOG_H

@@ -2,7 +2,7 @@
  * host_sim: the host target. Replays recorded traces and scenarios through the
  * real firmware path (simulated I²C bus, VL53 models, drivers, fault manager,
  * estimators), writes scenario traces, and runs the synthetic ToF camera.
- * Command line: DESIGN.md §6 (cli.h).
+ * Command line: docs/reference/tools.md (cli.h).
  */
 #include <stdio.h>
 #include <string.h>
@@ -26,11 +26,12 @@ static void usage(FILE *f) {
           "                  [--calibration HEAD.cal] [--command ROW:TEXT]... [--quiet]\n"
           "  host_sim scenario NAME [--seed S] --trace-out TRACE.csv\n"
           "  host_sim calibrate CAL_TRACE.csv --out HEAD.cal [--report CAL.json]\n"
-          "  host_sim camera --frames K --range-mm R ... (see docs/pose.md)\n"
+          "  host_sim camera --frames K --range-mm R ... (see docs/explanation/pose.md)\n"
           "  host_sim campaign [--trace T.csv] [--seed S] [--markdown FILE.md]\n"
           "  host_sim SUBCOMMAND --help   (each subcommand's options)\n"
           "fault SPEC: kind=probability[,...] per bus transaction, kinds:\n"
-          "  nack stretch reset drdy_high drdy_low garbage bitflip stuck (docs/driver.md)\n"
+          "  nack stretch reset drdy_high drdy_low garbage bitflip stuck "
+          "(docs/explanation/driver-and-bus.md)\n"
           "scenarios:",
           f);
     for (size_t i = 0; scene_scenario_names[i] != NULL; ++i) {

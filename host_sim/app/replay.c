@@ -257,7 +257,7 @@ static int open_outputs(struct replay *r) {
 }
 
 /* --faults-until: stop injecting at that row, then time the return to four healthy
- * sensors (the issue's recovery goal). */
+ * sensors (the recovery goal). */
 static void track_fault_stop(struct replay *r) {
     if (r->args->faults_until_row == 0u) {
         return;

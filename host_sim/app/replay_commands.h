@@ -1,9 +1,9 @@
 /*
- * host_sim replay --command ROW:TEXT (DESIGN.md §6): the commands reach the firmware's own
- * link code (firmware/link.h) as a host's bytes through an in-memory serial port, back to
- * back at 115200 Bd 8N1, starting when row ROW's slot is half over, the instant tof_twin
- * sends them (twin/tool/tof_twin_host.c), so both apply each command between the same two
- * samples. The text is parsed by telemetry/tlm_command_text.h, the one parser of both.
+ * host_sim replay --command ROW:TEXT (docs/reference/tools.md): the commands reach the firmware's
+ * own link code (firmware/link.h) as a host's bytes through an in-memory serial port, back to back
+ * at 115200 Bd 8N1, starting when row ROW's slot is half over, the instant tof_twin sends them
+ * (twin/tool/tof_twin_host.c), so both apply each command between the same two samples. The text is
+ * parsed by telemetry/tlm_command_text.h, the one parser of both.
  */
 #ifndef HOST_SIM_REPLAY_COMMANDS_H
 #define HOST_SIM_REPLAY_COMMANDS_H

@@ -9,7 +9,7 @@
 #include "replay_state.h"
 
 /*
- * What the trace's length and time stamps mean for the windows (DESIGN.md §6: windows
+ * What the trace's length and time stamps mean for the windows (docs/reference/tools.md: windows
  * are counted in rows, t_ms labels them): a trace shorter than one window is an error;
  * a trailing partial window (kept in r->partial_rows) and irregular time stamps are
  * warnings on stderr (and in the report). Returns 0 or -1.

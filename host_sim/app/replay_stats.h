@@ -28,7 +28,7 @@ struct err_stats {
     uint32_t status_count[3]; /* ok, degraded, invalid */
 };
 
-/* Calibration of one estimator's sd on one axis against the truth (issue 15): answered
+/* Calibration of one estimator's sd on one axis against the truth: answered
  * rows with truth, those within 3 sd and beyond 6 sd, and Σerr², Σsd². */
 struct calib_axis {
     uint64_t n, within3, beyond6;

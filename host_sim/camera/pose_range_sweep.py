@@ -6,7 +6,7 @@ camera` command) at each range, prints a Markdown table and writes a plot.
         --exe build/pose-rel/host_sim/camera/host_sim_camera \
         --frames 200 --out-dir build/pose-rel/sweep --plot docs/pose_range.png
 
-Two scenarios per range: the issue's goal conditions (range noise 1 %, gray
+Two scenarios per range: the goal conditions (range noise 1 %, gray
 noise 2 %, 2 spurious blobs, 1 hidden marker) and a noise-free reference.
 Ranges under 650 mm cannot keep every marker of this target in view at every
 drawn attitude, so they run with --allow-partial (markers may leave the image).

@@ -2,7 +2,7 @@
  * circular reflectors in two L-shaped groups of four. Markers 1-4 are 35 mm
  * across, 5-8 are 80 mm; markers 1, 3, 4, 7 stand 100 mm above the plate and
  * 2, 5, 6, 8 stand 150 mm. The paper gives no positions in the plate plane, so
- * this layout is ours (docs/pose.md draws it):
+ * this layout is ours (docs/explanation/pose.md draws it):
  *   - small L (1-4): corner 1 at lower left, long arm along +x through 2 and 3
  *     (105 and 100 mm steps), short arm along +y to 4 (70 mm);
  *   - large L (5-8): corner 5 at upper right, long arm along -x through 6 and 7

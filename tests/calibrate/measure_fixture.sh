@@ -1,5 +1,5 @@
 #!/bin/sh
-# Measures host_sim calibrate on a fixture scenario over seeds (docs/calibration.md, "How long"):
+# Measures host_sim calibrate on a fixture scenario over seeds (docs/how-to/calibrate-a-head.md, "How long"):
 # the mean stated offset sd, the RMS of the actual offset errors against the trace's
 # sim_offset_mm, their ratio, and the readings per station the noise alone needs for 0.05 mm.
 # Usage: H=build/host-release/host_sim/app/host_sim tests/calibrate/measure_fixture.sh [SCENARIO] [SEEDS]

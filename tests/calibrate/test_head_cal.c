@@ -1,5 +1,5 @@
-/* The head-calibration file v1 (DESIGN.md §6a): reading, its errors with line and column,
- * writing and reading back. */
+/* The head-calibration file v1 (docs/reference/calibration-file.md): reading, its errors with line
+ * and column, writing and reading back. */
 #define _POSIX_C_SOURCE 200809L /* fmemopen */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -121,7 +121,8 @@ static void test_write_reads_back(void **state) {
     }
     assert_string_equal(head_cal_extra(&back, "stations"), "20");
     assert_true(back.checksummed);
-    /* Its checksum line catches a cut and an edit, naming the line (DESIGN.md §6a). */
+    /* Its checksum line catches a cut and an edit, naming the line
+     * (docs/reference/calibration-file.md). */
     assert_int_equal(head_cal_parse(buf, (size_t)len - 3u, "w.cal", &back, err, sizeof err), -1);
     assert_non_null(strstr(err, "the file was cut"));
     char *digit = strstr(buf, "offset_mm=-3.");

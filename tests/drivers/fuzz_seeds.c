@@ -219,7 +219,7 @@ static void attitude_seeds(void) {
     att_plate(&seed, 40u, 200u, 10, -10, 4u, 0x01u, 0x08u, 7u);
     write_seed("fuzz_attitude", "kalman_warmup", &seed);
 
-    seed.len = 0; /* issue 24: `auto` on a plate that tilts block by block, tumbling */
+    seed.len = 0; /* `auto` on a plate that tilts block by block, tumbling */
     c = att_default;
     c.window = 20u;
     c.estimators = 5u; /* the flight set: consensus and Kalman */

@@ -5,7 +5,7 @@
  * return a hal_err code within the time bound its header states, never crash,
  * and keep its documented invariants.
  *
- * Long run: docs/reliability.md, "Fuzzing".
+ * Long run: docs/explanation/reliability.md, "Fuzzing".
  */
 #include <stddef.h>
 #include <stdint.h>

@@ -94,8 +94,8 @@ static void test_bring_up_from_the_i2c_log(void **state) {
     const uint64_t t_end = drv_now(&fx);
     assert_int_equal(vl53_array_ranging_count(&fx.array), DRV_SENSORS);
     assert_true(cap_count < CAP_MAX);
-    /* The CSV form of the first transactions (DESIGN.md §6): the probe of 0x29 with every
-     * XSHUT low is NACKed; time, address, write bytes, no read, the error's name. */
+    /* The CSV form of the first transactions (docs/reference/tools.md): the probe of 0x29 with
+     * every XSHUT low is NACKed; time, address, write bytes, no read, the error's name. */
     char want[64];
     snprintf(want, sizeof want, "%llu,0x29,010f,,ADDR_NACK\n", (unsigned long long)caps[0].t_us);
     assert_string_equal(first_lines[0], want);
@@ -361,8 +361,8 @@ static void test_stream_count_continues_after_a_stop(void **state) {
     assert_int_equal(vl53_stop_ranging(&dev), HAL_OK);
     assert_int_equal(vl53_start_ranging(&dev), HAL_OK);
     assert_int_equal(next_result(&r), HAL_OK);
-    /* The part's count goes on (the model's behaviour, docs/driver.md); the driver takes
-     * the first result after the start whatever its count, and marks it. */
+    /* The part's count goes on (the model's behaviour, docs/explanation/driver-and-bus.md); the
+     * driver takes the first result after the start whatever its count, and marks it. */
     assert_int_equal(r.stream_count, (uint8_t)(before + 1u));
     assert_int_equal(r.flags, VL53_RESULT_FIRST);
     assert_int_equal(next_result(&r), HAL_OK);

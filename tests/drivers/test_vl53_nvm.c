@@ -1,5 +1,5 @@
 /*
- * The parts' NVM identity (issue 23, binding a calibration to its parts): the driver reads
+ * The parts' NVM identity (binding a calibration to its parts): the driver reads
  * lot, wafer and die X/Y by ST's NVM-read sequence at bring-up, and gets what each device
  * model holds; a part that NACKs the sequence is parked with the error and its sensor named;
  * the model refuses every access out of ST's sequence (firmware on, no settling time, no

@@ -1,5 +1,5 @@
 /*
- * The parts' own offset registers (issue 23): whatever each part's NVM loaded into 0x1E,
+ * The parts' own offset registers: whatever each part's NVM loaded into 0x1E,
  * 0x20 and 0x22, every bring-up leaves the recorded state of the driver's config there, so
  * the readings are the same on every boot (XSHUT cycle, MCU reset with the part powered);
  * a part that does not take the write is reported with the register named; the

@@ -1,5 +1,5 @@
 /*
- * The calibration benchmark of issue 23 (docs/estimator-benchmark.md "Calibration"):
+ * The calibration benchmark (docs/explanation/accuracy.md "Calibration"):
  * simulated heads with offsets uniform in ±20 mm and gains in 1 ± 3 % at 60, 100, 150 and
  * 200 mm, α and β uniform in ±5°, σ = 2 mm white noise, whole-mm readings, N = 100
  * tumbling, through the estimator API with four calibrations of the same head:

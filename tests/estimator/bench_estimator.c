@@ -1,13 +1,13 @@
 /*
  * bench_estimator: the first paper's simulation protocol (Sec. IV: 100
  * positions from −5° to 5°, N = 100 readings per position, σ = 2 mm) and the
- * variations of issue 3, run through the fixed-point estimator facade
+ * variations, run through the fixed-point estimator facade
  * (estimator/attitude.h) exactly as the firmware calls it, one row at a time.
  *
  * For every scenario and estimator it prints the RMS and mean absolute α and β
  * errors over the windows the estimator reported as valid, beside the
  * Cramér-Rao bound of the same windows (hostlib/scene, scene/crb.h: the linear model
- * of DESIGN.md §2 with the true per-sensor noise and the readings an oracle
+ * of docs/explanation/architecture.md with the true per-sensor noise and the readings an oracle
  * would keep), and the largest difference between the fixed-point outputs and
  * a plain double implementation of the same algorithms on the same data.
  * It also reproduces the shape of the paper's Table I.
@@ -63,7 +63,7 @@ struct acc {
     uint32_t compared;       /* windows with a double comparison */
     uint32_t reasons[ATTITUDE_REASON_COUNT]; /* reason of every window */
     uint32_t ok;                             /* windows with status ok */
-    double sd2_a, sd2_b;                     /* Σ sd² over valid α / β windows (issue 15) */
+    double sd2_a, sd2_b;                     /* Σ sd² over valid α / β windows */
     uint32_t within3, beyond6;               /* |err| <= 3 sd, > 6 sd, both axes counted */
 };
 
@@ -582,9 +582,9 @@ static int run_scenario(const struct scenario *sc, uint64_t first_seed, unsigned
 static void usage(FILE *to) {
     fprintf(to, "usage: bench_estimator [--seeds S] [--first-seed F] [--steps]\n"
                 "  runs every scenario S times (default 20) from seed F (default 1) and prints\n"
-                "  the tables of docs/estimator-benchmark.md; exit status 0, 1 on a missing\n"
+                "  the tables of docs/explanation/accuracy.md; exit status 0, 1 on a missing\n"
                 "  real-noise log, 2 on a bad argument; --steps: only the step-detection\n"
-                "  delays (issue 24)\n");
+                "  delays\n");
 }
 
 int main(int argc, char **argv) {
@@ -712,7 +712,7 @@ int main(int argc, char **argv) {
         printf("| %s | %.2f | %.2f |\n", scenarios[s].label, paper_worst[s][0], paper_worst[s][1]);
     }
 
-    printf("\n## Standard deviations against the Cramer-Rao bound (issue 15)\n\n");
+    printf("\n## Standard deviations against the Cramer-Rao bound\n\n");
     printf("sd/CRB = RMS of each estimate's alpha_sd over RMS of the window's bound (the sd\n"
            "includes the default offset-stability prior, which the bound does not; 'no prior':\n"
            "the same windows with offset_stability_um = 0); err/sd =\n"

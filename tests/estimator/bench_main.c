@@ -1,5 +1,5 @@
 /*
- * On-target benchmark (DESIGN.md §7), run under QEMU with -icount shift=7 so the
+ * On-target benchmark (docs/reference/performance.md), run under QEMU with -icount shift=7 so the
  * CMSDK timer counts instructions exactly (insn_counter.h). For each operation it
  * prints "BENCH <cpu> <impl> <op> <instructions>", averaged over a workload of
  * BENCH_WINDOWS windows of N = 100 samples of a plate at changing attitudes:

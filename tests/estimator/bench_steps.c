@@ -1,6 +1,6 @@
 /* bench_estimator --steps: rows each estimator needs to notice an instantaneous step. */
 /*
- * Issue 24: a static plate (α = β = 0, 500 mm, a = 30 mm, σ = 2 mm white Gaussian noise
+ * A static plate (α = β = 0, 500 mm, a = 30 mm, σ = 2 mm white Gaussian noise
  * on each VL53 reading, rounded to 1 mm, N = 100) steps in α by 1, 3 or 10 sd of a
  * window's estimate (sd = atan(σ/√(2N)/a): y_α = (x_C − x_A)/2 over N rows, 0.27°) at a
  * row placed at random in the sixth window (after five windows of learning). The delay

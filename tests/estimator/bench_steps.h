@@ -1,4 +1,4 @@
-/* bench_estimator --steps (bench_steps.c): the step-detection delay table of issue 24. */
+/* bench_estimator --steps (bench_steps.c): the step-detection delay table. */
 #ifndef BENCH_STEPS_H
 #define BENCH_STEPS_H
 

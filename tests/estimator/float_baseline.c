@@ -11,7 +11,7 @@ void flt_window_init(struct flt_window *w, float arm_mm) {
     w->arm_mm = arm_mm;
 }
 
-/* Eq. 1 of the first paper and its β counterpart (DESIGN.md §2). */
+/* Eq. 1 of the first paper and its β counterpart (docs/explanation/architecture.md). */
 static void angles(const float x[4], float a, float alpha[5], float beta[5]) {
     alpha[0] = atan2f(x[1] - x[0], a) * RAD_TO_DEG;
     alpha[1] = atan2f(x[3] - x[0], a) * RAD_TO_DEG;

@@ -1,5 +1,5 @@
 /*
- * The float baseline of the on-target benchmark (DESIGN.md §7): the same
+ * The float baseline of the on-target benchmark (docs/reference/performance.md): the same
  * algorithms as the fixed-point estimator, written plainly in single precision
  * with the C library's atan2f, the way a user would write them without our
  * fixed-point work. Lives in tests/: firmware code never uses float.

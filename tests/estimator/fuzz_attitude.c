@@ -7,7 +7,7 @@
  * Q > 0 by its shift byte), then row commands until the input ends (explicit rows,
  * noisy tilted-plate blocks with flagged and missing readings and spikes, repeats,
  * gaps). Mode byte: bit 0 raw, bit 1 the Kalman filter's process_noise_auto (Q and R
- * learnt from the rows, issue 24), bit 7 twins: rows are fed to two states that start
+ * learnt from the rows), bit 7 twins: rows are fed to two states that start
  * from different garbage, and every output of both must agree field by field (no
  * dependence on uninitialised state).
  *
@@ -27,7 +27,7 @@
  *     window distances within the readings' range;
  *   - a Kalman "restarted" reason only when the filter restarted inside the window,
  *     and never an ok Kalman estimate across a restart;
- *   - integrity (issue 15): ok exactly when the why set is empty, never ok from a
+ *   - integrity: ok exactly when the why set is empty, never ok from a
  *     window holding a reading of 0, a no-target value or one beyond range_max_mm,
  *     an sd >= 1 beside every value (>= the estimator's own sigma), none beside none;
  *   - oracle: a window of N identical complete valid rows gives consensus answered at
@@ -35,7 +35,7 @@
  *     of the five exact per-row angles, and the paper rule invalid with
  *     "paper-nonpositive-variance" (all covariances are 0).
  *
- * Long run: docs/reliability.md, "Fuzzing".
+ * Long run: docs/explanation/reliability.md, "Fuzzing".
  */
 #include <stdint.h>
 #include <string.h>
@@ -298,7 +298,7 @@ static void check_estimate(const struct attitude_output *out, enum attitude_esti
             FUZZ_CHECK(e->status != ATTITUDE_OK);
         }
     }
-    /* issue 15: ok exactly when nothing is wrong, never from a window holding a reading
+    /* ok exactly when nothing is wrong, never from a window holding a reading
      * no part gives as valid; an sd beside every value and none beside no value */
     FUZZ_CHECK((e->status == ATTITUDE_OK) == (e->why == 0u));
     if (implausible_seen) {
@@ -485,8 +485,8 @@ static uint16_t clamp_range(int32_t v) {
 }
 
 /* A block of rows of a tilted plate: x_A = d − t_a, x_C = d + t_a, x_B = d + t_b,
- * x_D = d − t_b (DESIGN.md §2 with a·tan in mm), uniform noise ±amp, and per sensor
- * occasional flagged, missing or spiked readings. */
+ * x_D = d − t_b (docs/explanation/architecture.md with a·tan in mm), uniform noise ±amp, and per
+ * sensor occasional flagged, missing or spiked readings. */
 static void plate_block(struct fuzz_input *in, uint32_t count) {
     const int32_t d = fuzz_u16(in);
     const int32_t ta = (int8_t)fuzz_u8(in);

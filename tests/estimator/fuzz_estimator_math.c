@@ -18,7 +18,7 @@
  * Q > 0 and process_noise_auto: bit 2 of the configuration's style byte) and any variance
  * for noise tracking.
  *
- * Long run: docs/reliability.md, "Fuzzing".
+ * Long run: docs/explanation/reliability.md, "Fuzzing".
  */
 #include <math.h>
 #include <stdint.h>
@@ -578,7 +578,7 @@ static void check_kalman(struct fuzz_input *in) {
     cfg.gate_floor_mm = fuzz_u16(in);
     cfg.warmup_rows = fuzz_u8(in);
     cfg.noise_shift = fuzz_u8(in);
-    cfg.process_noise_auto = (style & 4u) != 0u; /* Q and R learnt from the rows (issue 24) */
+    cfg.process_noise_auto = (style & 4u) != 0u; /* Q and R learnt from the rows */
     if ((style & 1u) != 0u) {                    /* guided: a valid configuration */
         for (unsigned i = 0; i < KALMAN_STATES; ++i) {
             /* half of them Q = 0, the paper's static protocol */

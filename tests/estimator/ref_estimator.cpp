@@ -1,6 +1,6 @@
 /*
  * Reference tests of the fixed-point estimator against double precision with
- * Eigen (issue 3). Thousands of random windows go through the facade exactly
+ * Eigen. Thousands of random windows go through the facade exactly
  * as the firmware feeds it; each output is recomputed here in double from the
  * window's rows:
  *
@@ -15,7 +15,7 @@
  *                filter with Eigen matrices: angles <= 0.001°, P rel 1e-6
  *   mean         the plain average of the five angles               <= 0.001°
  *
- * The goal of the issue is 0.001° (1000 udeg) everywhere; the assertions use
+ * The goal is 0.001° (1000 udeg) everywhere; the assertions use
  * it, and the worst differences seen are printed.
  */
 #include <algorithm>
@@ -432,7 +432,7 @@ void run_scene(const Scene &sc, int n, int windows) {
                     present[k] = false;
                 }
                 row.r[static_cast<size_t>(k)] = present[k] ? r[k] : 0;
-                /* a reading of 0 or beyond the mode's range is never used (issue 15) */
+                /* a reading of 0 or beyond the mode's range is never used */
                 if (present[k] && status[k] == 0 && r[k] != 0 && r[k] <= cfg.range_max_mm) {
                     row.valid = static_cast<uint8_t>(row.valid | (1u << k));
                 }

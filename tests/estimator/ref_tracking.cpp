@@ -1,5 +1,5 @@
 /*
- * The Kalman filter's tracking form against the optimal linear filter (issue 17), written
+ * The Kalman filter's tracking form against the optimal linear filter, written
  * here in double precision with Eigen: the same random-walk model (identity dynamics,
  * Q = diag(q_x̄, q_t, q_t)·period, rows of Eq. 5 with the slopes scaled by a) with the
  * true q and R = σ² + 1/12 (whole-mm readings: the rounding adds 1/12 mm²), all four
@@ -20,7 +20,7 @@
  * Scenarios (period 20 ms, a = 30 mm, 6000 rows, the first 500 not scored): slow and fast
  * random-walk motion, one sensor three times noisier, and an approach from 300 to 60 mm
  * at constant speed with the tilt wandering (its x̄ is not a random walk; both filters get
- * the same q_x̄). The table it prints is docs/estimator-benchmark.md's tracking table.
+ * the same q_x̄). The table it prints is docs/explanation/accuracy.md's tracking table.
  */
 #include <array>
 #include <cmath>
@@ -267,7 +267,7 @@ void test_at_the_optimum(void **state) {
                       "%.3g) |\n",
                       sc.name, opt_rms[0], r_true[0], r_auto[0], opt_rms[1], r_true[1], r_auto[1],
                       q_end[0], q_end[1], sc.qd, sc.qt);
-        assert_true(worst_true <= 1.05); /* the issue's goals */
+        assert_true(worst_true <= 1.05); /* the goals */
         assert_true(worst_auto <= 1.10);
     }
 }
@@ -291,7 +291,7 @@ void test_auto_converges_after_a_q_change(void **state) {
     assert_true(fa.q_end[1] > kChange.qt_after / 2 && fa.q_end[1] < kChange.qt_after * 2);
 }
 
-/* The sweep (issue 24): q_t over two decades, q_x̄ over two, σ 1 to 7 mm, plus one sensor
+/* The sweep: q_t over two decades, q_x̄ over two, σ 1 to 7 mm, plus one sensor
  * three times noisier and the approach; auto/optimal and true-q/optimal per scenario, the
  * mean over seeds [from, to] of each axis' ratio. Seeds 1-5 tuned the learning; 6-15 are
  * held out. Returns the worst auto ratio (α or β, mean over the seeds). */
@@ -365,7 +365,7 @@ double sweep(const std::vector<Scenario> &scs, uint64_t from, uint64_t to, doubl
 
 /* The held-out sweep as a test (seeds 6-15, never used in tuning): q_t over two decades,
  * q_x̄ over two, σ 1 and 7 mm, one sensor 3x noisier, the approach. The bounds met there
- * (docs/estimator-benchmark.md): 1.07 (the goal 1.10) but for the slowest tilt at the
+ * (docs/explanation/accuracy.md): 1.07 (the goal 1.10) but for the slowest tilt at the
  * noisiest sensors (q_t 0.01 mm²/s, σ 7 mm on all four: 1.12 measured): 1.13 there. With the
  * true q: 1.05. */
 void test_auto_sweep_held_out(void **state) {

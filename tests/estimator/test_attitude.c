@@ -450,7 +450,7 @@ static void test_extreme_ranges(void **state) {
         assert_true(est->status <= ATTITUDE_INVALID);
     }
     /* everything at 0 mm, and everything at 65535 (status 0): no reading a part can give
-     * as a measurement, so no estimator answers (issue 15: not a level plate at 65.5 m) */
+     * as a measurement, so no estimator answers (not a level plate at 65.5 m) */
     for (uint16_t v = 0; v < 2; ++v) {
         init_default(10, ATTITUDE_TUMBLING);
         const uint16_t x = v ? 65535 : 0;

@@ -54,8 +54,8 @@ static void test_unbuilt_estimator_refused(void **state) {
     assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_NONE);
 }
 
-/* Noise-free plate at α = 2°, β = −1.5° (DESIGN.md §2 with a = 30 mm): ranges in whole
- * millimetres, so the estimates are within the quantisation of the true angles. */
+/* Noise-free plate at α = 2°, β = −1.5° (docs/explanation/architecture.md with a = 30 mm): ranges
+ * in whole millimetres, so the estimates are within the quantisation of the true angles. */
 static void test_built_estimators_run_others_disabled(void **state) {
     (void)state;
     struct attitude_config cfg;

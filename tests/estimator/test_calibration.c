@@ -1,5 +1,5 @@
 /*
- * The head's calibration inside the estimator (issue 23): every reading corrected to
+ * The head's calibration inside the estimator: every reading corrected to
  * true = (raw − offset)/gain in fine units before any estimator, exact on noise-free
  * readings; the configuration checked; an uncalibrated head never `ok` and its sd
  * honest (none beyond 6 sd) whatever its offsets; a calibration off by its stated sd
@@ -28,7 +28,7 @@ static struct attitude_output out;
 static const uint8_t all_ok[4] = {0, 0, 0, 0};
 static const bool all_present[4] = {true, true, true, true};
 
-/* A simulated head: raw = gain · true + offset (DESIGN.md §2). */
+/* A simulated head: raw = gain · true + offset (docs/explanation/architecture.md). */
 struct head {
     double offset_mm[4];
     double gain[4];

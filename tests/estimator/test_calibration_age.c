@@ -2,7 +2,7 @@
  * The calibration's age as an input (attitude_config.calibration_age_s): a unit booted long
  * after its calibration carries the prior offset walk of that whole time in every sd, from its
  * first window, as a unit that had run all that time would (the walk's variance grows with the
- * time since calibration: docs/estimator-design.md, "Drift since the start").
+ * time since calibration: docs/explanation/estimators.md, "Drift since the start").
  */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -51,7 +51,8 @@ static double first_sd_udeg(uint32_t age_s) {
 }
 
 /* Over decades of age (1 h .. 10,000 h): the sd's square grows by the walk's variance over that
- * time, offset_walk · age on each of A and C, α = (x_C − x_A) / 2a (DESIGN.md §2): within 5 %. */
+ * time, offset_walk · age on each of A and C, α = (x_C − x_A) / 2a
+ * (docs/explanation/architecture.md): within 5 %. */
 static void test_the_age_adds_its_walk_from_the_first_window(void **state) {
     (void)state;
     const double base = first_sd_udeg(0u);

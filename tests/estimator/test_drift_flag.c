@@ -1,5 +1,5 @@
 /*
- * The `drift` flag against white noise (issue 24): a static plate with white noise only
+ * The `drift` flag against white noise: a static plate with white noise only
  * must not be called `drift`, whatever the window and the noise. The learnt drift is a
  * mean of noisy samples (one per block of N rows); at short windows and high noise its
  * scatter alone crossed the 500 µm flag (N = 20, σ 7.3 mm: 35 % of windows before the
@@ -39,7 +39,7 @@ static struct attitude_output out;
 static const uint8_t all_ok[4] = {0, 0, 0, 0};
 static const bool all_present[4] = {true, true, true, true};
 
-/* A plate at α = β = 1°, 500 mm, arm 30 mm (A, B, C, D as DESIGN.md §2). */
+/* A plate at α = β = 1°, 500 mm, arm 30 mm (A, B, C, D as docs/explanation/architecture.md). */
 static void ideal(double x[4]) {
     const double t = tan(1.0 * TEST_PI / 180);
     x[0] = 500 - 30 * t;
@@ -86,7 +86,7 @@ static double drift_share(unsigned n, double sigma, double wander_mm, uint64_t s
     return answers != 0u ? (double)flagged / answers : 1.0;
 }
 
-/* The issue's case: N = 20, σ 7.3 mm (35 % of windows `drift` before), tumbling and
+/* The reported case: N = 20, σ 7.3 mm (35 % of windows `drift` before), tumbling and
  * sliding, several seeds: at most 1 % of the answers. */
 static void test_white_noise_n20_sigma73(void **state) {
     (void)state;

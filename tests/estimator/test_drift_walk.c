@@ -1,5 +1,5 @@
 /*
- * The drift allowance since the start (issue 23): a calibrated head whose four offsets
+ * The drift allowance since the start: a calibrated head whose four offsets
  * walk independently (a random walk from 0 at the start, at the prior's rate
  * ATTITUDE_OFFSET_WALK_UM2_H_DEFAULT and at 0.5× and 3× it) over four hours of a static
  * plate, shortened to 72,000 rows by a 200 ms period (the allowance counts time, rows ×
@@ -40,7 +40,7 @@ struct tally {
     double err2, sd2;
 };
 
-/* A plate at α = β = 1°, 500 mm, arm 30 mm (A, B, C, D as DESIGN.md §2). */
+/* A plate at α = β = 1°, 500 mm, arm 30 mm (A, B, C, D as docs/explanation/architecture.md). */
 static void ideal(double x[4]) {
     const double t = tan(TRUTH_DEG * TEST_PI / 180);
     x[0] = 500 - 30 * t;
@@ -227,7 +227,7 @@ static void test_recalibrate(void **state) {
 /* A head never calibrated (offsets +15, −12, +10, −8 mm) has nothing to recalibrate: the
  * same 6 mm step that is
  * `recalibrate` above is said `uncalibrated` in every window and never `recalibrate`
- * (said on heads never calibrated before session 10: 715 of 8,000 rows in a reviewer's
+ * (without the rule, said on heads never calibrated: 715 of 8,000 rows in a reviewer's
  * case), and never `ok`. */
 static void test_uncalibrated_never_recalibrate(void **state) {
     (void)state;
@@ -244,7 +244,7 @@ static void test_uncalibrated_never_recalibrate(void **state) {
 /* The walk in fixed point: after an hour of 20 ms rows (180,000) of a flat plate with
  * identical readings (no learnt drift), the prior walk is q0·t = 0.576 mm² exactly (Q32,
  * within 1e-6 mm²); at 200 ms rows the same rows are ten hours. The sd carries the whole
- * walk: nothing the parity shows scales it down (session 9's wander learner did, and hid
+ * walk: nothing the parity shows scales it down (a learner that did hid
  * smooth drifts: test_smooth_drift). */
 static void test_walk_fixed_point(void **state) {
     (void)state;
@@ -275,7 +275,7 @@ static void test_walk_fixed_point(void **state) {
 /* A head that does not wander (white noise only, calibrated exactly), 20 ms rows: the
  * priors (120 µm, the walk) alone grow the sd beyond the error, the conservative side
  * (RMS error / RMS sd over half an hour 0.33 at σ = 1 mm, about 0.45 at 2 mm: below the
- * issue's 0.5, said in docs/estimator-benchmark.md). In every run ≥ 95 % within 3 sd and
+ * goal of 0.5, said in docs/explanation/accuracy.md). In every run ≥ 95 % within 3 sd and
  * ≤ 0.1 % beyond 6; pooled over six seeds, the sd at most 3.5 times the error. */
 static void test_white_head_half_hour(void **state) {
     (void)state;
@@ -328,9 +328,9 @@ static void test_white_head_half_hour(void **state) {
 /* A smooth drift, as a temperature cycle makes one: every offset a sinusoid of period 2 h
  * with its own amplitude (below), one phase for all,
  * 0 at the calibration; σ 2 mm, 2 h of 20 ms rows. Its increments over a minute are far
- * below the walk's, over an hour above: session 9's wander learner read the minute spans
+ * below the walk's, over an hour above: a learner reading the minute spans
  * and scaled the walk prior down: 78 % within 3 sd, 0.67 % beyond 6 sd, 44 rows `ok`
- * beyond 6 sd (an independent review, session 10, found it with random amplitudes).
+ * beyond 6 sd (an independent review found it with random amplitudes).
  * Now ≥ 95 % within 3 sd, ≤ 0.1 % beyond 6 sd, and no `ok` row beyond 6 sd. */
 static void test_smooth_drift(void **state) {
     (void)state;

@@ -229,7 +229,7 @@ static double udeg_error(int64_t y, int64_t x) {
     return fabs((double)fix_atan2_udeg(y, x) - ref);
 }
 
-/* The issue asks for <= 0.0005 deg (500 udeg) over |angle| <= 45 deg; the
+/* The requirement is <= 0.0005 deg (500 udeg) over |angle| <= 45 deg; the
  * implementation's own contract is 3 udeg everywhere, checked here. */
 static void test_atan_dense_sweep_45(void **state) {
     (void)state;
@@ -244,7 +244,7 @@ static void test_atan_dense_sweep_45(void **state) {
     }
     printf("atan over |angle| <= 45 deg, 90001 points: worst error %.3f udeg\n", worst);
     assert_true(worst <= 3.0);
-    assert_true(worst <= 500.0); /* the issue's requirement */
+    assert_true(worst <= 500.0); /* the requirement */
 }
 
 static void test_atan2_all_quadrants_and_scales(void **state) {

@@ -1,7 +1,7 @@
 /*
- * estimator/integrity through the facade (issue 15): each reason of the why set, the
+ * estimator/integrity through the facade: each reason of the why set, the
  * never-ok rules (readings no part gives as valid, a parity failure, motion, drift), the
- * sd beside every value and none beside none, and the injections of the issue (one
+ * sd beside every value and none beside none, and the required injections (one
  * sensor a whole or half window at 8190, all four at 8190 / 65535 / 0, alternating
  * 0/65535, a fifth of the readings corrupted at random): never an answered angle more
  * than 6 sd off, never an ok window holding such a reading.
@@ -95,7 +95,7 @@ static bool has(const struct attitude_estimate *e, attitude_why_t bit) {
     return (e->why & bit) != 0u;
 }
 
-/* The issue's integrity rules on one estimate against the truth. */
+/* The integrity rules on one estimate against the truth. */
 static void check_honest(const struct attitude_estimate *e, double alpha, double beta,
                          bool held_bad) {
     assert_true((e->status == ATTITUDE_OK) == (e->why == 0u));

@@ -210,7 +210,7 @@ static void dkf_update(struct dkf *d, unsigned s, double z, double r) {
 }
 
 /* The filter against double Alg. 2, reading for reading, at Q = 0 (every other trial; until
- * issue 21 the information form's) and Q > 0 (its block updates and exact Joseph updates
+ * the information form's) and Q > 0 (its block updates and exact Joseph updates
  * mixed). Unequal noise, readings dropped at random, the B/D pair missing for the first 60
  * rows (the β axis is the prior alone) and again later, every R changed in mid-run. P
  * within 1e-6 relative + 16 LSB of Q32, the state within 1e-5 mm; in the steady state
@@ -297,7 +297,7 @@ static void test_filter_matches_double(void **state) {
 /* A uniform run (every row all four readings, the same R) at Q = 0, started by the warm-up
  * as the facade starts it (prior mean = the first row's median), against Alg. 2 in double
  * with that prior, row for row. The run takes the static path (kalman_static.c: until
- * issue 21 the information form's fast solve, asserted the same way). */
+ * the information form's fast solve, asserted the same way). */
 static void test_uniform_run_matches_double(void **state) {
     (void)state;
     double worst = 0;
@@ -466,7 +466,7 @@ static void test_update_before_start_refused(void **state) {
     assert_true(fabs((double)kf.x[0] / Q32 - 1000.0) < 1e-6);
 }
 
-/* Readings 65 m from a prior mean of 0, 40 000 rows of a static run (until issue 21 the
+/* Readings 65 m from a prior mean of 0, 40 000 rows of a static run (once the
  * information form's sums near their headroom, which halved several times: that assertion
  * went with them); the state and P follow Alg. 2 in double. P comes from the static run's
  * closed form: as four scalar updates in Q32 it would carry each row's rounding, 4e-3 of

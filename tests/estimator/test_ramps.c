@@ -1,5 +1,5 @@
 /*
- * Ramps up to 10°/s through the facade (issue 24): is every answered row's sd honest?
+ * Ramps up to 10°/s through the facade: is every answered row's sd honest?
  *
  * A plate whose α, β and x̄ each follow their own schedule of holds and ramps (α and β at
  * the scenario's rate, to a target drawn in ±10°, then a hold of 0 to 2N rows; x̄ between
@@ -16,7 +16,7 @@
  * σ 2, 5 mm, N 20, 50, 160, seeds 101–102), never used for tuning.
  *
  *   test_ramps            the ctest: a reduced sweep of both sets, asserting the goals
- *   test_ramps --table    the full table of docs/estimator-benchmark.md ("Ramps")
+ *   test_ramps --table    the full table of docs/explanation/accuracy.md ("Ramps")
  */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -342,7 +342,7 @@ static void report(const char *name, struct worst w) {
 
 /* The goals where they are met: a 1°/s tilt with a 5 mm/s approach, σ 1 mm, N = 255, every
  * estimator, sliding (tuning set; tumbling: 2 of 360 windows beyond 6 sd, see the doc). Fails on
- * the code before issue 24's ramp work: the approach's share of each sensor's variance hid the
+ * the code without the ramp statistics: the approach's share of each sensor's variance hid the
  * tilt's lag (consensus 75 % within 3 sd, the Kalman filter with Q = 0 90 %, on the full table's
  * two seeds). */
 static void test_ramps_slow_tilt_with_approach(void **state) {
@@ -361,7 +361,7 @@ static void test_ramps_slow_tilt_with_approach(void **state) {
 
 /* The goals for a slow tilt (0.1°/s) at short windows and high noise, sliding, every
  * estimator: a filter that outlives its windows and lags by less than one window's noise.
- * Fails on the code before the Kalman filter's learnt lag (issue 24): with Q = 0, 88 %
+ * Fails on the code before the Kalman filter's learnt lag: with Q = 0, 88 %
  * within 3 sd and 5.9 % beyond 6 sd, `ok`, at σ 7 mm. */
 static void test_ramps_slow_tilt_short_windows(void **state) {
     (void)state;
@@ -379,7 +379,7 @@ static void test_ramps_slow_tilt_short_windows(void **state) {
 
 /* A guard, not the goal: the reduced sweep of both sets (tuning: 1 and 10 °/s, σ 1 and
  * 7 mm, N 10 and 100; held out: 6 °/s, σ 5 mm, N 20 and 50) must not get worse than what
- * docs/estimator-benchmark.md "Ramps" reports (the goals are missed there: fast ramps in a
+ * docs/explanation/accuracy.md "Ramps" reports (the goals are missed there: fast ramps in a
  * sliding window's last rows, the Kalman filter with Q = 0 or a fixed Q). */
 static void test_ramps_reduced_guard(void **state) {
     (void)state;

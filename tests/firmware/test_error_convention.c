@@ -1,5 +1,5 @@
-/* The one error convention (docs/errors.md): disjoint blocks, and a counter slot for every hal
- * code. */
+/* The one error convention (docs/reference/errors.md): disjoint blocks, and a counter slot for
+ * every hal code. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stdbool.h>
@@ -14,7 +14,7 @@
 #include "firmware/app.h"
 #include "hal/hal_err.h"
 
-/* The blocks of hal/include/hal/hal_err.h and docs/errors.md. */
+/* The blocks of hal/include/hal/hal_err.h and docs/reference/errors.md. */
 #define WINDOW_BLOCK_FIRST         (-32)
 #define WINDOW_BLOCK_END           (-47)
 #define KALMAN_BLOCK_FIRST         (-48)

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Each top-level folder keeps its rule (DESIGN.md section 3, README "Layout").
+"""Each top-level folder keeps its rule (docs/explanation/architecture.md, README "Layout").
 
 For every C/C++ file of the folders below: which of our folders its #includes reach, and whether floating point (`float`, `double`, a floating literal) appears once
 comments, strings and character literals are stripped. Floating point is allowed only
@@ -176,7 +176,7 @@ def main():
     for b in bad:
         print(b)
     if bad:
-        print("folder rules: %d violation(s) (DESIGN.md section 3; README, Layout)" % len(bad))
+        print("folder rules: %d violation(s) (docs/explanation/architecture.md; README, Layout)" % len(bad))
         return 1
     print("folder rules: %d files, includes point down, floating point only in %s"
           % (len(files), ", ".join(sorted(f + "/" for f in FLOAT_ALLOWED))))

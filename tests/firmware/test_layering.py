@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """No include cycles between the firmware's modules (COMMON rules: no two files that
-include each other; DESIGN.md section 3: includes point down the layers).
+include each other; docs/explanation/architecture.md: includes point down the layers).
 
 A module is a .c file and its header (firmware/src/app.c + firmware/include/firmware/app.h
 is module "firmware/app"). Module X depends on Y when a file of X includes Y's header.

@@ -197,7 +197,7 @@ static void test_default_windows_report_a_parallel_plate(void **state) {
     assert_int_equal(t.estimates, 2 * 4); /* four estimators per window */
     assert_int_equal(t.health, 2);
     const struct tlm_estimate *e = &t.last_estimate[TLM_ESTIMATOR_CONSENSUS];
-    /* The default image has no head calibration (issue 23): never ok, and `uncalibrated`
+    /* The default image has no head calibration: never ok, and `uncalibrated`
      * is the only reason for the perfect readings of a parallel plate. */
     assert_int_equal(e->status, TLM_STATUS_DEGRADED);
     assert_int_equal(e->alpha_udeg, 0);
@@ -241,7 +241,8 @@ static void test_commands_are_applied_and_acknowledged(void **state) {
 
 /* A host that lost an answer sends the same frame again (same sequence, type, payload): it
  * is answered again but applied once; the same payload under a new sequence number, or
- * another type under the same one, is a new command (docs/telemetry.md, "Retries"). */
+ * another type under the same one, is a new command (docs/reference/telemetry-protocol.md,
+ * "Retries"). */
 static void test_a_retried_command_is_answered_but_applied_once(void **state) {
     (void)state;
     struct tlm_command cmd = {.type = TLM_TYPE_SET_WINDOW};
@@ -470,9 +471,10 @@ static void test_main_runs_the_link_as_a_service(void **state) {
     t.platform.log = (struct hal_log){.ops = &log_ops, .ctx = NULL};
     assert_int_equal(tof_app_main(&t.platform, &bad, &app, &svc, 5), ATTITUDE_ERR_PAPER_ITERATIONS);
     assert_int_equal(service_starts, 1);
-    /* the code (-72, ATTITUDE_ERR_PAPER_ITERATIONS), named by docs/errors.md and the host */
+    /* the code (-72, ATTITUDE_ERR_PAPER_ITERATIONS), named by docs/reference/errors.md and the host
+     */
     char want[64];
-    snprintf(want, sizeof want, "init failed: estimator error %d (docs/errors.md)",
+    snprintf(want, sizeof want, "init failed: estimator error %d (docs/reference/errors.md)",
              (int)ATTITUDE_ERR_PAPER_ITERATIONS);
     assert_non_null(strstr(log_text, want));
     /* The link's own service ops: start binds and sends a status frame. */
@@ -529,7 +531,7 @@ static void test_estimate_frames_carry_the_estimators_sd_and_why(void **state) {
     }
 }
 
-/* The window mode's process noise (issue 24): sliding mode with Q = 0 runs the Kalman filter
+/* The window mode's process noise: sliding mode with Q = 0 runs the Kalman filter
  * with `auto` (a sliding estimate is for a plate that may move), tumbling mode with Q = 0 the
  * paper's static windows; a process noise chosen after the mode wins (Q = 0 in sliding mode
  * by choice), and a fixed Q survives a change of mode. */
@@ -715,7 +717,7 @@ static void open_saved_records(void) {
     assert_int_equal(tof_record_init(&saved_store, sim_flash_hal(&saved_flash), 0u, 1u), HAL_OK);
 }
 
-/* set-arm and set-period (issue 22): in force at once (the sensors re-timed and read at the
+/* set-arm and set-period: in force at once (the sensors re-timed and read at the
  * new rate with no sample missing, Q per row rescaled to keep its intensity, the calibration
  * bound to the old timing budget no longer applied, and the status frame says so), refused
  * where no timing fits, kept by `save` and in force after a reset. */

@@ -237,7 +237,7 @@ static void test_save_erases_only_what_is_not_blank(void **state) {
 
 static void test_settings_section_round_trip_and_other_sections_kept(void **state) {
     (void)state;
-    /* a calibration section (issue 23) already in the record */
+    /* a calibration section already in the record */
     const uint8_t cal[] = {TOF_SECTION_CALIBRATION, 1u, 4u, 0u, 0xDE, 0xAD, 0xBE, 0xEF};
     assert_int_equal(tof_record_save(&store, cal, sizeof cal), HAL_OK);
     const struct tof_settings s = {.window = 50u,
@@ -343,7 +343,7 @@ static int bg_erase_poll(void *ctx) {
     return rc;
 }
 
-/* tof_record_save_in_use() (write-calibration, re-zero: issue 22) returns with the new copy in
+/* tof_record_save_in_use() (write-calibration, re-zero) returns with the new copy in
  * use and the old page's erase still running; steps end it; a save while it runs waits for
  * it and keeps the rules (the old copy goes only once the new one is verified). */
 static void test_save_in_use_leaves_the_old_erase_running(void **state) {

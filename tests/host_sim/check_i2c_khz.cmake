@@ -1,4 +1,4 @@
-# host_sim replay --i2c-khz (DESIGN.md section 6): -DHOST_SIM -DTRACE (a 20 ms trace) -DOUT.
+# host_sim replay --i2c-khz (docs/reference/tools.md): -DHOST_SIM -DTRACE (a 20 ms trace) -DOUT.
 # 1. At 100 kHz a 20 ms period is refused: exit status 1 and a message naming the period and the
 #    bus clock. 2. The same rows at a 40 ms period replay at 100 kHz with every sample complete
 #    and estimates byte for byte those at 400 kHz (the bus clock changes the timing, never a

@@ -1,4 +1,4 @@
-# host_sim replay --i2c-log: the header of DESIGN.md §6, one line per bus transaction (as
+# host_sim replay --i2c-log: the header of docs/reference/tools.md, one line per bus transaction (as
 # many as the replay's summary counts), and ST's 91-byte block written to each sensor.
 #   cmake -DCMD=<host_sim> -DTRACE=<trace.csv> -DOUT=<dir> -P i2c_log_check.cmake
 set(log ${OUT}/bus.csv)

@@ -207,7 +207,7 @@ static void check_rendered_centroids(double gray_noise, double rms_limit, double
 
 static void test_rendered_centroids_noise_free(void **state) {
     (void)state;
-    /* the goal: <= 0.06 px RMS without noise */
+    /* the goal: <= 0.06 px RMS without noise */
     check_rendered_centroids(0.0, 0.06, 0.15);
 }
 

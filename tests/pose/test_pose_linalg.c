@@ -265,8 +265,8 @@ static void test_circle_image_centre_matches_projected_outline(void **state) {
 
 static void test_error_and_status_names(void **state) {
     (void)state;
-    /* Every code of the enum (pose's block, docs/errors.md) has a name of its own, and the
-     * numbers just outside it have none. */
+    /* Every code of the enum (pose's block, docs/reference/errors.md) has a name of its own, and
+     * the numbers just outside it have none. */
     static const int codes[] = {POSE_OK, POSE_ERR_INVALID, POSE_ERR_FRAME, POSE_ERR_DEGENERATE,
                                 POSE_ERR_NO_CONVERGE};
     const size_t n_codes = sizeof codes / sizeof codes[0];

@@ -1,7 +1,7 @@
 /*
  * pose_solve and pose_process: recovery of known poses from ideal blobs and from
  * rendered frames, wrong-match rejection, status rules, configuration checks,
- * and the issue's 700 mm goal scenario on a short run.
+ * and the 700 mm goal scenario on a short run.
  */
 #include <math.h>
 #include <setjmp.h>
@@ -223,7 +223,7 @@ static void test_process_recovers_rendered_poses(void **state) {
     assert_true(sqrt(st.pos_sq / st.valid) < 1.0);
 }
 
-/* The goal scenario, on a short run (host_sim camera measures it on thousands). */
+/* The goal scenario, on a short run (host_sim camera measures it on thousands). */
 static void test_goal_scenario_700mm(void **state) {
     (void)state;
     struct run_stats st;

@@ -8,7 +8,7 @@
  *   - the end and a failure are sticky;
  *   - the timing notes agree with the rows: every repeated t_ms and every step of
  *     more than two periods is counted, the first TRACE_TIMING_NOTES kept in order.
- * Run: see docs/traces.md, "Fuzzing".
+ * Run: see docs/reference/trace-format.md, "Fuzzing".
  */
 #include <stdint.h>
 #include <stdlib.h>

@@ -19,7 +19,7 @@ static void assert_close(double got, double want, double tol) {
     }
 }
 
-/* DESIGN.md §2 with hand-computed numbers: a = 30, x̄ = 100, α = 5°, β = −2°. */
+/* docs/explanation/architecture.md with hand-computed numbers: a = 30, x̄ = 100, α = 5°, β = −2°. */
 static void test_geometry_known_values(void **state) {
     (void)state;
     double d[SCENE_SENSORS];

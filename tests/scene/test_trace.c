@@ -1,4 +1,4 @@
-/* Trace v1 reader and writer (DESIGN.md §5) and the range-source adapters. */
+/* Trace v1 reader and writer (docs/reference/trace-format.md) and the range-source adapters. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>

@@ -1,5 +1,5 @@
-/* The trace v1 reader's head-calibration keys (trace/trace_v1.h, DESIGN.md §5): exact integers,
- * whole-or-nothing, errors with line and column. */
+/* The trace v1 reader's head-calibration keys (trace/trace_v1.h, docs/reference/trace-format.md):
+ * exact integers, whole-or-nothing, errors with line and column. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>

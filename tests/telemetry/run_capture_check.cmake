@@ -51,7 +51,7 @@ if(MODE STREQUAL "c_to_python")
   if(strict_rc EQUAL 0)
     message(FATAL_ERROR "--strict accepted a capture with malformed frames")
   endif()
-  # CSV of the estimates: EST.csv's columns first (DESIGN.md section 6), one row per
+  # CSV of the estimates: EST.csv's columns first (docs/reference/tools.md), one row per
   # estimate, a value and its sd empty when not estimated, why empty when ok.
   run(csv ${PYTHON} ${SCRIPT} --file ${WORK}/capture.bin --csv)
   string(REGEX MATCHALL "[^\n]+" rows "${csv}")

@@ -15,7 +15,8 @@
 #include "telemetry/tlm_messages.h"
 #include "tlm_test_sink.h"
 
-/* Expected frames computed independently (bitwise CRC in Python), as in docs/telemetry.md. */
+/* Expected frames computed independently (bitwise CRC in Python), as in
+ * docs/reference/telemetry-protocol.md. */
 static const uint8_t start_seq0[] = {0xA5, 0x5A, 0x00, 0x83, 0x00, 0x57, 0x82};
 static const uint8_t set_window_100_seq1[] = {0xA5, 0x5A, 0x03, 0x81, 0x01,
                                               0x64, 0x00, 0x00, 0x6E, 0x79};

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""The head's calibration procedure (docs/calibration.md) run through the tools, with the twin
+"""The head's calibration procedure (docs/how-to/calibrate-a-head.md) run through the tools, with the twin
 on a pseudo-terminal standing in for the board (tof_twin --pty):
 
 1. a fixture trace (host_sim scenario fixture): a head whose parts have offsets and gains;

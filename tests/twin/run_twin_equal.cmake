@@ -1,6 +1,6 @@
 # The demo trace through the twin (strict mode) gives the EST.csv rows host_sim replay
 # gives with the same options: every column (t_ms, angles, distance, status, the three sd and
-# why, DESIGN.md §6).
+# why, docs/reference/tools.md).
 # Empty fields (no value, an empty why) are list elements too: without CMP0007 NEW, list()
 # drops them and the columns after one shift.
 cmake_policy(SET CMP0007 NEW)
@@ -14,7 +14,7 @@ if(NOT EXISTS "${HOST_SIM}")
 endif()
 file(MAKE_DIRECTORY ${OUT})
 # TRACE_META (optional): metadata lines put after the trace's first line in place of its own
-# calibration keys (issue 23); the copy is written beside the outputs. HOST_ARGS: host_sim's own extra
+# calibration keys; the copy is written beside the outputs. HOST_ARGS: host_sim's own extra
 # options (the twin's are TWIN_ARGS).
 if(DEFINED TRACE_META)
   # (text, not a CMake list: a metadata value may hold ';')
@@ -32,7 +32,7 @@ if(DEFINED TRACE_META)
 endif()
 # GEOMETRY (optional): "ARM_MM;PERIOD_MS;ROWS": the trace's first ROWS rows as a head with
 # that arm recorded at that period (t_ms re-spaced, arm_mm and period_ms replaced): the flight
-# image boots into them from its saved settings (issue 22), host_sim configures them directly.
+# image boots into them from its saved settings, host_sim configures them directly.
 if(DEFINED GEOMETRY)
   list(GET GEOMETRY 0 arm)
   list(GET GEOMETRY 1 period)
@@ -64,7 +64,7 @@ open(dst, 'w').write(''.join(out))
   endif()
   set(TRACE ${OUT}/geometry.csv)
 endif()
-# CMDS: "--command;ROW:TEXT;..." given to both (DESIGN.md §6): a host's commands at a row.
+# CMDS: "--command;ROW:TEXT;..." given to both (docs/reference/tools.md): a host's commands at a row.
 execute_process(COMMAND ${HOST_SIM} replay ${TRACE} --estimator ${EST} ${CMDS}
                         --out ${OUT}/host_sim.csv ${HOST_ARGS}
                 RESULT_VARIABLE rc OUTPUT_QUIET)
@@ -132,7 +132,7 @@ if(TWIN_ARGS MATCHES "spurious-berr")
 endif()
 if(DEFINED EXPECT_CAL)
   # the calibration the flight firmware's boot found (status frame), and the files equal
-  # byte for byte (issue 23: the twin's rows are host_sim's with the same calibration)
+  # byte for byte (the twin's rows are host_sim's with the same calibration)
   file(READ ${OUT}/report.json rep)
   string(REGEX MATCH "\"calibration_state\": ([0-9]+)" m "${rep}")
   if(NOT CMAKE_MATCH_1 STREQUAL "${EXPECT_CAL}")

@@ -1,4 +1,4 @@
-# The saved settings in the twin (docs/boards.md "Records"), strict: -DTWIN -DELF -DTRACE -DOUT.
+# The saved settings in the twin (docs/explanation/boards.md "Records"), strict: -DTWIN -DELF -DTRACE -DOUT.
 # 1. set-window 50 sliding, save; the record pages kept in a file (a reflash keeps them).
 # 2. a new boot from those pages: the status frame reports the record loaded and 50 sliding.
 # 3. set-window 60 tumbling and save again, the power cut at each step of that save (each

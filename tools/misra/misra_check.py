@@ -4,7 +4,7 @@
 cppcheck's MISRA addon writes its findings one per line as
     <file>:<line>:<column>:<id>        (--template='{file}:{line}:{column}:{id}')
 This script reads that file, applies the project's documented deviations
-(tools/misra/deviations.txt; reasons in docs/reliability.md, "MISRA C:2012")
+(tools/misra/deviations.txt; reasons in docs/explanation/reliability.md, "MISRA C:2012")
 and fails, naming file, line, column and rule, on every finding no deviation
 covers. It also fails when cppcheck reported a non-MISRA error (for example a
 syntax error or a crashed addon), since then the MISRA results are incomplete.

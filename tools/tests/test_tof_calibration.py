@@ -164,7 +164,7 @@ if __name__ == "__main__":
 
 
 class ChecksumTest(unittest.TestCase):
-    """HEAD.cal's last line: the CRC-32 of the content before it (DESIGN.md section 6a)."""
+    """HEAD.cal's last line: the CRC-32 of the content before it (docs/reference/calibration-file.md)."""
 
     def test_written_files_read_back_without_warning(self):
         text = c.section_to_head_cal(FIRMWARE_SECTION, "unit")

@@ -1,6 +1,6 @@
 """Unit tests of tools/tof_telemetry.py (run: /usr/bin/python3 -m unittest discover -s tools/tests).
 
-The byte-exact examples are the ones in docs/telemetry.md and in
+The byte-exact examples are the ones in docs/reference/telemetry-protocol.md and in
 tests/telemetry/test_tlm_frame.c, so all three agree.
 """
 
@@ -85,7 +85,7 @@ class EncodeTest(unittest.TestCase):
         self.assertEqual(t.format_message(ftype, 4, fields),
                          "seq=4 set-process-noise qd_mm2_per_s=1.250000 "
                          "qt_mm2_per_s=0.010000 auto=no")
-        # set-arm in mm (3 decimals) as u32 um; set-period in whole ms as u16 (issue 22)
+        # set-arm in mm (3 decimals) as u32 um; set-period in whole ms as u16
         self.assertEqual(t.command_payload("set-arm 45.25"), (t.T_SET_ARM, struct.pack("<I", 45250)))
         self.assertEqual(t.command_payload("set-period 33"), (t.T_SET_PERIOD, b"\x21\x00"))
         ftype, payload = t.command_payload("set-arm 1000")

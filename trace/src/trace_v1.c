@@ -368,7 +368,7 @@ int trace_v1_next(struct trace_v1_reader *r, struct trace_v1_row *row) {
             return trace_v1_fail(r, r->empty_line, 1u, "empty line (expected a sample row)");
         }
         if (r->line[0] == '#') {
-            continue; /* a comment line (DESIGN.md §5) */
+            continue; /* a comment line (docs/reference/trace-format.md) */
         }
         if (trace_v1_parse_row(r, row) == 0) {
             return 0;

@@ -1,5 +1,5 @@
-/* The head's calibration keys of a trace or a HEAD.cal in integers (trace/trace_v1.h, DESIGN.md §5,
- * §6a). */
+/* The head's calibration keys of a trace or a HEAD.cal in integers (trace/trace_v1.h,
+ * docs/reference/trace-format.md, §6a). */
 #include <stdint.h>
 #include <string.h>
 
@@ -144,9 +144,9 @@ int trace_v1_cal_check(struct trace_v1_cal *cal, const char **what, uint32_t *li
     } else if ((k & (TRACE_CAL_KEY_FILE | TRACE_CAL_KEY_NONE)) != 0u && (k & inline_keys) != 0u) {
         *what = "calibration keys inline and calibration= both: give one";
     } else if ((k & inline_keys) != 0u && (k & offsets) != offsets) {
-        *what = "offset_mm and offset_sd_mm come together (DESIGN.md section 6a)";
+        *what = "offset_mm and offset_sd_mm come together (docs/reference/calibration-file.md)";
     } else if ((k & gains) != 0u && (k & gains) != gains) {
-        *what = "gain and gain_sd come together or not at all (DESIGN.md section 6a)";
+        *what = "gain and gain_sd come together or not at all (docs/reference/calibration-file.md)";
     } else if ((k & TRACE_CAL_KEY_CORR) != 0u && (k & gains) == 0u) {
         *what = "offset_gain_corr without gain and gain_sd";
     }

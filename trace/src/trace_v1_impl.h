@@ -65,8 +65,9 @@ int trace_v1_list_decimal(const char **pp, unsigned decimals, int64_t max_units,
 
 /* ---- the head's calibration keys (trace_v1_cal.c) ---- */
 
-/* Reads key=val into r->meta.cal when key is one of the calibration keys (DESIGN.md §5).
- * 0 (read, or not such a key), or -1 failed (line and column of the value). */
+/* Reads key=val into r->meta.cal when key is one of the calibration keys
+ * (docs/reference/trace-format.md). 0 (read, or not such a key), or -1 failed (line and column of
+ * the value). */
 int trace_v1_cal_key(struct trace_v1_reader *r, const char *key, const struct trace_field *val);
 
 /* After the last metadata line: the keys come as a whole (offsets with their sd, gains with

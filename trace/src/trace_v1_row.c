@@ -372,7 +372,8 @@ static void check_timing(struct trace_v1_reader *r, uint32_t t_ms) {
     }
 }
 
-/* A truth field: empty is allowed (DESIGN.md §5); a value beyond its range is an error. */
+/* A truth field: empty is allowed (docs/reference/trace-format.md); a value beyond its range is an
+ * error. */
 static inline __attribute__((always_inline)) enum parse_result
 scan_truth(const char **pp, unsigned t, size_t at, struct trace_v1_row *row) {
     struct decimal d;

@@ -23,7 +23,7 @@
 
 enum role { NONE, XSHUT, GPIO1, I2C_SCL, I2C_SDA };
 
-/* The harness (docs/boards.md pin map; UM1724 Arduino connector): port, pin -> role. */
+/* The harness (docs/explanation/boards.md pin map; UM1724 Arduino connector): port, pin -> role. */
 struct wire {
     unsigned port, pin;
     enum role role;
@@ -73,8 +73,8 @@ static bool mcu_drives_high(const struct twin *t, unsigned port, unsigned pin) {
            (g->odr & (1u << pin)) != 0u;
 }
 
-/* The level on the line: the breakout boards pull XSHUT, GPIO1, SCL and SDA up (docs/boards.md),
- * so a released line reads high unless a device pulls it down. */
+/* The level on the line: the breakout boards pull XSHUT, GPIO1, SCL and SDA up
+ * (docs/explanation/boards.md), so a released line reads high unless a device pulls it down. */
 static bool line_level(struct twin *t, unsigned port, unsigned pin) {
     const struct wire *w = wire_of(port, pin);
     if (mcu_drives_low(t, port, pin)) {

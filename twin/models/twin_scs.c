@@ -38,8 +38,8 @@
 #define ICSR_PENDSVSET (1u << 28)
 #define EXC_PENDSV     14u
 #define EXC_SYSTICK    15u
-/* Idle acceleration (docs/boards.md "Digital twin"): time polls closer than this in cycles
- * with no other I/O between them are a wait loop, and each one then lasts IDLE_WARP_US. */
+/* Idle acceleration (docs/explanation/boards.md "Digital twin"): time polls closer than this in
+ * cycles with no other I/O between them are a wait loop, and each one then lasts IDLE_WARP_US. */
 #define IDLE_POLL_CYCLES 400u
 #define IDLE_WARP_US     50u
 

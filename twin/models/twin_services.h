@@ -1,9 +1,9 @@
 /*
  * What the emulated core gives its peripheral models: simulated time, the poll-loop warp, the
  * core's events (SYSCLK switch, a pending exception, a stop at the next block) and the
- * violation hook. A const ops table plus a context pointer (DESIGN.md §4), filled by the core
- * (twin_core_services.c) and passed down in struct twin, so a model calls down into it and
- * never up into the CPU's file.
+ * violation hook. A const ops table plus a context pointer (docs/explanation/architecture.md),
+ * filled by the core (twin_core_services.c) and passed down in struct twin, so a model calls down
+ * into it and never up into the CPU's file.
  */
 #ifndef TWIN_TWIN_SERVICES_H
 #define TWIN_TWIN_SERVICES_H

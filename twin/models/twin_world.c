@@ -96,7 +96,7 @@ int twin_world_transfer(struct twin_world *w, uint8_t addr7, const uint8_t *tx, 
     const int rc = w->rig.i2c.ops->write_read(w->rig.i2c.ctx, addr7, tx, tx_len, rx, rx_len, 2000u);
     w->transfers++;
     if (w->i2c_log != NULL) {
-        /* DESIGN.md §6 --i2c-log: t_us,addr,write,read,result */
+        /* docs/reference/tools.md --i2c-log: t_us,addr,write,read,result */
         fprintf(w->i2c_log, "%" PRIu64 ",0x%02x,", t0, addr7);
         hex(w->i2c_log, tx, tx_len);
         fputc(',', w->i2c_log);

@@ -120,9 +120,9 @@ static int load_firmware(struct run *r) {
 /* The record pages as a user leaves them for this trace: the settings section with the
  * trace's arm and period when they are not the image's own (set-arm, set-period, `save`: the
  * boot applies them), and the head's calibration (--calibration, else the trace's keys,
- * DESIGN.md §5) as section 2, made in the configuration the boot arrives at, as host_sim
- * replay preloads it. The flight firmware's boot finds both where a flight unit keeps them.
- * 0, or -1 (message on stderr). */
+ * docs/reference/trace-format.md) as section 2, made in the configuration the boot arrives at, as
+ * host_sim replay preloads it. The flight firmware's boot finds both where a flight unit keeps
+ * them. 0, or -1 (message on stderr). */
 static int preload_records(struct run *r) {
     static struct trace_v1_meta m; /* the trace's keys, checked by its reader already */
     memset(&m, 0, sizeof m);

@@ -14,7 +14,7 @@ static void usage(FILE *f) {
           "[options]\n"
           "The flight ELF on the emulated STM32L476 against the simulated sensor head fed by "
           "TRACE.csv\n"
-          "(README \"Digital twin\", DESIGN.md section 6). Its EST.csv rows equal host_sim "
+          "(README \"Digital twin\", docs/reference/tools.md). Its EST.csv rows equal host_sim "
           "replay's.\n"
           "\n"
           "host_sim replay's options the flight image honours:\n"
@@ -178,15 +178,16 @@ static int check_settings(const struct args *a) {
     /* The flight image boots with window 100, tumbling (tof_app_default_config); another
      * window or mode is a set-window command after the boot status frame, applied some
      * 0.3 s after boot, so its windows no longer start at trace row 0 and the rows cannot
-     * equal host_sim's (docs/boards.md). Refused unless asked for (the command tests and
-     * the coverage run's command path). */
+     * equal host_sim's (docs/explanation/boards.md). Refused unless asked for (the command tests
+     * and the coverage run's command path). */
     if ((a->window != FLIGHT_WINDOW || a->sliding) && !a->late_command) {
-        fprintf(stderr,
-                "tof_twin: --window %u --mode %s: the flight image starts with window %u, "
-                "tumbling; other settings arrive by command after boot, and its rows would not "
-                "be host_sim's (docs/boards.md). Send them as a host would, to both tools: "
-                "--command 0:'set-window N MODE' (DESIGN.md §6), or pass --late-command\n",
-                a->window, a->sliding ? "sliding" : "tumbling", FLIGHT_WINDOW);
+        fprintf(
+            stderr,
+            "tof_twin: --window %u --mode %s: the flight image starts with window %u, "
+            "tumbling; other settings arrive by command after boot, and its rows would not "
+            "be host_sim's (docs/explanation/boards.md). Send them as a host would, to both tools: "
+            "--command 0:'set-window N MODE' (docs/reference/tools.md), or pass --late-command\n",
+            a->window, a->sliding ? "sliding" : "tumbling", FLIGHT_WINDOW);
         return -1;
     }
     if (a->late_command && (a->window != FLIGHT_WINDOW || a->sliding)) {

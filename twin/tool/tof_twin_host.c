@@ -141,7 +141,8 @@ static void on_estimate(struct run *r, const struct tlm_estimate *m) {
     e.alpha_udeg = e.alpha_valid ? m->alpha_udeg : 0;
     e.beta_udeg = e.beta_valid ? m->beta_udeg : 0;
     e.distance_um = e.distance_valid ? m->distance_um : 0;
-    /* the frame carries each sd exactly when its value is present (docs/telemetry.md) */
+    /* the frame carries each sd exactly when its value is present
+     * (docs/reference/telemetry-protocol.md) */
     e.alpha_sd_udeg = e.alpha_valid ? m->alpha_sd_udeg : 0;
     e.beta_sd_udeg = e.beta_valid ? m->beta_sd_udeg : 0;
     e.distance_sd_um = e.distance_valid ? m->distance_sd_um : 0;

@@ -1,7 +1,7 @@
 /* tof_twin --pty: USART2 on a pseudo-terminal a host program opens as it would a board's
  * serial port (tools/tof_telemetry.py --port PATH), with simulated time paced to the host's
  * clock while a line is open, as QEMU's and Renode's serial back ends run the guest in real
- * time (DESIGN.md §6). */
+ * time (docs/reference/tools.md). */
 #define _GNU_SOURCE /* posix_openpt, grantpt, unlockpt, ptsname; cfmakeraw and ppoll */
 
 #include <errno.h>

@@ -1,5 +1,5 @@
 /* tof_twin's outputs after the run: the executed flash ranges (coverage), the one-line
- * summary and the report JSON (DESIGN.md §6 keeps its keys). */
+ * summary and the report JSON (docs/reference/tools.md keeps its keys). */
 #include <errno.h>
 #include <inttypes.h>
 #include <string.h>

@@ -2,7 +2,7 @@
  * The five alpha and five beta estimates of one four-sensor sample (Eq. 1 of
  * the first paper, ../shared/seeds/000_*.txt) and the flatness residual.
  *
- * Geometry (DESIGN.md §2): x_A = x̄ − a·tan α, x_C = x̄ + a·tan α,
+ * Geometry (docs/explanation/architecture.md): x_A = x̄ − a·tan α, x_C = x̄ + a·tan α,
  * x_B = x̄ + a·tan β, x_D = x̄ − a·tan β.
  *
  *   α1 = atan((x_B − x_A)/a)   α2 = atan((x_D − x_A)/a)
@@ -43,7 +43,7 @@ enum angles_sensor { ANGLES_A = 0, ANGLES_B = 1, ANGLES_C = 2, ANGLES_D = 3 };
 #define ANGLES_ARM_MIN_UM 1000
 #define ANGLES_ARM_MAX_UM 1000000
 
-/* Fine units of the corrected readings (issue 23): 2^-10 mm, under a micrometre, so a
+/* Fine units of the corrected readings: 2^-10 mm, under a micrometre, so a
  * calibrated reading keeps its fraction of a millimetre through the angles and the sums.
  * Whole millimetres are exactly x · ANGLES_FINE_ONE, and every angle of them is the one
  * the millimetre functions give. Readings up to 65535 mm after a correction of up to

@@ -1,7 +1,7 @@
 /*
  * The estimator facade: the firmware calls attitude_push_sample() once per
  * four-sensor sample and gets, whenever a window is complete, the attitude
- * from each of the four estimators of DESIGN.md §6:
+ * from each of the four estimators of docs/reference/tools.md:
  *
  *   consensus        the product's consensus rule (estimator/consensus.h)
  *   consensus-paper  the first paper's published weighting, with its failures
@@ -69,7 +69,7 @@ enum attitude_status {
 #define ATTITUDE_WHY_TEXT_MAX 569u
 
 /* Errors of attitude_init, one per configuration field (negative), in the attitude
- * block -64..-79 of the one error convention (docs/errors.md). */
+ * block -64..-79 of the one error convention (docs/reference/errors.md). */
 enum attitude_error {
     ATTITUDE_ERR_NONE = 0,
     ATTITUDE_ERR_ARM = -64,                  /* arm_um outside [1000, 1000000] */
@@ -109,7 +109,7 @@ struct attitude_config {
     uint8_t kalman_noise_shift;                          /* R tracking gain 2^-shift per window */
     bool kalman_process_noise_auto; /* Q (from kalman_process_noise_um2) and R learned by
                                        the filter (estimator/kalman.h) */
-    /* Integrity (estimator/integrity.h, docs/estimator-design.md "Integrity"): */
+    /* Integrity (estimator/integrity.h, docs/explanation/estimators.md "Integrity"): */
     uint16_t range_max_mm;        /* a reading above this is `range:X` (the mode's range) */
     uint16_t parity_sigmas_q8;    /* parity test threshold k·256 (false-alarm rate there) */
     uint16_t motion_sigmas_q8;    /* motion test threshold k·256 */
@@ -159,7 +159,7 @@ struct attitude_estimate {
     int32_t beta_sigma_udeg;
     /* One standard deviation of the error against the attitude at the row's time: the
      * window's white noise, the learnt drift, the offset-stability prior, the 1 mm
-     * quantisation and any motion inside the window (docs/estimator-design.md
+     * quantisation and any motion inside the window (docs/explanation/estimators.md
      * "Integrity"). Meaningful only with the matching *_valid flag, then >= 1; an axis
      * that cannot be observed has no sd (the field reads 0, never a claimed sd of 0). */
     int32_t alpha_sd_udeg;
@@ -199,7 +199,7 @@ struct attitude_state {
     bool cal_spread; /* the calibration leaves an sd (uncalibrated, or a stated sd) */
 };
 
-/* Integrity defaults (sources in docs/estimator-design.md "Integrity"):
+/* Integrity defaults (sources in docs/explanation/estimators.md "Integrity"):
  * range 4000 mm: the VL53L1X long-distance mode's maximum (UM2356 Table 1); the
  * VL53L0X's long-range mode reaches 2000 mm, so a VL53L0X build may lower it.
  * parity and motion k = 4: two-sided Gaussian false-alarm rate 6.3e-5 per window.
@@ -211,7 +211,7 @@ struct attitude_state {
  * period 20 000 us: the firmware's 50 Hz (firmware/src/config.c); host_sim and the twin
  * set the trace's own.
  * offset walk 576 000 um²/h (160 um²/s): the random-walk slope of the same log's Allan
- * variance of block means, tau 36 s .. 15 min (tools/drift_allan.py; docs/estimator-design.md
+ * variance of block means, tau 36 s .. 15 min (tools/drift_allan.py; docs/explanation/estimators.md
  * "Integrity", "Drift since the start"): 0.76 mm 1σ after an hour, 1.5 mm after four.
  * rate bound 1000 m°/s: a plate turning at 1°/s at most. Docking standards bound contact
  * rates at about 0.2°/s per axis (the International Docking System Standard's capture
@@ -274,7 +274,7 @@ bool attitude_push_sample(struct attitude_state *st, const uint16_t range_mm[ATT
                           const uint8_t range_status[ATTITUDE_SENSORS],
                           const bool present[ATTITUDE_SENSORS], struct attitude_output *out);
 
-/* "consensus", "consensus-paper", "kalman", "mean" (DESIGN.md §6), or "unknown". */
+/* "consensus", "consensus-paper", "kalman", "mean" (docs/reference/tools.md), or "unknown". */
 const char *attitude_estimator_name(enum attitude_estimator e);
 /* "ok", "degraded", "invalid", or "unknown". */
 const char *attitude_status_name(enum attitude_status s);

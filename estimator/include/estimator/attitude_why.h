@@ -1,5 +1,5 @@
 /*
- * Why an estimate is not `ok` (DESIGN.md §6 `why`): the reasons an estimate names
+ * Why an estimate is not `ok` (docs/reference/tools.md `why`): the reasons an estimate names
  * (enum attitude_reason) and the set of reasons it carries (attitude_why_t), one bit
  * each. Owned by the estimator's top level (estimator/attitude.h); the window's
  * integrity (estimator/integrity.h) sets the per-sensor and window bits without
@@ -48,7 +48,7 @@ enum attitude_reason {
  *   drift        the learnt drift of the sensors' offsets exceeds drift_flag_um
  *   uncalibrated the head has no calibration (attitude_config.calibration.calibrated
  *                false): offset 0 and gain 1 assumed, the parts' spread in the sd, never
- *                ok (issue 23)
+ *                ok
  *   recalibrate  the drift the parity shows exceeds the allowance since the start
  *                (offset stability plus the prior walk): the calibration no longer holds
  * and one bit per enum attitude_reason value r, ATTITUDE_WHY_REASON(r) (NONE has none;

@@ -31,7 +31,7 @@
  * once all d_i > 0, kept as a guard for stopping at a tolerance).
  *
  * --- `consensus`: the product's rule (our design) ------------------------------
- * Facts it rests on (derivation and proof: docs/estimator-design.md):
+ * Facts it rests on (derivation and proof: docs/explanation/estimators.md):
  * 1. Work in slopes, not angles: with per-sensor window means m_k, the slopes
  *    s_i = tan α_i of Eq. 1 are linear in the ranges, so their means are
  *    unbiased; means of atan(·) are not (≈0.045° bias for α1 at 5° with
@@ -41,7 +41,7 @@
  *        v1 = s1 − t̂β5, v2 = s2 + t̂β5, v3 = s3 + t̂β5, v4 = s4 − t̂β5, v5 = s5
  *    are all unbiased for tan α at any β. (v1 = v2 = (M − m_A)/a and
  *    v3 = v4 = (m_C − M)/a with M = (m_B + m_D)/2: two independent-ish halves.)
- * 3. The weights π are the BLUE of the linear model of DESIGN.md §2 with the
+ * 3. The weights π are the BLUE of the linear model of docs/explanation/architecture.md with the
  *    per-sensor variances of the window means V_k = s_k²/n_k (floored at the
  *    1 mm quantisation variance 1/12 mm², so all-equal readings are harmless):
  *    with m = (V_B + V_D)/4, the low side (v1, v2) gets 2m + V_C, the high side

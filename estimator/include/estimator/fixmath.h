@@ -73,7 +73,7 @@ int64_t fix_shr_round_s64(int64_t v, unsigned shift);
 int64_t fix_div_round_s64(int64_t num, int64_t den);
 /* num / den truncated toward zero, as C's `/` on int64; den != 0. Saturates INT64_MIN / -1.
  * Through the unsigned division only: a Cortex-M0 image then links no signed 64-bit
- * division helper (~0.6 KB of flash, issue 23's budget). */
+ * division helper (~0.6 KB of flash). */
 int64_t fix_div_trunc_s64(int64_t num, int64_t den);
 /* round(2^60 / den): the reciprocal of a Q30 value, in Q30; den != 0; saturates. */
 fix_q30_t fix_recip_q30(fix_q30_t den);

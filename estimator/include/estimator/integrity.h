@@ -1,11 +1,11 @@
 /*
- * Integrity of a window (issue 15): which readings a part cannot give as valid, whether
+ * Integrity of a window: which readings a part cannot give as valid, whether
  * the four sensors agree with a flat plate (the parity test), whether the plate moved
  * inside the window, and what one window cannot see: the learnt drift of the sensors'
- * offsets, its growth since the start (a prior random walk, issue 23; `recalibrate` when
+ * offsets, its growth since the start (a prior random walk; `recalibrate` when
  * the parity shows more), a stated offset-stability prior and the 1 mm quantisation. The facade
  * (estimator/attitude.h) turns these facts into each estimator's standard deviation and
- * `why` set; docs/estimator-design.md "Integrity" derives every term and says which are
+ * `why` set; docs/explanation/estimators.md "Integrity" derives every term and says which are
  * learnt and which are prior.
  *
  * Units: per-sensor quantities in Q32 mm / mm²; axis quantities as y = a·tan α,
@@ -39,7 +39,7 @@
  * (k·256). A mean of a few χ²₁ samples is skewed, and at N = 10 the window gate makes the
  * windows under-predict their noise, so k = 5 (not a Gaussian 3): white noise alone is
  * `drift` after one block in 0.5 % of runs, over the first 16 blocks in 0.1 % of windows,
- * then 0.02 % (0.17 % at N = 10): docs/estimator-design.md "Integrity". */
+ * then 0.02 % (0.17 % at N = 10): docs/explanation/estimators.md "Integrity". */
 #define INTEGRITY_DRIFT_SIGNIFICANCE_Q8 (5u * 256u)
 
 /* `recalibrate` when the drift the parity shows (its per-sensor mean square beyond white
@@ -47,7 +47,7 @@
  * significant as for `drift`) exceeds k² times the allowance since the start, offset
  * stability² + walk·t: k = 3, the parity beyond 3σ of what the model allows (a χ²₁ of a
  * slow wander beyond 9: 0.27 % of the time for a head that drifts exactly as the prior
- * says): docs/estimator-design.md "Integrity", "Drift since the start". */
+ * says): docs/explanation/estimators.md "Integrity", "Drift since the start". */
 #define INTEGRITY_RECALIBRATE_SIGMAS_Q8 (3u * 256u)
 
 /* The row period's bounds (µs): the trace format's 1..10 000 ms. */
@@ -100,7 +100,7 @@ struct integrity_state {
     fix_q32_t block_mean_mm[3][ANGLES_SENSORS]; /* ... and their sensor means, newest first */
     fix_q32_t steady_lag2_mm2[INTEGRITY_AXES];  /* learnt lag² per axis, Q32 mm², held
                                                    until the next block */
-    /* Drift since the start (docs/estimator-design.md "Drift since the start"): */
+    /* Drift since the start (docs/explanation/estimators.md "Drift since the start"): */
     uint32_t rows;            /* rows since the start at this window's end */
     uint32_t long_blocks;     /* blocks in drift_long_mm2 (no cap: the whole run) */
     fix_q32_t drift_long_mm2; /* the parity's drift samples' mean over the whole run */
@@ -197,13 +197,13 @@ void integrity_assess(struct integrity_state *st, const struct integrity_config 
 
 /* Each sensor's drift variance (Q32 mm², >= 0) the sd carries beyond the offset-stability
  * prior: the largest of the learnt drift D (recent blocks), its mean over the whole run
- * and the prior walk's offset_walk · t since the start (docs/estimator-design.md
+ * and the prior walk's offset_walk · t since the start (docs/explanation/estimators.md
  * "Drift since the start"). */
 fix_q32_t integrity_drift_var(const struct integrity_state *st);
 
 /* Variance (Q32 mm², saturating) of the axis' least-squares combination of the sensor
- * means over the set `used` (DESIGN.md §2: y_α = (x_C − x_A)/2 with all four, ...), for
- * per-sensor variances v[]; false (and 0) when `used` does not observe the axis. */
+ * means over the set `used` (docs/explanation/architecture.md: y_α = (x_C − x_A)/2 with all four,
+ * ...), for per-sensor variances v[]; false (and 0) when `used` does not observe the axis. */
 bool integrity_axis_var(enum integrity_axis axis, uint8_t used, const fix_q32_t v[ANGLES_SENSORS],
                         fix_q32_t *var_mm2);
 

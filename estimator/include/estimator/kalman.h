@@ -65,7 +65,7 @@
 #define KALMAN_P0_MM2_Q32 ((int64_t)1 << 56)
 
 /* Errors of the Kalman filter's configuration, in its block -48..-63 of the one error
- * convention (docs/errors.md). */
+ * convention (docs/reference/errors.md). */
 enum kalman_error {
     KALMAN_OK = 0,
     KALMAN_ERR_PROCESS_NOISE = -48,     /* a Q entry negative or above P0 */

@@ -19,7 +19,7 @@
  * Gaussian noise and ignores up to half the window being outliers. Rejected
  * readings are subtracted from a copy of the sums, again exactly.
  *
- * Calibration (issue 23): the ring keeps the readings as they came (whole mm, 10 bytes a
+ * Calibration: the ring keeps the readings as they came (whole mm, 10 bytes a
  * row); each row's angles and residual are computed from its readings corrected to
  * true = (raw − offset)/gain in fine units (angles.h, 2^-10 mm), recomputed exactly the
  * same way when the row is dropped or gated out; the per-sensor mean and variance are
@@ -50,7 +50,7 @@
 #define WINDOW_PAIRS 15u
 
 /* Errors of window_init (negative, one per bad field), in the window's block -32..-47 of
- * the one error convention (docs/errors.md). */
+ * the one error convention (docs/reference/errors.md). */
 enum window_error {
     WINDOW_OK = 0,
     WINDOW_ERR_ARM = -32,    /* arm_um outside [ANGLES_ARM_MIN_UM, ANGLES_ARM_MAX_UM] */
@@ -70,7 +70,7 @@ struct window_config {
 };
 
 /* One stored row: 10 bytes, so the ring of WINDOW_MAX_SAMPLES rows stays within the
- * interface MCU's RAM budget (docs/firmware.md). */
+ * interface MCU's RAM budget (docs/explanation/firmware.md). */
 struct window_row {
     uint16_t range_mm[ANGLES_SENSORS];
     uint8_t masks; /* sensor masks: low nibble present (a reading arrived), high nibble

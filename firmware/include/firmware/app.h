@@ -33,14 +33,14 @@ enum tof_event_kind {
     TOF_EVENT_OVERRUN = 3,      /* a main-loop iteration exceeded its budget */
 };
 
-/* One window's estimates, all estimators side by side (DESIGN.md §6). */
+/* One window's estimates, all estimators side by side (docs/reference/tools.md). */
 struct tof_estimate_record {
     uint64_t t_us;                 /* firmware time of the window's last slot end */
     struct attitude_output output; /* output.last_row is the sample (slot) index */
 };
 
 /* Slots of errors_by_code: slot -err for each hal code -1..HAL_ERR_LAST, slot 0
- * (TOF_ERROR_SLOT_OTHER) for a code of another module's block (docs/errors.md). */
+ * (TOF_ERROR_SLOT_OTHER) for a code of another module's block (docs/reference/errors.md). */
 #define TOF_ERROR_SLOT_OTHER 0u
 #define TOF_ERROR_SLOTS      ((unsigned)HAL_ERR_COUNT + 1u)
 
@@ -108,8 +108,8 @@ struct tof_app {
  * application configuration or platform; a hal_err from attaching the sensors; or,
  * when the estimator refuses cfg->estimator, attitude_init()'s attitude_error
  * unchanged, also kept in app->estimator_error; the two kinds have disjoint numbers
- * (docs/errors.md), and tof_app_error_message() names either. Nothing else stops the application
- * from running.
+ * (docs/reference/errors.md), and tof_app_error_message() names either. Nothing else stops the
+ * application from running.
  */
 int tof_app_init(struct tof_app *app, const struct tof_platform *platform,
                  const struct tof_app_config *cfg);
@@ -117,7 +117,7 @@ int tof_app_init(struct tof_app *app, const struct tof_platform *platform,
 /* What error `err` from this application's calls means: attitude_error_message() for a
  * code below the hal block (the estimator's refusals reach the application as
  * attitude_error codes), else hal_err_name(). `app` is not needed since the blocks
- * became disjoint (docs/errors.md); it stays for the callers. */
+ * became disjoint (docs/reference/errors.md); it stays for the callers. */
 const char *tof_app_error_message(const struct tof_app *app, int err);
 
 /* One bounded main-loop iteration; `idle` true lets it sleep until the next due reading. */

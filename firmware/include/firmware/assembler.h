@@ -25,7 +25,8 @@ struct tof_sample {
     uint8_t present_mask;
 };
 
-/* Where assembled samples go: emit(ctx, sample) for each (DESIGN.md §4 ops convention). */
+/* Where assembled samples go: emit(ctx, sample) for each (docs/explanation/architecture.md ops
+ * convention). */
 struct tof_sample_sink {
     void (*emit)(void *ctx, const struct tof_sample *sample);
     void *ctx;

@@ -1,9 +1,9 @@
 /*
  * The head's calibration kept in the record (firmware/record.h) as section 2
  * (TOF_SECTION_CALIBRATION, firmware/settings.h), and applied at boot to the estimator's
- * configuration (attitude_config.calibration, estimator/calibration.h; issue 23).
+ * configuration (attitude_config.calibration, estimator/calibration.h).
  *
- * Section 2 version 3, 116 bytes, little-endian (docs/firmware.md, "Records"):
+ * Section 2 version 3, 116 bytes, little-endian (docs/explanation/firmware.md, "Records"):
  *
  *     0 u32 head_id      the head it was made on: the number the user gave the head
  *                        (HEAD.cal key `head_id`; 0 = none), compared with the image's
@@ -49,7 +49,8 @@
 #define TOF_CAL_FLAG_GAINS 0x01u
 
 /* What boot found of the calibration, the status frame's `calibration` byte
- * (docs/telemetry.md §5.5). Every state but APPLIED leaves the head uncalibrated. */
+ * (docs/reference/telemetry-protocol.md §5.5). Every state but APPLIED leaves the head
+ * uncalibrated. */
 enum tof_cal_state {
     TOF_CAL_NONE = 0,         /* no calibration section (nothing stored, or never sent) */
     TOF_CAL_APPLIED = 1,      /* a section of this head and configuration, in force */
@@ -131,8 +132,8 @@ enum tof_cal_state tof_cal_boot(struct tof_record_store *store, struct tof_app *
 enum tof_cal_state tof_cal_recheck(const struct tof_record_store *store, struct tof_app *app);
 
 /*
- * The write-calibration command (docs/telemetry.md): `section` (version 1, TOF_CAL_WIRE_SIZE
- * bytes as the command carries it, or version 2, TOF_SECTION_HEADER +
+ * The write-calibration command (docs/reference/telemetry-protocol.md): `section` (version 1,
+ * TOF_CAL_WIRE_SIZE bytes as the command carries it, or version 2, TOF_SECTION_HEADER +
  * TOF_CALIBRATION_LENGTH bytes; its header says which) is decoded and checked against this
  * image (head, parts, distance mode, budget), saved into the record as version 2 bound to
  * the running parts and arm (tof_cal_bind_parts(), tof_cal_bind_arm(); other sections kept)

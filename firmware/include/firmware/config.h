@@ -92,7 +92,7 @@ int tof_app_config_period(struct tof_app_config *cfg, uint32_t period_ms);
 bool tof_app_replay_mode_fits(uint32_t period_ms, enum vl53_distance_mode mode);
 
 /*
- * The Kalman filter's process noise as random-walk intensities (DESIGN.md §6,
+ * The Kalman filter's process noise as random-walk intensities (docs/reference/tools.md,
  * --process-noise): qd of x̄ and qt of a·tan α and a·tan β, µm²/s, turned into Q per row
  * (q · period, the period of cfg->timing, rounded to whole µm²); `automatic`: the filter
  * learns Q (starting there) and R itself. HAL_ERR_INVALID when a non-zero intensity
@@ -102,7 +102,7 @@ int tof_app_config_process_noise(struct tof_app_config *cfg, uint32_t qd_um2_per
                                  uint32_t qt_um2_per_s, bool automatic);
 
 /*
- * The process noise a window mode implies when none is chosen (issue 24): a sliding estimate
+ * The process noise a window mode implies when none is chosen: a sliding estimate
  * is for a plate that may move, so with the Kalman filter's Q all 0 sliding mode takes
  * `auto` and tumbling mode the paper's static windows (auto off); a fixed Q > 0 is kept in
  * both. Applied whenever the mode is set (tof_app_config_for_replay, tof_app_set_window); a

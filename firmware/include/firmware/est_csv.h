@@ -1,5 +1,5 @@
 /*
- * The estimate CSV of DESIGN.md §6, written by integer code only so host_sim
+ * The estimate CSV of docs/reference/tools.md, written by integer code only so host_sim
  * and the QEMU image produce byte-identical files:
  *
  *   t_ms,alpha_deg,beta_deg,distance_mm,status,alpha_sd_deg,beta_sd_deg,distance_sd_mm,why

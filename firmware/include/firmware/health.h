@@ -11,7 +11,7 @@
  * least trouble_errors of them, makes the sensor LOST whether it stayed SUSPECT throughout or
  * flipped between SUSPECT and HEALTHY: a data-ready line stuck high gives a stale read
  * between every two good ones, and only an XSHUT re-init clears it
- * (docs/fault-campaign.md). The error count keeps sporadic bus errors that happen to
+ * (docs/reference/fault-campaign.md). The error count keeps sporadic bus errors that happen to
  * chain (NACKs at 1 % of transactions) from costing a re-init.
  *
  * Pure logic over events and millisecond timestamps: no I/O. The firmware feeds

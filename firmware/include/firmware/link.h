@@ -1,6 +1,6 @@
 /*
  * The telemetry link: estimates, raw samples and health go out as frames of the
- * protocol in docs/telemetry.md over a byte stream; commands come in, are
+ * protocol in docs/reference/telemetry-protocol.md over a byte stream; commands come in, are
  * validated, applied to the application and answered with an ack or a nack.
  * Malformed input is counted by the decoder and reported in health frames.
  *
@@ -30,12 +30,13 @@
 #define TOF_LINK_RX_PER_POLL 64u
 #define TOF_LINK_RX_CHUNKS   8u
 
-/* The largest command payload (set-process-noise, docs/telemetry.md). */
+/* The largest command payload (set-process-noise, docs/reference/telemetry-protocol.md). */
 #define TOF_LINK_COMMAND_MAX 9u
 
 /* Health frames at most once per TOF_LINK_HEALTH_PERIOD_US (after the first window's
  * estimates at the earliest): a window shorter than that sends none of its own, so the
- * 155-byte frame costs at most 155 B/s of the link (docs/telemetry.md, "Link budget"). */
+ * 155-byte frame costs at most 155 B/s of the link (docs/reference/telemetry-protocol.md, "Link
+ * budget"). */
 #define TOF_LINK_HEALTH_PERIOD_US 1000000u
 
 struct tof_link {
@@ -52,7 +53,8 @@ struct tof_link {
     bool health_sent;          /* a health frame is due at health_due_us (else: at the next) */
     uint64_t health_due_us;    /* no health frame before this estimate time */
     /* The last command answered, to answer a retry (the same sequence, type and payload: the
-     * same bytes) again without applying it twice (docs/telemetry.md, "Retries"). */
+     * same bytes) again without applying it twice (docs/reference/telemetry-protocol.md,
+     * "Retries"). */
     bool last_valid;
     uint8_t last_seq, last_type, last_result, last_length;
     int8_t last_error;

@@ -4,7 +4,7 @@
  * current one, reads it back, and only then erases the old one, so a power cut at any
  * step leaves the old record or the new one, never neither and never a mix.
  *
- * A copy, little-endian, from the start of its page (docs/firmware.md, "Records"):
+ * A copy, little-endian, from the start of its page (docs/explanation/firmware.md, "Records"):
  *
  *     0  u32 magic 0x52464F54 ("TOFR")     4  u8 format version (1)    5  u8 0
  *     6  u16 payload length (<= TOF_RECORD_PAYLOAD_MAX)                8  u32 sequence
@@ -29,7 +29,8 @@
 /* A copy's bytes on its page: header, payload, CRC, rounded up to a double-word. */
 #define TOF_RECORD_IMAGE_MAX ((TOF_RECORD_HEADER + TOF_RECORD_PAYLOAD_MAX + 2u + 7u) / 8u * 8u)
 
-/* What load found, also the status frame's `record` field (docs/telemetry.md §5.5). */
+/* What load found, also the status frame's `record` field (docs/reference/telemetry-protocol.md
+ * §5.5). */
 enum tof_record_state {
     TOF_RECORD_NONE = 0,       /* nothing stored (both pages erased): defaults */
     TOF_RECORD_LOADED = 1,     /* a valid record, used */

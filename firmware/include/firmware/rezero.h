@@ -1,5 +1,5 @@
 /*
- * The re-zero command (docs/calibration.md "Re-zero"; issue 23): at the latched position the
+ * The re-zero command (docs/how-to/calibrate-a-head.md "Re-zero"): at the latched position the
  * attitude is zero by construction, so all four sensors see the same true distance x̄; N
  * samples refit the four offsets from it, keeping the gains. x̄ itself is unknown, so the sum
  * of the offsets is kept as the calibration has it (the one direction the latch cannot

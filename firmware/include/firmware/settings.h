@@ -4,10 +4,11 @@
  * `save` command into the record (firmware/record.h) and applied at boot.
  *
  * The record's payload is a list of sections, each `u8 id, u8 version, u16 length`
- * then its bytes, so the head's calibration (issue 23) gets a section of its own
+ * then its bytes, so the head's calibration gets a section of its own
  * (TOF_SECTION_CALIBRATION) in the same record: saving the settings keeps every other
  * section as it was, and a firmware that does not know a section leaves it alone.
- * Section 1 (settings) version 2, 24 bytes, little-endian (docs/firmware.md, "Records"):
+ * Section 1 (settings) version 2, 24 bytes, little-endian (docs/explanation/firmware.md,
+ * "Records"):
  *
  *     0 u16 window   2 u8 mode (0 tumbling, 1 sliding)   3 u8 primary estimator
  *     4 u8 running   5 u8 raw stream   6 u8 flags (bit 0 process noise set, bit 1 auto)

@@ -1,7 +1,7 @@
 /*
  * The telemetry codecs' shared wire helpers (internal to firmware/telemetry/src): little-endian
  * writer and reader, the frame's finishing, the parse counters, and the field ranges that
- * messages and commands share (docs/telemetry.md).
+ * messages and commands share (docs/reference/telemetry-protocol.md).
  */
 #ifndef TELEMETRY_TLM_WIRE_H
 #define TELEMETRY_TLM_WIRE_H

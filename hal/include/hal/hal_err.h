@@ -3,8 +3,8 @@
  * negative value names the failure, and callers pass it up unchanged.
  *
  * Every module that returns error codes owns a block of negative numbers no other
- * module uses, so a code names its failure whoever passes it up (docs/errors.md).
- * The estimator does not include hal/, so this table and docs/errors.md are where the
+ * module uses, so a code names its failure whoever passes it up (docs/reference/errors.md).
+ * The estimator does not include hal/, so this table and docs/reference/errors.md are where the
  * blocks are written down; tests/firmware/test_error_convention.c checks them:
  *
  *     -1 ..  -31   hal_err (this file): hal/, drivers/, firmware/, sim/, boards/

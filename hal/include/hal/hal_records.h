@@ -1,6 +1,6 @@
 /*
  * Record storage: non-volatile pages that keep what must survive a reset or a
- * power loss (DESIGN.md §3). A const ops struct plus a context pointer, as the
+ * power loss (docs/explanation/architecture.md). A const ops struct plus a context pointer, as the
  * I²C interface (hal_i2c.h), with the geometry in the handle.
  *
  * The rules are those of NOR flash with ECC (the STM32L4's, RM0351 §3.3): a page

@@ -5,7 +5,7 @@
  * disturbed by other load), with the mean. Build with the host-release preset.
  *
  *   pose_bench [--frames N] [--range-mm R] [--repeats K]
- * Default: the issue's goal scenario (700 mm, 1 % range noise, 2 % gray noise,
+ * Default: the goal scenario (700 mm, 1 % range noise, 2 % gray noise,
  * 2 spurious blobs, 1 hidden marker), 64 frames, 20 repeats.
  */
 #define _POSIX_C_SOURCE 199309L /* clock_gettime */

@@ -21,7 +21,7 @@ enum {
     STREAM_STRETCH = 27
 };
 
-/* The fixture's distances (60–200 mm, the working range of issue 23) and attitudes
+/* The fixture's distances (60–200 mm, the capture interface's working range) and attitudes
  * (±5°, ±10°, level): station s takes distance s mod 5 and attitude s mod 8, so the 20
  * stations mix them. */
 static const double distances_mm[5] = {60.0, 95.0, 130.0, 165.0, 200.0};
@@ -41,7 +41,7 @@ int fixture_named(const char *name, struct fixture_config *c) {
     }
     c->shuffle = true;
     /* 20 × 750 readings at 20 ms: 5 min at the stations, offsets stated to 0.049 mm
-     * (1 sd) on average at σ = 2 mm (docs/calibration.md, "How long"). */
+     * (1 sd) on average at σ = 2 mm (docs/how-to/calibrate-a-head.md, "How long"). */
     c->readings_per_station = 750u;
     c->move_rows = 25u;
     c->sigma_mm = 2.0;
@@ -233,7 +233,7 @@ static int write_header(FILE *f, const struct fixture_gen *g, uint64_t seed) {
     } else {
         n |= fprintf(f, "# noise=gaussian sigma_mm=%g ar1_phi=%g\n", c->sigma_mm, c->ar1_phi);
     }
-    /* The simulated head's truth (docs/calibration.md): not calibration keys, so a
+    /* The simulated head's truth (docs/how-to/calibrate-a-head.md): not calibration keys, so a
      * replay of this raw trace treats the head as uncalibrated, as it is. */
     n |= fprintf(f, "# sim_offset_mm=%.6f,%.6f,%.6f,%.6f\n", g->offset_mm[0], g->offset_mm[1],
                  g->offset_mm[2], g->offset_mm[3]);

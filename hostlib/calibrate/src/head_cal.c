@@ -1,4 +1,5 @@
-/* The head-calibration file v1 (DESIGN.md §6a): reader and writer (head_cal.h). */
+/* The head-calibration file v1 (docs/reference/calibration-file.md): reader and writer
+ * (head_cal.h). */
 #include "calibrate/head_cal.h"
 
 #include <errno.h>

@@ -6,7 +6,8 @@
 
 #include "scene/geometry.h"
 
-/* Rows of H (Eq. 5 of the first paper, DESIGN.md §2) in units of a for columns 2, 3. */
+/* Rows of H (Eq. 5 of the first paper, docs/explanation/architecture.md) in units of a for columns
+ * 2, 3. */
 static const double unit_rows[SCENE_SENSORS][3] = {
     {1.0, -1.0, 0.0}, /* A */
     {1.0, 0.0, 1.0},  /* B */

@@ -1,4 +1,4 @@
-/* Plate geometry, DESIGN.md §2 / Eq. 5 of the first paper. */
+/* Plate geometry, docs/explanation/architecture.md / Eq. 5 of the first paper. */
 #include "scene/geometry.h"
 
 #include <math.h>

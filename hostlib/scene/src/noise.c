@@ -1,4 +1,4 @@
-/* Per-sensor noise models (docs/traces.md, "Noise models"). */
+/* Per-sensor noise models (docs/reference/trace-format.md, "Noise models"). */
 #include "scene/noise.h"
 
 #include <math.h>

@@ -1,4 +1,4 @@
-/* Named scenario generators (scenario.h; parameters in docs/traces.md). */
+/* Named scenario generators (scenario.h; parameters in docs/reference/trace-format.md). */
 #include "scene/scenario.h"
 
 #include <math.h>
@@ -98,7 +98,7 @@ uint64_t scene_config_rows(const struct scene_config *cfg) {
     return (uint64_t)cfg->n_positions * cfg->samples_per_position;
 }
 
-/* The demo schedule: holds, steps and ramps of α and β (docs/traces.md). */
+/* The demo schedule: holds, steps and ramps of α and β (docs/reference/trace-format.md). */
 struct demo_segment {
     uint32_t rows;
     double alpha_end_deg, beta_end_deg;

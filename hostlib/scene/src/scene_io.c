@@ -39,7 +39,7 @@ int scene_write_config(const struct scene_config *cfg, uint64_t seed, FILE *f, c
                  gen.stretch[2].offset, gen.stretch[3].offset);
     }
     /* The simulated sensors read true distance plus zero-mean noise: offsets and gains known
-     * exactly, which the trace says (DESIGN.md §5), so a replay takes the head as
+     * exactly, which the trace says (docs/reference/trace-format.md), so a replay takes the head as
      * calibrated. The gains too: without them a reader takes gain 1 with the parts' spread
      * (1.7 %), an sd these sensors do not have. */
     static const char offset_kv[] = "offset_mm=0,0,0,0";

@@ -3,7 +3,7 @@
  *   scene_tool scenario NAME [--seed S] --trace-out TRACE.csv
  *   scene_tool check TRACE.csv     (reads it; prints rows and metadata or the error)
  *   scene_tool list                (scenario names)
- * host_sim will offer the same `scenario` command (DESIGN.md §6).
+ * host_sim will offer the same `scenario` command (docs/reference/tools.md).
  */
 #include <errno.h>
 #include <stdio.h>

@@ -33,7 +33,7 @@ extern "C" {
 #define POSE_MAX_HEIGHT     1024u
 
 /* Errors: 0 success, negative values name the failure (one convention, passed up); the
- * block -80..-95 is pose's (docs/errors.md). */
+ * block -80..-95 is pose's (docs/reference/errors.md). */
 enum pose_err {
     POSE_OK = 0,
     POSE_ERR_INVALID = -80,    /* NULL argument or inconsistent configuration */

@@ -1,5 +1,5 @@
 /*
- * The I²C capture format (DESIGN.md §6, `--i2c-log`): one CSV line per bus transaction,
+ * The I²C capture format (docs/reference/tools.md, `--i2c-log`): one CSV line per bus transaction,
  * header `t_us,addr,write,read,result`; t_us simulated µs, addr the 7-bit address as 0x29,
  * write / read the bytes as lowercase hex without separators (a register write is the
  * 2-byte big-endian index then the data; a read has the index in `write`, the data in

@@ -11,7 +11,8 @@
  * ST's NVM-read sequence (firmware off, power force, NVM power-up, ...: sim_vl53_nvm.c), any
  * other access to those registers is NACKed. Integer only, no heap; built for
  * Cortex-M as well. Its register facts are its own (src/sim_vl53_regs.h, with sources), not the
- * driver's; which behaviours ST documents and which are the model's assumptions: docs/driver.md.
+ * driver's; which behaviours ST documents and which are the model's assumptions:
+ * docs/explanation/driver-and-bus.md.
  */
 #ifndef SIM_VL53_H
 #define SIM_VL53_H

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Instructions per frame of pose/ on Cortex-M4 under QEMU (docs/pose.md).
+# Instructions per frame of pose/ on Cortex-M4 under QEMU (docs/explanation/pose.md).
 # Out of the CMake tree because boards/ belongs to the integrator: this builds a
 # bare-metal mps2-an386 program from boards/cortex-m + boards/mps2 sources and the
 # pose sources with the m4 preset's flags (-Os, FPv4-SP hard float), with two

@@ -1,6 +1,7 @@
 /*
- * Recorded trace format v1 (DESIGN.md §5, docs/traces.md): the one reader, integer C for
- * every target (host_sim, the QEMU replay image, the twin through host_sim's layer).
+ * Recorded trace format v1 (docs/reference/trace-format.md, docs/reference/trace-format.md): the
+ * one reader, integer C for every target (host_sim, the QEMU replay image, the twin through
+ * host_sim's layer).
  *
  *   # tof-trace v1
  *   # arm_mm=30.0
@@ -29,7 +30,7 @@
 #define TRACE_VALUE_MAX   128u  /* bytes of a value, including the terminator */
 #define TRACE_MSG_MAX     256u  /* bytes of an error message, without "file:line:col: " */
 /* The time base when a trace has no period_ms: the scenarios' and the shared
- * recording's 20 ms (docs/traces.md). host_sim replay uses the same default. */
+ * recording's 20 ms (docs/reference/trace-format.md). host_sim replay uses the same default. */
 #define TRACE_DEFAULT_PERIOD_MS 20u
 #define TRACE_TIMING_NOTES      8u /* irregular time stamps kept with their line */
 /* Range status of a sensor that gave no reading (the VL53L1 API's "no update" status,
@@ -74,7 +75,7 @@ struct trace_timing {
     struct trace_timing_note notes[TRACE_TIMING_NOTES];
 };
 
-/* ---- the head's calibration the trace states (DESIGN.md §5, §6a) ----
+/* ---- the head's calibration the trace states (docs/reference/trace-format.md, §6a) ----
  * In estimator/calibration.h's integers and bounds (sim/ does not include the estimator;
  * host_sim and the QEMU image check the two agree): offsets and their sd in µm, gains as
  * ppm of deviation from 1, the offset-gain correlation in Q15. */
@@ -107,11 +108,11 @@ struct trace_v1_cal {
 };
 
 /*
- * One key=value of a trace's metadata or of a HEAD.cal (the same keys, DESIGN.md §6a) into
- * `cal`, exactly as decimals (rounded half away from zero to the unit, no floating point):
- * 1 (not a calibration key: nothing done), 0 (read), or -1 with *what and *col (0-based
- * offset in value of what is wrong). Four comma-separated decimals each; offsets within
- * ±100 mm, gains within 0.9..1.1, sd >= 0 (offset sd <= 100 mm, gain sd <= 0.1), the
+ * One key=value of a trace's metadata or of a HEAD.cal (the same keys,
+ * docs/reference/calibration-file.md) into `cal`, exactly as decimals (rounded half away from zero
+ * to the unit, no floating point): 1 (not a calibration key: nothing done), 0 (read), or -1 with
+ * *what and *col (0-based offset in value of what is wrong). Four comma-separated decimals each;
+ * offsets within ±100 mm, gains within 0.9..1.1, sd >= 0 (offset sd <= 100 mm, gain sd <= 0.1), the
  * correlation within -1..1; `calibration` is `none` or a file name. A repeated key is the
  * caller's to refuse.
  */
@@ -125,11 +126,12 @@ int trace_v1_cal_check(struct trace_v1_cal *cal, const char **what, uint32_t *li
 
 /* The metadata: every "# key=value" line before the header, arm_mm and period_ms read. */
 struct trace_v1_meta {
-    int32_t arm_um;          /* required: a in µm, > 0 (saturated at INT32_MAX) */
-    bool arm_exact;          /* false: the text has digits below 1 µm or is beyond INT32_MAX µm */
-    uint32_t period_ms;      /* optional, > 0; 0 when absent */
-    struct trace_v1_cal cal; /* the head's calibration keys, checked (DESIGN.md §5) */
-    unsigned count;          /* every key=value line, arm_mm and period_ms included */
+    int32_t arm_um;     /* required: a in µm, > 0 (saturated at INT32_MAX) */
+    bool arm_exact;     /* false: the text has digits below 1 µm or is beyond INT32_MAX µm */
+    uint32_t period_ms; /* optional, > 0; 0 when absent */
+    struct trace_v1_cal
+        cal;        /* the head's calibration keys, checked (docs/reference/trace-format.md) */
+    unsigned count; /* every key=value line, arm_mm and period_ms included */
     char key[TRACE_MAX_META][TRACE_KEY_MAX];
     char value[TRACE_MAX_META][TRACE_VALUE_MAX];
     uint32_t line[TRACE_MAX_META]; /* line of each key=value, for messages */
@@ -138,7 +140,7 @@ struct trace_v1_meta {
 /* Truth values of a row (alpha_deg, beta_deg, distance_mm), in TRUTH order. */
 enum trace_truth { TRACE_TRUTH_ALPHA, TRACE_TRUTH_BETA, TRACE_TRUTH_DISTANCE, TRACE_TRUTHS };
 
-/* One sample. Sensor order A, B, C, D = 0..3 (DESIGN.md §2). */
+/* One sample. Sensor order A, B, C, D = 0..3 (docs/explanation/architecture.md). */
 struct trace_v1_row {
     uint32_t t_ms;            /* non-decreasing */
     uint16_t range_mm[4];     /* integer millimetres, as VL53 parts report */

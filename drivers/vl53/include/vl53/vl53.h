@@ -16,7 +16,8 @@
  * where "one transfer" is the wire time of the call's longest single transfer (the
  * hal_i2c contract: a transfer never takes longer than its timeout plus its wire time,
  * and the driver never passes a timeout beyond what is left of the call's budget).
- * Register facts and their sources: vl53_regs.h. Details and limits: docs/driver.md.
+ * Register facts and their sources: vl53_regs.h. Details and limits:
+ * docs/explanation/driver-and-bus.md.
  */
 #ifndef VL53_H
 #define VL53_H
@@ -117,8 +118,9 @@ struct vl53_timing {
 /*
  * The state the driver writes to the part's own offset registers at every bring-up
  * (vl53_configure_begin), whatever the part's NVM loaded there: the same readings on every
- * boot. All zero (the product's choice, docs/driver.md "The parts' offset registers"): the
- * part reports its range uncorrected and the head calibration (HEAD.cal) owns the offset.
+ * boot. All zero (the product's choice, docs/explanation/driver-and-bus.md "The parts' offset
+ * registers"): the part reports its range uncorrected and the head calibration (HEAD.cal) owns the
+ * offset.
  */
 struct vl53_offsets {
     int16_t part_to_part_qmm; /* 0x001E, quarter mm (11.2): -4096..4095 = -1024..+1023.75 mm */
@@ -258,7 +260,7 @@ uint16_t vl53_offset_mismatch_register(const struct vl53_dev *dev);
 bool vl53_warm_boot(const struct vl53_dev *dev);
 
 /*
- * First half of ST's bring-up (docs/driver.md): stop, write the 91-byte default
+ * First half of ST's bring-up (docs/explanation/driver-and-bus.md): stop, write the 91-byte default
  * configuration (pads per cfg->pads_at_avdd), write cfg->offsets to 0x1E..0x23 and read them
  * back, and start the VHV range, which runs at the block's own timing (~100 ms). Returns at
  * once (call_budget_us); other sensors can be brought up meanwhile. Finish with

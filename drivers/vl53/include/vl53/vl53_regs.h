@@ -14,13 +14,13 @@
  *   [SSD] ST VL53L1 full API vl53l1_api.c (SetSimpleData): device statuses 1, 2, 3 and 17
  *         (VCSEL continuity, VCSEL watchdog, no VHV value, multi-clip) are
  *         VL53L1_RANGESTATUS_HARDWARE_FAIL; 9 with stream count 0 is RANGE_VALID_NO_WRAP_CHECK.
- *   [I4]  issue 4 of this project, which lists the register facts it relies on.
+ *   [I4]  the register facts this project's driver was specified with.
  *   [P2P] ST full API vl53l1_register_map.h on 0x001E/0x0020/0x0022 (group
  *         "customer_nvm_managed": registers the part's firmware fills from its NVM at boot,
  *         vl53l1_api_core.c VL53L1_read_p2p_data: "G02 registers containing data copied from
  *         NVM"); [ULD] VL53L1X_SetOffset / GetOffset / CalibrateOffset (0x1E = offset x 4,
  *         inner and outer zeroed); vl53l1_register_settings.h (0x81 bits 5, 6 = MM1, MM2).
- *   [I14] issue 14: boot state 0x02/0x03 seen at 0x00E5 on a part that kept power across an
+ *   [I14] a field report: boot state 0x02/0x03 seen at 0x00E5 on a part that kept power across an
  *         MCU reset; the block's first range measured at 103 ms (a field report).
  */
 #ifndef VL53_REGS_H

@@ -1,8 +1,8 @@
 /*
- * A host's command text (the syntax of tools/tof_telemetry.py --send, docs/telemetry.md
- * "Commands from a host") into a struct tlm_command, for tlm_encode_command(): the one
- * parser host_sim replay and tof_twin use for --command ROW:TEXT (DESIGN.md §6), so both
- * send the same bytes. Host side; no heap, no floating point.
+ * A host's command text (the syntax of tools/tof_telemetry.py --send,
+ * docs/reference/telemetry-protocol.md "Commands from a host") into a struct tlm_command, for
+ * tlm_encode_command(): the one parser host_sim replay and tof_twin use for --command ROW:TEXT
+ * (docs/reference/tools.md), so both send the same bytes. Host side; no heap, no floating point.
  *
  *     set-window N [tumbling|sliding]          N in TLM_WINDOW_MIN..TLM_WINDOW_MAX
  *     estimator|select-estimator consensus|consensus-paper|kalman|mean

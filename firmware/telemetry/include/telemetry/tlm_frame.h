@@ -2,7 +2,7 @@
  * Telemetry link layer: the frame format, a frame encoder into a caller
  * buffer, and a streaming byte-at-a-time decoder that resynchronises after
  * garbage and counts every class of malformed frame. Byte layouts, the
- * resynchronisation rule and examples: docs/telemetry.md.
+ * resynchronisation rule and examples: docs/reference/telemetry-protocol.md.
  *
  *   offset  size  field
  *   0       1     sync 0xA5
@@ -20,7 +20,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#define TLM_SYNC0          0xA5u /* 1010 0101: see docs/telemetry.md for the choice */
+#define TLM_SYNC0          0xA5u /* 1010 0101: see docs/reference/telemetry-protocol.md for the choice */
 #define TLM_SYNC1          0x5Au /* 0101 1010: bitwise complement of TLM_SYNC0 */
 #define TLM_HEADER_SIZE    5u    /* sync0, sync1, length, type, sequence */
 #define TLM_CRC_SIZE       2u
@@ -47,7 +47,8 @@ enum tlm_result {
     TLM_RESULT_BAD_LENGTH = 2,   /* payload length differs from the type's fixed length */
     TLM_RESULT_OUT_OF_RANGE = 3, /* a field holds a value outside its documented range */
     TLM_RESULT_STATE = 4,        /* valid, but refused in the current state (firmware's call) */
-    /* A calibration refused, by its cause (write-calibration; docs/telemetry.md): */
+    /* A calibration refused, by its cause (write-calibration;
+       docs/reference/telemetry-protocol.md): */
     TLM_RESULT_OTHER_HEAD = 5,   /* made on another head (head_id) */
     TLM_RESULT_OTHER_PARTS = 6,  /* made with other parts (a part's NVM identity) */
     TLM_RESULT_OTHER_MODE = 7,   /* made in another distance mode */
@@ -100,7 +101,7 @@ struct tlm_frame_sink {
  * Decoder state, owned by the caller. The window holds the bytes from the
  * current candidate sync byte onward; after a failed candidate the decoder
  * rescans the bytes it already holds, so a good frame hidden inside a bad
- * one is still found (docs/telemetry.md, "Resynchronisation").
+ * one is still found (docs/reference/telemetry-protocol.md, "Resynchronisation").
  */
 struct tlm_decoder {
     struct tlm_type_table types; /* the accepted types and their lengths */

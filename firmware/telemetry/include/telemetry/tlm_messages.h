@@ -2,7 +2,7 @@
  * Telemetry messages (firmware -> host) and commands (host -> firmware): the
  * C structs, their encoders (struct -> frame) and their parsers (frame ->
  * struct). Every field is validated both ways, so a parsed message re-encodes
- * to exactly the bytes it came from. Payload layouts: docs/telemetry.md.
+ * to exactly the bytes it came from. Payload layouts: docs/reference/telemetry-protocol.md.
  *
  * Fixed point on the wire: angles in int32 micro-degrees, distances in int32
  * micrometres, times in uint32 milliseconds (wraps after 49.7 days).
@@ -43,9 +43,9 @@ enum tlm_type {
     TLM_TYPE_RAW_STREAM = 0x86,
     TLM_TYPE_SET_PROCESS_NOISE = 0x87,
     TLM_TYPE_SAVE = 0x88,       /* keep the settings in force across resets (the record) */
-    TLM_TYPE_SET_ARM = 0x89,    /* the head's arm a (issue 22: geometry at run time) */
-    TLM_TYPE_SET_PERIOD = 0x8A, /* the sample period (issue 22: rate at run time) */
-    /* The head's calibration (issue 23; 0x90 on, clear of the settings' commands): */
+    TLM_TYPE_SET_ARM = 0x89,    /* the head's arm a (geometry at run time) */
+    TLM_TYPE_SET_PERIOD = 0x8A, /* the sample period (rate at run time) */
+    /* The head's calibration (0x90 on, clear of the settings' commands): */
     TLM_TYPE_WRITE_CALIBRATION = 0x90, /* a record section 2, saved and put in force */
     TLM_TYPE_READ_CALIBRATION = 0x91,  /* answered by a calibration message */
     TLM_TYPE_REZERO = 0x92,            /* refit the offsets at the latched position */
@@ -130,9 +130,9 @@ enum tlm_window_mode {
 
 /*
  * One estimate of one estimator (TLM_TYPE_ESTIMATE): the values, one standard deviation
- * of each (the estimator's honest sd: noise, drift, quantisation, motion; DESIGN.md
- * section 6) and the reasons for anything not ok. A value that was not estimated and
- * its sd are both TLM_NO_VALUE, never a claimed sd of 0.
+ * of each (the estimator's honest sd: noise, drift, quantisation, motion;
+ * docs/explanation/architecture.md section 6) and the reasons for anything not ok. A value that was
+ * not estimated and its sd are both TLM_NO_VALUE, never a claimed sd of 0.
  */
 struct tlm_estimate {
     uint32_t t_ms;          /* t_ms of the window's last sample */
@@ -168,12 +168,12 @@ struct tlm_sensor_counters {
 
 /* I2C bus errors by kind (hal_err.h codes) and recoveries. */
 struct tlm_bus_counters {
-    uint32_t addr_nack;  /* HAL_ERR_ADDR_NACK */
-    uint32_t data_nack;  /* HAL_ERR_DATA_NACK */
-    uint32_t busy;       /* HAL_ERR_BUS_BUSY */
-    uint32_t timeout;    /* HAL_ERR_TIMEOUT */
-    uint32_t stuck;      /* HAL_ERR_BUS_STUCK */
-    uint32_t other;      /* any other code (HAL_ERR_DEVICE, other blocks: docs/errors.md) */
+    uint32_t addr_nack; /* HAL_ERR_ADDR_NACK */
+    uint32_t data_nack; /* HAL_ERR_DATA_NACK */
+    uint32_t busy;      /* HAL_ERR_BUS_BUSY */
+    uint32_t timeout;   /* HAL_ERR_TIMEOUT */
+    uint32_t stuck;     /* HAL_ERR_BUS_STUCK */
+    uint32_t other; /* any other code (HAL_ERR_DEVICE, other blocks: docs/reference/errors.md) */
     uint32_t recoveries; /* bus recovery sequences run */
 };
 

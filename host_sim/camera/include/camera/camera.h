@@ -4,7 +4,7 @@
  * posts) plus optional spurious bright blobs, with area-coverage supersampling
  * so blob centroids are exact to a few thousandths of a pixel before noise.
  *
- * Model (docs/pose.md): pinhole camera, no lens distortion; a surface's gray is
+ * Model (docs/explanation/pose.md): pinhole camera, no lens distortion; a surface's gray is
  * its reflectance times full scale, independent of range (auto exposure keeps
  * the reflectors near 80 %); a pixel's gray is the coverage-weighted mean of the
  * surfaces it sees; its range is the gray-weighted mean range of those surfaces

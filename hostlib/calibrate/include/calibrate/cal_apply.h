@@ -1,10 +1,10 @@
 /*
- * A replay's head calibration (DESIGN.md §5, §6; issue 23), for host_sim replay and the twin:
- * from --calibration HEAD.cal (which wins), the trace's calibration=FILE (relative to the
- * trace), its inline keys, or none (uncalibrated); handed to the firmware the way the flight
- * unit gets it, as record section 2 (firmware/calibration_record.h) preloaded into record
- * storage (sim/sim_flash.h, whose pages the twin copies into the image's flash) that the
- * firmware's own boot then reads.
+ * A replay's head calibration (docs/reference/trace-format.md, docs/reference/tools.md), for
+ * host_sim replay and the twin: from --calibration HEAD.cal (which wins), the trace's
+ * calibration=FILE (relative to the trace), its inline keys, or none (uncalibrated); handed to the
+ * firmware the way the flight unit gets it, as record section 2 (firmware/calibration_record.h)
+ * preloaded into record storage (sim/sim_flash.h, whose pages the twin copies into the image's
+ * flash) that the firmware's own boot then reads.
  */
 #ifndef CALIBRATE_CAL_APPLY_H
 #define CALIBRATE_CAL_APPLY_H
@@ -19,12 +19,12 @@
 
 /* What a HEAD.cal says it was made in (its keys head_id, distance_mode, timing_budget_ms,
  * as tools/tof_telemetry.py --read-cal writes them, and part_id_A..part_id_D, the parts' NVM
- * identities, docs/calibration.md): each used when present. */
+ * identities, docs/how-to/calibrate-a-head.md): each used when present. */
 struct cal_apply_binding {
     bool has_head, has_mode, has_budget, has_arm;
     uint32_t head_id;
     int32_t arm_um; /* the arm_mm key, in um */
-    uint8_t mode; /* enum vl53_distance_mode */
+    uint8_t mode;   /* enum vl53_distance_mode */
     uint16_t budget_ms;
     uint64_t part_id[4]; /* A..D; 0: the key is absent (the record binds no part) */
 };
@@ -51,9 +51,9 @@ int cal_apply_load(const char *path, struct trace_v1_cal *out, struct cal_apply_
 
 /* Record storage (`flash`: two CAL_APPLY_PAGE_SIZE pages, erased, or a copy of `pages_in`
  * when not NULL) holding `cal`'s section made in `cfg`'s configuration and arm (each part,
- * and the arm, `made_in` states, when not NULL, instead: the boot then refuses what the flight unit would) in place of any
- * calibration there (every other section kept; nothing written for an uncalibrated head),
- * and a store over it for the firmware's boot. 0, or -1 (said on stderr). */
+ * and the arm, `made_in` states, when not NULL, instead: the boot then refuses what the flight unit
+ * would) in place of any calibration there (every other section kept; nothing written for an
+ * uncalibrated head), and a store over it for the firmware's boot. 0, or -1 (said on stderr). */
 int cal_apply_preload(const struct trace_v1_cal *cal, const struct tof_app_config *cfg,
                       const struct cal_apply_binding *made_in, const uint8_t *pages_in,
                       struct sim_flash *flash, struct tof_record_store *store);

@@ -1,8 +1,8 @@
 /*
- * `host_sim calibrate`'s fit (DESIGN.md §2, §6; docs/calibration.md): each sensor's
- * offset and gain in raw_i = gain_i · x_i + offset_i + noise from a fixture's stations
- * (a flat plate at known α, β and x̄, x_i from §2's geometry), with their covariance from
- * the data.
+ * `host_sim calibrate`'s fit (docs/explanation/architecture.md, §6;
+ * docs/how-to/calibrate-a-head.md): each sensor's offset and gain in raw_i = gain_i · x_i +
+ * offset_i + noise from a fixture's stations (a flat plate at known α, β and x̄, x_i from §2's
+ * geometry), with their covariance from the data.
  *
  * Rows are added one at a time; a station is a run of consecutive rows with the same
  * truth (α, β, x̄); a row without truth (the fixture moving) ends the station. Each
@@ -41,7 +41,7 @@ struct calfit_station {
     /* per sensor */
     size_t first[CALFIT_SENSORS]; /* its first reading in calfit_data.readings[k] */
     uint32_t n[CALFIT_SENSORS];   /* valid readings */
-    double x_mm[CALFIT_SENSORS];  /* true distance, DESIGN.md §2 */
+    double x_mm[CALFIT_SENSORS];  /* true distance, docs/explanation/architecture.md */
     /* filled by calfit_run */
     bool used[CALFIT_SENSORS];          /* n >= CALFIT_MIN_READINGS */
     double mean_mm[CALFIT_SENSORS];     /* mean reading */

@@ -1,9 +1,9 @@
 /*
- * A simulated calibration fixture (docs/calibration.md): a head whose parts have their own
- * offsets and gains (raw = gain · x + offset + noise, DESIGN.md §2) looks at a flat plate
- * that a fixture holds at known stations (α, β, x̄) and moves between them. Rows at a
- * station carry the truth; rows while moving carry none. What the head truly is stands in
- * the trace's keys (sim_offset_mm, sim_gain, sim_drift_mm), so a test can compare.
+ * A simulated calibration fixture (docs/how-to/calibrate-a-head.md): a head whose parts have their
+ * own offsets and gains (raw = gain · x + offset + noise, docs/explanation/architecture.md) looks
+ * at a flat plate that a fixture holds at known stations (α, β, x̄) and moves between them. Rows at
+ * a station carry the truth; rows while moving carry none. What the head truly is stands in the
+ * trace's keys (sim_offset_mm, sim_gain, sim_drift_mm), so a test can compare.
  */
 #ifndef CALIBRATE_FIXTURE_H
 #define CALIBRATE_FIXTURE_H
@@ -51,7 +51,7 @@ struct fixture_gen {
     struct scene_real_stretch stretch[4];
 };
 
-/* Names of the fixture scenarios, NULL-terminated (docs/calibration.md). */
+/* Names of the fixture scenarios, NULL-terminated (docs/how-to/calibrate-a-head.md). */
 extern const char *const fixture_names[];
 
 /* The named fixture's parameters. Returns 0, or -1 if unknown. */

@@ -1,5 +1,6 @@
 /*
- * The head-calibration file v1 (DESIGN.md §6a, docs/calibration.md): reader and writer.
+ * The head-calibration file v1 (docs/reference/calibration-file.md,
+ * docs/how-to/calibrate-a-head.md): reader and writer.
  *
  *   # tof-head-cal v1
  *   # offset_mm=-3.105,7.882,0.516,-12.340
@@ -84,7 +85,8 @@ int head_cal_parse(const char *text, size_t len, const char *name, struct head_c
  * stderr saying how it is read. Returns 0, or -1 with the message in err. */
 int head_cal_load(const char *path, struct head_cal *cal, char *err, size_t errlen);
 
-/* Value of key in cal (NULL if absent), e.g. the project's keys (docs/calibration.md). */
+/* Value of key in cal (NULL if absent), e.g. the project's keys (docs/how-to/calibrate-a-head.md).
+ */
 const char *head_cal_extra(const struct head_cal *cal, const char *key);
 
 /*

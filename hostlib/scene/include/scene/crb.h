@@ -1,5 +1,5 @@
 /*
- * Cramér-Rao bound for the attitude of the linear model of DESIGN.md §2
+ * Cramér-Rao bound for the attitude of the linear model of docs/explanation/architecture.md
  * (Eq. 5 of the first paper): θ = [x̄, tan α, tan β], one reading of sensor k
  * is h_kᵀθ + noise with variance σ_k², rows
  *   A: [1, −a, 0]   B: [1, 0, a]   C: [1, a, 0]   D: [1, 0, −a].

@@ -1,5 +1,5 @@
 /*
- * Plate geometry of DESIGN.md §2 (the measurement model of Eq. 5 in the first
+ * Plate geometry of docs/explanation/architecture.md (the measurement model of Eq. 5 in the first
  * paper): four sensors at distance a (arm_mm) from the plate centre.
  *   x_A = x̄ − a·tan α   x_C = x̄ + a·tan α   x_B = x̄ + a·tan β   x_D = x̄ − a·tan β
  */

@@ -64,7 +64,7 @@ int scene_real_stretch_init(const struct scene_real_noise *rn, unsigned sensor, 
  * Standard deviation of the slow component of the stretch's noise as seen by a
  * window of `window` readings: sqrt(max(0, var(means of consecutive windows) −
  * sd²/window)) over the first len readings. White noise gives ≈ 0; the shared
- * recording gives ≈ 0.55 mm at window 100 (docs/traces.md, "Real noise").
+ * recording gives ≈ 0.55 mm at window 100 (docs/reference/trace-format.md, "Real noise").
  */
 double scene_real_stretch_offset_sd(const struct scene_real_stretch *st, size_t len, size_t window);
 

@@ -1,6 +1,6 @@
 /*
  * One four-sensor sample as a scene generator produces it and as a trace v1
- * file stores it (DESIGN.md §5). Shared by the scene generators, the trace
+ * file stores it (docs/reference/trace-format.md). Shared by the scene generators, the trace
  * reader/writer, host_sim replay and the estimator benchmark.
  */
 #ifndef SCENE_ROW_H
@@ -9,14 +9,14 @@
 #include <stdbool.h>
 #include <stdint.h>
 
-/* Sensor order everywhere: A, B, C, D = 0..3 (DESIGN.md §2). */
+/* Sensor order everywhere: A, B, C, D = 0..3 (docs/explanation/architecture.md). */
 enum scene_sensor { SCENE_A = 0, SCENE_B = 1, SCENE_C = 2, SCENE_D = 3 };
 #define SCENE_SENSORS 4u
 
 /*
  * Range status written for a sensor that produced no reading at all (dropout).
  * 255 is the VL53L1 API's "no update" status (VL53L1_RANGESTATUS_NONE, ST UM2356);
- * the trace reader turns status 255 into present = false (docs/traces.md).
+ * the trace reader turns status 255 into present = false (docs/reference/trace-format.md).
  */
 #define SCENE_STATUS_NO_READING 255u
 

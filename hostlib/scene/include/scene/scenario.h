@@ -2,7 +2,7 @@
  * Named, seeded scenario generators: a plate at known attitude seen through
  * the noise models, one struct scene_row per sample, streamed (no limit on
  * length, nothing held but the generator). Scenarios and their parameters are
- * documented in docs/traces.md.
+ * documented in docs/reference/trace-format.md.
  */
 #ifndef SCENE_SCENARIO_H
 #define SCENE_SCENARIO_H
@@ -16,8 +16,8 @@
 #include "scene/rng.h"
 #include "scene/row.h"
 
-/* Defaults shared by every named scenario (docs/traces.md explains the choice). */
-#define SCENE_DEFAULT_ARM_MM    30.0  /* a: fits paper Table I (see docs/traces.md) */
+/* Defaults shared by every named scenario (docs/reference/trace-format.md explains the choice). */
+#define SCENE_DEFAULT_ARM_MM    30.0 /* a: fits paper Table I (see docs/reference/trace-format.md) */
 #define SCENE_DEFAULT_MEAN_MM   100.0 /* x̄ */
 #define SCENE_DEFAULT_PERIOD_MS 20u   /* 50 Hz, the 20 ms timing budget */
 #define SCENE_DEFAULT_WINDOW    100u  /* N samples per position (paper Sec. IV) */
@@ -111,7 +111,7 @@ const char *scene_gen_error(const struct scene_gen *gen);
 /* Releases the recording if gen loaded it. */
 void scene_gen_free(struct scene_gen *gen);
 
-/* Ground truth of the demo schedule at row index i (5000 rows, docs/traces.md). */
+/* Ground truth of the demo schedule at row index i (5000 rows, docs/reference/trace-format.md). */
 void scene_demo_attitude(uint64_t i, double *alpha_deg, double *beta_deg);
 #define SCENE_DEMO_ROWS 5000u
 

@@ -1,6 +1,6 @@
 /*
  * Writing scenarios as trace v1 files: what `scene_tool scenario` and later
- * `host_sim scenario NAME --seed S --trace-out TRACE.csv` (DESIGN.md §6) do.
+ * `host_sim scenario NAME --seed S --trace-out TRACE.csv` (docs/reference/tools.md) do.
  */
 #ifndef SCENE_SCENE_IO_H
 #define SCENE_SCENE_IO_H

@@ -1,5 +1,5 @@
 /*
- * Recorded trace format v1 (DESIGN.md §5): host_sim's reader and the writer.
+ * Recorded trace format v1 (docs/reference/trace-format.md): host_sim's reader and the writer.
  *
  *   # tof-trace v1
  *   # arm_mm=30.0
