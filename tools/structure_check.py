@@ -198,6 +198,38 @@ def component_names(root):
     return names
 
 
+HISTORY = re.compile(r"\b(?:[Ii]ssues?|[Ss]essions?|[Rr]ounds?) #?\d+|\bsession\b")
+HISTORY_EXT = (".c", ".h", ".cpp", ".py", ".sh", ".cmake", ".txt", ".md")
+
+
+def history_findings(root):
+    found = []
+    for top in CODE_DIRS + ["docs", "cmake", "traces", "boards"]:
+        base = os.path.join(root, top)
+        for d, subdirs, names in os.walk(base):
+            subdirs[:] = sorted(s for s in subdirs if s not in ("build", "corpus"))
+            for name in sorted(names):
+                if not name.endswith(HISTORY_EXT) and name != "CMakeLists.txt":
+                    continue
+                path = os.path.join(d, name)
+                rel = os.path.relpath(path, root)
+                if rel in (os.path.join("tools", "structure_check.py"),
+                           os.path.join("tools", "docs_figures.py"),
+                           os.path.join("tools", "tests", "test_structure_check.py")):
+                    continue  # the checkers name the pattern they look for
+                with open(path, encoding="utf-8", errors="replace") as f:
+                    for no, line in enumerate(f, 1):
+                        if HISTORY.search(line):
+                            found.append(f"{rel}:{no}: narrates history: {line.strip()[:80]}")
+    readme = os.path.join(root, "README.md")
+    if os.path.isfile(readme):
+        with open(readme, encoding="utf-8") as f:
+            for no, line in enumerate(f, 1):
+                if HISTORY.search(line):
+                    found.append(f"README.md:{no}: narrates history: {line.strip()[:80]}")
+    return found
+
+
 def test_folder_findings(root):
     tests = os.path.join(root, "tests")
     if not os.path.isdir(tests):
@@ -212,7 +244,7 @@ def test_folder_findings(root):
 def main():
     root = os.path.abspath(sys.argv[1] if len(sys.argv) > 1 else
                            os.path.join(os.path.dirname(__file__), ".."))
-    findings = test_folder_findings(root)
+    findings = test_folder_findings(root) + history_findings(root)
     parsed = {}
     for rel in c_files(root, CODE_DIRS):
         with open(os.path.join(root, rel), encoding="utf-8") as f:

@@ -51,6 +51,8 @@ def main():
                               "function g has"),
             "test folder by kind": ("tests/unit/test_x.c", "/* A test. */\nint x(void);\n",
                                     "not named after a component"),
+            "history": ("estimator/src/told.c", "/* Added for issue 12. */\nint told(void);\n",
+                        "narrates history"),
             "call loop": ("estimator/src/low.c",
                           "/* Calls back up. */\nint high(int x);\n"
                           "int low(int x) { return x > 0 ? high(x - 1) : 0; }\n",
