@@ -204,9 +204,12 @@ int tof_cal_age_restart(struct tof_cal_age *age, uint16_t tag, uint64_t now_us) 
     age->base_s = 0u;
     age->base_us = now_us;
     age->state = TOF_CAL_AGE_KEPT;
-    /* An earlier calibration with the same tag may have left larger entries: they are kept
-     * and win (a larger age, never a smaller one). */
-    return append(age, TOF_CAL_AGE_INTERVAL_S, tag);
+    /* Written by the next poll (the storage may be busy with the calibration's own record
+     * now); a reset before it finds no entry of this calibration: age 0, which it is. An
+     * earlier calibration with the same tag may have left larger entries: they are kept and
+     * win (a larger age, never a smaller one). */
+    age->stored_s = 0u;
+    return HAL_OK;
 }
 
 void tof_cal_age_stop(struct tof_cal_age *age) {

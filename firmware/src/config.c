@@ -40,6 +40,11 @@ _Static_assert(TOF_MAX_SKEW_US >= (TOF_SAMPLE_BUS_BITS * 1000u + TOF_I2C_KHZ - 1
                                       TOF_SKEW_SLACK_US,
                "the skew window covers a sample's readings one after the other on the bus");
 
+/* The estimator's defaults with its clock at this image's period (the walk since calibration
+ * counts rows x period): ATTITUDE_CONFIG_DEFAULT reads the period's macro where it expands. */
+#undef ATTITUDE_PERIOD_US_DEFAULT
+#define ATTITUDE_PERIOD_US_DEFAULT (TOF_PERIOD_MS * 1000u)
+
 const struct tof_app_config tof_app_default_config = {
     /* 0x29 is the power-on default (VL53L1X datasheet DS12385 §2.5.2); 0x30.. are free
      * 7-bit addresses chosen for the four sensors. */

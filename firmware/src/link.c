@@ -122,8 +122,8 @@ static void send_calibration(struct tof_link *link);
 
 /* Around a calibration write (a re-zero's or one written): the estimator takes the new
  * calibration at age 0 in the write's own restart (attitude_init() runs once); once it is in
- * force its age restarts on storage, kept from now (a storage error leaves it counting from now
- * all the same: state FAILED in the status); a refused one leaves the age as it was. */
+ * force its age restarts on storage, its first entry written by a poll once the record's own
+ * save is done (one storage operation at a time); a refused one leaves the age as it was. */
 static uint32_t age_hold(struct tof_link *link) {
     const uint32_t before = link->app->estimator.cfg.calibration_age_s;
     (void)tof_app_set_calibration_age(link->app, 0u, false);

@@ -124,8 +124,9 @@ static void cut_sweep(bool torn) {
         struct tof_cal_age a;
         assert_int_equal(tof_cal_age_init(&a, sim_flash_hal(&flash), 2u, 3u), HAL_OK);
         assert_int_equal(tof_cal_age_restart(&a, TAG, 0u), HAL_OK);
+        assert_int_equal(tof_cal_age_poll(&a, 0u), HAL_OK); /* the calibration's first entry */
         sim_flash_cut_after(&flash, n, torn);
-        uint64_t t = 0u;
+        uint64_t t = 1u;
         uint32_t reached = 0u;
         for (; t <= 40u * TOF_CAL_AGE_INTERVAL_S && flash.powered; ++t) {
             (void)tof_cal_age_poll(&a, t * S);
@@ -158,6 +159,21 @@ static void test_power_cut_at_every_step_keeps_the_age(void **state) {
     cut_sweep(true);
 }
 
+/* A cut in a new calibration's very first entry: no entry of it stored, so the next boot takes
+ * it as made then (unknown, age 0: the status says so), never another calibration's age. */
+static void test_a_cut_first_entry_is_unknown(void **state) {
+    (void)state;
+    struct tof_cal_age a;
+    assert_int_equal(boot(&a, 0x0BADu, 0u), TOF_CAL_AGE_UNKNOWN);
+    run(&a, 0u, 5000u); /* an older calibration's entries */
+    assert_int_equal(tof_cal_age_restart(&a, TAG, 5000u * S), HAL_OK);
+    sim_flash_cut_after(&flash, 0u, true);
+    (void)tof_cal_age_poll(&a, 5000u * S);
+    assert_false(flash.powered);
+    assert_int_equal(boot(&a, TAG, 0u), TOF_CAL_AGE_UNKNOWN);
+    assert_int_equal(tof_cal_age_now_s(&a, 0u), 0u);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup(test_init_checks_its_pages, setup),
@@ -165,6 +181,7 @@ int main(void) {
         cmocka_unit_test_setup(test_a_new_calibration_starts_at_zero, setup),
         cmocka_unit_test_setup(test_a_damaged_entry_is_skipped, setup),
         cmocka_unit_test_setup(test_power_cut_at_every_step_keeps_the_age, setup),
+        cmocka_unit_test_setup(test_a_cut_first_entry_is_unknown, setup),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

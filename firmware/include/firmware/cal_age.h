@@ -84,8 +84,9 @@ int tof_cal_age_init(struct tof_cal_age *age, struct hal_records storage, uint16
 enum tof_cal_age_state tof_cal_age_boot(struct tof_cal_age *age, bool calibrated, uint16_t tag,
                                         uint32_t off_allowance_s, uint64_t now_us);
 
-/* A new calibration (tagged `tag`) is in force at `now_us`: its age starts at 0. HAL_OK, or the
- * storage's error (the age runs all the same; state FAILED). */
+/* A new calibration (tagged `tag`) is in force at `now_us`: its age starts at 0, its first
+ * entry written by the next tof_cal_age_poll() (nothing touches the storage here). HAL_OK, or
+ * HAL_ERR_INVALID without storage. */
 int tof_cal_age_restart(struct tof_cal_age *age, uint16_t tag, uint64_t now_us);
 
 /* No calibration in force any more: nothing is kept until the next restart. */
