@@ -213,8 +213,8 @@ class RefusalTest(unittest.TestCase):
     def test_a_restart_is_not_counted_as_lost_frames(self):
         out = io.StringIO()
         p = t.Printer(out)
-        status = struct.pack("<BBBBIHBBBBHBBI", 0, 1, 0, t.PROTOCOL_VERSION, 5000, 100, 0, 0,
-                             1, 0, 20, 0, 1, 30000)
+        status = struct.pack("<BBBBIHBBBBHBBIIB", 0, 1, 0, t.PROTOCOL_VERSION, 5000, 100, 0, 0,
+                             1, 0, 20, 0, 1, 30000, 0, 0)
         p.handle(("frame", t.T_STATUS, 0, status), {})
         p.handle(("frame", t.T_STATUS, 7, status), {})
         boot = status[:4] + struct.pack("<I", 130) + status[8:]
