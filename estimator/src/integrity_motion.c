@@ -195,9 +195,9 @@ static fix_q32_t rate_bound_lag2(const struct integrity_config *cfg, uint32_t n,
         return 0;
     }
     /* a·ω in µm/s: a [µm] · ω [m°/s] · π/180000, π as 355/113 (8.5e-8 relative) */
-    const int64_t rate_um_s =
-        fix_muldiv_s64((int64_t)cfg->arm_um * cfg->max_rate_mdeg_s, 355, 113 * 180000, NULL);
-    const int64_t span_us = (int64_t)(n - 1u) * cfg->period_us / 2;
+    const int64_t rate_um_s = fix_muldiv_s64((int64_t)cfg->arm_um * (int64_t)cfg->max_rate_mdeg_s,
+                                             355, (int64_t)113 * 180000, NULL);
+    const int64_t span_us = ((int64_t)n - 1) * (int64_t)cfg->period_us / 2;
     const int64_t lag_um = fix_muldiv_s64(rate_um_s, span_us, 1000000, NULL);
     /* Q32 mm, times sec²θ = 1 + tan²θ (the axis is a·tan θ) */
     const fix_q32_t lag = fix_muldiv_s64(lag_um, FIX_Q32_ONE, 1000, NULL);

@@ -72,7 +72,7 @@ fix_q32_t integrity_oscillation(const struct integrity_config *cfg, struct integ
     const int64_t var_p = n < 2u * OSC_MIN_BLOCKS
                               ? 0
                               : fix_muldiv_s64((int64_t)n * o->spp - o->sp * o->sp, FIX_Q32_ONE,
-                                               (int64_t)(n * (n - 1u)), NULL);
+                                               (int64_t)n * ((int64_t)n - 1), NULL);
     for (unsigned j = 0; j < INTEGRITY_OSC_LEVELS && var_p > 0; ++j) {
         const struct integrity_osc_level *l = &o->level[j];
         const uint32_t k = l->blocks; /* <= 1024 */
@@ -83,11 +83,14 @@ fix_q32_t integrity_oscillation(const struct integrity_config *cfg, struct integ
         const int64_t ss = (int64_t)k * (l->sum2[0] + l->sum2[1]) - (int64_t)l->sum[0] * l->sum[0] -
                            (int64_t)l->sum[1] * l->sum[1];
         const uint32_t dof = k - 1u;
+        const uint64_t rows_j = (uint64_t)k << j;
         const int64_t e =
-            fix_muldiv_s64(ss, FIX_Q32_ONE, (int64_t)(k << j), NULL) - var_p * (int64_t)dof;
+            fix_muldiv_s64(ss, FIX_Q32_ONE, (int64_t)rows_j, NULL) - var_p * (int64_t)dof;
         const uint32_t num = 2u * (dof + OSC_SMALL_K) * (n - 1u + dof); /* < 2^22 */
         const uint64_t z2 = ratio2_den(e, var_p, n - 1u);
-        if (z2 <= (uint64_t)(INTEGRITY_MOTION_ALLOW_Q8 * INTEGRITY_MOTION_ALLOW_Q8) * num) {
+        const uint32_t allow_q8 = INTEGRITY_MOTION_ALLOW_Q8;
+        const uint64_t allow = allow_q8;
+        if (z2 <= allow * allow * num) {
             continue;
         }
         /* The excess is n times the block means' motion variance (u units: 4·a²tan²);

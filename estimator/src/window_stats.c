@@ -438,7 +438,7 @@ static void gate_sensors(const struct window_state *w, const uint16_t count[ANGL
              * σ 2 mm: a gate of 5·1.4826·1 mm rejected a good sensor in up to 17 % of clean
              * windows): the scale takes MAD + 1/2 mm (x2: + 1), widened by (n + 8)/n for a
              * short window's own scatter (relative sd about 1.2/√n). */
-            const uint64_t mad_q = (uint64_t)(mad_x2[k] + 1) * (count[k] + 8u);
+            const uint64_t mad_q = ((uint64_t)mad_x2[k] + 1u) * ((uint64_t)count[k] + 8u);
             const int64_t mad_n = (int64_t)fix_div_u64_u16(mad_q << 8, count[k]); /* Q8 */
             const int64_t scaled = (mad_n * MAD_TO_SIGMA_Q16 * w->cfg.gate_sigmas_q8) >> 32;
             const int64_t floor_x2 = 2 * (int64_t)w->cfg.gate_floor_mm;
