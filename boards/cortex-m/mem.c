@@ -1,6 +1,6 @@
-/* The C library's memory functions for the Cortex-M images, written small: byte loops of a
- * few instructions each where newlib-nano's word-copying ones take 484 (memcpy), 176
- * (memmove) and 166 B (memset) of the M0+ image's 64 KiB flight budget. */
+/* The C library's memory functions written small, for a Cortex-M image whose flash budget needs it:
+ * byte loops of a few instructions each where newlib-nano's word-copying ones take 484 (memcpy),
+ * 176 (memmove) and 166 B (memset) of the M0+ image's 64 KiB flight budget. */
 #include <stddef.h>
 #include <stdint.h>
 #include <string.h>

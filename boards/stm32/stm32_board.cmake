@@ -10,7 +10,13 @@
 # TEST_VARIANTS v...: also firmware-<board>-<v>.elf, the same image built with TWIN_TEST_<V>
 # defined (test builds for the twin, tests/twin); the flight image is never changed by them.
 function(tof_stm32_board board core irqs openocd_cfg ld)
-  cmake_parse_arguments(ARG "NO_FLOAT" "UART_IRQ" "TEST_VARIANTS" ${ARGN})
+  cmake_parse_arguments(ARG "NO_FLOAT;SMALL_MEM" "UART_IRQ" "TEST_VARIANTS" ${ARGN})
+  # SMALL_MEM: the byte-loop memcpy, memmove and memset of boards/cortex-m/mem.c in place of
+  # newlib-nano's word-copying ones (416 B less), for a board whose flash budget needs it.
+  set(small_mem "")
+  if(ARG_SMALL_MEM)
+    set(small_mem ${PROJECT_SOURCE_DIR}/boards/cortex-m/mem.c)
+  endif()
   if(NOT DEFINED ARG_UART_IRQ)
     message(FATAL_ERROR "tof_stm32_board(${board}): UART_IRQ missing")
   endif()
@@ -27,8 +33,7 @@ function(tof_stm32_board board core irqs openocd_cfg ld)
     endif()
     tof_image(${name} CORE ${core} ${no_float} FLIGHT
       LINKER_SCRIPT ${CMAKE_CURRENT_SOURCE_DIR}/${ld}
-      SOURCES ${PROJECT_SOURCE_DIR}/boards/cortex-m/startup.c
-              ${PROJECT_SOURCE_DIR}/boards/cortex-m/mem.c
+      SOURCES ${PROJECT_SOURCE_DIR}/boards/cortex-m/startup.c ${small_mem}
               ${stm32}/stm32_usart.c ${stm32}/stm32_gpio.c ${stm32}/stm32_i2c.c
               ${stm32}/stm32_systick_time.c ${stm32}/stm32_iwdg.c ${stm32}/stm32_flash.c ${stm32}/stm32_board.c
               ${stm32}/stm32_main.c ${CMAKE_CURRENT_SOURCE_DIR}/board_desc.c

@@ -181,7 +181,7 @@ def main():
               % (cal, state))
     blank = w("blank.flash")
     with open(blank, "wb") as f:
-        f.write(b"\xff" * 4096)
+        f.write(b"\xff" * 8192)  # erased record and age pages (TWIN_RECORDS_SIZE)
     check("twin_trace_keys_kept_off_storage",
           [TWIN, ELF, demo, "--flash-in", blank, "--out", w("x.csv")], 0,
           r"the trace's calibration keys are not written over the unit's storage")
