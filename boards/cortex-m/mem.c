@@ -9,13 +9,9 @@
  * recognises copy and fill loops), which here would be each calling itself. */
 #define TOF_NO_LIBCALL __attribute__((optimize("no-tree-loop-distribute-patterns")))
 
+/* Copied forwards, as memmove does for the regions memcpy may be given (they do not overlap). */
 TOF_NO_LIBCALL void *memcpy(void *restrict dst, const void *restrict src, size_t n) {
-    unsigned char *d = dst;
-    const unsigned char *s = src;
-    for (size_t i = 0; i < n; ++i) {
-        d[i] = s[i];
-    }
-    return dst;
+    return memmove(dst, src, n);
 }
 
 /* Overlapping regions: copied forwards when the destination is below the source, else

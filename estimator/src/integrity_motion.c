@@ -198,9 +198,9 @@ static fix_q32_t rate_bound_lag2(const struct integrity_config *cfg, uint32_t n,
     const int64_t rate_um_s = fix_muldiv_s64((int64_t)cfg->arm_um * (int64_t)cfg->max_rate_mdeg_s,
                                              355, (int64_t)113 * 180000, NULL);
     const int64_t span_us = ((int64_t)n - 1) * (int64_t)cfg->period_us / 2;
-    const int64_t lag_um = fix_muldiv_s64(rate_um_s, span_us, 1000000, NULL);
-    /* Q32 mm, times sec²θ = 1 + tan²θ (the axis is a·tan θ) */
-    const fix_q32_t lag = fix_muldiv_s64(lag_um, FIX_Q32_ONE, 1000, NULL);
+    /* the lag in Q32 mm: µm/s · µs / 10^6 · 2^32 / 1000, 2^32 / 1000 rounded up (the
+     * conservative side); then times sec²θ = 1 + tan²θ (the axis is a·tan θ) */
+    const fix_q32_t lag = fix_muldiv_s64(rate_um_s * 4294968, span_us, 1000000, NULL);
     const fix_q32_t sec2 =
         fix_sat_add_s64(FIX_Q32_ONE, fix_muldiv_s64(tan_q32, tan_q32, FIX_Q32_ONE, NULL));
     const fix_q32_t lag_sec2 = fix_muldiv_s64(lag, sec2, FIX_Q32_ONE, NULL);
