@@ -152,10 +152,12 @@ static void finish_rezero(struct tof_link *link) {
     tof_app_get_calibration(link->app, &now);
     int error = 0;
     enum tof_cal_state st = TOF_CAL_NO_STORAGE; /* a re-zero nothing could keep */
+    bool fitted = false;
     if (link->storage != NULL) {
         st = TOF_CAL_REJECTED;
+        fitted = link->storage->rezero_fit(&link->rezero, &now, &next);
     }
-    if (link->storage != NULL && link->storage->rezero_fit(&link->rezero, &now, &next)) {
+    if (fitted) {
         const uint32_t age_before = age_hold(link);
         st = link->storage->cal_write_head(link->records, link->app, &next, &error);
         age_after_write(link, st, age_before);
@@ -562,8 +564,9 @@ static void service_start(void *ctx, struct tof_app *app) {
     if (link->cal_age != NULL) {
         /* the stored calibration's age (tof_cal_age_boot(), before the application's timeline
          * started): the calibration's boot below restarts the estimator with it */
-        (void)tof_app_set_calibration_age(
-            app, link->storage->age_now_s(link->cal_age, tof_app_now_us(app)), false);
+        const uint64_t now_us = tof_app_now_us(app);
+        const uint32_t age_s = link->storage->age_now_s(link->cal_age, now_us);
+        (void)tof_app_set_calibration_age(app, age_s, false);
     }
     link->cal_state = (uint8_t)link->storage->cal_boot(link->records, app); /* the head's */
     tof_link_send_status(link);
