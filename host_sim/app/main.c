@@ -17,23 +17,26 @@
 #include "scene/scene_io.h"
 
 static void usage(FILE *f) {
-    fputs("usage:\n"
-          "  host_sim replay TRACE.csv [--estimator consensus|consensus-paper|kalman|mean]\n"
-          "                  [--window N] [--mode tumbling|sliding] [--out EST.csv]\n"
-          "                  [--report REPORT.json] [--plot FIG.png] [--faults SPEC] [--seed S]\n"
-          "                  [--faults-until ROW] [--i2c-log BUS.csv]\n"
-          "                  [--process-noise QD,QT|auto] [--distance-mode short|long]\n"
-          "                  [--calibration HEAD.cal] [--command ROW:TEXT]... [--quiet]\n"
-          "  host_sim scenario NAME [--seed S] --trace-out TRACE.csv\n"
-          "  host_sim calibrate CAL_TRACE.csv --out HEAD.cal [--report CAL.json]\n"
-          "  host_sim camera --frames K --range-mm R ... (see docs/explanation/pose.md)\n"
-          "  host_sim campaign [--trace T.csv] [--seed S] [--markdown FILE.md]\n"
-          "  host_sim SUBCOMMAND --help   (each subcommand's options)\n"
-          "fault SPEC: kind=probability[,...] per bus transaction, kinds:\n"
-          "  nack stretch reset drdy_high drdy_low garbage bitflip stuck "
-          "(docs/explanation/driver-and-bus.md)\n"
-          "scenarios:",
-          f);
+    fputs(
+        "usage:\n"
+        "  host_sim replay TRACE.csv [--estimator consensus|consensus-paper|kalman|mean]\n"
+        "                  [--window N] [--mode tumbling|sliding] [--out EST.csv]\n"
+        "                  [--report REPORT.json] [--plot FIG.png] [--faults SPEC] [--seed S]\n"
+        "                  [--faults-until ROW] [--i2c-log BUS.csv]\n"
+        "                  [--process-noise QD,QT|auto] [--distance-mode short|long]\n"
+        "                  [--calibration HEAD.cal] [--command ROW:TEXT]... [--quiet]\n"
+        "  host_sim scenario NAME [--seed S] --trace-out TRACE.csv [--hours H] [--amplitude-c A]\n"
+        "                  [--phase-deg P] [--coeff-range K] [--coeff-sd S] [--walk-um2-h W]\n"
+        "                  [--temp-noise-c N]   (orbit-thermal)\n"
+        "  host_sim calibrate CAL_TRACE.csv --out HEAD.cal [--report CAL.json]\n"
+        "  host_sim camera --frames K --range-mm R ... (see docs/explanation/pose.md)\n"
+        "  host_sim campaign [--trace T.csv] [--seed S] [--markdown FILE.md]\n"
+        "  host_sim SUBCOMMAND --help   (each subcommand's options)\n"
+        "fault SPEC: kind=probability[,...] per bus transaction, kinds:\n"
+        "  nack stretch reset drdy_high drdy_low garbage bitflip stuck "
+        "(docs/explanation/driver-and-bus.md)\n"
+        "scenarios:",
+        f);
     for (size_t i = 0; scene_scenario_names[i] != NULL; ++i) {
         fprintf(f, " %s", scene_scenario_names[i]);
     }
@@ -51,13 +54,26 @@ static int scenario_main(int argc, char **argv) {
     char err[512];
     struct fixture_config fixture;
     if (fixture_named(args.name, &fixture) == 0) { /* a calibration fixture (calibrate.h) */
+        if (args.n_thermal > 0u) {
+            fprintf(stderr, "host_sim scenario: %s: only for orbit-thermal, not %s\n",
+                    args.thermal_option[0], args.name);
+            return 2;
+        }
         if (fixture_write(args.name, args.seed, args.trace_out, err, sizeof err) != 0) {
             fprintf(stderr, "host_sim scenario: %s\n", err);
             return 1;
         }
         return 0;
     }
-    if (scene_write_scenario(args.name, args.seed, args.trace_out, err, sizeof err) != 0) {
+    struct scene_config cfg;
+    if (scene_config_named_listed(args.name, &cfg, err, sizeof err) != 0) {
+        fprintf(stderr, "host_sim scenario: %s\n", err);
+        return 1;
+    }
+    if (cli_apply_thermal(&args, &cfg) != 0) {
+        return 2;
+    }
+    if (scene_write_scenario_config(&cfg, args.seed, args.trace_out, err, sizeof err) != 0) {
         fprintf(stderr, "host_sim scenario: %s\n", err);
         return 1;
     }
