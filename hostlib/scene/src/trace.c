@@ -102,6 +102,8 @@ int trace_reader_next(struct trace_reader *r, struct scene_row *row) {
     row->has_alpha = v.has[TRACE_TRUTH_ALPHA];
     row->has_beta = v.has[TRACE_TRUTH_BETA];
     row->has_distance = v.has[TRACE_TRUTH_DISTANCE];
+    row->has_temp = v.temp_present;
+    row->temp_c = v.temp_present ? (double)v.temp_cdeg / 100.0 : 0.0;
     row->alpha_deg = 0.0;
     row->beta_deg = 0.0;
     row->distance_mm = 0.0;
