@@ -393,55 +393,9 @@ int cli_parse_replay(int argc, char **argv, struct replay_args *out) {
     return 0;
 }
 
-static const char *const thermal_options[] = {
-    "--hours",    "--amplitude-c", "--phase-deg",    "--coeff-range",
-    "--coeff-sd", "--walk-um2-h",  "--temp-noise-c", NULL};
-
-static bool thermal_option(const char *arg) {
-    for (size_t k = 0; thermal_options[k] != NULL; ++k) {
-        if (strcmp(arg, thermal_options[k]) == 0) {
-            return true;
-        }
-    }
-    return false;
-}
-
-int cli_apply_thermal(const struct scenario_args *a, struct scene_config *cfg) {
-    struct scene_thermal *t = &cfg->thermal;
-    for (unsigned i = 0; i < a->n_thermal; ++i) {
-        const char *opt = a->thermal_option[i];
-        const double v = a->thermal_value[i];
-        if (!t->on) {
-            fprintf(stderr, "host_sim scenario: %s: only for orbit-thermal, not %s\n", opt,
-                    cfg->name);
-            return -1;
-        }
-        if (strcmp(opt, "--hours") == 0) {
-            if (scene_config_set_hours(cfg, v) != 0) {
-                fprintf(stderr, "host_sim scenario: --hours: expected (0, 24], got %g\n", v);
-                return -1;
-            }
-        } else if (strcmp(opt, "--amplitude-c") == 0) {
-            t->amplitude_c = v;
-        } else if (strcmp(opt, "--phase-deg") == 0) {
-            t->phase_deg = v;
-        } else if (strcmp(opt, "--coeff-range") == 0) {
-            t->coeff_range_mm_per_c = v;
-        } else if (strcmp(opt, "--coeff-sd") == 0) {
-            t->coeff_sd_mm_per_c = v;
-        } else if (strcmp(opt, "--walk-um2-h") == 0) {
-            t->walk_um2_h = v;
-        } else {
-            t->temp_noise_c = v;
-        }
-    }
-    const char *why = t->on ? scene_thermal_check(t) : NULL;
-    if (why != NULL) {
-        fprintf(stderr, "host_sim scenario: %s: %s\n", cfg->name, why);
-        return -1;
-    }
-    return 0;
-}
+/* One of the orbit-thermal scenario's options (listed after this parser, which the
+ * --help check reads up to its end). */
+static bool thermal_option(const char *arg);
 
 int cli_parse_scenario(int argc, char **argv, struct scenario_args *out) {
     *out = (struct scenario_args){.seed = 1};
@@ -488,6 +442,56 @@ int cli_parse_scenario(int argc, char **argv, struct scenario_args *out) {
     }
     if (out->trace_out == NULL) {
         return usage_error(cmd, "missing --trace-out TRACE.csv", NULL);
+    }
+    return 0;
+}
+
+static const char *const thermal_options[] = {
+    "--hours",    "--amplitude-c", "--phase-deg",    "--coeff-range",
+    "--coeff-sd", "--walk-um2-h",  "--temp-noise-c", NULL};
+
+static bool thermal_option(const char *arg) {
+    for (size_t k = 0; thermal_options[k] != NULL; ++k) {
+        if (strcmp(arg, thermal_options[k]) == 0) {
+            return true;
+        }
+    }
+    return false;
+}
+
+int cli_apply_thermal(const struct scenario_args *a, struct scene_config *cfg) {
+    struct scene_thermal *t = &cfg->thermal;
+    for (unsigned i = 0; i < a->n_thermal; ++i) {
+        const char *opt = a->thermal_option[i];
+        const double v = a->thermal_value[i];
+        if (!t->on) {
+            fprintf(stderr, "host_sim scenario: %s: only for orbit-thermal, not %s\n", opt,
+                    cfg->name);
+            return -1;
+        }
+        if (strcmp(opt, "--hours") == 0) {
+            if (scene_config_set_hours(cfg, v) != 0) {
+                fprintf(stderr, "host_sim scenario: --hours: expected (0, 24], got %g\n", v);
+                return -1;
+            }
+        } else if (strcmp(opt, "--amplitude-c") == 0) {
+            t->amplitude_c = v;
+        } else if (strcmp(opt, "--phase-deg") == 0) {
+            t->phase_deg = v;
+        } else if (strcmp(opt, "--coeff-range") == 0) {
+            t->coeff_range_mm_per_c = v;
+        } else if (strcmp(opt, "--coeff-sd") == 0) {
+            t->coeff_sd_mm_per_c = v;
+        } else if (strcmp(opt, "--walk-um2-h") == 0) {
+            t->walk_um2_h = v;
+        } else {
+            t->temp_noise_c = v;
+        }
+    }
+    const char *why = t->on ? scene_thermal_check(t) : NULL;
+    if (why != NULL) {
+        fprintf(stderr, "host_sim scenario: %s: %s\n", cfg->name, why);
+        return -1;
     }
     return 0;
 }

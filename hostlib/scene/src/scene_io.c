@@ -73,21 +73,21 @@ int scene_write_config(const struct scene_config *cfg, uint64_t seed, FILE *f, c
     static const char offset_sd_kv[] = "offset_sd_mm=0,0,0,0";
     static const char gain_kv[] = "gain=1,1,1,1";
     static const char gain_sd_kv[] = "gain_sd=0,0,0,0";
-    const char *meta[24] = {scenario, seed_kv,      mean_kv, window_kv,
-                            noise_kv, offset_sd_kv, gain_kv, gain_sd_kv};
-    unsigned n = 8u;
-    if (cfg->real_noise) {
-        meta[n++] = stretch_kv;
-    }
     char thermal_kv[8][TRACE_VALUE_MAX + TRACE_KEY_MAX];
     const bool thermal = cfg->thermal.on;
     if (thermal) {
         thermal_keys(cfg, &gen.thermal, thermal_kv);
-        for (unsigned k = 0; k < 8u; ++k) {
-            meta[n++] = thermal_kv[k];
-        }
-    } else {
-        meta[n++] = offset_kv;
+    }
+    /* the order every scenario's header has; a thermal head's offsets in offset_mm's place */
+    const char *meta[24] = {
+        scenario,     seed_kv, mean_kv,    window_kv, thermal ? thermal_kv[0] : offset_kv,
+        offset_sd_kv, gain_kv, gain_sd_kv, noise_kv};
+    unsigned n = 9u;
+    if (cfg->real_noise) {
+        meta[n++] = stretch_kv;
+    }
+    for (unsigned k = 1; thermal && k < 8u; ++k) {
+        meta[n++] = thermal_kv[k];
     }
     meta[n] = NULL;
     int rc = 0;
