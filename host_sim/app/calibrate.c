@@ -325,36 +325,6 @@ static int check_range(const char *trace, const struct calfit_result *res) {
     return rc;
 }
 
-void calibrate_thermal_why(const struct calfit_data *d, const struct calfit_result *res, char *buf,
-                           size_t len) {
-    switch (res->thermal_state) {
-    case CALFIT_THERMAL_FITTED:
-        snprintf(buf, len, "fitted");
-        break;
-    case CALFIT_THERMAL_NO_TEMP:
-        snprintf(buf, len, "the trace has no temp_c (no station row carries a temperature)");
-        break;
-    case CALFIT_THERMAL_SOME_MISSING:
-        snprintf(buf, len,
-                 "%zu of %zu stations have rows without temp_c (the first: lines %u-%u): every "
-                 "station needs its temperature",
-                 res->stations_no_temp, d->n_stations, res->no_temp_first_line,
-                 res->no_temp_last_line);
-        break;
-    case CALFIT_THERMAL_NARROW:
-        snprintf(buf, len,
-                 "the stations span %.2f C (%.2f..%.2f C), less than the %.0f C a coefficient "
-                 "needs",
-                 res->temp_max_c - res->temp_min_c, res->temp_min_c, res->temp_max_c,
-                 CALFIT_MIN_TEMP_SPAN_C);
-        break;
-    default:
-        snprintf(buf, len, "a sensor has fewer than %u stations, which a coefficient needs",
-                 CALFIT_MIN_STATIONS_THERMAL);
-        break;
-    }
-}
-
 static void summary(const char *trace, const struct calfit_data *d, const struct calfit_result *res,
                     const struct cal_binding *b) {
     fprintf(stderr,

@@ -31,7 +31,8 @@ int calibrate_check_scatter(const char *trace, const struct calfit_data *d,
                             size_t accepted_len);
 
 /* Why the offsets' temperature coefficients were or were not fitted, one phrase for stderr
- * and the report ("fitted", or "the stations span 6.02 C (...), less than ..."). */
+ * and the report ("fitted", or "the stations span 6.02 C (...), less than ...";
+ * calibrate_report.c). */
 #define CALIBRATE_THERMAL_WHY_MAX 256u
 void calibrate_thermal_why(const struct calfit_data *d, const struct calfit_result *res, char *buf,
                            size_t len);

@@ -167,12 +167,14 @@ static void cause_of(const struct calfit_data *d, const struct calfit_result *re
             snprintf(buf, len,
                      "the stations differ by something the fit leaves out, not the arm and not "
                      "motion within stations: most likely temperature, which this trace cannot "
-                     "show (%s: record it), else the stations' alpha, beta or distance",
+                     "show (%s: record it), or a drift over the run; else the stations' alpha, "
+                     "beta or distance",
                      thermal_why(res));
         } else {
             snprintf(buf, len,
                      "the stations differ by something the fit leaves out (not temperature, arm "
-                     "or motion within stations): check the stations' alpha, beta and distance");
+                     "or motion within stations): a drift over the run, or the stations' alpha, "
+                     "beta or distance");
         }
     }
 }

@@ -41,10 +41,12 @@
 #define CALFIT_MIN_STATIONS_OFFSET 2u
 #define CALFIT_MAX_LAG             2000u /* autocorrelation lags examined at most (40 s at 20 ms) */
 #define CALFIT_VAR_FLOOR_MM2       1e-12 /* numerical floor of a station mean's variance */
-/* The stations' temperatures must span this for a coefficient: over 10 °C a coefficient of
- * 0.0375 mm/°C (the simulation's default range) moves an offset by 0.375 mm, several times
- * a station mean's sd at the fixture's 750 readings (0.07 mm), while a 6 °C room day's span
- * leaves a coefficient's sd several times the coefficients the orbit worries about. */
+/* The stations' temperatures must span this for a coefficient. The fit's own sd falls as
+ * 1/span (fixture-thermal, 30 stations x 300 readings: 0.0052 mm/°C at 10.5 °C, 0.0019 at
+ * 30 °C), and the sd carries it; what the sd cannot carry is an error of the stations'
+ * temperatures themselves (the unit's sensor reads the board, the parts lag or lead it by a
+ * degree or two), whose share of the coefficient is that error over the span: 10-20 % at
+ * 10 °C, a third and more at a room's 6 °C. */
 #define CALFIT_MIN_TEMP_SPAN_C      10.0
 #define CALFIT_MIN_STATIONS_THERMAL 4u /* gain, offset, coefficient and one for the scatter */
 
