@@ -204,6 +204,8 @@ static const char scenario_help[] =
     "  --walk-um2-h W       each offset's random walk, um^2/h (default 576000, the\n"
     "                       estimator's prior)\n"
     "  --temp-noise-c N     the measured temperature's noise sd, 0..10 C (default 0.3)\n"
+    "  --cal-out HEAD.cal   write the head's calibration there, in the trace's folder, and\n"
+    "                       name it in the trace (calibration=FILE) instead of the keys\n"
     "  --help, -h           this text\n"
     "exit status: 0 done, 1 failed, 2 bad command line\n"
     "scenarios:";
@@ -412,6 +414,10 @@ int cli_parse_scenario(int argc, char **argv, struct scenario_args *out) {
             }
         } else if (strcmp(arg, "--trace-out") == 0) {
             if ((out->trace_out = option_value(cmd, argc, argv, &i)) == NULL) {
+                return -1;
+            }
+        } else if (strcmp(arg, "--cal-out") == 0) {
+            if ((out->cal_out = option_value(cmd, argc, argv, &i)) == NULL) {
                 return -1;
             }
         } else if (thermal_option(arg)) {

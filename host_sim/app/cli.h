@@ -56,6 +56,7 @@ struct scenario_args {
     unsigned n_thermal;
     const char *thermal_option[CLI_THERMAL_OPTIONS]; /* "--hours", ... */
     double thermal_value[CLI_THERMAL_OPTIONS];
+    const char *cal_out; /* orbit-thermal: --cal-out HEAD.cal (NULL: the keys inline) */
 };
 
 /* Applies the thermal options of `a` to cfg (a thermal scenario's configuration): 0, or -1

@@ -79,14 +79,26 @@ int scene_write_config(const struct scene_config *cfg, uint64_t seed, FILE *f, c
         thermal_keys(cfg, &gen.thermal, thermal_kv);
     }
     /* the order every scenario's header has; a thermal head's offsets in offset_mm's place */
-    const char *meta[24] = {
-        scenario,     seed_kv, mean_kv,    window_kv, thermal ? thermal_kv[0] : offset_kv,
-        offset_sd_kv, gain_kv, gain_sd_kv, noise_kv};
-    unsigned n = 9u;
+    /* A thermal head whose calibration stands in a HEAD.cal: calibration=FILE instead of the
+     * calibration keys, the simulation's truth (sim_*) kept. */
+    char file_kv[TRACE_VALUE_MAX + TRACE_KEY_MAX];
+    const bool file = thermal && cfg->thermal.calibration_file[0] != '\0';
+    snprintf(file_kv, sizeof file_kv, "calibration=%s", cfg->thermal.calibration_file);
+    const char *meta[24] = {scenario, seed_kv, mean_kv, window_kv};
+    unsigned n = 4u;
+    if (file) {
+        meta[n++] = file_kv;
+    } else {
+        meta[n++] = thermal ? thermal_kv[0] : offset_kv;
+        meta[n++] = offset_sd_kv;
+        meta[n++] = gain_kv;
+        meta[n++] = gain_sd_kv;
+    }
+    meta[n++] = noise_kv;
     if (cfg->real_noise) {
         meta[n++] = stretch_kv;
     }
-    for (unsigned k = 1; thermal && k < 8u; ++k) {
+    for (unsigned k = file ? 4u : 1u; thermal && k < 8u; ++k) {
         meta[n++] = thermal_kv[k];
     }
     meta[n] = NULL;

@@ -54,6 +54,9 @@ struct scene_thermal {
     double offset_range_mm;      /* offsets at cal_temp_c uniform in ±this */
     double walk_um2_h;           /* each offset's random walk from 0 at t = 0 */
     double temp_noise_c, temp_quantum_c;
+    /* non-empty: the trace names this HEAD.cal (calibration=FILE, relative to the trace)
+     * instead of carrying the calibration keys; its writer writes the file */
+    char calibration_file[128];
 };
 
 /* The drawn head and the walk's state. */
