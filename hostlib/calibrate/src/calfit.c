@@ -413,6 +413,18 @@ static int run_sensor(struct calfit_data *d, unsigned k, unsigned p,
     return rc;
 }
 
+/* Every sensor's fit: 0, -1 with err, or -2 (run_sensor's). */
+static int run_sensors(struct calfit_data *d, unsigned p, struct calfit_result *res, char *err,
+                       size_t errlen) {
+    for (unsigned k = 0; k < CALFIT_SENSORS; ++k) {
+        const int rc = run_sensor(d, k, p, res, &res->sensor[k], err, errlen);
+        if (rc != 0) {
+            return rc;
+        }
+    }
+    return 0;
+}
+
 /* The stations' temperatures and whether they can give the coefficients (calfit.h). */
 static void thermal_state(struct calfit_data *d, struct calfit_result *res) {
     double sum = 0.0;
@@ -475,17 +487,11 @@ int calfit_run(struct calfit_data *d, struct calfit_result *res, char *err, size
         return -1;
     }
     thermal_state(d, res);
-    for (unsigned k = 0; k < CALFIT_SENSORS; ++k) {
-        const int rc = run_sensor(d, k, p, res, &res->sensor[k], err, errlen);
-        if (rc == -2) { /* too few stations for the coefficient: without it, from the start */
-            res->thermal = false;
-            res->thermal_state = CALFIT_THERMAL_FEW_STATIONS;
-            k = (unsigned)-1;
-            continue;
-        }
-        if (rc != 0) {
-            return -1;
-        }
+    int rc = run_sensors(d, p, res, err, errlen);
+    if (rc == -2) { /* too few stations for the coefficient: every sensor without it */
+        res->thermal = false;
+        res->thermal_state = CALFIT_THERMAL_FEW_STATIONS;
+        rc = run_sensors(d, p, res, err, errlen);
     }
-    return 0;
+    return rc == 0 ? 0 : -1;
 }
