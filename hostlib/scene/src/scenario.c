@@ -90,10 +90,10 @@ int scene_config_named(const char *name, struct scene_config *cfg) {
     }
     if (strcmp(name, "orbit-thermal") == 0) {
         /* A calibrated head in orbit (scene/thermal.h): the plate sweeps α over ±5° once over
-         * the run with β drawn in ±4° per window, while the head's temperature cycles and the
-         * offsets follow it. */
+         * the run (0.0005° a 2 s window at 6 h, far within the unit's rate bound) at β = −2°,
+         * while the head's temperature cycles and the offsets follow it. */
         scene_thermal_defaults(&cfg->thermal);
-        cfg->beta_random_deg = 4.0;
+        cfg->beta_deg = -2.0;
         return scene_config_set_hours(cfg, SCENE_THERMAL_HOURS);
     }
     return -1;
