@@ -1,9 +1,40 @@
-/* host_sim calibrate's report: the fit per sensor and the residuals per station (JSON). */
+/* host_sim calibrate's report: the fit per sensor and the residuals per station (JSON), and the
+ * thermal fit's state as a phrase (also for stderr). */
 #include <math.h>
 #include <stdio.h>
 
 #include "calibrate.h"
 #include "calibrate/calfit.h"
+
+void calibrate_thermal_why(const struct calfit_data *d, const struct calfit_result *res, char *buf,
+                           size_t len) {
+    switch (res->thermal_state) {
+    case CALFIT_THERMAL_FITTED:
+        snprintf(buf, len, "fitted");
+        break;
+    case CALFIT_THERMAL_NO_TEMP:
+        snprintf(buf, len, "the trace has no temp_c (no station row carries a temperature)");
+        break;
+    case CALFIT_THERMAL_SOME_MISSING:
+        snprintf(buf, len,
+                 "%zu of %zu stations have rows without temp_c (the first: lines %u-%u): every "
+                 "station needs its temperature",
+                 res->stations_no_temp, d->n_stations, res->no_temp_first_line,
+                 res->no_temp_last_line);
+        break;
+    case CALFIT_THERMAL_NARROW:
+        snprintf(buf, len,
+                 "the stations span %.2f C (%.2f..%.2f C), less than the %.0f C a coefficient "
+                 "needs",
+                 res->temp_max_c - res->temp_min_c, res->temp_min_c, res->temp_max_c,
+                 CALFIT_MIN_TEMP_SPAN_C);
+        break;
+    default:
+        snprintf(buf, len, "a sensor has fewer than %u stations, which a coefficient needs",
+                 CALFIT_MIN_STATIONS_THERMAL);
+        break;
+    }
+}
 
 static void json_string(FILE *f, const char *s) {
     fputc('"', f);
@@ -28,7 +59,8 @@ static double readings_for(const struct calfit_sensor *s, double per_station, do
     return ceil(per_station * r * r);
 }
 
-static void write_sensor(FILE *f, const struct calfit_sensor *s, unsigned k, bool gains) {
+static void write_sensor(FILE *f, const struct calfit_sensor *s, unsigned k, bool gains,
+                         bool thermal) {
     const double per_station = s->stations > 0u ? (double)s->readings / s->stations : 0.0;
     fprintf(f, "    {\"sensor\": \"%c\", \"offset_mm\": %.6f, \"offset_sd_mm\": %.6f, ", 'A' + k,
             s->offset_mm, s->offset_sd_mm);
@@ -43,20 +75,39 @@ static void write_sensor(FILE *f, const struct calfit_sensor *s, unsigned k, boo
             "\"noise_tau_settled\": %s, \"effective_readings\": %.1f, \"stations\": %u, "
             "\"readings\": %llu, \"chi2\": %.6f, \"dof\": %u, \"scatter_ratio\": %.6f, "
             "\"inflation\": %.6f, \"excess_sd_mm\": %.6f, \"residual_rms_mm\": %.6f, "
-            "\"readings_per_station_for_0_05_mm\": %.0f}",
+            "\"readings_per_station_for_0_05_mm\": %.0f, \"motion_ratio\": %.4f",
             s->offset_sd_within_mm, s->noise_sd_mm, s->tau, s->tau_settled ? "true" : "false",
             (double)s->readings / s->tau, s->stations, (unsigned long long)s->readings, s->chi2,
             s->dof, s->chi2_red, s->inflation, s->excess_sd_mm, s->residual_rms_mm,
-            readings_for(s, per_station, 0.05));
+            readings_for(s, per_station, 0.05), s->motion_ratio);
+    if (thermal) {
+        fprintf(f,
+                ", \"temp_coeff_mm_per_c\": %.8f, \"temp_coeff_sd_mm_per_c\": %.8f, "
+                "\"offset_coeff_corr\": %.6f, \"gain_coeff_corr\": %.6f}",
+                s->temp_coeff_mm_per_c, s->temp_coeff_sd_mm_per_c, s->corr_offset_coeff,
+                s->corr_gain_coeff);
+    } else if (s->temp_probe) {
+        fprintf(f,
+                ", \"temp_coeff_mm_per_c\": null, \"temp_probe_mm_per_c\": %.8f, "
+                "\"temp_probe_t\": %.3f, \"temp_probe_scatter_ratio\": %.6f}",
+                s->temp_probe_mm_per_c, s->temp_probe_t, s->temp_probe_ratio);
+    } else {
+        fputs(", \"temp_coeff_mm_per_c\": null}", f);
+    }
 }
 
 static void write_station(FILE *f, const struct calfit_station *st, size_t j) {
     fprintf(f,
             "    {\"station\": %zu, \"first_line\": %u, \"last_line\": %u, \"t_first_ms\": %u, "
             "\"t_last_ms\": %u, \"rows\": %u, \"alpha_deg\": %.6f, \"beta_deg\": %.6f, "
-            "\"distance_mm\": %.3f, \"sensors\": [",
+            "\"distance_mm\": %.3f, ",
             j, st->first_line, st->last_line, st->t_first_ms, st->t_last_ms, st->rows,
             st->alpha_deg, st->beta_deg, st->distance_mm);
+    if (st->has_temp) {
+        fprintf(f, "\"temp_c\": %.3f, \"sensors\": [", st->temp_c);
+    } else {
+        fputs("\"temp_c\": null, \"sensors\": [", f);
+    }
     for (unsigned k = 0; k < CALFIT_SENSORS; ++k) {
         fprintf(f, "%s{\"sensor\": \"%c\", \"n\": %u, \"used\": %s, \"true_mm\": %.4f",
                 k ? ", " : "", 'A' + k, st->n[k], st->used[k] ? "true" : "false", st->x_mm[k]);
@@ -81,14 +132,26 @@ int calibrate_write_report(FILE *f, const char *trace, const struct calfit_data 
             "  \"rows_without_truth\": %llu,\n  \"rows_partial_truth\": %llu,\n"
             "  \"rows_with_invalid_readings\": %llu,\n"
             "  \"invalid_readings\": [%llu, %llu, %llu, %llu],\n"
-            "  \"distance_range_mm\": [%.3f, %.3f],\n  \"sensors\": [\n",
+            "  \"distance_range_mm\": [%.3f, %.3f],\n",
             res->gains ? "offsets+gains" : "offsets", d->arm_mm, (unsigned long long)d->rows,
             (unsigned long long)d->rows_no_truth, (unsigned long long)d->rows_partial_truth,
             (unsigned long long)d->rows_with_invalid, (unsigned long long)d->invalid[0],
             (unsigned long long)d->invalid[1], (unsigned long long)d->invalid[2],
             (unsigned long long)d->invalid[3], d->distance_min_mm, d->distance_max_mm);
+    char why[CALIBRATE_THERMAL_WHY_MAX];
+    calibrate_thermal_why(d, res, why, sizeof why);
+    fprintf(f, "  \"thermal\": {\"fitted\": %s, \"why\": ", res->thermal ? "true" : "false");
+    json_string(f, why);
+    fprintf(f, ", \"stations_without_temp\": %zu", res->stations_no_temp);
+    if (res->stations_no_temp < d->n_stations) {
+        fprintf(f, ", \"temp_range_c\": [%.3f, %.3f]", res->temp_min_c, res->temp_max_c);
+    }
+    if (res->thermal) {
+        fprintf(f, ", \"cal_temp_c\": %.2f", res->cal_temp_c);
+    }
+    fputs("},\n  \"sensors\": [\n", f);
     for (unsigned k = 0; k < CALFIT_SENSORS; ++k) {
-        write_sensor(f, &res->sensor[k], k, res->gains);
+        write_sensor(f, &res->sensor[k], k, res->gains, res->thermal);
         fputs(k + 1u < CALFIT_SENSORS ? ",\n" : "\n", f);
     }
     fputs("  ],\n  \"stations\": [\n", f);

@@ -3,12 +3,14 @@
 #include "telemetry/tlm_command_text.h"
 
 #include <errno.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "calibrate.h"
 #include "calibrate/fixture.h"
+#include "scene/scenario.h"
 #include "vl53/vl53.h"
 
 const char *const cli_estimator_names[] = {"consensus", "consensus-paper", "kalman", "mean", NULL};
@@ -185,11 +187,25 @@ static const char replay_help[] =
     "exit status: 0 done, 1 bad input or a failed run, 2 bad command line\n";
 
 static const char scenario_help[] =
-    "usage: host_sim scenario NAME [--seed S] --trace-out TRACE.csv\n"
+    "usage: host_sim scenario NAME [--seed S] --trace-out TRACE.csv [thermal options]\n"
     "Writes a named synthetic scenario as a trace v1 file (docs/reference/trace-format.md).\n"
     "options:\n"
     "  --seed S             seed of the scenario's noise (default 1)\n"
     "  --trace-out FILE     where to write it ('-' is stdout); required\n"
+    "orbit-thermal only (the head's temperature T = 20 C + A sin(2 pi t / 90 min + phase)):\n"
+    "  --hours H            length, (0, 24] hours (default 6)\n"
+    "  --amplitude-c A      half the cycle's swing, 0..60 C (default 20: a 40 C cycle)\n"
+    "  --phase-deg P        the cycle's phase at t = 0, -360..360 (default 0)\n"
+    "  --coeff-range K      offsets' temperature coefficients uniform in +-K mm/C, 0..0.5\n"
+    "                       (default 0.0375: up to 1.5 mm over a 40 C cycle; no public\n"
+    "                       VL53L1X figure exists)\n"
+    "  --coeff-sd S         the sd the trace states with the coefficients, which it draws\n"
+    "                       about the truth with that sd, 0..0.125 mm/C (default 0.001)\n"
+    "  --walk-um2-h W       each offset's random walk, um^2/h (default 576000, the\n"
+    "                       estimator's prior)\n"
+    "  --temp-noise-c N     the measured temperature's noise sd, 0..10 C (default 0.3)\n"
+    "  --cal-out HEAD.cal   write the head's calibration there, in the trace's folder, and\n"
+    "                       name it in the trace (calibration=FILE) instead of the keys\n"
     "  --help, -h           this text\n"
     "exit status: 0 done, 1 failed, 2 bad command line\n"
     "scenarios:";
@@ -379,6 +395,10 @@ int cli_parse_replay(int argc, char **argv, struct replay_args *out) {
     return 0;
 }
 
+/* One of the orbit-thermal scenario's options (listed after this parser, which the
+ * --help check reads up to its end). */
+static bool thermal_option(const char *arg);
+
 int cli_parse_scenario(int argc, char **argv, struct scenario_args *out) {
     *out = (struct scenario_args){.seed = 1};
     const char *cmd = "scenario";
@@ -396,6 +416,25 @@ int cli_parse_scenario(int argc, char **argv, struct scenario_args *out) {
             if ((out->trace_out = option_value(cmd, argc, argv, &i)) == NULL) {
                 return -1;
             }
+        } else if (strcmp(arg, "--cal-out") == 0) {
+            if ((out->cal_out = option_value(cmd, argc, argv, &i)) == NULL) {
+                return -1;
+            }
+        } else if (thermal_option(arg)) {
+            if ((v = option_value(cmd, argc, argv, &i)) == NULL) {
+                return -1;
+            }
+            char *end = NULL;
+            errno = 0;
+            const double x = strtod(v, &end);
+            if (errno != 0 || end == v || *end != '\0' || !isfinite(x)) {
+                return usage_error(cmd, "expected a decimal number after", arg);
+            }
+            if (out->n_thermal == CLI_THERMAL_OPTIONS) {
+                return usage_error(cmd, "too many thermal options", arg);
+            }
+            out->thermal_option[out->n_thermal] = arg;
+            out->thermal_value[out->n_thermal++] = x;
         } else if (arg[0] == '-' && arg[1] != '\0') {
             return usage_error(cmd, "unknown option", arg);
         } else if (out->name == NULL) {
@@ -409,6 +448,56 @@ int cli_parse_scenario(int argc, char **argv, struct scenario_args *out) {
     }
     if (out->trace_out == NULL) {
         return usage_error(cmd, "missing --trace-out TRACE.csv", NULL);
+    }
+    return 0;
+}
+
+static const char *const thermal_options[] = {
+    "--hours",    "--amplitude-c", "--phase-deg",    "--coeff-range",
+    "--coeff-sd", "--walk-um2-h",  "--temp-noise-c", NULL};
+
+static bool thermal_option(const char *arg) {
+    for (size_t k = 0; thermal_options[k] != NULL; ++k) {
+        if (strcmp(arg, thermal_options[k]) == 0) {
+            return true;
+        }
+    }
+    return false;
+}
+
+int cli_apply_thermal(const struct scenario_args *a, struct scene_config *cfg) {
+    struct scene_thermal *t = &cfg->thermal;
+    for (unsigned i = 0; i < a->n_thermal; ++i) {
+        const char *opt = a->thermal_option[i];
+        const double v = a->thermal_value[i];
+        if (!t->on) {
+            fprintf(stderr, "host_sim scenario: %s: only for orbit-thermal, not %s\n", opt,
+                    cfg->name);
+            return -1;
+        }
+        if (strcmp(opt, "--hours") == 0) {
+            if (scene_config_set_hours(cfg, v) != 0) {
+                fprintf(stderr, "host_sim scenario: --hours: expected (0, 24], got %g\n", v);
+                return -1;
+            }
+        } else if (strcmp(opt, "--amplitude-c") == 0) {
+            t->amplitude_c = v;
+        } else if (strcmp(opt, "--phase-deg") == 0) {
+            t->phase_deg = v;
+        } else if (strcmp(opt, "--coeff-range") == 0) {
+            t->coeff_range_mm_per_c = v;
+        } else if (strcmp(opt, "--coeff-sd") == 0) {
+            t->coeff_sd_mm_per_c = v;
+        } else if (strcmp(opt, "--walk-um2-h") == 0) {
+            t->walk_um2_h = v;
+        } else {
+            t->temp_noise_c = v;
+        }
+    }
+    const char *why = t->on ? scene_thermal_check(t) : NULL;
+    if (why != NULL) {
+        fprintf(stderr, "host_sim scenario: %s: %s\n", cfg->name, why);
+        return -1;
     }
     return 0;
 }

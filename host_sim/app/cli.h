@@ -47,11 +47,22 @@ struct replay_args {
     unsigned command_count;
 };
 
+/* The orbit-thermal scenario's options (--hours, --amplitude-c, ...), as given. */
+#define CLI_THERMAL_OPTIONS 8u
 struct scenario_args {
     const char *name;
     uint64_t seed;
     const char *trace_out;
+    unsigned n_thermal;
+    const char *thermal_option[CLI_THERMAL_OPTIONS]; /* "--hours", ... */
+    double thermal_value[CLI_THERMAL_OPTIONS];
+    const char *cal_out; /* orbit-thermal: --cal-out HEAD.cal (NULL: the keys inline) */
 };
+
+/* Applies the thermal options of `a` to cfg (a thermal scenario's configuration): 0, or -1
+ * after a message on stderr (an option of another scenario, a value out of range). */
+struct scene_config;
+int cli_apply_thermal(const struct scenario_args *a, struct scene_config *cfg);
 
 /* True if any argument after argv[0] (the subcommand) is --help or -h. */
 bool cli_wants_help(int argc, char **argv);

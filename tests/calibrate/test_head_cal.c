@@ -161,11 +161,74 @@ static void test_keys_one_by_one(void **state) {
                                "'# offset_sd_mm=A,B,C,D')");
 }
 
+#define THERMAL                                                                                    \
+    "# cal_temp_c=24.98\n# temp_coeff_mm_per_c=0.023468,-0.002228,0.034379,-0.013438\n"            \
+    "# temp_coeff_sd_mm_per_c=0.001145,0.001094,0.001107,0.001367\n"
+
+static void test_thermal_keys(void **state) {
+    (void)state;
+    struct head_cal cal;
+    char err[HEAD_CAL_ERR_MAX] = "";
+    assert_int_equal(parse(V1 OFFSETS OFFSET_SDS GAINS GAIN_SDS THERMAL, &cal, err, sizeof err), 0);
+    assert_true(cal.thermal);
+    assert_true(cal.cal_temp_c == 24.98);
+    assert_true(cal.temp_coeff_mm_per_c[1] == -0.002228 &&
+                cal.temp_coeff_sd_mm_per_c[3] == 0.001367);
+    assert_int_equal(parse(V1 OFFSETS OFFSET_SDS, &cal, err, sizeof err), 0);
+    assert_false(cal.thermal);
+    /* written and read back: the same values, the checksum over them */
+    static char buf[8192];
+    FILE *f = fmemopen(buf, sizeof buf, "w");
+    assert_non_null(f);
+    struct head_cal w = {.has_gain = false, .thermal = true, .cal_temp_c = -12.5};
+    for (unsigned k = 0; k < 4u; ++k) {
+        w.offset_mm[k] = k;
+        w.temp_coeff_mm_per_c[k] = 0.2 * k - 0.3;
+        w.temp_coeff_sd_mm_per_c[k] = 0.000125 * k;
+    }
+    assert_int_equal(head_cal_write(f, &w, NULL), 0);
+    fclose(f);
+    assert_non_null(strstr(buf, "# cal_temp_c=-12.50\n"));
+    assert_int_equal(parse(buf, &cal, err, sizeof err), 0);
+    assert_true(cal.checksummed && cal.thermal && cal.cal_temp_c == -12.5);
+    for (unsigned k = 0; k < 4u; ++k) {
+        assert_true(fabs(cal.temp_coeff_mm_per_c[k] - w.temp_coeff_mm_per_c[k]) < 1e-12);
+        assert_true(fabs(cal.temp_coeff_sd_mm_per_c[k] - w.temp_coeff_sd_mm_per_c[k]) < 1e-12);
+    }
+    /* an edited coefficient breaks the checksum */
+    char *at = strstr(buf, "temp_coeff_mm_per_c=-0.3");
+    assert_non_null(at);
+    at[strlen("temp_coeff_mm_per_c=-0.")] = '4';
+    assert_int_equal(parse(buf, &cal, err, sizeof err), -1);
+    assert_non_null(strstr(err, "checksum"));
+}
+
+static void test_thermal_errors(void **state) {
+    (void)state;
+    expect_error(V1 OFFSETS OFFSET_SDS "# cal_temp_c=20\n",
+                 "HEAD.cal:4: cal_temp_c without all of cal_temp_c, temp_coeff_mm_per_c, "
+                 "temp_coeff_sd_mm_per_c (they come together or not at all)");
+    expect_error(V1 OFFSETS OFFSET_SDS "# temp_coeff_sd_mm_per_c=0,0,0,0\n",
+                 "HEAD.cal:4: temp_coeff_sd_mm_per_c without all of cal_temp_c, "
+                 "temp_coeff_mm_per_c, temp_coeff_sd_mm_per_c (they come together or not at all)");
+    expect_error(V1 OFFSETS OFFSET_SDS "# cal_temp_c=20,21\n",
+                 "HEAD.cal:4:17: cal_temp_c: one value (the head's), not a list");
+    expect_error(V1 OFFSETS OFFSET_SDS "# cal_temp_c=250\n",
+                 "HEAD.cal:4:14: cal_temp_c: within -100..200 C, got '250'");
+    expect_error(V1 OFFSETS OFFSET_SDS "# temp_coeff_mm_per_c=0,0,1.5,0\n",
+                 "HEAD.cal:4:27: temp_coeff_mm_per_c: sensor C: within -1..1 mm/C (no VL53 "
+                 "part's beyond), got '1.5'");
+    expect_error(V1 OFFSETS OFFSET_SDS "# temp_coeff_sd_mm_per_c=0,-0.1,0,0\n",
+                 "HEAD.cal:4:28: temp_coeff_sd_mm_per_c: sensor B: an sd cannot be negative, got "
+                 "'-0.1'");
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_design_example),  cmocka_unit_test(test_offsets_only_and_extras),
         cmocka_unit_test(test_errors),          cmocka_unit_test(test_write_reads_back),
-        cmocka_unit_test(test_keys_one_by_one),
+        cmocka_unit_test(test_keys_one_by_one), cmocka_unit_test(test_thermal_keys),
+        cmocka_unit_test(test_thermal_errors),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

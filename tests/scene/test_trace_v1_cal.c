@@ -7,6 +7,8 @@
 #include <string.h>
 #include <cmocka.h>
 
+#include <stdio.h>
+
 #include "trace/trace_v1.h"
 
 static struct trace_v1_reader reader;
@@ -41,6 +43,10 @@ static int open_meta(const char *meta) {
 
 static void expect_error(const char *meta, uint32_t line, uint32_t col, const char *part) {
     assert_int_equal(open_meta(meta), -1);
+    if (reader.err.line != line || reader.err.col != col || strstr(reader.err.msg, part) == NULL) {
+        fail_msg("%u:%u: %s, wanted %u:%u: ...%s...", reader.err.line, reader.err.col,
+                 reader.err.msg, line, col, part);
+    }
     assert_int_equal(reader.err.line, line);
     assert_int_equal(reader.err.col, col);
     assert_non_null(strstr(reader.err.msg, part));
@@ -133,6 +139,65 @@ static void test_keys_come_as_a_whole(void **state) {
     expect_error("# calibration=\n", 3u, 15u, "none");
 }
 
+#define CAL "# offset_mm=1,2,3,4\n# offset_sd_mm=0,0,0,0\n"
+
+static void test_thermal_keys_exactly(void **state) {
+    (void)state;
+    assert_int_equal(open_meta(CAL "# cal_temp_c=24.985\n"
+                                   "# temp_coeff_mm_per_c=0.0234675,-0.002228,-1,1\n"
+                                   "# temp_coeff_sd_mm_per_c=0.001145,0,0.0000005,1\n"),
+                     0);
+    const struct trace_v1_cal *c = &reader.meta.cal;
+    assert_true(c->calibrated);
+    assert_true(c->thermal);
+    assert_int_equal(c->cal_temp_cdeg, 2499); /* half away from zero */
+    const int32_t k[4] = {23468, -2228, -1000000, 1000000};
+    const uint32_t sd[4] = {1145, 0, 1, 1000000};
+    for (unsigned i = 0; i < 4u; ++i) {
+        assert_int_equal(c->temp_coeff_nm_per_c[i], k[i]);
+        assert_int_equal(c->temp_coeff_sd_nm_per_c[i], sd[i]);
+    }
+    assert_int_equal(c->line[7], 5u); /* cal_temp_c's line, its bit's slot */
+    assert_int_equal(open_meta(CAL "# cal_temp_c=-100\n# temp_coeff_mm_per_c=0,0,0,0\n"
+                                   "# temp_coeff_sd_mm_per_c=0,0,0,0\n"),
+                     0);
+    assert_int_equal(reader.meta.cal.cal_temp_cdeg, -10000);
+    assert_int_equal(open_meta(CAL), 0);
+    assert_false(reader.meta.cal.thermal);
+}
+
+static void test_thermal_errors(void **state) {
+    (void)state;
+    const char *both = "# temp_coeff_mm_per_c=0,0,0,0\n# temp_coeff_sd_mm_per_c=0,0,0,0\n";
+    char meta[512];
+    /* "# cal_temp_c=" is 13 bytes: the value is at column 14 */
+    snprintf(meta, sizeof meta, CAL "# cal_temp_c=200.01\n%s", both);
+    expect_error(meta, 5u, 14u, "-100..200 C");
+    snprintf(meta, sizeof meta, CAL "# cal_temp_c=-100.01\n%s", both);
+    expect_error(meta, 5u, 14u, "-100..200 C");
+    snprintf(meta, sizeof meta, CAL "# cal_temp_c=20,21\n%s", both);
+    expect_error(meta, 5u, 16u, "one value");
+    snprintf(meta, sizeof meta, CAL "# cal_temp_c=warm\n%s", both);
+    expect_error(meta, 5u, 14u, "not a plain decimal");
+    /* "# temp_coeff_mm_per_c=" is 22 bytes */
+    expect_error(CAL "# cal_temp_c=20\n# temp_coeff_mm_per_c=0,1.000001,0,0\n"
+                     "# temp_coeff_sd_mm_per_c=0,0,0,0\n",
+                 6u, 25u, "-1..1 mm/C");
+    expect_error(CAL "# cal_temp_c=20\n# temp_coeff_mm_per_c=0,0,0\n"
+                     "# temp_coeff_sd_mm_per_c=0,0,0,0\n",
+                 6u, 28u, "fewer than four");
+    expect_error(CAL "# cal_temp_c=20\n# temp_coeff_mm_per_c=0,0,0,0\n"
+                     "# temp_coeff_sd_mm_per_c=0,0,-0.001,0\n",
+                 7u, 30u, "0..1 mm/C");
+    /* all three or none, only with offsets, not with calibration=FILE */
+    expect_error(CAL "# cal_temp_c=20\n# temp_coeff_mm_per_c=0,0,0,0\n", 5u, 1u, "come together");
+    expect_error(CAL "# temp_coeff_sd_mm_per_c=0,0,0,0\n", 5u, 1u, "come together");
+    expect_error("# cal_temp_c=20\n# temp_coeff_mm_per_c=0,0,0,0\n"
+                 "# temp_coeff_sd_mm_per_c=0,0,0,0\n",
+                 3u, 1u, "offset_mm and offset_sd_mm");
+    expect_error("# calibration=h.cal\n# cal_temp_c=20\n", 3u, 1u, "give one");
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_no_keys_is_uncalibrated),
@@ -141,6 +206,8 @@ int main(void) {
         cmocka_unit_test(test_a_file_is_named_not_read),
         cmocka_unit_test(test_bad_values_name_line_and_column),
         cmocka_unit_test(test_keys_come_as_a_whole),
+        cmocka_unit_test(test_thermal_keys_exactly),
+        cmocka_unit_test(test_thermal_errors),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

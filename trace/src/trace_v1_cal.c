@@ -17,25 +17,42 @@ static int64_t div_round(int64_t num, int64_t den) {
     return q;
 }
 
-/* The key's bit and how its values read: decimals of the unit, largest magnitude. */
+/* The key's bit and how its values read: decimals of the unit, largest magnitude, how many. */
 struct cal_key {
     const char *name;
-    uint8_t bit;
+    uint16_t bit;
     unsigned decimals;
     int64_t max_units;
     bool non_negative;
     const char *range; /* for the message */
+    unsigned values;   /* 4 (sensors A..D) or 1 */
 };
 
 static const struct cal_key keys[] = {
     {"offset_mm", TRACE_CAL_KEY_OFFSET, 3u, TRACE_CAL_OFFSET_MAX_UM, false,
-     "an offset within -100..100 mm"},
+     "an offset within -100..100 mm", 4u},
     {"offset_sd_mm", TRACE_CAL_KEY_OFFSET_SD, 3u, TRACE_CAL_OFFSET_MAX_UM, true,
-     "an sd within 0..100 mm"},
-    {"gain", TRACE_CAL_KEY_GAIN, 9u, 1100000000, true, "a gain within 0.9..1.1"},
-    {"gain_sd", TRACE_CAL_KEY_GAIN_SD, 6u, TRACE_CAL_GAIN_MAX_PPM, true, "an sd within 0..0.1"},
-    {"offset_gain_corr", TRACE_CAL_KEY_CORR, 9u, NANO, false, "a correlation within -1..1"},
+     "an sd within 0..100 mm", 4u},
+    {"gain", TRACE_CAL_KEY_GAIN, 9u, 1100000000, true, "a gain within 0.9..1.1", 4u},
+    {"gain_sd", TRACE_CAL_KEY_GAIN_SD, 6u, TRACE_CAL_GAIN_MAX_PPM, true, "an sd within 0..0.1", 4u},
+    {"offset_gain_corr", TRACE_CAL_KEY_CORR, 9u, NANO, false, "a correlation within -1..1", 4u},
+    /* the range's larger end; the lower (-100 °C) is checked in store() */
+    {"cal_temp_c", TRACE_CAL_KEY_CAL_TEMP, 2u, TRACE_CAL_TEMP_MAX_CDEG, false,
+     "a temperature within -100..200 C", 1u},
+    {"temp_coeff_mm_per_c", TRACE_CAL_KEY_TEMP_COEFF, 6u, TRACE_CAL_TEMP_COEFF_MAX_NM_PER_C, false,
+     "a coefficient within -1..1 mm/C", 4u},
+    {"temp_coeff_sd_mm_per_c", TRACE_CAL_KEY_TEMP_COEFF_SD, 6u, TRACE_CAL_TEMP_COEFF_MAX_NM_PER_C,
+     true, "an sd within 0..1 mm/C", 4u},
 };
+
+/* The index of a key's single bit (its slot in trace_v1_cal.line). */
+static unsigned bit_index(uint16_t bit) {
+    unsigned i = 0;
+    while (i + 1u < TRACE_CAL_KEY_BITS && (bit >> i) != 1u) {
+        ++i;
+    }
+    return i;
+}
 
 /* Value i of key k (units as read) into cal. false: out of the key's range. */
 static bool store(struct trace_v1_cal *cal, const struct cal_key *k, unsigned i, int64_t v) {
@@ -60,6 +77,18 @@ static bool store(struct trace_v1_cal *cal, const struct cal_key *k, unsigned i,
     case TRACE_CAL_KEY_GAIN_SD:
         cal->gain_sd_ppm[i] = (uint32_t)v;
         break;
+    case TRACE_CAL_KEY_CAL_TEMP:
+        if (v < TRACE_CAL_TEMP_MIN_CDEG) {
+            return false;
+        }
+        cal->cal_temp_cdeg = (int16_t)v;
+        break;
+    case TRACE_CAL_KEY_TEMP_COEFF:
+        cal->temp_coeff_nm_per_c[i] = (int32_t)v;
+        break;
+    case TRACE_CAL_KEY_TEMP_COEFF_SD:
+        cal->temp_coeff_sd_nm_per_c[i] = (uint32_t)v;
+        break;
     default: { /* the correlation, Q15 (1 saturates at 32767) */
         const int64_t q = div_round(v * 32768, NANO);
         cal->corr_q15[i] = (int16_t)(q > 32767 ? 32767 : q);
@@ -69,11 +98,11 @@ static bool store(struct trace_v1_cal *cal, const struct cal_key *k, unsigned i,
     return true;
 }
 
-/* Four comma-separated values of key k. 0, or -1 with *what, *col. */
+/* The comma-separated values of key k (four, or one). 0, or -1 with *what, *col. */
 static int read_list(struct trace_v1_cal *cal, const struct cal_key *k, const char *value,
                      uint32_t *col, const char **what) {
     const char *p = value;
-    for (unsigned i = 0; i < TRACE_CAL_SENSORS; ++i) {
+    for (unsigned i = 0; i < k->values; ++i) {
         const char *const start = p;
         int64_t v = 0;
         const bool read = trace_v1_list_decimal(&p, 0u, INT64_MAX, &v) == 0; /* a number? */
@@ -84,11 +113,12 @@ static int read_list(struct trace_v1_cal *cal, const struct cal_key *k, const ch
             *what = read ? k->range : "not a plain decimal";
             return -1;
         }
-        const bool last = i + 1u == TRACE_CAL_SENSORS;
+        const bool last = i + 1u == k->values;
         if (last ? *p != '\0' : *p != ',') {
             *col = (uint32_t)(p - value);
-            *what = last ? "more than four values (sensors A, B, C, D)"
-                         : "fewer than four values (sensors A, B, C, D)";
+            *what = k->values == 1u ? "one value (the head's), not a list"
+                    : last          ? "more than four values (sensors A, B, C, D)"
+                                    : "fewer than four values (sensors A, B, C, D)";
             return -1;
         }
         p += last ? 0 : 1;
@@ -106,7 +136,7 @@ int trace_v1_cal_value(struct trace_v1_cal *cal, const char *key, const char *va
         }
         const uint8_t bit = strcmp(value, "none") == 0 ? TRACE_CAL_KEY_NONE : TRACE_CAL_KEY_FILE;
         cal->keys |= bit;
-        cal->line[bit == TRACE_CAL_KEY_NONE ? 6u : 5u] = line;
+        cal->line[bit_index(bit)] = line;
         return 0;
     }
     for (unsigned k = 0; k < sizeof keys / sizeof keys[0]; ++k) {
@@ -115,7 +145,7 @@ int trace_v1_cal_value(struct trace_v1_cal *cal, const char *key, const char *va
                 return -1;
             }
             cal->keys |= keys[k].bit;
-            cal->line[k] = line;
+            cal->line[bit_index(keys[k].bit)] = line;
             return 0;
         }
     }
@@ -123,8 +153,8 @@ int trace_v1_cal_value(struct trace_v1_cal *cal, const char *key, const char *va
 }
 
 /* The line of the first key among `bits` (for messages). */
-static uint32_t line_of(const struct trace_v1_cal *cal, uint8_t bits) {
-    for (unsigned k = 0; k < 7u; ++k) {
+static uint32_t line_of(const struct trace_v1_cal *cal, uint16_t bits) {
+    for (unsigned k = 0; k < TRACE_CAL_KEY_BITS; ++k) {
         if ((bits & (1u << k)) != 0u && cal->line[k] != 0u) {
             return cal->line[k];
         }
@@ -133,11 +163,14 @@ static uint32_t line_of(const struct trace_v1_cal *cal, uint8_t bits) {
 }
 
 int trace_v1_cal_check(struct trace_v1_cal *cal, const char **what, uint32_t *line) {
-    const uint8_t inline_keys = TRACE_CAL_KEY_OFFSET | TRACE_CAL_KEY_OFFSET_SD |
-                                TRACE_CAL_KEY_GAIN | TRACE_CAL_KEY_GAIN_SD | TRACE_CAL_KEY_CORR;
-    const uint8_t k = cal->keys;
-    const uint8_t gains = TRACE_CAL_KEY_GAIN | TRACE_CAL_KEY_GAIN_SD;
-    const uint8_t offsets = TRACE_CAL_KEY_OFFSET | TRACE_CAL_KEY_OFFSET_SD;
+    const uint16_t thermal =
+        TRACE_CAL_KEY_CAL_TEMP | TRACE_CAL_KEY_TEMP_COEFF | TRACE_CAL_KEY_TEMP_COEFF_SD;
+    const uint16_t inline_keys = TRACE_CAL_KEY_OFFSET | TRACE_CAL_KEY_OFFSET_SD |
+                                 TRACE_CAL_KEY_GAIN | TRACE_CAL_KEY_GAIN_SD | TRACE_CAL_KEY_CORR |
+                                 thermal;
+    const uint16_t k = cal->keys;
+    const uint16_t gains = TRACE_CAL_KEY_GAIN | TRACE_CAL_KEY_GAIN_SD;
+    const uint16_t offsets = TRACE_CAL_KEY_OFFSET | TRACE_CAL_KEY_OFFSET_SD;
     *what = NULL;
     if ((k & TRACE_CAL_KEY_FILE) != 0u && (k & TRACE_CAL_KEY_NONE) != 0u) {
         *what = "calibration given twice";
@@ -149,11 +182,17 @@ int trace_v1_cal_check(struct trace_v1_cal *cal, const char **what, uint32_t *li
         *what = "gain and gain_sd come together or not at all (docs/reference/calibration-file.md)";
     } else if ((k & TRACE_CAL_KEY_CORR) != 0u && (k & gains) == 0u) {
         *what = "offset_gain_corr without gain and gain_sd";
+    } else if ((k & thermal) != 0u && (k & thermal) != thermal) {
+        *what = "cal_temp_c, temp_coeff_mm_per_c and temp_coeff_sd_mm_per_c come together or not "
+                "at all (docs/reference/calibration-file.md)";
+        *line = line_of(cal, k & thermal);
+        return -1;
     }
     if (*what != NULL) {
         *line = line_of(cal, k);
         return -1;
     }
+    cal->thermal = (k & thermal) == thermal;
     cal->calibrated = (k & offsets) == offsets;
     cal->has_gain = (k & gains) == gains;
     for (unsigned i = 0; i < TRACE_CAL_SENSORS && cal->calibrated && !cal->has_gain; ++i) {

@@ -17,6 +17,9 @@
 
 _Static_assert(TRACE_CAL_SENSORS == CALIBRATION_SENSORS &&
                    TRACE_CAL_OFFSET_MAX_UM == CALIBRATION_OFFSET_MAX_UM &&
+                   TRACE_CAL_TEMP_COEFF_MAX_NM_PER_C == CALIBRATION_TEMP_COEFF_MAX_NM_PER_C &&
+                   TRACE_CAL_TEMP_MIN_CDEG == CALIBRATION_TEMP_MIN_CDEG &&
+                   TRACE_CAL_TEMP_MAX_CDEG == CALIBRATION_TEMP_MAX_CDEG &&
                    TRACE_CAL_GAIN_MAX_PPM == CALIBRATION_GAIN_MAX_PPM &&
                    TRACE_CAL_UNCAL_GAIN_SD_PPM == CALIBRATION_UNCAL_GAIN_SD_PPM,
                "the trace reader's calibration integers are the estimator's");
@@ -160,7 +163,12 @@ void cal_apply_head(const struct trace_v1_cal *cal, struct calibration_head *out
         out->offset_sd_um[i] = cal->offset_sd_um[i];
         out->gain_sd_ppm[i] = cal->gain_sd_ppm[i];
         out->offset_gain_corr_q15[i] = cal->corr_q15[i];
+        out->temp_coeff_nm_per_c[i] = cal->thermal ? cal->temp_coeff_nm_per_c[i] : 0;
+        out->temp_coeff_sd_nm_per_c[i] = cal->thermal ? cal->temp_coeff_sd_nm_per_c[i] : 0u;
     }
+    /* units as estimator/calibration.h states them: 0.01 °C, nm/°C (the trace reader's) */
+    out->thermal = cal->calibrated && cal->thermal;
+    out->cal_temp_cdeg = cal->thermal ? cal->cal_temp_cdeg : 0;
 }
 
 int cal_apply_preload(const struct trace_v1_cal *cal, const struct tof_app_config *cfg,

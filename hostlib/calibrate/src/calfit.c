@@ -74,6 +74,14 @@ static struct calfit_station *station_for(struct calfit_data *d, double alpha, d
 int calfit_add(struct calfit_data *d, bool has_truth, double alpha_deg, double beta_deg,
                double distance_mm, const double raw[CALFIT_SENSORS],
                const bool valid[CALFIT_SENSORS], uint32_t t_ms, uint32_t line) {
+    return calfit_add_temp(d, has_truth, alpha_deg, beta_deg, distance_mm, raw, valid, false, 0.0,
+                           t_ms, line);
+}
+
+int calfit_add_temp(struct calfit_data *d, bool has_truth, double alpha_deg, double beta_deg,
+                    double distance_mm, const double raw[CALFIT_SENSORS],
+                    const bool valid[CALFIT_SENSORS], bool has_temp, double temp_c, uint32_t t_ms,
+                    uint32_t line) {
     d->rows++;
     if (!has_truth) {
         d->open = false; /* the fixture moves: the next truth starts a new station */
@@ -87,6 +95,11 @@ int calfit_add(struct calfit_data *d, bool has_truth, double alpha_deg, double b
     st->rows++;
     st->last_line = line;
     st->t_last_ms = t_ms;
+    if (has_temp) {
+        st->temp_rows++;
+        st->temp_sum_c += temp_c;
+        d->rows_with_temp++;
+    }
     bool any_invalid = false;
     for (unsigned k = 0; k < CALFIT_SENSORS; ++k) {
         if (!valid[k]) {
@@ -122,8 +135,8 @@ int calfit_add_row(struct calfit_data *d, const struct scene_row *row, uint32_t 
         d->open = false;
         return 0;
     }
-    return calfit_add(d, all, row->alpha_deg, row->beta_deg, row->distance_mm, raw, valid,
-                      row->t_ms, line);
+    return calfit_add_temp(d, all, row->alpha_deg, row->beta_deg, row->distance_mm, raw, valid,
+                           row->has_temp, row->temp_c, row->t_ms, line);
 }
 
 /* Each station's mean and sd for sensor k; the number of stations it can use. */
@@ -173,14 +186,79 @@ struct sensor_arrays {
     double *x, *y, *w;
 };
 
-/* The fit of sensor k on its used stations (n of them, arrays a). 0 or -1 (singular). */
-static int fit_sensor(struct calfit_data *d, unsigned k, unsigned p, struct sensor_arrays a,
-                      size_t n, struct calfit_sensor *out) {
-    double coef[2];
-    double cov[3];
-    if (calfit_wls(a.x, a.y, a.w, n, p, coef, cov) != 0) {
+/* Sensor k's station means fitted with a temperature term, p + 1 parameters: features
+ * [1, x, T − tc] (gains) or [1, T − tc] on mean − x (p = 1). coef[0] offset, coef[1] gain (1
+ * without gains), coef[2] the coefficient; cov the unscaled covariance over those three (gain
+ * rows 0 without gains). *chi2 the weighted residual sum. 0, or -1 when singular. */
+static int fit_thermal(const struct calfit_data *d, unsigned k, unsigned p, struct sensor_arrays a,
+                       size_t n, double tc, double coef[3], double cov[3][3], double *chi2) {
+    const unsigned q = p + 1u;
+    double *f = malloc(n * q * sizeof *f);
+    double *y = malloc(n * sizeof *y);
+    int rc = f != NULL && y != NULL ? 0 : -1;
+    size_t i = 0;
+    for (size_t j = 0; rc == 0 && j < d->n_stations; ++j) {
+        const struct calfit_station *st = &d->stations[j];
+        if (!st->used[k]) {
+            continue;
+        }
+        double *fi = f + i * q;
+        fi[0] = 1.0;
+        if (p == 2u) {
+            fi[1] = st->x_mm[k];
+        }
+        fi[q - 1u] = st->temp_c - tc;
+        y[i] = p == 2u ? a.y[i] : a.y[i] - a.x[i];
+        ++i;
+    }
+    double c[CALFIT_WLS_MAX_P];
+    double v[CALFIT_WLS_MAX_P * CALFIT_WLS_MAX_P];
+    if (rc == 0 && calfit_wls_general(f, y, a.w, n, q, c, v) != 0) {
+        rc = -1;
+    }
+    if (rc == 0) {
+        /* into (offset, gain, coefficient) order, the gain's row 0 without gains */
+        const unsigned at[3] = {0u, p == 2u ? 1u : 99u, q - 1u};
+        for (unsigned r = 0; r < 3u; ++r) {
+            coef[r] = at[r] == 99u ? 1.0 : c[at[r]];
+            for (unsigned s2 = 0; s2 < 3u; ++s2) {
+                cov[r][s2] = at[r] == 99u || at[s2] == 99u ? 0.0 : v[at[r] * q + at[s2]];
+            }
+        }
+        *chi2 = 0.0;
+        for (size_t m = 0; m < n; ++m) {
+            const double *fm = f + m * q;
+            double fit = 0.0;
+            for (unsigned r = 0; r < q; ++r) {
+                fit += c[r] * fm[r];
+            }
+            *chi2 += (y[m] - fit) * (y[m] - fit) * a.w[m];
+        }
+    }
+    free(f);
+    free(y);
+    return rc;
+}
+
+/* The fit of sensor k on its used stations (n of them, arrays a), with the temperature term
+ * when d's stations are thermal (tc the calibration temperature). 0 or -1 (singular). */
+static int fit_sensor(struct calfit_data *d, unsigned k, unsigned p, bool thermal, double tc,
+                      struct sensor_arrays a, size_t n, struct calfit_sensor *out) {
+    double coef[3] = {0.0, 1.0, 0.0};
+    double cov[3] = {0.0, 0.0, 0.0};
+    double tcov[3][3] = {{0}};
+    double chi2_thermal = 0.0;
+    if (thermal) {
+        if (fit_thermal(d, k, p, a, n, tc, coef, tcov, &chi2_thermal) != 0) {
+            return -1;
+        }
+        cov[0] = tcov[0][0];
+        cov[1] = tcov[0][1];
+        cov[2] = tcov[1][1];
+    } else if (calfit_wls(a.x, a.y, a.w, n, p, coef, cov) != 0) {
         return -1;
     }
+    const unsigned params = thermal ? p + 1u : p;
     double chi2 = 0.0;
     double r2 = 0.0;
     double vsum = 0.0;
@@ -190,14 +268,15 @@ static int fit_sensor(struct calfit_data *d, unsigned k, unsigned p, struct sens
         if (!st->used[k]) {
             continue;
         }
-        const double res = st->mean_mm[k] - (coef[0] + coef[1] * st->x_mm[k]);
+        const double res = st->mean_mm[k] - (coef[0] + coef[1] * st->x_mm[k] +
+                                             (thermal ? coef[2] * (st->temp_c - tc) : 0.0));
         st->residual_mm[k] = res;
         chi2 += res * res * a.w[i];
         r2 += res * res;
         vsum += 1.0 / a.w[i];
         ++i;
     }
-    out->dof = (uint32_t)(n - p);
+    out->dof = (uint32_t)(n - params);
     out->chi2 = chi2;
     out->chi2_red = chi2 / out->dof;
     out->inflation = out->chi2_red > 1.0 ? out->chi2_red : 1.0;
@@ -209,12 +288,67 @@ static int fit_sensor(struct calfit_data *d, unsigned k, unsigned p, struct sens
     out->offset_sd_mm = sqrt(cov[0] * out->inflation);
     out->gain_sd = sqrt(cov[2] * out->inflation);
     out->corr = p == 2u ? cov[1] / sqrt(cov[0] * cov[2]) : 0.0;
+    if (thermal) {
+        out->temp_coeff_mm_per_c = coef[2];
+        out->temp_coeff_sd_mm_per_c = sqrt(tcov[2][2] * out->inflation);
+        out->corr_offset_coeff = tcov[0][2] / sqrt(tcov[0][0] * tcov[2][2]);
+        out->corr_gain_coeff = p == 2u ? tcov[1][2] / sqrt(tcov[1][1] * tcov[2][2]) : 0.0;
+    }
     return 0;
 }
 
-/* Sensor k's fit with p parameters. 0, or -1 with err. */
-static int run_sensor(struct calfit_data *d, unsigned k, unsigned p, struct calfit_sensor *out,
-                      char *err, size_t errlen) {
+/* A coefficient fitted on temperatures too narrow to state it, only to tell whether the
+ * scatter follows temperature (calfit_sensor.temp_probe). */
+static void temp_probe(struct calfit_data *d, unsigned k, unsigned p, double tc,
+                       struct sensor_arrays a, size_t n, struct calfit_sensor *out) {
+    double coef[3];
+    double cov[3][3];
+    double chi2 = 0.0;
+    if (n < p + 2u || fit_thermal(d, k, p, a, n, tc, coef, cov, &chi2) != 0 || !(cov[2][2] > 0.0)) {
+        return;
+    }
+    const double red = chi2 / (double)(n - p - 1u);
+    out->temp_probe = true;
+    out->temp_probe_ratio = red;
+    out->temp_probe_mm_per_c = coef[2];
+    out->temp_probe_t = coef[2] / sqrt(cov[2][2] * (red > 1.0 ? red : 1.0));
+}
+
+/* Each used station's first and second half means of sensor k against their sd (τ
+ * included): mean z² (calfit_sensor.motion_ratio). */
+static double motion_ratio(const struct calfit_data *d, unsigned k, double tau) {
+    double sum = 0.0;
+    unsigned count = 0;
+    for (size_t j = 0; j < d->n_stations; ++j) {
+        const struct calfit_station *st = &d->stations[j];
+        if (!st->used[k] || st->n[k] < 2u * CALFIT_MIN_READINGS || !(st->sd_mm[k] > 0.0)) {
+            continue;
+        }
+        const double *r = d->readings[k] + st->first[k];
+        const uint32_t n1 = st->n[k] / 2u;
+        const uint32_t n2 = st->n[k] - n1;
+        double m1 = 0.0;
+        double m2 = 0.0;
+        for (uint32_t t = 0; t < n1; ++t) {
+            m1 += r[t];
+        }
+        for (uint32_t t = n1; t < st->n[k]; ++t) {
+            m2 += r[t];
+        }
+        m1 /= n1;
+        m2 /= n2;
+        const double var = st->sd_mm[k] * st->sd_mm[k] * tau * (1.0 / n1 + 1.0 / n2);
+        sum += (m2 - m1) * (m2 - m1) / var;
+        ++count;
+    }
+    return count > 0u ? sum / count : 0.0;
+}
+
+/* Sensor k's fit with p parameters (and the temperature term when res->thermal). 0, -1 with
+ * err, or -2 when thermal and the sensor has fewer than CALFIT_MIN_STATIONS_THERMAL stations. */
+static int run_sensor(struct calfit_data *d, unsigned k, unsigned p,
+                      const struct calfit_result *res, struct calfit_sensor *out, char *err,
+                      size_t errlen) {
     const char name = (char)('A' + k);
     memset(out, 0, sizeof *out);
     const uint32_t used = station_moments(d, k);
@@ -227,6 +361,9 @@ static int run_sensor(struct calfit_data *d, unsigned k, unsigned p, struct calf
                  p == 2u ? "offset, gain and one to check the scatter"
                          : "offset and one to check the scatter");
         return -1;
+    }
+    if (res->thermal && used < CALFIT_MIN_STATIONS_THERMAL) {
+        return -2;
     }
     out->tau = calfit_tau(d, k, &out->tau_settled);
     struct sensor_arrays a = {malloc(used * sizeof(double)), malloc(used * sizeof(double)),
@@ -253,12 +390,20 @@ static int run_sensor(struct calfit_data *d, unsigned k, unsigned p, struct calf
         dof_within += st->n[k] - 1u;
         out->readings += st->n[k];
     }
-    if (rc == 0 && fit_sensor(d, k, p, a, n, out) != 0) {
+    if (rc == 0 && fit_sensor(d, k, p, res->thermal, res->cal_temp_c, a, n, out) != 0) {
         snprintf(err, errlen,
                  "sensor %c: its stations' true distances are all %.3f mm: the gain cannot be "
                  "told from the offset (singular design)",
                  name, a.x[0]);
         rc = -1;
+    }
+    const bool temps_known = res->thermal_state == CALFIT_THERMAL_NARROW ||
+                             res->thermal_state == CALFIT_THERMAL_FEW_STATIONS;
+    if (rc == 0 && !res->thermal && temps_known && res->temp_max_c - res->temp_min_c > 0.0) {
+        temp_probe(d, k, p, res->cal_temp_c, a, n, out);
+    }
+    if (rc == 0) {
+        out->motion_ratio = motion_ratio(d, k, out->tau);
     }
     out->stations = used;
     out->noise_sd_mm = sqrt(ss / dof_within);
@@ -266,6 +411,52 @@ static int run_sensor(struct calfit_data *d, unsigned k, unsigned p, struct calf
     free(a.y);
     free(a.w);
     return rc;
+}
+
+/* Every sensor's fit: 0, -1 with err, or -2 (run_sensor's). */
+static int run_sensors(struct calfit_data *d, unsigned p, struct calfit_result *res, char *err,
+                       size_t errlen) {
+    for (unsigned k = 0; k < CALFIT_SENSORS; ++k) {
+        const int rc = run_sensor(d, k, p, res, &res->sensor[k], err, errlen);
+        if (rc != 0) {
+            return rc;
+        }
+    }
+    return 0;
+}
+
+/* The stations' temperatures and whether they can give the coefficients (calfit.h). */
+static void thermal_state(struct calfit_data *d, struct calfit_result *res) {
+    double sum = 0.0;
+    size_t with = 0;
+    for (size_t j = 0; j < d->n_stations; ++j) {
+        struct calfit_station *st = &d->stations[j];
+        st->has_temp = st->rows > 0u && st->temp_rows == st->rows;
+        st->temp_c = st->temp_rows > 0u ? st->temp_sum_c / st->temp_rows : 0.0;
+        if (!st->has_temp) {
+            if (res->stations_no_temp++ == 0u) {
+                res->no_temp_first_line = st->first_line;
+                res->no_temp_last_line = st->last_line;
+            }
+            continue;
+        }
+        res->temp_min_c = with == 0u || st->temp_c < res->temp_min_c ? st->temp_c : res->temp_min_c;
+        res->temp_max_c = with == 0u || st->temp_c > res->temp_max_c ? st->temp_c : res->temp_max_c;
+        sum += st->temp_c;
+        ++with;
+    }
+    /* the stations' mean temperature, to the 0.01 °C the HEAD.cal states it with */
+    res->cal_temp_c = with > 0u ? round(sum / (double)with * 100.0) / 100.0 : 0.0;
+    if (d->rows_with_temp == 0u) {
+        res->thermal_state = CALFIT_THERMAL_NO_TEMP;
+    } else if (res->stations_no_temp > 0u) {
+        res->thermal_state = CALFIT_THERMAL_SOME_MISSING;
+    } else if (res->temp_max_c - res->temp_min_c < CALFIT_MIN_TEMP_SPAN_C) {
+        res->thermal_state = CALFIT_THERMAL_NARROW;
+    } else {
+        res->thermal_state = CALFIT_THERMAL_FITTED;
+        res->thermal = true;
+    }
 }
 
 int calfit_run(struct calfit_data *d, struct calfit_result *res, char *err, size_t errlen) {
@@ -295,10 +486,12 @@ int calfit_run(struct calfit_data *d, struct calfit_result *res, char *err, size
                  d->n_stations, d->n_stations == 1u ? "" : "s", need);
         return -1;
     }
-    for (unsigned k = 0; k < CALFIT_SENSORS; ++k) {
-        if (run_sensor(d, k, p, &res->sensor[k], err, errlen) != 0) {
-            return -1;
-        }
+    thermal_state(d, res);
+    int rc = run_sensors(d, p, res, err, errlen);
+    if (rc == -2) { /* too few stations for the coefficient: every sensor without it */
+        res->thermal = false;
+        res->thermal_state = CALFIT_THERMAL_FEW_STATIONS;
+        rc = run_sensors(d, p, res, err, errlen);
     }
-    return 0;
+    return rc == 0 ? 0 : -1;
 }

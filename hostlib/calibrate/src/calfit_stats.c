@@ -111,3 +111,63 @@ int calfit_wls(const double *x, const double *y, const double *w, size_t n, unsi
     cov[0] = 1.0 / s + xm * xm / sxx;
     return 0;
 }
+
+int calfit_wls_general(const double *f, const double *y, const double *w, size_t n, unsigned p,
+                       double *coef, double *cov) {
+    if (p == 0u || p > CALFIT_WLS_MAX_P || n < p) {
+        return -1;
+    }
+    /* The normal equations [M | I] reduced by Gauss–Jordan with partial pivoting. */
+    enum { P = CALFIT_WLS_MAX_P };
+    double a[P][2 * P] = {{0}};
+    double v[P] = {0};
+    for (size_t i = 0; i < n; ++i) {
+        const double *fi = f + i * p;
+        for (unsigned r = 0; r < p; ++r) {
+            v[r] += w[i] * fi[r] * y[i];
+            for (unsigned c = 0; c < p; ++c) {
+                a[r][c] += w[i] * fi[r] * fi[c];
+            }
+        }
+    }
+    double scale = 0.0;
+    for (unsigned r = 0; r < p; ++r) {
+        a[r][p + r] = 1.0;
+        scale = fabs(a[r][r]) > scale ? fabs(a[r][r]) : scale;
+    }
+    for (unsigned c = 0; c < p; ++c) {
+        unsigned piv = c;
+        for (unsigned r = c + 1u; r < p; ++r) {
+            piv = fabs(a[r][c]) > fabs(a[piv][c]) ? r : piv;
+        }
+        if (!(fabs(a[piv][c]) > 1e-12 * scale)) {
+            return -1; /* a feature is a combination of the others: not determined */
+        }
+        for (unsigned k = 0; k < 2u * p; ++k) {
+            const double t = a[c][k];
+            a[c][k] = a[piv][k];
+            a[piv][k] = t;
+        }
+        const double d = a[c][c];
+        for (unsigned k = 0; k < 2u * p; ++k) {
+            a[c][k] /= d;
+        }
+        for (unsigned r = 0; r < p; ++r) {
+            if (r == c) {
+                continue;
+            }
+            const double m = a[r][c];
+            for (unsigned k = 0; k < 2u * p; ++k) {
+                a[r][k] -= m * a[c][k];
+            }
+        }
+    }
+    for (unsigned r = 0; r < p; ++r) {
+        coef[r] = 0.0;
+        for (unsigned c = 0; c < p; ++c) {
+            cov[r * p + c] = a[r][p + c];
+            coef[r] += a[r][p + c] * v[c];
+        }
+    }
+    return 0;
+}

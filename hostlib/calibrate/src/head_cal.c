@@ -10,8 +10,10 @@
 #include <stdlib.h>
 #include <string.h>
 
-enum { K_OFFSET, K_OFFSET_SD, K_GAIN, K_GAIN_SD, K_KNOWN };
-static const char *const known_keys[K_KNOWN] = {"offset_mm", "offset_sd_mm", "gain", "gain_sd"};
+enum { K_OFFSET, K_OFFSET_SD, K_GAIN, K_GAIN_SD, K_CAL_TEMP, K_COEFF, K_COEFF_SD, K_KNOWN };
+static const char *const known_keys[K_KNOWN] = {
+    "offset_mm",           "offset_sd_mm",          "gain", "gain_sd", "cal_temp_c",
+    "temp_coeff_mm_per_c", "temp_coeff_sd_mm_per_c"};
 
 __attribute__((format(printf, 4, 5))) static int fail(struct head_cal_reader *r, unsigned line,
                                                       unsigned col, const char *fmt, ...) {
@@ -73,10 +75,12 @@ static bool decimal_chars(const char *s, size_t len) {
     return digit;
 }
 
-/* The four values of known key k into out[]; col is the value's first column (0: unknown). */
+/* The four values of known key k into out[] (cal_temp_c: its one value into out[0]); col is
+ * the value's first column (0: unknown). */
 static int read_four(struct head_cal_reader *r, unsigned k, const char *value, unsigned line,
                      unsigned col, double out[HEAD_CAL_SENSORS]) {
     const char *key = known_keys[k];
+    const unsigned want = k == K_CAL_TEMP ? 1u : HEAD_CAL_SENSORS;
     unsigned n = 0;
     size_t at = 0;
     const size_t len = strlen(value);
@@ -94,8 +98,10 @@ static int read_four(struct head_cal_reader *r, unsigned k, const char *value, u
             --e;
         }
         const unsigned c = col == 0u ? 0u : col + (unsigned)s;
-        if (n == HEAD_CAL_SENSORS) {
-            return fail(r, line, c, "%s: more than 4 values (sensors A, B, C, D)", key);
+        if (n == want) {
+            return want == 1u
+                       ? fail(r, line, c, "%s: one value (the head's), not a list", key)
+                       : fail(r, line, c, "%s: more than 4 values (sensors A, B, C, D)", key);
         }
         char text[HEAD_CAL_VALUE_MAX];
         snprintf(text, sizeof text, "%.*s", (int)(e - s), value + s);
@@ -106,7 +112,7 @@ static int read_four(struct head_cal_reader *r, unsigned k, const char *value, u
             return fail(r, line, c, "%s: value %u (sensor %c): expected a decimal number, got '%s'",
                         key, n + 1u, (char)('A' + n), text);
         }
-        if ((k == K_OFFSET_SD || k == K_GAIN_SD) && v < 0.0) {
+        if ((k == K_OFFSET_SD || k == K_GAIN_SD || k == K_COEFF_SD) && v < 0.0) {
             return fail(r, line, c, "%s: sensor %c: an sd cannot be negative, got '%s'", key,
                         (char)('A' + n), text);
         }
@@ -114,13 +120,21 @@ static int read_four(struct head_cal_reader *r, unsigned k, const char *value, u
             return fail(r, line, c, "gain: sensor %c: must be positive, got '%s'", (char)('A' + n),
                         text);
         }
+        if (k == K_CAL_TEMP && !(v >= -100.0 && v <= 200.0)) {
+            return fail(r, line, c, "cal_temp_c: within -100..200 C, got '%s'", text);
+        }
+        if ((k == K_COEFF || k == K_COEFF_SD) && !(fabs(v) <= 1.0)) {
+            return fail(r, line, c,
+                        "%s: sensor %c: within -1..1 mm/C (no VL53 part's beyond), got '%s'", key,
+                        (char)('A' + n), text);
+        }
         out[n++] = v;
         if (end >= len) {
             break;
         }
         at = end + 1u;
     }
-    if (n != HEAD_CAL_SENSORS) {
+    if (n != want) {
         return fail(r, line, col == 0u ? 0u : col + (unsigned)len,
                     "%s: %u value%s, expected 4 (A, B, C, D)", key, n, n == 1u ? "" : "s");
     }
@@ -142,7 +156,10 @@ int head_cal_key(struct head_cal_reader *r, const char *key, const char *value, 
     if (cal->count >= HEAD_CAL_MAX_KEYS) {
         return fail(r, line, 0u, "more than %u keys", HEAD_CAL_MAX_KEYS);
     }
-    double *const dest[K_KNOWN] = {cal->offset_mm, cal->offset_sd_mm, cal->gain, cal->gain_sd};
+    double cal_temp[HEAD_CAL_SENSORS];
+    double *const dest[K_KNOWN] = {
+        cal->offset_mm,           cal->offset_sd_mm,          cal->gain, cal->gain_sd, cal_temp,
+        cal->temp_coeff_mm_per_c, cal->temp_coeff_sd_mm_per_c};
     for (unsigned k = 0; k < K_KNOWN; ++k) {
         if (strcmp(key, known_keys[k]) == 0) {
             if (read_four(r, k, value, line, col, dest[k]) != 0) {
@@ -150,6 +167,9 @@ int head_cal_key(struct head_cal_reader *r, const char *key, const char *value, 
             }
             r->seen[k] = true;
             r->seen_line[k] = line;
+            if (k == K_CAL_TEMP) {
+                cal->cal_temp_c = cal_temp[0];
+            }
         }
     }
     const unsigned i = cal->count++;
@@ -172,6 +192,19 @@ int head_cal_finish(struct head_cal_reader *r) {
         return fail(r, r->seen_line[has], 0u, "%s without %s (they come together or not at all)",
                     known_keys[has], known_keys[lacks]);
     }
+    const unsigned thermal =
+        (unsigned)r->seen[K_CAL_TEMP] + (unsigned)r->seen[K_COEFF] + (unsigned)r->seen[K_COEFF_SD];
+    if (thermal != 0u && thermal != 3u) {
+        unsigned has = K_CAL_TEMP;
+        while (!r->seen[has]) {
+            ++has;
+        }
+        return fail(r, r->seen_line[has], 0u,
+                    "%s without all of cal_temp_c, temp_coeff_mm_per_c, temp_coeff_sd_mm_per_c "
+                    "(they come together or not at all)",
+                    known_keys[has]);
+    }
+    r->cal.thermal = thermal == 3u;
     r->cal.has_gain = r->seen[K_GAIN];
     if (!r->cal.has_gain) {
         for (unsigned s = 0; s < HEAD_CAL_SENSORS; ++s) {
@@ -419,6 +452,13 @@ int head_cal_write(FILE *f, const struct head_cal *cal, const char *const *extra
     if (cal->has_gain) {
         write_four(&o, "gain", cal->gain);
         write_four(&o, "gain_sd", cal->gain_sd);
+    }
+    if (cal->thermal) {
+        const double *k = cal->temp_coeff_mm_per_c;
+        const double *sd = cal->temp_coeff_sd_mm_per_c;
+        put(&o, "# cal_temp_c=%.2f\n", cal->cal_temp_c);
+        put(&o, "# temp_coeff_mm_per_c=%.6f,%.6f,%.6f,%.6f\n", k[0], k[1], k[2], k[3]);
+        put(&o, "# temp_coeff_sd_mm_per_c=%.6f,%.6f,%.6f,%.6f\n", sd[0], sd[1], sd[2], sd[3]);
     }
     for (size_t i = 0; extra != NULL && extra[i] != NULL; ++i) {
         if (!extra_ok(extra[i])) {

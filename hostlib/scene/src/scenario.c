@@ -8,8 +8,8 @@
 #include "scene/geometry.h"
 
 const char *const scene_scenario_names[] = {
-    "table1",  "table2",  "hetero",    "crossaxis",      "outliers",
-    "flagged", "dropout", "realnoise", "realnoise-demo", NULL,
+    "table1",  "table2",    "hetero",         "crossaxis",     "outliers", "flagged",
+    "dropout", "realnoise", "realnoise-demo", "orbit-thermal", NULL,
 };
 
 /* The 11 nominal angles α_n of Table II of the first paper (Sec. V). */
@@ -88,7 +88,25 @@ int scene_config_named(const char *name, struct scene_config *cfg) {
         }
         return 0;
     }
+    if (strcmp(name, "orbit-thermal") == 0) {
+        /* A calibrated head in orbit (scene/thermal.h): the plate sweeps α over ±5° once over
+         * the run (0.0005° a 2 s window at 6 h, far within the unit's rate bound) at β = −2°,
+         * while the head's temperature cycles and the offsets follow it. */
+        scene_thermal_defaults(&cfg->thermal);
+        cfg->beta_deg = -2.0;
+        return scene_config_set_hours(cfg, SCENE_THERMAL_HOURS);
+    }
     return -1;
+}
+
+int scene_config_set_hours(struct scene_config *cfg, double hours) {
+    if (!(hours > 0.0 && hours <= 24.0) || cfg->schedule != SCENE_SCHEDULE_SWEEP ||
+        cfg->period_ms == 0u || cfg->samples_per_position == 0u) {
+        return -1;
+    }
+    const double window_ms = (double)cfg->period_ms * cfg->samples_per_position;
+    cfg->n_positions = (uint32_t)ceil(hours * 3600e3 / window_ms);
+    return 0;
 }
 
 uint64_t scene_config_rows(const struct scene_config *cfg) {
@@ -189,6 +207,12 @@ static int check_config(const struct scene_config *c, char *err, size_t errlen) 
             return bad(err, errlen, c->name, "Gaussian sigma must be positive");
         }
     }
+    if (c->thermal.on) {
+        const char *why = scene_thermal_check(&c->thermal);
+        if (why != NULL) {
+            return bad(err, errlen, c->name, why);
+        }
+    }
     return 0;
 }
 
@@ -205,6 +229,9 @@ static int start(struct scene_gen *gen, const struct scene_config *cfg, uint64_t
         scene_rng_seed(&gen->sensor_rng[k], seed, STREAM_SENSOR0 + k);
     }
     scene_rng_seed(&gen->dither_rng, seed, STREAM_DITHER);
+    if (cfg->thermal.on) {
+        scene_thermal_draw(&gen->thermal, &cfg->thermal, seed);
+    }
     if (!cfg->real_noise) {
         return 0;
     }
@@ -322,8 +349,21 @@ int scene_gen_next(struct scene_gen *gen, struct scene_row *row, struct scene_ro
         memset(info, 0, sizeof *info);
         info->position = pos;
     }
+    double thermal_offset[SCENE_SENSORS] = {0.0, 0.0, 0.0, 0.0};
+    if (c->thermal.on) {
+        const double t_s = (double)row->t_ms / 1000.0;
+        const double dt_s = i == 0u ? 0.0 : (double)c->period_ms / 1000.0;
+        double true_c = 0.0;
+        scene_thermal_row(&gen->thermal, &c->thermal, t_s, dt_s, thermal_offset, &row->temp_c,
+                          &true_c);
+        row->has_temp = true;
+        if (info != NULL) {
+            memcpy(info->thermal_offset_mm, thermal_offset, sizeof thermal_offset);
+            info->temp_true_c = true_c;
+        }
+    }
     for (unsigned k = 0; k < SCENE_SENSORS; ++k) {
-        double base = 0.0;
+        double base = thermal_offset[k];
         double sigma = scene_quantised_sigma(c->noise[k].sigma_mm);
         if (c->real_noise) {
             /* Real readings are already whole millimetres; re-rounding ideal +
@@ -332,8 +372,8 @@ int scene_gen_next(struct scene_gen *gen, struct scene_row *row, struct scene_ro
              * makes the result unbiased (E round(x + u) = x) at the cost of
              * p(1 − p) mm² of variance, p = frac(ideal − mean). */
             const double u = scene_rng_uniform(&gen->dither_rng) - 0.5;
-            base = scene_real_stretch_noise(&gen->stretch[k], (size_t)i) + u;
-            const double cfrac = ideal[k] - gen->stretch[k].mean_mm;
+            base += scene_real_stretch_noise(&gen->stretch[k], (size_t)i) + u;
+            const double cfrac = ideal[k] + thermal_offset[k] - gen->stretch[k].mean_mm;
             const double p = cfrac - floor(cfrac);
             sigma = sqrt(gen->stretch[k].sd_mm * gen->stretch[k].sd_mm +
                          c->noise[k].sigma_mm * c->noise[k].sigma_mm + p * (1.0 - p));

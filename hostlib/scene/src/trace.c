@@ -102,6 +102,8 @@ int trace_reader_next(struct trace_reader *r, struct scene_row *row) {
     row->has_alpha = v.has[TRACE_TRUTH_ALPHA];
     row->has_beta = v.has[TRACE_TRUTH_BETA];
     row->has_distance = v.has[TRACE_TRUTH_DISTANCE];
+    row->has_temp = v.temp_present;
+    row->temp_c = v.temp_present ? (double)v.temp_cdeg / 100.0 : 0.0;
     row->alpha_deg = 0.0;
     row->beta_deg = 0.0;
     row->distance_mm = 0.0;
@@ -225,6 +227,11 @@ static bool meta_entry_ok(const char *kv) {
 }
 
 int trace_write_header(FILE *f, double arm_mm, uint32_t period_ms, const char *const *extra_meta) {
+    return trace_write_header_temp(f, arm_mm, period_ms, extra_meta, false);
+}
+
+int trace_write_header_temp(FILE *f, double arm_mm, uint32_t period_ms,
+                            const char *const *extra_meta, bool temp_column) {
     if (!(arm_mm > 0.0) || !isfinite(arm_mm)) {
         return -1;
     }
@@ -241,13 +248,18 @@ int trace_write_header(FILE *f, double arm_mm, uint32_t period_ms, const char *c
             return -1;
         }
     }
-    if (fputs("t_ms,a_mm,b_mm,c_mm,d_mm,a_st,b_st,c_st,d_st,alpha_deg,beta_deg\n", f) < 0) {
+    if (fputs("t_ms,a_mm,b_mm,c_mm,d_mm,a_st,b_st,c_st,d_st,alpha_deg,beta_deg", f) < 0 ||
+        fputs(temp_column ? ",temp_c\n" : "\n", f) < 0) {
         return -1;
     }
     return 0;
 }
 
 int trace_write_row(FILE *f, const struct scene_row *row) {
+    return trace_write_row_temp(f, row, false);
+}
+
+int trace_write_row_temp(FILE *f, const struct scene_row *row, bool temp_column) {
     unsigned range[SCENE_SENSORS];
     unsigned status[SCENE_SENSORS];
     for (unsigned k = 0; k < SCENE_SENSORS; ++k) {
@@ -271,8 +283,17 @@ int trace_write_row(FILE *f, const struct scene_row *row) {
         }
         snprintf(beta, sizeof beta, "%.6f", row->beta_deg);
     }
-    const int n = fprintf(f, "%lu,%u,%u,%u,%u,%u,%u,%u,%u,%s,%s\n", (unsigned long)row->t_ms,
+    char temp[32] = "";
+    if (temp_column && row->has_temp) {
+        if (!(row->temp_c >= -100.0 && row->temp_c <= 200.0)) {
+            return -1; /* the reader's range (trace/trace_v1.h) */
+        }
+        snprintf(temp, sizeof temp, ",%.2f", row->temp_c);
+    } else if (temp_column) {
+        snprintf(temp, sizeof temp, ",");
+    }
+    const int n = fprintf(f, "%lu,%u,%u,%u,%u,%u,%u,%u,%u,%s,%s%s\n", (unsigned long)row->t_ms,
                           range[0], range[1], range[2], range[3], status[0], status[1], status[2],
-                          status[3], alpha, beta);
+                          status[3], alpha, beta, temp);
     return n < 0 ? -1 : 0;
 }

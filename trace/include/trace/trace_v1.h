@@ -87,17 +87,27 @@ struct trace_timing {
 
 /* Which calibration keys a trace (or a HEAD.cal) holds: bits of trace_v1_cal.keys. */
 enum trace_cal_key {
-    TRACE_CAL_KEY_OFFSET = 1u << 0,    /* offset_mm */
-    TRACE_CAL_KEY_OFFSET_SD = 1u << 1, /* offset_sd_mm */
-    TRACE_CAL_KEY_GAIN = 1u << 2,      /* gain */
-    TRACE_CAL_KEY_GAIN_SD = 1u << 3,   /* gain_sd */
-    TRACE_CAL_KEY_CORR = 1u << 4,      /* offset_gain_corr (the project's key) */
-    TRACE_CAL_KEY_FILE = 1u << 5,      /* calibration=FILE (the path is the key's value) */
-    TRACE_CAL_KEY_NONE = 1u << 6,      /* calibration=none */
+    TRACE_CAL_KEY_OFFSET = 1u << 0,        /* offset_mm */
+    TRACE_CAL_KEY_OFFSET_SD = 1u << 1,     /* offset_sd_mm */
+    TRACE_CAL_KEY_GAIN = 1u << 2,          /* gain */
+    TRACE_CAL_KEY_GAIN_SD = 1u << 3,       /* gain_sd */
+    TRACE_CAL_KEY_CORR = 1u << 4,          /* offset_gain_corr (the project's key) */
+    TRACE_CAL_KEY_FILE = 1u << 5,          /* calibration=FILE (the path is the key's value) */
+    TRACE_CAL_KEY_NONE = 1u << 6,          /* calibration=none */
+    TRACE_CAL_KEY_CAL_TEMP = 1u << 7,      /* cal_temp_c: where the offsets hold */
+    TRACE_CAL_KEY_TEMP_COEFF = 1u << 8,    /* temp_coeff_mm_per_c */
+    TRACE_CAL_KEY_TEMP_COEFF_SD = 1u << 9, /* temp_coeff_sd_mm_per_c */
 };
+#define TRACE_CAL_KEY_BITS 10u
+
+/* The offsets' temperature coefficients' bound (CALIBRATION_TEMP_COEFF_MAX_NM_PER_C) and the
+ * calibration temperature's (CALIBRATION_TEMP_MIN_CDEG..CALIBRATION_TEMP_MAX_CDEG). */
+#define TRACE_CAL_TEMP_COEFF_MAX_NM_PER_C 1000000
+#define TRACE_CAL_TEMP_MIN_CDEG           (-10000)
+#define TRACE_CAL_TEMP_MAX_CDEG           20000
 
 struct trace_v1_cal {
-    uint8_t keys;    /* enum trace_cal_key bits seen */
+    uint16_t keys;   /* enum trace_cal_key bits seen */
     bool calibrated; /* after the check: the inline keys give a calibration */
     bool has_gain;   /* gain and gain_sd given (else gain 1, sd TRACE_CAL_UNCAL_GAIN_SD_PPM) */
     int32_t offset_um[TRACE_CAL_SENSORS];
@@ -105,7 +115,13 @@ struct trace_v1_cal {
     uint32_t offset_sd_um[TRACE_CAL_SENSORS];
     uint32_t gain_sd_ppm[TRACE_CAL_SENSORS];
     int16_t corr_q15[TRACE_CAL_SENSORS];
-    uint32_t line[7]; /* line of each key (bit order above), 0 if absent */
+    /* cal_temp_c, temp_coeff_mm_per_c and temp_coeff_sd_mm_per_c, which come together:
+     * thermal true after the check (docs/reference/calibration-file.md, estimator/calibration.h) */
+    bool thermal;
+    int16_t cal_temp_cdeg;
+    int32_t temp_coeff_nm_per_c[TRACE_CAL_SENSORS];
+    uint32_t temp_coeff_sd_nm_per_c[TRACE_CAL_SENSORS];
+    uint32_t line[TRACE_CAL_KEY_BITS]; /* line of each key (bit order above), 0 if absent */
 };
 
 /*
@@ -114,15 +130,18 @@ struct trace_v1_cal {
  * to the unit, no floating point): 1 (not a calibration key: nothing done), 0 (read), or -1 with
  * *what and *col (0-based offset in value of what is wrong). Four comma-separated decimals each;
  * offsets within ±100 mm, gains within 0.9..1.1, sd >= 0 (offset sd <= 100 mm, gain sd <= 0.1), the
- * correlation within -1..1; `calibration` is `none` or a file name. A repeated key is the
- * caller's to refuse.
+ * correlation within -1..1, temperature coefficients and their sd within ±1 mm/°C (sd >= 0, read
+ * to 1 nm/°C); cal_temp_c one decimal within -100..200 °C (to 0.01 °C); `calibration` is `none`
+ * or a file name. A repeated key is the caller's to refuse.
  */
 int trace_v1_cal_value(struct trace_v1_cal *cal, const char *key, const char *value, uint32_t line,
                        uint32_t *col, const char **what);
 
 /* After the last key: the keys make a whole (offset_mm with offset_sd_mm, gain with gain_sd,
- * the correlation only with gains; inline keys, `calibration=FILE` and `calibration=none`
- * exclusive). Sets cal->calibrated and the absent gains. 0, or -1 with *what and *line. */
+ * the correlation only with gains, cal_temp_c, temp_coeff_mm_per_c and temp_coeff_sd_mm_per_c
+ * all three or none and only with offsets; inline keys, `calibration=FILE` and
+ * `calibration=none` exclusive). Sets cal->calibrated, cal->thermal and the absent gains. 0, or
+ * -1 with *what and *line. */
 int trace_v1_cal_check(struct trace_v1_cal *cal, const char **what, uint32_t *line);
 
 /* The metadata: every "# key=value" line before the header, arm_mm and period_ms read. */

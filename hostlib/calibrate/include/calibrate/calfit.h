@@ -16,6 +16,15 @@
  *    covariance (drift during the run, fixture errors, anything the noise does not explain).
  * With one fixture distance only the gain is not determined: the offsets are fitted with
  * gain 1 (p = 1) and no gain is stated.
+ *
+ * Temperature (docs/how-to/calibrate-a-head.md, "Temperature"): a station's temperature is the
+ * mean of its rows' measured temp_c. When every station has one (every row of it) and they
+ * span at least CALFIT_MIN_TEMP_SPAN_C, each sensor's offset temperature coefficient k is fitted
+ * jointly: mean = gain · x + offset + k · (T − cal_temp), cal_temp the stations' mean
+ * temperature (to 0.01 °C), so the offset holds there and its error is nearly independent of
+ * k's. Otherwise the coefficient is unknown (calfit_result.thermal_state says why) and nothing
+ * about it is stated; a coefficient fitted on a narrow span would be mostly noise and a wrong
+ * sign at worst, which the estimator's sd could not know.
  */
 #ifndef CALIBRATE_CALFIT_H
 #define CALIBRATE_CALFIT_H
@@ -32,6 +41,14 @@
 #define CALFIT_MIN_STATIONS_OFFSET 2u
 #define CALFIT_MAX_LAG             2000u /* autocorrelation lags examined at most (40 s at 20 ms) */
 #define CALFIT_VAR_FLOOR_MM2       1e-12 /* numerical floor of a station mean's variance */
+/* The stations' temperatures must span this for a coefficient. The fit's own sd falls as
+ * 1/span (fixture-thermal, 30 stations x 300 readings: 0.0052 mm/°C at 10.5 °C, 0.0019 at
+ * 30 °C), and the sd carries it; what the sd cannot carry is an error of the stations'
+ * temperatures themselves (the unit's sensor reads the board, the parts lag or lead it by a
+ * degree or two), whose share of the coefficient is that error over the span: 10-20 % at
+ * 10 °C, a third and more at a room's 6 °C. */
+#define CALFIT_MIN_TEMP_SPAN_C      10.0
+#define CALFIT_MIN_STATIONS_THERMAL 4u /* gain, offset, coefficient and one for the scatter */
 
 struct calfit_station {
     double alpha_deg, beta_deg, distance_mm; /* the truth */
@@ -47,7 +64,11 @@ struct calfit_station {
     double mean_mm[CALFIT_SENSORS];     /* mean reading */
     double sd_mm[CALFIT_SENSORS];       /* readings' sd about the mean */
     double mean_sd_mm[CALFIT_SENSORS];  /* sd of the mean: sd · sqrt(τ / n), floored */
-    double residual_mm[CALFIT_SENSORS]; /* mean − (gain · x + offset) */
+    double residual_mm[CALFIT_SENSORS]; /* mean − (gain · x + offset [+ k (T − cal_temp)]) */
+    uint32_t temp_rows;                 /* rows with a temperature */
+    double temp_sum_c;
+    bool has_temp; /* every row has one (filled by calfit_run) */
+    double temp_c; /* their mean (filled by calfit_run) */
 };
 
 struct calfit_data {
@@ -63,6 +84,7 @@ struct calfit_data {
     uint64_t invalid[CALFIT_SENSORS]; /* readings not valid (status != 0 or none) in stations */
     uint64_t rows_with_invalid;       /* rows of stations with any reading not valid */
     double distance_min_mm, distance_max_mm;
+    uint64_t rows_with_temp; /* station rows with a temperature */
 };
 
 struct calfit_sensor {
@@ -79,10 +101,35 @@ struct calfit_sensor {
     double inflation;       /* max(1, chi2_red): the covariance's factor */
     double residual_rms_mm; /* RMS of the station means' residuals */
     double excess_sd_mm;    /* sd between stations beyond the noise (0 if none) */
+    /* thermal: the coefficient, mm/°C, its sd (inflated as the others) and its error's
+     * correlation with the offset's and the gain's */
+    double temp_coeff_mm_per_c, temp_coeff_sd_mm_per_c, corr_offset_coeff, corr_gain_coeff;
+    /* Diagnostics for a scatter the model does not explain (all 0 when not computed):
+     * a coefficient fitted although the span is too narrow to state it (every station with a
+     * temperature, not thermal, span > 0): its t (k over its sd) and the scatter ratio with it */
+    bool temp_probe;
+    double temp_probe_mm_per_c, temp_probe_t, temp_probe_ratio;
+    /* each station's first and second half means compared with their sd (τ included): the
+     * mean of z² over the stations, about 1 when the readings hold still within a station */
+    double motion_ratio;
+};
+
+enum calfit_thermal_state {
+    CALFIT_THERMAL_FITTED,       /* coefficients fitted */
+    CALFIT_THERMAL_NO_TEMP,      /* no station row has a temperature (no temp_c column) */
+    CALFIT_THERMAL_SOME_MISSING, /* some stations lack one (rows without temp_c) */
+    CALFIT_THERMAL_NARROW,       /* the span is below CALFIT_MIN_TEMP_SPAN_C */
+    CALFIT_THERMAL_FEW_STATIONS, /* a sensor has fewer than CALFIT_MIN_STATIONS_THERMAL */
 };
 
 struct calfit_result {
     bool gains; /* false: one distance, offsets only (gain 1, no gain stated) */
+    bool thermal;
+    enum calfit_thermal_state thermal_state;
+    double cal_temp_c;             /* thermal: where the offsets hold (stations' mean, 0.01 °C) */
+    double temp_min_c, temp_max_c; /* the stations' temperatures (those that have one) */
+    size_t stations_no_temp;       /* stations with a row without temperature */
+    uint32_t no_temp_first_line, no_temp_last_line; /* the first such station's lines */
     struct calfit_sensor sensor[CALFIT_SENSORS];
 };
 
@@ -102,8 +149,14 @@ int calfit_add(struct calfit_data *d, bool has_truth, double alpha_deg, double b
                double distance_mm, const double raw[CALFIT_SENSORS],
                const bool valid[CALFIT_SENSORS], uint32_t t_ms, uint32_t line);
 
-/* calfit_add for a trace row: truth when alpha, beta and distance are all present (a row
- * with some but not all is counted in rows_partial_truth, not in rows_no_truth, and not
+/* calfit_add with the row's measured head temperature (has_temp false: none). */
+int calfit_add_temp(struct calfit_data *d, bool has_truth, double alpha_deg, double beta_deg,
+                    double distance_mm, const double raw[CALFIT_SENSORS],
+                    const bool valid[CALFIT_SENSORS], bool has_temp, double temp_c, uint32_t t_ms,
+                    uint32_t line);
+
+/* calfit_add for a trace row (its temp_c too): truth when alpha, beta and distance are all present
+ * (a row with some but not all is counted in rows_partial_truth, not in rows_no_truth, and not
  * used; it ends the open station as a row without truth does). */
 int calfit_add_row(struct calfit_data *d, const struct scene_row *row, uint32_t line);
 
@@ -124,5 +177,13 @@ double calfit_tau(const struct calfit_data *d, unsigned k, bool *settled);
  * Returns 0, or -1 when singular. */
 int calfit_wls(const double *x, const double *y, const double *w, size_t n, unsigned p,
                double coef[2], double cov[3]);
+
+#define CALFIT_WLS_MAX_P 4u
+
+/* Weighted least squares of y on p <= CALFIT_WLS_MAX_P features (f[i * p + j]: feature j of
+ * observation i): coef[p], cov[p * p] the unscaled covariance (the normal matrix's inverse).
+ * Returns 0, or -1 when singular. */
+int calfit_wls_general(const double *f, const double *y, const double *w, size_t n, unsigned p,
+                       double *coef, double *cov);
 
 #endif /* CALIBRATE_CALFIT_H */

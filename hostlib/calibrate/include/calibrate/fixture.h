@@ -3,7 +3,8 @@
  * own offsets and gains (raw = gain · x + offset + noise, docs/explanation/architecture.md) looks
  * at a flat plate that a fixture holds at known stations (α, β, x̄) and moves between them. Rows at
  * a station carry the truth; rows while moving carry none. What the head truly is stands in the
- * trace's keys (sim_offset_mm, sim_gain, sim_drift_mm), so a test can compare.
+ * trace's keys (sim_offset_mm, sim_gain, sim_drift_mm; with temperatures sim_temp_ref_c and
+ * sim_temp_coeff_mm_per_c, sim_offset_mm then holding at sim_temp_ref_c), so a test can compare.
  */
 #ifndef CALIBRATE_FIXTURE_H
 #define CALIBRATE_FIXTURE_H
@@ -17,6 +18,7 @@
 #include "scene/row.h"
 
 #define FIXTURE_MAX_STATIONS 64u
+#define FIXTURE_MAX_TEMPS    8u
 
 struct fixture_config {
     char name[32];
@@ -35,6 +37,16 @@ struct fixture_config {
     double offset_range_mm; /* offsets drawn uniform in ±this */
     double gain_range;      /* gains drawn uniform in 1 ± this */
     bool quantise;          /* whole millimetres, as the parts report (traces: always) */
+    /* Temperatures (fixture-thermal): the stations in n_temps blocks, block b at the chamber's
+     * temp_c[b] (the head's true temperature that plus a station's own N(0, temp_wander_c));
+     * each offset moves by its coefficient (uniform in ±coeff_range_mm_per_c, scene/thermal.h)
+     * times (T − temp_ref_c). temp_column: the rows carry the measured temperature (true plus
+     * N(0, temp_noise_c) rounded to temp_quantum_c), as the unit records it. */
+    unsigned n_temps; /* 0: one temperature, no thermal drift */
+    double temp_c[FIXTURE_MAX_TEMPS];
+    double temp_ref_c, temp_wander_c, coeff_range_mm_per_c;
+    bool temp_column;
+    double temp_noise_c, temp_quantum_c;
 };
 
 struct fixture_gen {
@@ -43,6 +55,9 @@ struct fixture_gen {
     double offset_mm[4]; /* the truth: the offset averaged over the run */
     double gain[4];
     double drift_total_mm[4]; /* offset at the end minus offset at the start */
+    double coeff_mm_per_c[4]; /* the offsets' temperature coefficients (0 without n_temps) */
+    double station_temp_c[FIXTURE_MAX_STATIONS]; /* each station's true head temperature */
+    struct scene_rng temp_rng;
     uint64_t total_rows, row;
     struct scene_rng noise_rng[4];
     struct scene_rng dither_rng;

@@ -8,8 +8,14 @@
  *   # gain=1.00410,0.99187,1.01202,0.99655
  *   # gain_sd=0.00019,0.00020,0.00019,0.00021
  *
- * Four values each, sensors A, B, C, D, in the sense raw = gain · true + offset.
- * offset_mm and offset_sd_mm are required; gain and gain_sd come together or not at all.
+ *   # cal_temp_c=24.87
+ *   # temp_coeff_mm_per_c=0.006702,0.025991,-0.013190,-0.008811
+ *   # temp_coeff_sd_mm_per_c=0.000412,0.000405,0.000411,0.000409
+ *
+ * Four values each, sensors A, B, C, D, in the sense raw = gain · true + offset; at
+ * temperature T the offset is offset + temp_coeff · (T − cal_temp_c).
+ * offset_mm and offset_sd_mm are required; gain and gain_sd come together or not at all; the
+ * three thermal keys (cal_temp_c one value, the head's) likewise.
  * Keys this reader does not know are kept (head_cal_extra) and otherwise ignored. The
  * same keys may stand inline in a trace's metadata: head_cal_key() takes them one by one
  * from any source, head_cal_finish() checks what must be there.
@@ -34,6 +40,10 @@ struct head_cal {
     bool has_gain;                         /* false: gain 1, its sd the parts' stated spread */
     double gain[HEAD_CAL_SENSORS];         /* 1 when !has_gain */
     double gain_sd[HEAD_CAL_SENSORS];      /* 0 when !has_gain */
+    bool thermal;                          /* the three thermal keys given */
+    double cal_temp_c;                     /* where offset_mm holds, °C */
+    double temp_coeff_mm_per_c[HEAD_CAL_SENSORS];    /* d offset / dT */
+    double temp_coeff_sd_mm_per_c[HEAD_CAL_SENSORS]; /* its 1 sd, >= 0 */
     /* every key=value read, in order (the four above included), for the project's keys */
     unsigned count;
     char key[HEAD_CAL_MAX_KEYS][HEAD_CAL_KEY_MAX];
@@ -46,8 +56,8 @@ struct head_cal {
 struct head_cal_reader {
     struct head_cal cal;
     char name[HEAD_CAL_NAME_MAX];
-    bool seen[4]; /* offset_mm, offset_sd_mm, gain, gain_sd */
-    unsigned seen_line[4];
+    bool seen[7]; /* offset_mm, offset_sd_mm, gain, gain_sd, and the three thermal keys */
+    unsigned seen_line[7];
     char err[HEAD_CAL_ERR_MAX];
 };
 
@@ -63,8 +73,9 @@ void head_cal_begin(struct head_cal_reader *r, const char *name);
 int head_cal_key(struct head_cal_reader *r, const char *key, const char *value, unsigned line,
                  unsigned col);
 
-/* After the last key: offset_mm and offset_sd_mm present, gain and gain_sd together.
- * Fills r->cal (gain 1, gain_sd 0 without gain keys). Returns 0, or -1 with r->err. */
+/* After the last key: offset_mm and offset_sd_mm present, gain and gain_sd together, the
+ * thermal keys all three or none. Fills r->cal (gain 1, gain_sd 0 without gain keys; thermal
+ * false without the thermal keys). Returns 0, or -1 with r->err. */
 int head_cal_finish(struct head_cal_reader *r);
 
 /*
@@ -90,10 +101,12 @@ int head_cal_load(const char *path, struct head_cal *cal, char *err, size_t errl
 const char *head_cal_extra(const struct head_cal *cal, const char *key);
 
 /*
- * Writes cal as a HEAD.cal: the version line, offset_mm, offset_sd_mm, and gain, gain_sd
- * when cal->has_gain, with enough digits to read back the same to 1e-9 relative; then
- * each "key=value" of extra (NULL-terminated, may be NULL). Returns 0, or -1 on a write
- * error or an extra entry that is not key=value within the sizes above.
+ * Writes cal as a HEAD.cal: the version line, offset_mm, offset_sd_mm, gain, gain_sd
+ * when cal->has_gain, cal_temp_c, temp_coeff_mm_per_c, temp_coeff_sd_mm_per_c when cal->thermal
+ * (the temperature to 0.01 °C, the coefficients to 1e-6 mm/°C, the keys' units), with enough digits
+ * to read back the same to 1e-9 relative; then each "key=value" of extra (NULL-terminated, may be
+ * NULL). Returns 0, or -1 on a write error or an extra entry that is not key=value within the sizes
+ * above.
  */
 int head_cal_write(FILE *f, const struct head_cal *cal, const char *const *extra);
 

@@ -29,6 +29,8 @@ struct scene_row {
     double alpha_deg, beta_deg;       /* ground truth (only meaningful if has_*) */
     bool has_distance;                /* truth x̄ (a trace's distance_mm column) */
     double distance_mm;
+    bool has_temp; /* the head's temperature as the unit measured it (a trace's temp_c) */
+    double temp_c; /* °C, to 0.01 °C (only meaningful if has_temp) */
 };
 
 /* True when sensor k of row is present with status 0 (a valid reading). */

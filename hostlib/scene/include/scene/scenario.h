@@ -15,6 +15,7 @@
 #include "scene/real_noise.h"
 #include "scene/rng.h"
 #include "scene/row.h"
+#include "scene/thermal.h"
 
 /* Defaults shared by every named scenario (docs/reference/trace-format.md explains the choice). */
 #define SCENE_DEFAULT_ARM_MM    30.0 /* a: fits paper Table I (see docs/reference/trace-format.md) */
@@ -45,6 +46,9 @@ struct scene_config {
     struct scene_sensor_noise noise[SCENE_SENSORS];
     double window_dropout_prob; /* P(one random sensor has no reading for a whole window) */
     bool real_noise;            /* noise from the shared recording instead of Gaussian */
+    /* thermal.on: each part's offset follows the head's temperature and walks (scene/thermal.h);
+     * the rows carry the measured temperature (temp_c) */
+    struct scene_thermal thermal;
 };
 
 /* Extra truth about a generated row, for benchmarks (not stored in traces). */
@@ -55,7 +59,9 @@ struct scene_row_info {
     /* std of the slow part of the noise, which acts as an offset constant over a
      * window (real noise only, else 0; see scene_crb_with_offset) */
     double offset_sd_mm[SCENE_SENSORS];
-    bool outlier[SCENE_SENSORS]; /* a gross outlier was added (status 0) */
+    bool outlier[SCENE_SENSORS];             /* a gross outlier was added (status 0) */
+    double thermal_offset_mm[SCENE_SENSORS]; /* thermal scenarios: each part's whole offset */
+    double temp_true_c;                      /* thermal scenarios: the head's true temperature */
 };
 
 struct scene_gen {
@@ -72,15 +78,23 @@ struct scene_gen {
     const struct scene_real_noise *real; /* recording in use (real_noise only) */
     struct scene_real_stretch stretch[SCENE_SENSORS];
     double offset_sd_mm[SCENE_SENSORS]; /* scene_real_stretch_offset_sd of each stretch */
+    struct scene_thermal_head thermal;  /* cfg.thermal.on: the drawn head and its walks */
     char err[256];                      /* last failure of scene_gen_next */
 };
 
 /* Names of the built-in scenarios, NULL-terminated: table1, table2, hetero,
- * crossaxis, outliers, flagged, dropout, realnoise, realnoise-demo. */
+ * crossaxis, outliers, flagged, dropout, realnoise, realnoise-demo, orbit-thermal. */
 extern const char *const scene_scenario_names[];
 
 /* Fills cfg with the named scenario's parameters. Returns 0, or -1 if unknown. */
 int scene_config_named(const char *name, struct scene_config *cfg);
+
+/* The orbit-thermal scenario's length by default: four orbits of 90 minutes. */
+#define SCENE_THERMAL_HOURS 6.0
+
+/* Sets a SWEEP or LIST configuration's length to `hours` (rounded up to whole windows):
+ * 0, or -1 when hours is not within (0, 24] or the schedule has no free length. */
+int scene_config_set_hours(struct scene_config *cfg, double hours);
 
 /* Rows a configuration produces. */
 uint64_t scene_config_rows(const struct scene_config *cfg);

@@ -13,7 +13,9 @@
 
 /*
  * Writes cfg generated with seed to f as a trace v1 (metadata: arm_mm,
- * period_ms, scenario, seed, mean_mm, window, noise; truth columns filled).
+ * period_ms, scenario, seed, mean_mm, window, noise; truth columns filled). A thermal
+ * configuration also writes the temp_c column and its calibration keys (cal_temp_c,
+ * temp_coeff_mm_per_c, temp_coeff_sd_mm_per_c) with the simulation's truth (sim_*).
  * Returns 0, or -1 with a message in err.
  */
 int scene_write_config(const struct scene_config *cfg, uint64_t seed, FILE *f, const char *path,
@@ -27,5 +29,12 @@ int scene_write_config(const struct scene_config *cfg, uint64_t seed, FILE *f, c
  */
 int scene_write_scenario(const char *name, uint64_t seed, const char *path, char *err,
                          size_t errlen);
+
+/* scene_write_scenario of a configuration (a named one with options changed). */
+int scene_write_scenario_config(const struct scene_config *cfg, uint64_t seed, const char *path,
+                                char *err, size_t errlen);
+
+/* scene_config_named, with "unknown scenario 'X' (known: ...)" in err when it fails. */
+int scene_config_named_listed(const char *name, struct scene_config *cfg, char *err, size_t errlen);
 
 #endif /* SCENE_SCENE_IO_H */

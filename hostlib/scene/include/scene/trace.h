@@ -101,8 +101,17 @@ int trace_load_file(const char *path, size_t max_rows, struct scene_row **rows, 
  */
 int trace_write_header(FILE *f, double arm_mm, uint32_t period_ms, const char *const *extra_meta);
 
+/* trace_write_header with, when temp_column, the optional column temp_c after beta_deg. */
+int trace_write_header_temp(FILE *f, double arm_mm, uint32_t period_ms,
+                            const char *const *extra_meta, bool temp_column);
+
 /* Writes one row: absent sensors as range 0, status 255; truth with 6
  * decimals, or empty fields if the row has none. Returns 0 or -1. */
 int trace_write_row(FILE *f, const struct scene_row *row);
+
+/* trace_write_row for a header written with temp_column: the row's temp_c with 2 decimals,
+ * or an empty field without one (has_temp false). -1 also for a temperature outside
+ * -100..200 °C (the reader's range), which is never clamped. */
+int trace_write_row_temp(FILE *f, const struct scene_row *row, bool temp_column);
 
 #endif /* SCENE_TRACE_H */

@@ -1,0 +1,68 @@
+# host_sim calibrate on a thermal fixture scenario end to end (cmake -P). Inputs: CMD, WORK,
+# SCENARIO, SEED, EXPECT:
+#   fitted   the three thermal keys written, each coefficient within 4 of its stated sd of the
+#            trace's sim_temp_coeff_mm_per_c, the report's thermal.fitted true
+#   unknown  stderr says the coefficients are unknown and why (STDERR regex), no thermal key,
+#            the report's thermal.fitted false
+#   refused  exit status 1, no file, stderr naming sensor and cause (STDERR regex); then with
+#            --accept-scatter written with its scatter_accepted key
+set(trace ${WORK}/${SCENARIO}-${SEED}.csv)
+set(cal ${WORK}/${SCENARIO}-${SEED}.cal)
+set(report ${WORK}/${SCENARIO}-${SEED}.cal.json)
+execute_process(COMMAND ${CMD} scenario ${SCENARIO} --seed ${SEED} --trace-out ${trace}
+                RESULT_VARIABLE rc ERROR_VARIABLE err)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "scenario ${SCENARIO}: exit status ${rc}: ${err}")
+endif()
+file(REMOVE ${cal} ${report})
+execute_process(COMMAND ${CMD} calibrate ${trace} --out ${cal} --report ${report}
+                RESULT_VARIABLE rc ERROR_VARIABLE err)
+message(STATUS "${err}")
+if(DEFINED STDERR AND NOT err MATCHES "${STDERR}")
+  message(FATAL_ERROR "stderr does not match '${STDERR}':\n${err}")
+endif()
+if(EXPECT STREQUAL "refused")
+  if(NOT rc EQUAL 1 OR EXISTS ${cal})
+    message(FATAL_ERROR "calibrate: exit status ${rc} (expected 1, nothing written)")
+  endif()
+  execute_process(COMMAND ${CMD} calibrate ${trace} --out ${cal} --accept-scatter
+                  RESULT_VARIABLE rc ERROR_VARIABLE err)
+  file(READ ${cal} text)
+  if(NOT rc EQUAL 0 OR NOT text MATCHES "\n# scatter_accepted=[A-D] [0-9.]+")
+    message(FATAL_ERROR "--accept-scatter: exit status ${rc}, file:\n${text}\n${err}")
+  endif()
+  return()
+endif()
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "calibrate: exit status ${rc}: ${err}")
+endif()
+file(READ ${cal} text)
+file(READ ${report} json)
+string(JSON fitted GET "${json}" thermal fitted)
+if(EXPECT STREQUAL "unknown")
+  if(text MATCHES "cal_temp_c|temp_coeff" OR fitted)
+    message(FATAL_ERROR "${cal}: a thermal key written (fitted ${fitted}):\n${text}")
+  endif()
+  return()
+endif()
+foreach(key cal_temp_c temp_coeff_mm_per_c temp_coeff_sd_mm_per_c)
+  if(NOT text MATCHES "\n# ${key}=")
+    message(FATAL_ERROR "${cal}: no ${key}:\n${text}")
+  endif()
+endforeach()
+if(NOT fitted)
+  message(FATAL_ERROR "${report}: thermal.fitted false")
+endif()
+file(STRINGS ${trace} truth REGEX "^# sim_temp_coeff_mm_per_c=")
+string(REGEX REPLACE "^# sim_temp_coeff_mm_per_c=" "" truth "${truth}")
+string(REPLACE "," ";" truth "${truth}")
+foreach(k RANGE 3)
+  list(GET truth ${k} want)
+  string(JSON got GET "${json}" sensors ${k} temp_coeff_mm_per_c)
+  string(JSON sd GET "${json}" sensors ${k} temp_coeff_sd_mm_per_c)
+  execute_process(COMMAND sh -c "echo 'd = ${got} - (${want}); if (d < 0) d = -d; d < 4 * ${sd}' | bc -l"
+                  OUTPUT_VARIABLE ok OUTPUT_STRIP_TRAILING_WHITESPACE)
+  if(NOT ok STREQUAL "1")
+    message(FATAL_ERROR "sensor ${k}: coefficient ${got} +- ${sd}, true ${want}: beyond 4 sd")
+  endif()
+endforeach()
