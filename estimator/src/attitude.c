@@ -35,8 +35,15 @@ static bool calibration_valid(const struct calibration_head *c) {
             c->gain_sd_ppm[k] > (uint32_t)CALIBRATION_GAIN_MAX_PPM) {
             return false;
         }
+        if (c->thermal &&
+            (c->temp_coeff_nm_per_c[k] < -CALIBRATION_TEMP_COEFF_MAX_NM_PER_C ||
+             c->temp_coeff_nm_per_c[k] > CALIBRATION_TEMP_COEFF_MAX_NM_PER_C ||
+             c->temp_coeff_sd_nm_per_c[k] > (uint32_t)CALIBRATION_TEMP_COEFF_MAX_NM_PER_C)) {
+            return false;
+        }
     }
-    return true;
+    return !c->thermal || (c->cal_temp_cdeg >= CALIBRATION_TEMP_MIN_CDEG &&
+                           c->cal_temp_cdeg <= CALIBRATION_TEMP_MAX_CDEG);
 }
 
 /* What the calibration gives the window (the correction) and the integrity (what it
@@ -219,6 +226,11 @@ FIX_NOINLINE void window_end(struct attitude_state *st, struct attitude_output *
     if (kalman_on && st->rows % cfg->window == 0u) {
         attitude_kalman_learn_noise(st);
     }
+}
+
+void attitude_set_temperature(struct attitude_state *st, bool known, int16_t temp_cdeg) {
+    st->temp_known = known;
+    st->temp_cdeg = known ? temp_cdeg : 0;
 }
 
 bool attitude_push_sample(struct attitude_state *st, const uint16_t range_mm[ATTITUDE_SENSORS],

@@ -78,6 +78,38 @@ static void expect_failure(const char *text, uint32_t line, uint32_t col, const 
     }
 }
 
+/* temp_c in 0.01 °C, rounded half away from zero; empty is no temperature; a value beyond
+ * −100..200 °C or not a number is an error at its line and column. A readings-only pass
+ * still reads it (the unit measures it with its readings). */
+static void test_temperature_column(void **state) {
+    (void)state;
+    assert_int_equal(open_text(HEAD "t_ms,a_mm,b_mm,c_mm,d_mm,temp_c\n"
+                                    "0,1,2,3,4,23.456\n"
+                                    "20,1,2,3,4,\n"
+                                    "40,1,2,3,4,-20.005\n"
+                                    "60,1,2,3,4,200\n"),
+                     0);
+    trace_v1_readings_only(&reader);
+    struct trace_v1_row row;
+    assert_int_equal(trace_v1_next(&reader, &row), 0);
+    assert_true(row.temp_present);
+    assert_int_equal(row.temp_cdeg, 2346);
+    assert_int_equal(trace_v1_next(&reader, &row), 0);
+    assert_false(row.temp_present);
+    assert_int_equal(trace_v1_next(&reader, &row), 0);
+    assert_true(row.temp_present);
+    assert_int_equal(row.temp_cdeg, -2001);
+    assert_int_equal(trace_v1_next(&reader, &row), 0);
+    assert_int_equal(row.temp_cdeg, 20000);
+    assert_int_equal(trace_v1_next(&reader, &row), 1);
+    expect_failure(HEAD "t_ms,a_mm,b_mm,c_mm,d_mm,temp_c\n0,1,2,3,4,200.01\n", 5, 11,
+                   "temp_c: '200.01' out of range -100..200 degrees C");
+    expect_failure(HEAD "t_ms,a_mm,b_mm,c_mm,d_mm,temp_c\n0,1,2,3,4,-100.5\n", 5, 11,
+                   "out of range -100..200");
+    expect_failure(HEAD "t_ms,a_mm,b_mm,c_mm,d_mm,temp_c\n0,1,2,3,4,warm\n", 5, 11,
+                   "temp_c: expected a number, got 'warm'");
+}
+
 /* A readings-only pass (host_sim's distance-mode evidence) skips the truth unread: the same
  * ranges, statuses and presence, no truth, and a truth value it skipped is no error there. */
 static void test_readings_only(void **state) {
@@ -157,6 +189,7 @@ int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_fixed_point_truth),
         cmocka_unit_test(test_readings_only),
+        cmocka_unit_test(test_temperature_column),
         cmocka_unit_test(test_errors_without_a_file_name),
         cmocka_unit_test(test_arm_finer_than_a_micrometre),
         cmocka_unit_test(test_distance_mode_policy),

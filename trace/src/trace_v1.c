@@ -380,7 +380,7 @@ int trace_v1_next(struct trace_v1_reader *r, struct trace_v1_row *row) {
 }
 
 void trace_v1_readings_only(struct trace_v1_reader *r) {
-    for (unsigned c = TRACE_COL_ALPHA; c < TRACE_COL_COUNT; ++c) {
+    for (unsigned c = TRACE_COL_ALPHA; c <= TRACE_COL_DISTANCE; ++c) {
         if (r->column_of[c] >= 0) {
             r->column_use[r->column_of[c]] = 0u; /* skipped like a column nobody knows */
         }

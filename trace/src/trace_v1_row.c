@@ -4,8 +4,8 @@
 #include "trace_v1_impl.h"
 
 const char *const trace_v1_column_names[TRACE_COL_COUNT] = {
-    "t_ms", "a_mm", "b_mm", "c_mm",      "d_mm",     "a_st",
-    "b_st", "c_st", "d_st", "alpha_deg", "beta_deg", "distance_mm",
+    "t_ms", "a_mm", "b_mm",      "c_mm",     "d_mm",        "a_st",   "b_st",
+    "c_st", "d_st", "alpha_deg", "beta_deg", "distance_mm", "temp_c",
 };
 
 enum parse_result { PARSE_OK, PARSE_EMPTY, PARSE_SYNTAX, PARSE_NEGATIVE, PARSE_RANGE };
@@ -299,6 +299,8 @@ static int field_error(struct trace_v1_reader *r, const struct trace_field *f, e
         trace_msg_quote(&m, f->s, f->len);
         if (c == TRACE_COL_ALPHA || c == TRACE_COL_BETA) {
             trace_msg_str(&m, "' out of range -90..90 degrees");
+        } else if (c == TRACE_COL_TEMP) {
+            trace_msg_str(&m, "' out of range -100..200 degrees C");
         } else {
             trace_msg_str(&m, "' out of range 0..");
             trace_msg_u64(&m, max);
@@ -398,6 +400,32 @@ scan_truth(const char **pp, unsigned t, size_t at, struct trace_v1_row *row) {
     return PARSE_OK;
 }
 
+/* temp_c: empty is allowed (no temperature for this row); a value beyond
+ * TRACE_TEMP_MIN_C..TRACE_TEMP_MAX_C is an error. */
+static enum parse_result scan_temp(const char **pp, struct trace_v1_row *row) {
+    int64_t cdeg = 0;
+    const char *p = skip_blanks(*pp);
+    if (at_field_end(p)) {
+        *pp = p;
+        return PARSE_OK;
+    }
+    struct decimal d;
+    const enum parse_result pr = scan_decimal(pp, 2u, &d);
+    if (pr != PARSE_OK) {
+        return pr;
+    }
+    const uint64_t v = d.units + (d.below && d.round_up ? 1u : 0u); /* half away from zero */
+    const uint64_t max =
+        d.negative ? (uint64_t)-TRACE_TEMP_MIN_C * 100u : (uint64_t)TRACE_TEMP_MAX_C * 100u;
+    if (d.over || v > max) {
+        return PARSE_RANGE;
+    }
+    cdeg = d.negative ? -(int64_t)v : (int64_t)v;
+    row->temp_present = true;
+    row->temp_cdeg = (int16_t)cdeg;
+    return PARSE_OK;
+}
+
 /* One field of the row as column use (its trace_column + 1, 0 unknown) says; *max is the
  * field's largest value, for its message. A switch, as the row parser's hot path. */
 static inline __attribute__((always_inline)) enum parse_result
@@ -430,6 +458,9 @@ scan_field(const char **pp, unsigned use, size_t at, struct trace_v1_row *row, u
         *max = UINT8_MAX;
         pr = scan_uint(pp, *max, &v);
         row->status[use - 1u - TRACE_COL_A_ST] = (uint8_t)v;
+        break;
+    case TRACE_COL_TEMP + 1u:
+        pr = scan_temp(pp, row);
         break;
     default: /* alpha_deg, beta_deg, distance_mm */
         *max = use == TRACE_COL_DISTANCE + 1u ? UINT16_MAX : 90u;

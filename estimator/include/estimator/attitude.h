@@ -196,7 +196,9 @@ struct attitude_state {
     struct integrity_state integrity; /* learnt drift */
     struct integrity_window iw;       /* scratch: the last window's integrity facts */
     int32_t extra_udeg[2];            /* ... what they add to α and β, as 1σ in µdeg */
-    bool cal_spread; /* the calibration leaves an sd (uncalibrated, or a stated sd) */
+    bool cal_spread;   /* the calibration leaves an sd (uncalibrated, or a stated sd) */
+    bool temp_known;   /* the rows being pushed have a measured temperature ... */
+    int16_t temp_cdeg; /* ... this one, 0.01 °C (attitude_set_temperature) */
 };
 
 /* Integrity defaults (sources in docs/explanation/estimators.md "Integrity"):
@@ -275,6 +277,12 @@ bool attitude_push_sample(struct attitude_state *st, const uint16_t range_mm[ATT
                           const bool present[ATTITUDE_SENSORS], struct attitude_output *out);
 
 /* "consensus", "consensus-paper", "kalman", "mean" (docs/reference/tools.md), or "unknown". */
+/* The head's temperature for the rows pushed after this call, until the next call: known
+ * false when the unit has none for them (no sensor, a failed read). A thermal calibration
+ * (calibration_head.thermal) corrects each part's offset to it; without a temperature the
+ * sd's drift prior falls back to time alone. attitude_init starts with none. */
+void attitude_set_temperature(struct attitude_state *st, bool known, int16_t temp_cdeg);
+
 const char *attitude_estimator_name(enum attitude_estimator e);
 /* "ok", "degraded", "invalid", or "unknown". */
 const char *attitude_status_name(enum attitude_status s);

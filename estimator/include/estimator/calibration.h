@@ -24,6 +24,13 @@
 #define CALIBRATION_OFFSET_MAX_UM 100000
 #define CALIBRATION_GAIN_MAX_PPM  100000
 
+/* A coefficient beyond 1 mm/°C would move an offset by 40 mm over an orbit's cycle: no
+ * VL53 part's (ST publishes no figure, DS12385 §3.2.1 names "a temperature drift" only), a
+ * configuration error. The calibration temperature within −100..200 °C, as a trace's temp_c. */
+#define CALIBRATION_TEMP_COEFF_MAX_NM_PER_C 1000000
+#define CALIBRATION_TEMP_MIN_CDEG           (-10000)
+#define CALIBRATION_TEMP_MAX_CDEG           20000
+
 /* The parts' spread an uncalibrated head's sd carries, as 1σ of a uniform spread over the
  * stated bound (bound / √3): offsets ±20 mm (DS12385, "ranging error" before offset
  * calibration; ../shared/calibration-notes.md item 3) → 11.547 mm; gains ±3 % (the calibration's
@@ -39,6 +46,14 @@ struct calibration_head {
     uint32_t offset_sd_um[CALIBRATION_SENSORS]; /* 1σ of the calibration's offset error */
     uint32_t gain_sd_ppm[CALIBRATION_SENSORS];  /* 1σ of its gain error */
     int16_t offset_gain_corr_q15[CALIBRATION_SENSORS]; /* their correlation, Q15 */
+    /* Offsets against temperature: at temperature T a part's offset is
+     * offset_um + temp_coeff · (T − cal_temp) (docs/how-to/calibrate-a-head.md, "Temperature").
+     * Only when thermal is true; otherwise the offsets hold at whatever temperature the head
+     * is, and the sd's drift prior covers the change with time alone. */
+    bool thermal;                                         /* the coefficients below were measured */
+    int16_t cal_temp_cdeg;                                /* where offset_um holds, 0.01 °C */
+    int32_t temp_coeff_nm_per_c[CALIBRATION_SENSORS];     /* d offset / dT, nm per °C */
+    uint32_t temp_coeff_sd_nm_per_c[CALIBRATION_SENSORS]; /* its 1σ */
 };
 
 #endif /* ESTIMATOR_CALIBRATION_H */

@@ -37,6 +37,8 @@ enum tof_event_kind {
 struct tof_estimate_record {
     uint64_t t_us;                 /* firmware time of the window's last slot end */
     struct attitude_output output; /* output.last_row is the sample (slot) index */
+    bool temp_known;               /* the unit measured a temperature for the window's last row */
+    int16_t temp_cdeg;             /* ... that temperature, 0.01 °C */
 };
 
 /* Slots of errors_by_code: slot -err for each hal code -1..HAL_ERR_LAST, slot 0

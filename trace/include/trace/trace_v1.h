@@ -51,6 +51,7 @@ enum trace_column {
     TRACE_COL_ALPHA,
     TRACE_COL_BETA,
     TRACE_COL_DISTANCE,
+    TRACE_COL_TEMP, /* temp_c: optional, the head's temperature as the unit measured it */
     TRACE_COL_COUNT
 };
 
@@ -152,7 +153,16 @@ struct trace_v1_row {
      * nearest unit (half away from zero) when not exact */
     int32_t truth[TRACE_TRUTHS];
     uint16_t truth_at[TRACE_TRUTHS]; /* offset of the value's text in the reader's line */
+    bool temp_present;               /* the temp_c column is there and not empty */
+    int16_t temp_cdeg; /* the head's temperature, 0.01 °C (TRACE_TEMP_MIN_C..TRACE_TEMP_MAX_C),
+                          rounded half away from zero */
 };
+
+/* temp_c beyond these is no measured temperature of a head in service (the VL53L1X operates
+ * from −20 to 85 °C, DS12385 §1; the STM32L4's sensor is calibrated to 110 °C, RM0351): an
+ * error naming its line and column, never clamped. */
+#define TRACE_TEMP_MIN_C (-100)
+#define TRACE_TEMP_MAX_C 200
 
 /* Where the bytes come from: up to len bytes into buf; returns the count, 0 at the end,
  * or a negative number on a read error. */
