@@ -88,3 +88,13 @@ struct hal_records stm32_board_records(struct hal_time time) {
     const struct hal_records none = {.ops = NULL, .ctx = NULL, .geometry = {0}};
     return none;
 }
+
+/* No temperature sensor on this board: the G071's ADC (RM0444 §15) has its own register layout
+ * (CHSELR, one SMPR, no deep power-down) and no driver for it fits the M0+ image's flash
+ * budget today. The estimator falls back to its time-based drift prior and says so
+ * (docs/explanation/boards.md "Temperature"). */
+struct hal_temp stm32_board_temp(struct hal_time time) {
+    (void)time;
+    const struct hal_temp none = {.ops = NULL, .ctx = NULL};
+    return none;
+}
