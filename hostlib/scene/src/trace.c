@@ -98,6 +98,8 @@ int trace_reader_next(struct trace_reader *r, struct scene_row *row) {
     memcpy(row->range_mm, v.range_mm, sizeof row->range_mm);
     memcpy(row->status, v.status, sizeof row->status);
     memcpy(row->present, v.present, sizeof row->present);
+    row->temp_present = v.temp_present;
+    row->temp_cdeg = v.temp_cdeg;
     const char *line = r->core.line;
     row->has_alpha = v.has[TRACE_TRUTH_ALPHA];
     row->has_beta = v.has[TRACE_TRUTH_BETA];

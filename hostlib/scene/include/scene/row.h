@@ -29,6 +29,8 @@ struct scene_row {
     double alpha_deg, beta_deg;       /* ground truth (only meaningful if has_*) */
     bool has_distance;                /* truth x̄ (a trace's distance_mm column) */
     double distance_mm;
+    bool temp_present; /* the head's temperature (a trace's temp_c column, not empty) */
+    int16_t temp_cdeg; /* ... 0.01 °C */
 };
 
 /* True when sensor k of row is present with status 0 (a valid reading). */
