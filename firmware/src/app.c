@@ -55,9 +55,12 @@ static void process_sample(struct tof_app *app, const struct tof_sample *sample)
         present[i] = (sample->present_mask & (1u << i)) != 0u;
     }
     struct tof_estimate_record record;
+    attitude_set_temperature(&app->estimator, sample->temp_known, sample->temp_cdeg);
     if (attitude_push_sample(&app->estimator, sample->range_mm, sample->status, present,
                              &record.output)) {
         record.t_us = sample->t_us;
+        record.temp_known = sample->temp_known; /* the window's last row's */
+        record.temp_cdeg = sample->temp_cdeg;
         ++app->counters.estimates;
         if (out->ops != NULL && out->ops->estimate != NULL) {
             out->ops->estimate(out->ctx, &record);
@@ -65,10 +68,34 @@ static void process_sample(struct tof_app *app, const struct tof_sample *sample)
     }
 }
 
-/* Assembled samples flow here, during the sensor reads: held for the next iteration (see
- * struct tof_app, deferred), or processed at once when the ring is full (none is lost). */
-static void on_sample(void *ctx, const struct tof_sample *sample) {
+/* The head's temperature now, for the sample being assembled. A failed read is counted and
+ * that sample has no temperature: the last good value is never reused as this one's. */
+static void read_temperature(struct tof_app *app, struct tof_sample *sample) {
+    sample->temp_known = false;
+    sample->temp_cdeg = 0;
+    const struct hal_temp *temp = &app->platform->temp;
+    if (temp->ops == NULL || temp->ops->read_cdeg == NULL) {
+        return; /* no sensor on this board */
+    }
+    int16_t cdeg = 0;
+    const int err = temp->ops->read_cdeg(temp->ctx, &cdeg);
+    if (err != HAL_OK) {
+        ++app->counters.temp_errors;
+        app->counters.temp_last_error = err;
+        return;
+    }
+    sample->temp_known = true;
+    sample->temp_cdeg = cdeg;
+}
+
+/* Assembled samples flow here, during the sensor reads: the temperature read with them, then
+ * held for the next iteration (see struct tof_app, deferred), or processed at once when the
+ * ring is full (none is lost). */
+static void on_sample(void *ctx, const struct tof_sample *assembled) {
     struct tof_app *app = ctx;
+    struct tof_sample with_temp = *assembled;
+    const struct tof_sample *sample = &with_temp;
+    read_temperature(app, &with_temp);
     ++app->counters.samples;
     if (app->slot_first_us < app->assembler_cfg.period_us) {
         app->phase_us = app->slot_first_us; /* when the sensors report within a slot */

@@ -69,6 +69,10 @@ struct tof_app_counters {
     uint32_t bus_recoveries;
     uint32_t samples;   /* samples assembled */
     uint32_t estimates; /* estimate records emitted */
+    /* Temperature reads that failed (each such sample has no temperature) and the last
+     * failure's hal code (0: none yet); a board without a sensor reads nothing. */
+    uint32_t temp_errors;
+    int temp_last_error;
 };
 
 /* Assembled samples one iteration can hold back for the next (struct tof_app, deferred). */
