@@ -79,6 +79,8 @@ static void read_temperature(struct tof_app *app, struct tof_sample *sample) {
     }
     int16_t cdeg = 0;
     const int err = temp->ops->read_cdeg(temp->ctx, &cdeg);
+    app->temp_known = err == HAL_OK;
+    app->temp_cdeg = cdeg;
     if (err != HAL_OK) {
         ++app->counters.temp_errors;
         app->counters.temp_last_error = err;
@@ -171,7 +173,8 @@ static void note_good(struct tof_app *app, unsigned sensor) {
 }
 
 static void poll_sensor(struct tof_app *app, unsigned sensor) {
-    if (!tof_health_usable(&app->health[sensor]) || app->start_pending[sensor]) {
+    if (!tof_health_usable(&app->health[sensor]) || app->start_pending[sensor] ||
+        sensor == app->vhv.active) {
         return;
     }
     struct vl53_result result;
@@ -207,6 +210,7 @@ static void reinit_done(struct tof_app *app, unsigned sensor, int rc) {
     if (rc == HAL_OK) {
         ++app->counters.reinits_ok;
         park_until_boundary(app, sensor);
+        tof_vhv_calibrated(&app->vhv, sensor, app->temp_known, app->temp_cdeg); /* its VHV ran */
     } else {
         ++app->counters.reinits_failed;
         ++app->counters.errors_by_code[tof_app_error_slot(rc)];
@@ -363,6 +367,7 @@ int tof_app_init(struct tof_app *app, const struct tof_platform *platform,
     app->last_raw_us = platform->time.ops->now_us(platform->time.ctx);
     app->uptime_us = app->last_raw_us; /* the timeline starts at the platform clock's value */
     app->raw_output = cfg->raw_output;
+    tof_vhv_schedule_init(&app->vhv); /* the bring-up's VHV: at the first temperature read */
     for (unsigned i = 0; i < TOF_SENSORS; ++i) {
         app->sensor_cfg[i] = (struct vl53_config){
             .i2c = platform->i2c,
@@ -432,6 +437,64 @@ int tof_app_init(struct tof_app *app, const struct tof_platform *platform,
     return HAL_OK;
 }
 
+/* ST's temperature update, one part at a time: started on a ranging part whose temperature
+ * moved 8 °C since its last VHV calibration (vhv_schedule.h), then one look an iteration until
+ * its range is done, finished, and the part started again at the next slot. Its readings are
+ * missing meanwhile (the windows say so); the events say why. Returns true if it did bus work
+ * beyond one look. */
+static bool manage_temperature_update(struct tof_app *app) {
+    unsigned s = app->vhv.active;
+    if (s != TOF_VHV_NONE) {
+        struct vl53_dev *dev = vl53_array_sensor(&app->array, s);
+        int rc = vl53_temperature_update_pending(dev);
+        if (rc == HAL_ERR_NOT_READY) {
+            return false;
+        }
+        if (rc == HAL_OK) {
+            rc = vl53_temperature_update_finish(dev);
+        }
+        (void)tof_app_now_us(app);
+        park_until_boundary(app, s);
+        if (rc == HAL_OK) {
+            ++app->counters.temp_updates;
+            tof_vhv_calibrated(&app->vhv, s, app->temp_known, app->temp_cdeg);
+        } else {
+            /* The reference stays: retried once the part is healthy again, unless its
+             * re-initialisation (which runs the VHV step) comes first. */
+            app->vhv.active = TOF_VHV_NONE;
+            ++app->counters.temp_updates_failed;
+            note_error(app, s, rc);
+        }
+        emit_event(app, TOF_EVENT_TEMP_UPDATE_DONE, s, app->health[s].state, app->health[s].state,
+                   rc);
+        return true;
+    }
+    uint8_t ranging = 0u;
+    for (unsigned i = 0; i < TOF_SENSORS; ++i) {
+        const bool can_stop = app->health[i].state == TOF_HEALTH_HEALTHY &&
+                              !app->start_pending[i] &&
+                              vl53_is_ranging(vl53_array_sensor(&app->array, i));
+        ranging = (uint8_t)(ranging | (can_stop ? 1u << i : 0u));
+    }
+    s = tof_vhv_due(&app->vhv, ranging, app->temp_known, app->temp_cdeg);
+    if (s == TOF_VHV_NONE) {
+        return false;
+    }
+    struct vl53_dev *dev = vl53_array_sensor(&app->array, s);
+    int rc = vl53_stop_ranging(dev);
+    if (rc == HAL_OK) {
+        rc = vl53_temperature_update_begin(dev);
+    }
+    emit_event(app, TOF_EVENT_TEMP_UPDATE, s, app->health[s].state, app->health[s].state, rc);
+    if (rc != HAL_OK) {
+        app->vhv.active = TOF_VHV_NONE; /* not run: the reference stays, as above */
+        ++app->counters.temp_updates_failed;
+        park_until_boundary(app, s);
+        note_error(app, s, rc);
+    }
+    return true;
+}
+
 /* An iteration's bus work: sensor starts and reads, the fault manager, the assembler. */
 static void acquire(struct tof_app *app) {
     start_pending_sensors(app);
@@ -439,11 +502,14 @@ static void acquire(struct tof_app *app) {
         poll_sensor(app, i);
         (void)tof_app_now_us(app);
     }
-    /* At most one re-initialisation per iteration keeps the iteration bounded. */
-    for (unsigned i = 0; i < TOF_SENSORS; ++i) {
-        if (manage_sensor(app, i)) {
-            break;
-        }
+    /* At most one re-initialisation or temperature update step per iteration keeps the
+     * iteration bounded. */
+    bool busy = false;
+    for (unsigned i = 0; i < TOF_SENSORS && !busy; ++i) {
+        busy = i != app->vhv.active && manage_sensor(app, i);
+    }
+    if (!busy) {
+        (void)manage_temperature_update(app);
     }
     const struct tof_sample_sink sink = {.emit = on_sample, .ctx = app};
     tof_assembler_poll(&app->assembler, &app->assembler_cfg, tof_app_now_us(app), &sink);
@@ -498,6 +564,14 @@ int tof_app_set_period(struct tof_app *app, uint32_t period_ms) {
         return rc;
     }
     app->cfg = next;
+    if (app->vhv.active != TOF_VHV_NONE) {
+        /* A temperature update's range runs at the old timing: ended first (bounded). */
+        const unsigned s = app->vhv.active;
+        if (vl53_temperature_update_finish(vl53_array_sensor(&app->array, s)) == HAL_OK) {
+            tof_vhv_calibrated(&app->vhv, s, app->temp_known, app->temp_cdeg);
+        }
+        app->vhv.active = TOF_VHV_NONE;
+    }
     for (unsigned i = 0; i < TOF_SENSORS; ++i) {
         app->sensor_cfg[i].timing = next.timing;
         struct vl53_dev *dev = vl53_array_sensor(&app->array, i);

@@ -93,6 +93,12 @@ static void on_event(void *ctx, const struct tof_event *ev) {
     case TOF_EVENT_BUS_RECOVERY:
         ++r->bus_recovery_events;
         break;
+    case TOF_EVENT_TEMP_UPDATE:
+        ++r->temp_update_events;
+        break;
+    case TOF_EVENT_TEMP_UPDATE_DONE:
+        r->temp_update_failures += ev->err != HAL_OK ? 1u : 0u;
+        break;
     case TOF_EVENT_OVERRUN:
     default:
         ++r->overrun_events;

@@ -3,10 +3,14 @@
 firmware's hal_temp read into EST.csv: each row's temp_c is the trace's temperature of the
 window's last row; a row whose temp_c is empty reads as a failed read and the estimate has no
 temperature (never the previous row's); a trace without the column gives an empty temp_c.
+On a 20 -> 40 °C ramp ST's temperature update reruns on each part at every 8 °C, one part
+at a time: the parts' readings are missing only in the windows of the crossings, and the
+windows say which.
 
 usage: check_temperature.py HOST_SIM DEMO_TRACE WORK_DIR
 """
 import csv
+import json
 import os
 import subprocess
 import sys
@@ -36,8 +40,26 @@ with open(trace, "w", encoding="utf-8") as f:
     f.write("\n".join(ramp) + "\n")
 
 
-def replay(path, out):
-    res = subprocess.run([host_sim, "replay", path, "--out", out, "--quiet"],
+def write_trace(name, temp_of_row):
+    out, k, header_done = [], 0, False
+    for line in lines:
+        if line.startswith("#"):
+            out.append(line)
+            continue
+        if not header_done:
+            out.append(line + ",temp_c")
+            header_done = True
+            continue
+        out.append(line + "," + temp_of_row(k))
+        k += 1
+    path = os.path.join(work, name)
+    with open(path, "w", encoding="utf-8") as f:
+        f.write("\n".join(out) + "\n")
+    return path
+
+
+def replay(path, out, *extra):
+    res = subprocess.run([host_sim, "replay", path, "--out", out, "--quiet", *extra],
                          capture_output=True, text=True, timeout=600)
     if res.returncode != 0:
         sys.exit("host_sim replay %s failed (%d): %s" % (path, res.returncode, res.stderr))
@@ -63,6 +85,36 @@ if not any(r["temp_c"].startswith("-") for r in rows):
 plain = replay(demo, os.path.join(work, "temperature_none.est.csv"))
 if any(r["temp_c"] != "" for r in plain):
     failures.append("a trace without temp_c gave a temperature")
+
+# The VHV reruns: 20 -> 40 °C over the 5000 rows crosses 28 °C at row 2000, 36 °C at row 4000.
+ramp20 = write_trace("temperature_vhv.csv", lambda k: "%.2f" % (20.0 + 0.004 * k))
+report_path = os.path.join(work, "temperature_vhv.json")
+vhv_rows = replay(ramp20, os.path.join(work, "temperature_vhv.est.csv"), "--report", report_path)
+with open(report_path, encoding="utf-8") as f:
+    report = json.load(f)
+temp = report["temperature"]
+if temp["part_updates"] != [2, 2, 2, 2] or temp["updates"] != 8 or temp["updates_failed"] != 0:
+    failures.append("temperature updates %s, expected two on each part, none failed" % temp)
+if temp["read_errors"] != 0:
+    failures.append("%d temperature reads failed on a trace with every temp_c" % temp["read_errors"])
+incomplete = report["firmware"]["incomplete_samples"]
+if not 1 <= incomplete <= 16:
+    failures.append("%d samples with a reading missing for 8 updates (1..16 expected)" % incomplete)
+missing_windows = set()
+for k, row in enumerate(vhv_rows):
+    parts = [w.split(":")[1] for w in row["why"].split("+") if w.startswith("missing:")]
+    if parts:
+        missing_windows.add(k)
+        crossing = any(k * 100 - 100 <= r <= k * 100 + 199 for r in (2000, 4000))
+        if not crossing:
+            failures.append("window %d (t_ms %s) has missing readings away from a crossing"
+                            % (k, row["t_ms"]))
+named = {w.split(":")[1] for row in vhv_rows for w in row["why"].split("+")
+         if w.startswith("missing:")}
+if named != {"A", "B", "C", "D"}:
+    failures.append("the windows name missing parts %s, expected A..D" % sorted(named))
+print("VHV reruns: %s; %d samples with a reading missing, in windows %s"
+      % (temp["part_updates"], incomplete, sorted(missing_windows)))
 
 if failures:
     sys.exit("\n".join(failures))

@@ -19,6 +19,7 @@
 #include "firmware/config.h"
 #include "firmware/health.h"
 #include "firmware/platform.h"
+#include "firmware/vhv_schedule.h"
 #include "hal/hal_err.h"
 #include "vl53_array/vl53_array.h"
 
@@ -31,6 +32,10 @@ enum tof_event_kind {
     TOF_EVENT_REINIT = 1,       /* a sensor was re-initialised (err says how it went) */
     TOF_EVENT_BUS_RECOVERY = 2, /* the bus was recovered (err says how it went) */
     TOF_EVENT_OVERRUN = 3,      /* a main-loop iteration exceeded its budget */
+    /* ST's temperature update (VHV) began on `sensor`: the temperature moved 8 °C since its
+     * last VHV calibration; its readings are missing until TOF_EVENT_TEMP_UPDATE_DONE. */
+    TOF_EVENT_TEMP_UPDATE = 4,
+    TOF_EVENT_TEMP_UPDATE_DONE = 5, /* ... ended (err says how); the sensor restarts */
 };
 
 /* One window's estimates, all estimators side by side (docs/reference/tools.md). */
@@ -73,6 +78,8 @@ struct tof_app_counters {
      * failure's hal code (0: none yet); a board without a sensor reads nothing. */
     uint32_t temp_errors;
     int temp_last_error;
+    uint32_t temp_updates;        /* ST's temperature updates completed */
+    uint32_t temp_updates_failed; /* ... that ended in an error (counted as the part's error) */
 };
 
 /* Assembled samples one iteration can hold back for the next (struct tof_app, deferred). */
@@ -104,6 +111,11 @@ struct tof_app {
     struct tof_sample deferred[TOF_APP_DEFERRED];
     uint8_t deferred_head, deferred_count;
     int estimator_error; /* attitude_error of the estimator's last refusal at init, or 0 */
+    /* The last temperature read (with the last sample) and the parts' VHV calibrations
+     * against it: which part reruns ST's temperature update (vhv_schedule.h). */
+    bool temp_known;
+    int16_t temp_cdeg;
+    struct tof_vhv_schedule vhv;
     struct tof_app_counters counters;
 };
 
