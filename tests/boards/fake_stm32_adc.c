@@ -102,7 +102,7 @@ static void write_cr(uint32_t value) {
         *cr &= ~STM32_ADC_CR_DEEPPWD;
     }
     if ((value & STM32_ADC_CR_ADVREGEN) != 0u && (before & STM32_ADC_CR_ADVREGEN) == 0u) {
-        if ((*cr & STM32_ADC_CR_DEEPPWD) != 0u || (value & STM32_ADC_CR_DEEPPWD) != 0u) {
+        if ((before & STM32_ADC_CR_DEEPPWD) != 0u || (value & STM32_ADC_CR_DEEPPWD) != 0u) {
             violation("ADVREGEN in deep power-down");
         } else {
             *cr |= STM32_ADC_CR_ADVREGEN;

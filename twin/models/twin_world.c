@@ -35,6 +35,19 @@ static int row_next(void *ctx, unsigned sensor, uint32_t sample_index, struct si
 
 static const struct sim_range_source_ops row_ops = {.next = row_next};
 
+bool twin_world_temp_at_us(const struct twin_world *w, uint64_t t_us, int16_t *cdeg) {
+    const int64_t row = twin_world_row_at_us(w, t_us);
+    if (row < 0 || w->row_count == 0u || ((uint64_t)row >= w->row_count && !w->loop)) {
+        return false;
+    }
+    const struct scene_row *r = &w->rows[(uint64_t)row % w->row_count];
+    if (!r->temp_present) {
+        return false;
+    }
+    *cdeg = r->temp_cdeg;
+    return true;
+}
+
 void twin_world_init(struct twin_world *w, const struct scene_row *rows, size_t count,
                      uint32_t period_us, const struct sim_fault_config *faults) {
     FILE *log = w->i2c_log;
