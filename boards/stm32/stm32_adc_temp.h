@@ -2,7 +2,8 @@
  * hal_temp on the STM32L4's internal temperature sensor: ADC1 converts the sensor (channel
  * 17) and the internal reference VREFINT (channel 0), and the factory calibration words in
  * system memory turn the two into a temperature (RM0351 §18.4.32 "Temperature sensor",
- * §18.4.33 "Monitoring the internal voltage reference"). The sensor is the MCU's die:
+ * §18.4.33 "Monitoring the internal voltage reference"); and the same on the STM32G0
+ * (sensor on channel 12, VREFINT on 13: RM0444 §15). The sensor is the MCU's die:
  * docs/explanation/boards.md "Temperature" says what that costs against a sensor on the head.
  */
 #ifndef BOARDS_STM32_ADC_TEMP_H
@@ -68,5 +69,16 @@ int stm32_adc_temp_convert(const struct stm32_adc_temp_cal *cal, uint16_t ts_dat
                            uint16_t vrefint_data, int16_t *cdeg);
 
 extern const struct hal_temp_ops stm32_adc_temp_ops;
+
+/*
+ * The same on the STM32G0's ADC (stm32_adc_g0_temp.c; RM0444 §15, another register layout:
+ * stm32_adc_g0_regs.h): the clock mode PCLK/2 (CFGR2), the regulator and its start-up, the
+ * paths, ADCAL, ADEN until ADRDY; each reading the channel mask (CHSELR) until CCRDY, then
+ * ADSTART until EOC, VREFINT then the sensor. cfg->smp_code is SMP1's code; init and the
+ * conversion are stm32_adc_temp_init and stm32_adc_temp_convert. Errors as above.
+ */
+int stm32_adc_g0_temp_read_cdeg(void *ctx, int16_t *cdeg);
+
+extern const struct hal_temp_ops stm32_adc_g0_temp_ops;
 
 #endif /* BOARDS_STM32_ADC_TEMP_H */

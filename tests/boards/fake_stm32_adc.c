@@ -10,6 +10,9 @@
 struct fake_adc fake_adc;
 
 enum { R_ISR = 0, R_CR = 2, R_CFGR = 3, R_SMPR1 = 5, R_SMPR2 = 6, R_SQR1 = 12, R_DR = 16 };
+/* The G0's: CFGR1 at the L4's CFGR, CFGR2 (0x10), SMPR at the L4's SMPR1, CHSELR (0x28). */
+enum { R_G0_CFGR2 = 4, R_G0_SMPR = 5, R_G0_CHSELR = 10 };
+#define G0_CCRDY (1u << 13)
 enum { C_CCR = 2 };
 
 static void log_event(enum fake_adc_event event, uint8_t channel) {
@@ -47,6 +50,15 @@ void fake_adc_reset(uint16_t ts_cal1, uint16_t ts_cal2, uint16_t vrefint_cal) {
     fake_adc.vref_channel = 0u;
 }
 
+void fake_adc_reset_g0(uint16_t ts_cal1, uint16_t ts_cal2, uint16_t vrefint_cal) {
+    fake_adc_reset(ts_cal1, ts_cal2, vrefint_cal);
+    fake_adc.g0 = true;
+    fake_adc.regs[R_CR] = 0u;   /* no deep power-down on the G0 */
+    fake_adc.regs[R_CFGR] = 0u; /* CFGR1's reset value */
+    fake_adc.ts_channel = 12u;
+    fake_adc.vref_channel = 13u;
+}
+
 uintptr_t fake_adc_base(void) {
     return (uintptr_t)fake_adc.regs;
 }
@@ -60,18 +72,30 @@ uintptr_t fake_adc_sysmem(uint32_t real) {
 }
 
 static uint32_t smp_code(uint8_t channel) {
+    if (fake_adc.g0) {
+        const uint32_t smpr = fake_adc.regs[R_G0_SMPR];
+        return (smpr & (1u << (8u + channel))) != 0u ? (smpr >> 4) & 7u : smpr & 7u;
+    }
     const uint32_t reg = channel < 10u ? fake_adc.regs[R_SMPR1] : fake_adc.regs[R_SMPR2];
     return (reg >> ((channel % 10u) * 3u)) & 7u;
 }
 
 static void start_conversion(void) {
     uint32_t *cr = &fake_adc.regs[R_CR];
-    const uint8_t channel = (uint8_t)((fake_adc.regs[R_SQR1] >> 6) & 0x1Fu);
+    uint8_t channel = (uint8_t)((fake_adc.regs[R_SQR1] >> 6) & 0x1Fu);
     if ((*cr & STM32_ADC_CR_ADEN) == 0u || (fake_adc.regs[R_ISR] & STM32_ADC_ISR_ADRDY) == 0u) {
         violation("ADSTART without ADEN and ADRDY");
         return;
     }
-    if ((fake_adc.regs[R_SQR1] & 0xFu) != 0u) {
+    if (fake_adc.g0) {
+        const uint32_t mask = fake_adc.regs[R_G0_CHSELR];
+        if (mask == 0u || (mask & (mask - 1u)) != 0u || !fake_adc.chsel_applied) {
+            violation("ADSTART without one channel applied (CHSELR, CCRDY)");
+            return;
+        }
+        for (channel = 0u; (mask >> channel) != 1u; ++channel) {
+        }
+    } else if ((fake_adc.regs[R_SQR1] & 0xFu) != 0u) {
         violation("SQR1.L is not one conversion");
         return;
     }
@@ -166,6 +190,15 @@ static void write_cr(uint32_t value) {
 
 static uint32_t read_isr(void) {
     uint32_t *isr = &fake_adc.regs[R_ISR];
+    if (fake_adc.ccrdy_pending) {
+        if (fake_adc.ccrdy_left == 0u) {
+            *isr |= G0_CCRDY;
+            fake_adc.ccrdy_pending = false;
+            fake_adc.chsel_applied = true;
+        } else if (fake_adc.ccrdy_left != UINT32_MAX) {
+            --fake_adc.ccrdy_left;
+        }
+    }
     if (fake_adc.ready_pending && fake_adc.ready_left != UINT32_MAX) {
         if (fake_adc.ready_left == 0u) {
             *isr |= STM32_ADC_ISR_ADRDY;
@@ -276,9 +309,20 @@ bool fake_adc_write(uintptr_t addr, uint32_t value) {
     case R_SMPR1:
     case R_SMPR2:
     case R_SQR1:
+    case R_G0_CFGR2:
+    case R_G0_CHSELR:
         if ((fake_adc.regs[R_CR] & STM32_ADC_CR_ADSTART) != 0u) {
             violation("configuration written during a conversion");
             break;
+        }
+        if (fake_adc.g0 && index == R_G0_CFGR2 && (fake_adc.regs[R_CR] & STM32_ADC_CR_ADEN) != 0u) {
+            violation("CFGR2 (CKMODE) written with ADEN set");
+            break;
+        }
+        if (fake_adc.g0 && index == R_G0_CHSELR) {
+            fake_adc.chsel_applied = false;
+            fake_adc.ccrdy_pending = true;
+            fake_adc.ccrdy_left = fake_adc.ready_reads;
         }
         fake_adc.regs[index] = value;
         break;

@@ -8,6 +8,9 @@
  * named) and does nothing, as a conversion that never comes. Flags: ADCAL clears after a
  * scripted number of CR reads, ADRDY and EOC rise after scripted ISR reads (UINT32_MAX:
  * never, a stuck flag). The calibration words sit in a fake system memory.
+ * With `g0` set it is the STM32G0's ADC instead (RM0444 §15): no deep power-down, the clock
+ * mode in CFGR2 (ADEN = 0 only), one SMPR (SMP1 / SMP2 chosen by SMPSELx), and the channel a
+ * one-bit CHSELR mask that ADSTART may use only once CCRDY has risen after its write.
  */
 #ifndef TESTS_BOARDS_FAKE_STM32_ADC_H
 #define TESTS_BOARDS_FAKE_STM32_ADC_H
@@ -53,7 +56,10 @@ struct fake_adc {
     uint32_t path_startup_us;      /* sensor / VREFINT buffer start-up */
     uint32_t min_smp_code;         /* shortest sampling-time code the sensor allows */
     uint8_t ts_channel, vref_channel;
+    bool g0; /* the STM32G0 layout (fake_adc_reset_g0) */
     /* state */
+    bool ccrdy_pending, chsel_applied;
+    uint32_t ccrdy_left;
     uint32_t regulator_on_us, paths_on_us;
     bool regulator_on, paths_on;
     uint32_t cal_left, ready_left, eoc_left;
@@ -72,6 +78,9 @@ extern struct fake_adc fake_adc;
 /* Reset state (CR = DEEPPWD), the calibration words of a part (ts_cal1 at 30 °C, ts_cal2,
  * vrefint_cal), flags after 3 reads, start-up times 20 us and 120 us, minimum code 5. */
 void fake_adc_reset(uint16_t ts_cal1, uint16_t ts_cal2, uint16_t vrefint_cal);
+
+/* The same for the STM32G0's ADC: CR = 0, the sensor on channel 12, VREFINT on 13. */
+void fake_adc_reset_g0(uint16_t ts_cal1, uint16_t ts_cal2, uint16_t vrefint_cal);
 
 /* Addresses for the driver's config: the ADC block, the common block, and where the real
  * address `real` of system memory is in the fake. */

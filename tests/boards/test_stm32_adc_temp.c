@@ -1,8 +1,9 @@
 /*
- * The STM32L4 ADC temperature driver (boards/stm32/stm32_adc_temp.c) against the strict ADC
- * fake: the bring-up and conversions in the reference manual's order with nothing out of
- * sequence, every stuck flag ending in HAL_ERR_TIMEOUT within its bound, and the conversion
- * from the factory calibration giving the temperature within the ADC's quantisation.
+ * The STM32L4 and STM32G0 ADC temperature drivers (boards/stm32/stm32_adc_temp.c,
+ * stm32_adc_g0_temp.c) against the strict ADC fake: the bring-up and conversions in the
+ * reference manual's order with nothing out of sequence, every stuck flag ending in
+ * HAL_ERR_TIMEOUT within its bound, and the conversion from the factory calibration giving
+ * the temperature within the ADC's quantisation.
  */
 #include <math.h>
 #include <setjmp.h>
@@ -211,6 +212,91 @@ static void test_implausible_is_an_error_never_clamped(void **state) {
     assert_int_equal(cdeg, 777);
 }
 
+/* ---------------------------------------------------------------- STM32G0 (RM0444 §15) */
+
+/* A plausible G0's words: TS_CAL2 at 130 °C. */
+#define G0_CAL1 1040u
+#define G0_CAL2 1450u
+
+static int setup_g0(void **state) {
+    (void)state;
+    fake_reset(0x29, 1000u);
+    fake_adc_reset_g0(G0_CAL1, G0_CAL2, VREF);
+    cfg = (struct stm32_adc_temp_config){
+        .adc_base = fake_adc_base(),
+        .common_base = fake_adc_common_base(),
+        .ts_cal1_addr = fake_adc_sysmem(0x1FFF75A8u),
+        .ts_cal2_addr = fake_adc_sysmem(0x1FFF75CAu),
+        .vrefint_cal_addr = fake_adc_sysmem(0x1FFF75AAu),
+        .ts_cal1_cdeg = 3000,
+        .ts_cal2_cdeg = 13000,
+        .ts_channel = 12u,
+        .vrefint_channel = 13u,
+        .smp_code = 7u,
+        .regulator_startup_us = 20u,
+        .sensor_startup_us = 120u,
+        .poll_budget_us = 500u,
+        .time = fake_time_hal(),
+    };
+    stm32_adc_temp_init(&adc, &cfg);
+    return 0;
+}
+
+static void g0_at(double temp_c, double vdda) {
+    const double at_3v0 = G0_CAL1 + (temp_c - 30.0) * (double)(G0_CAL2 - G0_CAL1) / 100.0;
+    fake_adc.raw[12] = (uint16_t)lround(at_3v0 * 3.0 / vdda);
+    fake_adc.raw[13] = (uint16_t)lround(VREF * 3.0 / vdda);
+}
+
+static void test_g0_sequence_and_value(void **state) {
+    (void)state;
+    g0_at(-12.5, 3.3);
+    int16_t cdeg = 0;
+    assert_int_equal(stm32_adc_g0_temp_read_cdeg(&adc, &cdeg), HAL_OK);
+    if (fake_adc.violations != 0u) {
+        fail_msg("out of sequence: %s", fake_adc.first_violation);
+    }
+    const struct fake_adc_log_entry want[] = {
+        {FA_REGULATOR_ON, 0}, {FA_PATHS_ON, 0}, {FA_CAL_START, 0}, {FA_CAL_DONE, 0},
+        {FA_ENABLE, 0},       {FA_READY, 0},    {FA_START, 13},    {FA_EOC, 13},
+        {FA_DR_READ, 13},     {FA_START, 12},   {FA_EOC, 12},      {FA_DR_READ, 12},
+    };
+    assert_int_equal(fake_adc.log_len, sizeof want / sizeof want[0]);
+    for (size_t i = 0; i < fake_adc.log_len; ++i) {
+        assert_int_equal(fake_adc.log[i].event, want[i].event);
+        assert_int_equal(fake_adc.log[i].channel, want[i].channel);
+    }
+    /* One LSB is 100 / 410 °C at 3.0 V, 0.27 °C at 3.3 V; the two conversions' rounding. */
+    assert_true(cdeg > -1250 - 30 && cdeg < -1250 + 30);
+    /* The exact anchor at 130 °C. */
+    assert_int_equal(stm32_adc_temp_convert(&adc.cal, G0_CAL2, VREF, &cdeg), HAL_OK);
+    assert_int_equal(cdeg, 13000);
+}
+
+static void test_g0_channel_never_applied_times_out(void **state) {
+    (void)state;
+    g0_at(25.0, 3.3);
+    int16_t cdeg = 4321;
+    assert_int_equal(stm32_adc_g0_temp_read_cdeg(&adc, &cdeg), HAL_OK);
+    /* From now on CCRDY never rises after a CHSELR write: no conversion may start. */
+    fake_adc.ready_reads = UINT32_MAX;
+    const uint32_t start = fake.time.now;
+    cdeg = 4321;
+    assert_int_equal(stm32_adc_g0_temp_read_cdeg(&adc, &cdeg), HAL_ERR_TIMEOUT);
+    assert_int_equal(cdeg, 4321);
+    assert_true(fake.time.now - start <= 2u * (cfg.poll_budget_us + 2u));
+    assert_int_equal(fake_adc.violations, 0u);
+    assert_int_equal(fake_adc.conversions, 2u);
+}
+
+static void test_g0_stuck_calibration_times_out(void **state) {
+    (void)state;
+    fake_adc.cal_reads = UINT32_MAX;
+    int16_t cdeg = 77;
+    assert_int_equal(stm32_adc_g0_temp_read_cdeg(&adc, &cdeg), HAL_ERR_TIMEOUT);
+    assert_int_equal(cdeg, 77);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup(test_reads_calibration_words_from_system_memory, setup),
@@ -222,6 +308,9 @@ int main(void) {
         cmocka_unit_test_setup(test_anchors_are_exact, setup),
         cmocka_unit_test_setup(test_conversion_within_quantisation, setup),
         cmocka_unit_test_setup(test_implausible_is_an_error_never_clamped, setup),
+        cmocka_unit_test_setup(test_g0_sequence_and_value, setup_g0),
+        cmocka_unit_test_setup(test_g0_channel_never_applied_times_out, setup_g0),
+        cmocka_unit_test_setup(test_g0_stuck_calibration_times_out, setup_g0),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
