@@ -68,28 +68,6 @@ static void process_sample(struct tof_app *app, const struct tof_sample *sample)
     }
 }
 
-/* The head's temperature now, for the sample being assembled. A failed read is counted and
- * that sample has no temperature: the last good value is never reused as this one's. */
-static void read_temperature(struct tof_app *app, struct tof_sample *sample) {
-    sample->temp_known = false;
-    sample->temp_cdeg = 0;
-    const struct hal_temp *temp = &app->platform->temp;
-    if (temp->ops == NULL || temp->ops->read_cdeg == NULL) {
-        return; /* no sensor on this board */
-    }
-    int16_t cdeg = 0;
-    const int err = temp->ops->read_cdeg(temp->ctx, &cdeg);
-    app->temp_known = err == HAL_OK;
-    app->temp_cdeg = cdeg;
-    if (err != HAL_OK) {
-        ++app->counters.temp_errors;
-        app->counters.temp_last_error = err;
-        return;
-    }
-    sample->temp_known = true;
-    sample->temp_cdeg = cdeg;
-}
-
 /* Assembled samples flow here, during the sensor reads: the temperature read with them, then
  * held for the next iteration (see struct tof_app, deferred), or processed at once when the
  * ring is full (none is lost). */
@@ -97,7 +75,7 @@ static void on_sample(void *ctx, const struct tof_sample *assembled) {
     struct tof_app *app = ctx;
     struct tof_sample with_temp = *assembled;
     const struct tof_sample *sample = &with_temp;
-    read_temperature(app, &with_temp);
+    tof_app_read_temperature(app, &with_temp);
     ++app->counters.samples;
     if (app->slot_first_us < app->assembler_cfg.period_us) {
         app->phase_us = app->slot_first_us; /* when the sensors report within a slot */
@@ -437,61 +415,26 @@ int tof_app_init(struct tof_app *app, const struct tof_platform *platform,
     return HAL_OK;
 }
 
-/* ST's temperature update, one part at a time: started on a ranging part whose temperature
- * moved 8 °C since its last VHV calibration (vhv_schedule.h), then one look an iteration until
- * its range is done, finished, and the part started again at the next slot. Its readings are
- * missing meanwhile (the windows say so); the events say why. Returns true if it did bus work
- * beyond one look. */
+/* ST's temperature update, one part at a time (app_temperature.c): its part restarted at the
+ * next slot when it ends or fails to begin, a failure the part's error, each step an event.
+ * The part's readings are missing meanwhile: the windows say so, the events say why. Returns
+ * true if it did bus work beyond one look. */
 static bool manage_temperature_update(struct tof_app *app) {
-    unsigned s = app->vhv.active;
-    if (s != TOF_VHV_NONE) {
-        struct vl53_dev *dev = vl53_array_sensor(&app->array, s);
-        int rc = vl53_temperature_update_pending(dev);
-        if (rc == HAL_ERR_NOT_READY) {
-            return false;
-        }
-        if (rc == HAL_OK) {
-            rc = vl53_temperature_update_finish(dev);
-        }
-        (void)tof_app_now_us(app);
-        park_until_boundary(app, s);
-        if (rc == HAL_OK) {
-            ++app->counters.temp_updates;
-            tof_vhv_calibrated(&app->vhv, s, app->temp_known, app->temp_cdeg);
-        } else {
-            /* The reference stays: retried once the part is healthy again, unless its
-             * re-initialisation (which runs the VHV step) comes first. */
-            app->vhv.active = TOF_VHV_NONE;
-            ++app->counters.temp_updates_failed;
-            note_error(app, s, rc);
-        }
-        emit_event(app, TOF_EVENT_TEMP_UPDATE_DONE, s, app->health[s].state, app->health[s].state,
-                   rc);
-        return true;
-    }
-    uint8_t ranging = 0u;
-    for (unsigned i = 0; i < TOF_SENSORS; ++i) {
-        const bool can_stop = app->health[i].state == TOF_HEALTH_HEALTHY &&
-                              !app->start_pending[i] &&
-                              vl53_is_ranging(vl53_array_sensor(&app->array, i));
-        ranging = (uint8_t)(ranging | (can_stop ? 1u << i : 0u));
-    }
-    s = tof_vhv_due(&app->vhv, ranging, app->temp_known, app->temp_cdeg);
-    if (s == TOF_VHV_NONE) {
+    const struct tof_temp_step_result r = tof_app_temperature_step(app);
+    if (r.step == TOF_TEMP_STEP_IDLE) {
         return false;
     }
-    struct vl53_dev *dev = vl53_array_sensor(&app->array, s);
-    int rc = vl53_stop_ranging(dev);
-    if (rc == HAL_OK) {
-        rc = vl53_temperature_update_begin(dev);
-    }
-    emit_event(app, TOF_EVENT_TEMP_UPDATE, s, app->health[s].state, app->health[s].state, rc);
-    if (rc != HAL_OK) {
-        app->vhv.active = TOF_VHV_NONE; /* not run: the reference stays, as above */
-        ++app->counters.temp_updates_failed;
+    const unsigned s = r.sensor;
+    if (r.step == TOF_TEMP_STEP_ENDED || r.err != HAL_OK) {
         park_until_boundary(app, s);
-        note_error(app, s, rc);
     }
+    if (r.err != HAL_OK) {
+        note_error(app, s, r.err);
+    }
+    (void)tof_app_now_us(app);
+    emit_event(app,
+               r.step == TOF_TEMP_STEP_BEGUN ? TOF_EVENT_TEMP_UPDATE : TOF_EVENT_TEMP_UPDATE_DONE,
+               s, app->health[s].state, app->health[s].state, r.err);
     return true;
 }
 
@@ -564,14 +507,7 @@ int tof_app_set_period(struct tof_app *app, uint32_t period_ms) {
         return rc;
     }
     app->cfg = next;
-    if (app->vhv.active != TOF_VHV_NONE) {
-        /* A temperature update's range runs at the old timing: ended first (bounded). */
-        const unsigned s = app->vhv.active;
-        if (vl53_temperature_update_finish(vl53_array_sensor(&app->array, s)) == HAL_OK) {
-            tof_vhv_calibrated(&app->vhv, s, app->temp_known, app->temp_cdeg);
-        }
-        app->vhv.active = TOF_VHV_NONE;
-    }
+    tof_app_temperature_abandon(app); /* its range runs at the old timing */
     for (unsigned i = 0; i < TOF_SENSORS; ++i) {
         app->sensor_cfg[i].timing = next.timing;
         struct vl53_dev *dev = vl53_array_sensor(&app->array, i);

@@ -276,4 +276,38 @@ int tof_app_main(const struct tof_platform *platform, const struct tof_app_confi
                  struct tof_app *app, const struct tof_app_service *service,
                  uint32_t max_iterations);
 
+/* ---- the head's temperature (firmware/src/app_temperature.c): the read that goes with each
+ * sample, and the steps of ST's temperature update on one part at a time (when:
+ * vhv_schedule.h); app.c calls these and does what their results ask (the part's restart, its
+ * error for the fault manager, the events). */
+
+/* Read the platform's temperature into `sample` (temp_known false without a sensor or on a
+ * failed read, which is counted in app->counters; never an earlier value) and keep it as
+ * app->temp_known / temp_cdeg for the update's schedule. */
+void tof_app_read_temperature(struct tof_app *app, struct tof_sample *sample);
+
+enum tof_temp_step {
+    TOF_TEMP_STEP_IDLE,  /* nothing due, or the running update's range is not over */
+    TOF_TEMP_STEP_BEGUN, /* `sensor` stopped and its update started (err: how) */
+    TOF_TEMP_STEP_ENDED, /* `sensor`'s update ended (err: how); it is stopped */
+};
+
+struct tof_temp_step_result {
+    enum tof_temp_step step;
+    uint8_t sensor;
+    int err;
+};
+
+/*
+ * One step, bounded (one look, or one half of the driver's sequence): with an update
+ * running, look at it once and end it when its range is over; else start one on the part
+ * vhv_schedule names among the healthy, ranging ones. The schedule and the counters
+ * (temp_updates, temp_updates_failed) are kept here; on BEGUN with an error and on ENDED the
+ * caller restarts the part at the next slot, and counts an error as the part's.
+ */
+struct tof_temp_step_result tof_app_temperature_step(struct tof_app *app);
+
+/* End a running update now (bounded by the driver's finish), for a re-timing of the parts. */
+void tof_app_temperature_abandon(struct tof_app *app);
+
 #endif /* FIRMWARE_APP_H */
