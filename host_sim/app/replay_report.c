@@ -228,8 +228,17 @@ static void write_system(FILE *f, const struct replay *r) {
             (long long)r->recovery_us);
     fprintf(f,
             "  \"health_events\": {\"transitions\": %u, \"reinits\": %u, \"bus_recoveries\": %u, "
-            "\"overruns\": %u},\n  \"sensors\": [",
+            "\"overruns\": %u},\n",
             r->health_events, r->reinit_events, r->bus_recovery_events, r->overrun_events);
+    fprintf(f,
+            "  \"temperature\": {\"sensor\": %s, \"read_errors\": %u, \"updates_begun\": %u, "
+            "\"updates\": %u, \"updates_failed\": %u, \"part_updates\": [%u, %u, %u, %u]},\n",
+            r->platform.temp.ops != NULL ? "true" : "false", c->temp_errors, r->temp_update_events,
+            c->temp_updates, c->temp_updates_failed, r->sim.rig.sensor[0].stats.temperature_updates,
+            r->sim.rig.sensor[1].stats.temperature_updates,
+            r->sim.rig.sensor[2].stats.temperature_updates,
+            r->sim.rig.sensor[3].stats.temperature_updates);
+    fprintf(f, "  \"sensors\": [");
     for (unsigned i = 0; i < 4; ++i) {
         fprintf(f, "%s{\"name\": \"%c\", \"state\": \"%s\", \"losses\": %u, \"read_errors\": %u}",
                 i ? ", " : "", 'A' + i, tof_health_name(r->app.health[i].state),
