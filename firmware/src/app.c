@@ -58,6 +58,8 @@ static void process_sample(struct tof_app *app, const struct tof_sample *sample)
     if (attitude_push_sample(&app->estimator, sample->range_mm, sample->status, present,
                              &record.output)) {
         record.t_us = sample->t_us;
+        record.temp_known = false; /* no temperature read for the window (never left unset) */
+        record.temp_cdeg = 0;
         ++app->counters.estimates;
         if (out->ops != NULL && out->ops->estimate != NULL) {
             out->ops->estimate(out->ctx, &record);

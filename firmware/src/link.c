@@ -58,6 +58,8 @@ static void send_estimates(struct tof_link *link, const struct tof_estimate_reco
             .beta_sd_udeg = b ? est->beta_sd_udeg : TLM_NO_VALUE,
             .distance_sd_um = d ? est->distance_sd_um : TLM_NO_VALUE,
             .why = est->why, /* the estimator's bits, unchanged */
+            .temp_known = record->temp_known,
+            .temp_cdeg = record->temp_known ? record->temp_cdeg : 0,
         };
         uint8_t frame[TLM_FRAME_MAX];
         send(link, frame, tlm_encode_estimate(link->seq, &msg, frame, sizeof frame));
@@ -111,6 +113,8 @@ static void on_estimate(void *ctx, const struct tof_estimate_record *record) {
         return;
     }
     send_estimates(link, record);
+    link->temp_known = record->temp_known; /* the unit's temperature, for the status frame */
+    link->temp_cdeg = record->temp_cdeg;
     if (link->health_polls == 0u && (!link->health_sent || record->t_us >= link->health_due_us)) {
         link->health_polls = 2u; /* not postponed by later estimates (sliding mode) */
         link->health_sent = true;
@@ -208,6 +212,9 @@ void tof_link_send_status(struct tof_link *link) {
         .arm_um = (uint32_t)st.arm_um,  /* the estimator keeps it in 1..1000 mm */
         .cal_age_s = age_now_s(link),
         .cal_age = link->cal_age != NULL ? link->cal_age->state : (uint8_t)TOF_CAL_AGE_NONE,
+        /* the last window's, while it runs: stopped, the unit reads none */
+        .temp_known = st.running && link->temp_known,
+        .temp_cdeg = st.running && link->temp_known ? link->temp_cdeg : 0,
     };
     uint8_t frame[TLM_FRAME_MAX];
     send(link, frame, tlm_encode_status(link->seq, &msg, frame, sizeof frame));
