@@ -30,7 +30,6 @@ _Static_assert(TOF_CAL_NONE == (int)TLM_CAL_NONE && TOF_CAL_APPLIED == (int)TLM_
 #define CAL_TEMP_AT  TOF_CALIBRATION_V1_LENGTH /* versions 4 and 5: i16 cal_temp_cdeg */
 #define COEFF_AT     (CAL_TEMP_AT + 2u)        /* then per sensor i32 coeff, u32 its sd */
 #define PER_COEFF    8u
-#define THERMAL_SIZE (TOF_CALIBRATION_V4_LENGTH - TOF_CALIBRATION_V1_LENGTH)
 #define PARTS_AT_V5  TOF_CALIBRATION_V4_LENGTH
 #define ARM_AT_V5    (PARTS_AT_V5 + CALIBRATION_SENSORS * PART_ID_SIZE)
 _Static_assert(SENSORS_AT + CALIBRATION_SENSORS * PER_SENSOR == TOF_CALIBRATION_V1_LENGTH,
@@ -50,29 +49,33 @@ _Static_assert(TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH + TOF_SECTION_HEADER 
                    TOF_RECORD_PAYLOAD_MAX,
                "the settings and the calibration fit one record");
 
-/* Where each version keeps what it has (0: not in it; the thermal fields: versions 4, 5). */
+/* The blocks a version may hold after bytes 0..79, and their sizes. */
+enum { BLOCK_THERMAL, BLOCK_PARTS, BLOCK_ARM, BLOCKS };
+static const uint8_t block_size[BLOCKS] = {TOF_CALIBRATION_V4_LENGTH - CAL_TEMP_AT,
+                                           CALIBRATION_SENSORS *PART_ID_SIZE, 4u};
+
+/* Where each version keeps them (0: not in it), and its body's length. */
 struct cal_layout {
-    uint8_t length;   /* the body's bytes */
-    uint8_t parts_at; /* the parts' identities */
-    uint8_t arm_at;   /* the arm */
+    uint8_t length;
+    uint8_t at[BLOCKS];
 };
 static const struct cal_layout layouts[TOF_CALIBRATION_VERSION + 1u] = {
-    [1] = {TOF_CALIBRATION_V1_LENGTH, 0u, 0u},
-    [2] = {TOF_CALIBRATION_V2_LENGTH, TOF_CALIBRATION_V1_LENGTH, 0u},
-    [3] = {TOF_CALIBRATION_V3_LENGTH, TOF_CALIBRATION_V1_LENGTH, TOF_CALIBRATION_V2_LENGTH},
-    [4] = {TOF_CALIBRATION_V4_LENGTH, 0u, 0u},
-    [5] = {TOF_CALIBRATION_LENGTH, PARTS_AT_V5, ARM_AT_V5},
+    [1] = {TOF_CALIBRATION_V1_LENGTH, {0u, 0u, 0u}},
+    [2] = {TOF_CALIBRATION_V2_LENGTH, {0u, TOF_CALIBRATION_V1_LENGTH, 0u}},
+    [3] = {TOF_CALIBRATION_V3_LENGTH, {0u, TOF_CALIBRATION_V1_LENGTH, TOF_CALIBRATION_V2_LENGTH}},
+    [4] = {TOF_CALIBRATION_V4_LENGTH, {CAL_TEMP_AT, 0u, 0u}},
+    [5] = {TOF_CALIBRATION_LENGTH, {CAL_TEMP_AT, PARTS_AT_V5, ARM_AT_V5}},
 };
 
-/* The layout of calibration section version `version`, NULL for one not read. */
-static const struct cal_layout *layout_of(uint8_t version) {
-    return version >= 1u && version <= TOF_CALIBRATION_VERSION ? &layouts[version] : NULL;
-}
-
-/* The flags a version may set (the others are reserved, 0). */
-static uint8_t flags_allowed(uint8_t version) {
-    return version >= TOF_CALIBRATION_WIRE_VERSION ? TOF_CAL_FLAG_GAINS | TOF_CAL_FLAG_THERMAL
-                                                   : TOF_CAL_FLAG_GAINS;
+/* The layout of the section whose header is `section`, NULL for a version not read or a
+ * length not its version's. */
+static const struct cal_layout *layout_of(const uint8_t *section) {
+    const uint8_t version = section[1];
+    if (version < 1u || version > TOF_CALIBRATION_VERSION ||
+        (uint16_t)(section[2] | section[3] << 8) != layouts[version].length) {
+        return NULL;
+    }
+    return &layouts[version];
 }
 
 /* Two's complement from the stored bits, without relying on the conversion's behaviour. */
@@ -90,51 +93,72 @@ static void put_i16(uint8_t *p, int16_t v) {
     p[1] = (uint8_t)((uint16_t)v >> 8);
 }
 
-static bool within(int32_t v, int32_t max) {
-    return v >= -max && v <= max;
-}
+/* estimator/calibration.h's bounds, field by field (enum tof_cal_field order from
+ * TOF_CAL_FIELD_OFFSET): where the four values sit, and the largest |value| (signed) or
+ * value. A field of a flag (gains, thermal) that is clear must be 0. */
+struct cal_bound {
+    uint8_t at, stride;
+    uint8_t flag;   /* the flag the field needs, 0: none */
+    bool is_signed; /* i32, else u32 */
+    int32_t max;
+};
+static const struct cal_bound bounds[] = {
+    {SENSORS_AT, PER_SENSOR, 0u, true, CALIBRATION_OFFSET_MAX_UM},
+    {SENSORS_AT + 4u, PER_SENSOR, TOF_CAL_FLAG_GAINS, true, CALIBRATION_GAIN_MAX_PPM},
+    {SENSORS_AT + 8u, PER_SENSOR, 0u, false, CALIBRATION_OFFSET_MAX_UM},
+    {SENSORS_AT + 12u, PER_SENSOR, TOF_CAL_FLAG_GAINS, false, CALIBRATION_GAIN_MAX_PPM},
+    {COEFF_AT, PER_COEFF, TOF_CAL_FLAG_THERMAL, true, CALIBRATION_TEMP_COEFF_MAX_NM_PER_C},
+    {COEFF_AT + 4u, PER_COEFF, TOF_CAL_FLAG_THERMAL, false, CALIBRATION_TEMP_COEFF_MAX_NM_PER_C},
+};
+_Static_assert(TOF_CAL_FIELD_GAIN == TOF_CAL_FIELD_OFFSET + 1 &&
+                   TOF_CAL_FIELD_OFFSET_SD == TOF_CAL_FIELD_OFFSET + 2 &&
+                   TOF_CAL_FIELD_GAIN_SD == TOF_CAL_FIELD_OFFSET + 3 &&
+                   TOF_CAL_FIELD_TEMP_COEFF == TOF_CAL_FIELD_OFFSET + 4 &&
+                   TOF_CAL_FIELD_TEMP_COEFF_SD == TOF_CAL_FIELD_OFFSET + 5,
+               "bounds[] is in the fields' order");
 
-/* The first of sensor i's values outside estimator/calibration.h's bounds, or NONE (the
- * thermal ones only when `cal` is thermal). */
-static enum tof_cal_field sensor_bad(const struct calibration_head *cal, unsigned i) {
-    if (!within(cal->offset_um[i], CALIBRATION_OFFSET_MAX_UM)) {
-        return TOF_CAL_FIELD_OFFSET;
+/* The first field of body `v` (of version `version`'s layout `lay`) that is wrong, or NONE:
+ * the one check both the encoder (of what it wrote) and the decoder run. */
+static enum tof_cal_field body_bad(const uint8_t *v, const struct cal_layout *lay) {
+    const bool thermal_block = lay->at[BLOCK_THERMAL] != 0u;
+    const uint8_t flags = v[5];
+    if ((flags & (uint8_t) ~(TOF_CAL_FLAG_GAINS | (thermal_block ? TOF_CAL_FLAG_THERMAL : 0u))) !=
+        0u) {
+        return TOF_CAL_FIELD_FLAGS;
     }
-    if (!within(cal->gain_ppm[i], CALIBRATION_GAIN_MAX_PPM)) {
-        return TOF_CAL_FIELD_GAIN;
+    if (v[4] != (uint8_t)VL53_DISTANCE_SHORT && v[4] != (uint8_t)VL53_DISTANCE_LONG) {
+        return TOF_CAL_FIELD_MODE;
     }
-    if (cal->offset_sd_um[i] > (uint32_t)CALIBRATION_OFFSET_MAX_UM) {
-        return TOF_CAL_FIELD_OFFSET_SD;
+    if ((v[6] | v[7]) == 0u) {
+        return TOF_CAL_FIELD_BUDGET;
     }
-    if (cal->gain_sd_ppm[i] > (uint32_t)CALIBRATION_GAIN_MAX_PPM) {
-        return TOF_CAL_FIELD_GAIN_SD;
+    if (thermal_block) {
+        const int16_t t = get_i16(&v[CAL_TEMP_AT]);
+        const bool on = (flags & TOF_CAL_FLAG_THERMAL) != 0u;
+        if (on ? t < CALIBRATION_TEMP_MIN_CDEG || t > CALIBRATION_TEMP_MAX_CDEG : t != 0) {
+            return TOF_CAL_FIELD_CAL_TEMP;
+        }
     }
-    if (cal->thermal && !within(cal->temp_coeff_nm_per_c[i], CALIBRATION_TEMP_COEFF_MAX_NM_PER_C)) {
-        return TOF_CAL_FIELD_TEMP_COEFF;
+    for (unsigned f = 0; f < sizeof bounds / sizeof bounds[0]; ++f) {
+        const struct cal_bound *b = &bounds[f];
+        if (b->flag == TOF_CAL_FLAG_THERMAL && !thermal_block) {
+            break; /* the thermal fields come last */
+        }
+        const uint32_t max = (flags & b->flag) == b->flag ? (uint32_t)b->max : 0u;
+        for (unsigned i = 0; i < CALIBRATION_SENSORS; ++i) {
+            const uint32_t u = le_get_u32(&v[b->at + b->stride * i]);
+            const int32_t s = as_i32(u);
+            if (b->is_signed ? s < -(int32_t)max || s > (int32_t)max : u > max) {
+                return (enum tof_cal_field)(TOF_CAL_FIELD_OFFSET + (int)f);
+            }
+        }
     }
-    if (cal->thermal &&
-        cal->temp_coeff_sd_nm_per_c[i] > (uint32_t)CALIBRATION_TEMP_COEFF_MAX_NM_PER_C) {
-        return TOF_CAL_FIELD_TEMP_COEFF_SD;
-    }
-    return TOF_CAL_FIELD_NONE;
-}
-
-static bool cal_temp_ok(const struct calibration_head *cal) {
-    return !cal->thermal || (cal->cal_temp_cdeg >= CALIBRATION_TEMP_MIN_CDEG &&
-                             cal->cal_temp_cdeg <= CALIBRATION_TEMP_MAX_CDEG);
+    const uint8_t arm = lay->at[BLOCK_ARM];
+    return arm != 0u && as_i32(le_get_u32(&v[arm])) < 0 ? TOF_CAL_FIELD_ARM : TOF_CAL_FIELD_NONE;
 }
 
 int tof_cal_encode(const struct calibration_head *cal, bool has_gain,
                    const struct tof_cal_binding *bind, uint8_t *out) {
-    if (!cal->calibrated || bind->budget_ms == 0u || !cal_temp_ok(cal) ||
-        (bind->mode != (uint8_t)VL53_DISTANCE_SHORT && bind->mode != (uint8_t)VL53_DISTANCE_LONG)) {
-        return HAL_ERR_INVALID;
-    }
-    for (unsigned i = 0; i < CALIBRATION_SENSORS; ++i) {
-        if (sensor_bad(cal, i) != TOF_CAL_FIELD_NONE || (!has_gain && cal->gain_ppm[i] != 0)) {
-            return HAL_ERR_INVALID;
-        }
-    }
     memset(out, 0, TOF_CAL_WIRE_SIZE);
     out[0] = TOF_SECTION_CALIBRATION;
     out[1] = TOF_CALIBRATION_WIRE_VERSION;
@@ -149,63 +173,24 @@ int tof_cal_encode(const struct calibration_head *cal, bool has_gain,
     for (unsigned i = 0; i < CALIBRATION_SENSORS; ++i) {
         uint8_t *s = &v[SENSORS_AT + PER_SENSOR * i];
         le_put_u32(&s[0], (uint32_t)cal->offset_um[i]);
-        le_put_u32(&s[4], (uint32_t)cal->gain_ppm[i]);
+        le_put_u32(&s[4], (uint32_t)cal->gain_ppm[i]); /* not fitted: must be 0 (checked) */
         le_put_u32(&s[8], cal->offset_sd_um[i]);
         le_put_u32(&s[12], has_gain ? cal->gain_sd_ppm[i] : 0u);
         put_i16(&s[16], cal->offset_gain_corr_q15[i]);
-    }
-    if (cal->thermal) { /* else the thermal bytes stay 0: the coefficients are ignored */
-        put_i16(&v[CAL_TEMP_AT], cal->cal_temp_cdeg);
-        for (unsigned i = 0; i < CALIBRATION_SENSORS; ++i) {
+        if (cal->thermal) { /* else the thermal bytes stay 0: the coefficients are ignored */
             le_put_u32(&v[COEFF_AT + PER_COEFF * i], (uint32_t)cal->temp_coeff_nm_per_c[i]);
             le_put_u32(&v[COEFF_AT + PER_COEFF * i + 4u], cal->temp_coeff_sd_nm_per_c[i]);
         }
     }
+    if (cal->thermal) {
+        put_i16(&v[CAL_TEMP_AT], cal->cal_temp_cdeg);
+    }
+    if (!cal->calibrated ||
+        body_bad(v, &layouts[TOF_CALIBRATION_WIRE_VERSION]) != TOF_CAL_FIELD_NONE) {
+        memset(out, 0, TOF_CAL_WIRE_SIZE);
+        return HAL_ERR_INVALID;
+    }
     return HAL_OK;
-}
-
-/* Sensor i of section bytes `v` into `cal` (the thermal fields already there); the first
- * value out of bounds, or NONE. */
-static enum tof_cal_field decode_sensor(const uint8_t *v, bool has_gain, unsigned i,
-                                        struct calibration_head *cal) {
-    const uint8_t *s = &v[SENSORS_AT + PER_SENSOR * i];
-    cal->offset_um[i] = as_i32(le_get_u32(&s[0]));
-    cal->gain_ppm[i] = as_i32(le_get_u32(&s[4]));
-    cal->offset_sd_um[i] = le_get_u32(&s[8]);
-    cal->gain_sd_ppm[i] = le_get_u32(&s[12]);
-    cal->offset_gain_corr_q15[i] = get_i16(&s[16]);
-    if (!has_gain) {
-        /* no gain stored: gain 1 with the parts' spread (docs/reference/calibration-file.md) */
-        if (cal->gain_ppm[i] != 0) {
-            return TOF_CAL_FIELD_GAIN;
-        }
-        if (cal->gain_sd_ppm[i] != 0u) {
-            return TOF_CAL_FIELD_GAIN_SD;
-        }
-        cal->gain_sd_ppm[i] = CALIBRATION_UNCAL_GAIN_SD_PPM;
-    }
-    return sensor_bad(cal, i);
-}
-
-/* The thermal fields of a version-4 or -5 body `v` into `cal`: NONE, or the field that is
- * out of bounds or set without the thermal flag (nothing is stored that is not read). */
-static enum tof_cal_field decode_thermal(const uint8_t *v, struct calibration_head *cal) {
-    cal->thermal = (v[5] & TOF_CAL_FLAG_THERMAL) != 0u;
-    cal->cal_temp_cdeg = get_i16(&v[CAL_TEMP_AT]);
-    if (!cal_temp_ok(cal) || (!cal->thermal && cal->cal_temp_cdeg != 0)) {
-        return TOF_CAL_FIELD_CAL_TEMP;
-    }
-    for (unsigned i = 0; i < CALIBRATION_SENSORS; ++i) {
-        cal->temp_coeff_nm_per_c[i] = as_i32(le_get_u32(&v[COEFF_AT + PER_COEFF * i]));
-        cal->temp_coeff_sd_nm_per_c[i] = le_get_u32(&v[COEFF_AT + PER_COEFF * i + 4u]);
-        if (!cal->thermal && cal->temp_coeff_nm_per_c[i] != 0) {
-            return TOF_CAL_FIELD_TEMP_COEFF;
-        }
-        if (!cal->thermal && cal->temp_coeff_sd_nm_per_c[i] != 0u) {
-            return TOF_CAL_FIELD_TEMP_COEFF_SD;
-        }
-    }
-    return TOF_CAL_FIELD_NONE;
 }
 
 static uint64_t get_part_id(const uint8_t *v, unsigned at, unsigned i) {
@@ -213,39 +198,35 @@ static uint64_t get_part_id(const uint8_t *v, unsigned at, unsigned i) {
     return (uint64_t)le_get_u32(&p[4]) << 32 | le_get_u32(p);
 }
 
-/* The body's fields into *cal and *bind: NONE, or the first field that is wrong. */
-static enum tof_cal_field decode_body(const uint8_t *v, uint8_t version,
-                                      const struct cal_layout *lay, struct calibration_head *cal,
-                                      struct tof_cal_binding *bind) {
-    if ((v[5] & (uint8_t)~flags_allowed(version)) != 0u) {
-        return TOF_CAL_FIELD_FLAGS;
-    }
+/* The fields of body `v` (checked by body_bad()) into *cal and *bind. */
+static void decode_body(const uint8_t *v, const struct cal_layout *lay,
+                        struct calibration_head *cal, struct tof_cal_binding *bind) {
+    memset(cal, 0, sizeof *cal);
+    memset(bind, 0, sizeof *bind);
     bind->head_id = le_get_u32(&v[0]);
     bind->mode = v[4];
     bind->budget_ms = (uint16_t)(v[6] | v[7] << 8);
-    if (bind->mode != (uint8_t)VL53_DISTANCE_SHORT && bind->mode != (uint8_t)VL53_DISTANCE_LONG) {
-        return TOF_CAL_FIELD_MODE;
-    }
-    if (bind->budget_ms == 0u) {
-        return TOF_CAL_FIELD_BUDGET;
-    }
     cal->calibrated = true;
-    if (version >= TOF_CALIBRATION_WIRE_VERSION) {
-        const enum tof_cal_field bad = decode_thermal(v, cal);
-        if (bad != TOF_CAL_FIELD_NONE) {
-            return bad;
-        }
-    }
+    cal->thermal = (v[5] & TOF_CAL_FLAG_THERMAL) != 0u;
     const bool has_gain = (v[5] & TOF_CAL_FLAG_GAINS) != 0u;
+    const uint8_t parts = lay->at[BLOCK_PARTS];
+    const bool thermal = lay->at[BLOCK_THERMAL] != 0u;
     for (unsigned i = 0; i < CALIBRATION_SENSORS; ++i) {
-        const enum tof_cal_field bad = decode_sensor(v, has_gain, i, cal);
-        if (bad != TOF_CAL_FIELD_NONE) {
-            return bad;
+        const uint8_t *s = &v[SENSORS_AT + PER_SENSOR * i];
+        cal->offset_um[i] = as_i32(le_get_u32(&s[0]));
+        cal->gain_ppm[i] = as_i32(le_get_u32(&s[4]));
+        cal->offset_sd_um[i] = le_get_u32(&s[8]);
+        /* no gain stored: gain 1 with the parts' spread (docs/reference/calibration-file.md) */
+        cal->gain_sd_ppm[i] = has_gain ? le_get_u32(&s[12]) : CALIBRATION_UNCAL_GAIN_SD_PPM;
+        cal->offset_gain_corr_q15[i] = get_i16(&s[16]);
+        if (thermal) { /* 0 unless the thermal flag is set (body_bad()) */
+            cal->temp_coeff_nm_per_c[i] = as_i32(le_get_u32(&v[COEFF_AT + PER_COEFF * i]));
+            cal->temp_coeff_sd_nm_per_c[i] = le_get_u32(&v[COEFF_AT + PER_COEFF * i + 4u]);
         }
-        bind->part_id[i] = lay->parts_at != 0u ? get_part_id(v, lay->parts_at, i) : 0u;
+        bind->part_id[i] = parts != 0u ? get_part_id(v, parts, i) : 0u;
     }
-    bind->arm_um = lay->arm_at != 0u ? as_i32(le_get_u32(&v[lay->arm_at])) : 0;
-    return bind->arm_um < 0 ? TOF_CAL_FIELD_ARM : TOF_CAL_FIELD_NONE;
+    cal->cal_temp_cdeg = thermal ? get_i16(&v[CAL_TEMP_AT]) : 0;
+    bind->arm_um = lay->at[BLOCK_ARM] != 0u ? as_i32(le_get_u32(&v[lay->at[BLOCK_ARM]])) : 0;
 }
 
 enum tof_cal_state tof_cal_decode(const uint8_t *payload, uint16_t len,
@@ -259,18 +240,13 @@ enum tof_cal_state tof_cal_decode(const uint8_t *payload, uint16_t len,
         bad = TOF_CAL_FIELD_NONE;
     } else if (at >= 0) {
         const uint8_t *p = &payload[at];
-        const struct cal_layout *lay = layout_of(p[1]);
-        if (lay == NULL) {
+        const struct cal_layout *lay = layout_of(p);
+        if (p[1] < 1u || p[1] > TOF_CALIBRATION_VERSION) {
             state = TOF_CAL_VERSION;
-        } else if ((uint16_t)(p[2] | p[3] << 8) == lay->length) {
-            struct calibration_head c;
-            struct tof_cal_binding b;
-            memset(&c, 0, sizeof c);
-            memset(&b, 0, sizeof b);
-            bad = decode_body(&p[TOF_SECTION_HEADER], p[1], lay, &c, &b);
+        } else if (lay != NULL) {
+            bad = body_bad(&p[TOF_SECTION_HEADER], lay);
             if (bad == TOF_CAL_FIELD_NONE) {
-                *cal = c;
-                *bind = b;
+                decode_body(&p[TOF_SECTION_HEADER], lay, cal, bind);
                 state = TOF_CAL_APPLIED;
             }
         }
@@ -292,37 +268,41 @@ const char *tof_cal_field_name(enum tof_cal_field field) {
         [TOF_CAL_FIELD_GAIN] = "gain_ppm",
         [TOF_CAL_FIELD_OFFSET_SD] = "offset_sd_um",
         [TOF_CAL_FIELD_GAIN_SD] = "gain_sd_ppm",
-        [TOF_CAL_FIELD_ARM] = "arm_um",
-        [TOF_CAL_FIELD_CAL_TEMP] = "cal_temp_cdeg",
         [TOF_CAL_FIELD_TEMP_COEFF] = "temp_coeff_nm_per_c",
         [TOF_CAL_FIELD_TEMP_COEFF_SD] = "temp_coeff_sd_nm_per_c",
+        [TOF_CAL_FIELD_CAL_TEMP] = "cal_temp_cdeg",
+        [TOF_CAL_FIELD_ARM] = "arm_um",
     };
     return (unsigned)field < sizeof names / sizeof names[0] ? names[field] : "unknown field";
 }
 
+/* Section `section` (of layout `from`) as version `version` into `out`: bytes 0..79 and every
+ * block both versions hold; the others 0. */
+static void convert(const uint8_t *section, const struct cal_layout *from, uint8_t version,
+                    uint8_t *out) {
+    const struct cal_layout *to = &layouts[version];
+    memset(out, 0, TOF_SECTION_HEADER + (size_t)to->length);
+    memcpy(out, section, TOF_SECTION_HEADER + TOF_CALIBRATION_V1_LENGTH);
+    out[1] = version;
+    out[2] = to->length;
+    for (unsigned k = 0; k < BLOCKS; ++k) {
+        if (from->at[k] != 0u && to->at[k] != 0u) {
+            memcpy(&out[TOF_SECTION_HEADER + to->at[k]], &section[TOF_SECTION_HEADER + from->at[k]],
+                   block_size[k]);
+        }
+    }
+}
+
 int tof_cal_bind_parts(const uint8_t *section, const uint64_t part_id[CALIBRATION_SENSORS],
                        uint8_t *out) {
-    const struct cal_layout *lay = layout_of(section[1]);
+    const struct cal_layout *lay = layout_of(section);
     if (section[0] != TOF_SECTION_CALIBRATION || lay == NULL ||
-        (uint16_t)(section[2] | section[3] << 8) != lay->length ||
-        (section[TOF_SECTION_HEADER + 5u] & (uint8_t)~flags_allowed(section[1])) != 0u) {
+        (lay->at[BLOCK_THERMAL] == 0u &&
+         (section[TOF_SECTION_HEADER + 5u] & TOF_CAL_FLAG_THERMAL) != 0u)) {
         return HAL_ERR_INVALID; /* a reserved flag must not become version 5's thermal one */
     }
-    const uint8_t *from = &section[TOF_SECTION_HEADER];
+    convert(section, lay, TOF_CALIBRATION_VERSION, out);
     uint8_t *v = &out[TOF_SECTION_HEADER];
-    memset(out, 0, TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH);
-    memcpy(out, section, TOF_SECTION_HEADER + TOF_CALIBRATION_V1_LENGTH);
-    out[1] = TOF_CALIBRATION_VERSION;
-    out[2] = TOF_CALIBRATION_LENGTH;
-    if (section[1] >= TOF_CALIBRATION_WIRE_VERSION) {
-        memcpy(&v[CAL_TEMP_AT], &from[CAL_TEMP_AT], THERMAL_SIZE);
-    }
-    if (lay->parts_at != 0u) {
-        memcpy(&v[PARTS_AT_V5], &from[lay->parts_at], CALIBRATION_SENSORS * PART_ID_SIZE);
-    }
-    if (lay->arm_at != 0u) {
-        memcpy(&v[ARM_AT_V5], &from[lay->arm_at], 4u);
-    }
     for (unsigned i = 0; i < CALIBRATION_SENSORS; ++i) {
         uint8_t *id = &v[PARTS_AT_V5 + PART_ID_SIZE * i];
         if (get_part_id(v, PARTS_AT_V5, i) == 0u) {
@@ -452,7 +432,8 @@ enum tof_cal_state tof_cal_write(struct tof_record_store *store, struct tof_app 
     if (tof_cal_bind_parts(section, running, stored) == HAL_OK) {
         tof_cal_bind_arm(stored, app->estimator.cfg.arm_um); /* written at the arm in force */
         state = tof_cal_decode(stored, (uint16_t)sizeof stored, &cal, &bind, NULL);
-    } else if (section[0] != TOF_SECTION_CALIBRATION || layout_of(section[1]) != NULL) {
+    } else if (section[0] != TOF_SECTION_CALIBRATION ||
+               (section[1] >= 1u && section[1] <= TOF_CALIBRATION_VERSION)) {
         state = TOF_CAL_CORRUPT; /* not a calibration section, a wrong length, a reserved flag */
     }
     if (state == TOF_CAL_APPLIED) {
@@ -480,20 +461,9 @@ void tof_cal_read(const struct tof_record_store *store, uint8_t *section) {
         return;
     }
     const int at = tof_section_find(store->payload, store->length, TOF_SECTION_CALIBRATION);
-    if (at < 0) {
-        return;
-    }
-    const uint8_t *p = &store->payload[at];
-    const struct cal_layout *lay = layout_of(p[1]);
-    if (lay != NULL && (uint16_t)(p[2] | p[3] << 8) == lay->length) {
-        /* the fields versions 1 to 5 share, and the thermal ones where stored (else 0) */
-        memcpy(section, p, TOF_SECTION_HEADER + TOF_CALIBRATION_V1_LENGTH);
-        if (p[1] >= TOF_CALIBRATION_WIRE_VERSION) {
-            memcpy(&section[TOF_SECTION_HEADER + CAL_TEMP_AT], &p[TOF_SECTION_HEADER + CAL_TEMP_AT],
-                   THERMAL_SIZE);
-        }
-        section[1] = TOF_CALIBRATION_WIRE_VERSION;
-        section[2] = TOF_CALIBRATION_V4_LENGTH;
+    const struct cal_layout *lay = at >= 0 ? layout_of(&store->payload[at]) : NULL;
+    if (lay != NULL) { /* versions 1 to 3: the thermal bytes 0 */
+        convert(&store->payload[at], lay, TOF_CALIBRATION_WIRE_VERSION, section);
     }
 }
 

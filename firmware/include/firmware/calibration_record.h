@@ -67,19 +67,19 @@
 
 /* Which field of a section tof_cal_decode() refused (the first it found wrong). */
 enum tof_cal_field {
-    TOF_CAL_FIELD_NONE = 0,        /* none: decoded, or no section at all */
-    TOF_CAL_FIELD_HEADER = 1,      /* sections that do not add up, or a length not the version's */
-    TOF_CAL_FIELD_FLAGS = 2,       /* a reserved flag bit set */
-    TOF_CAL_FIELD_MODE = 3,        /* a distance mode other than 1 or 2 */
-    TOF_CAL_FIELD_BUDGET = 4,      /* timing budget 0 */
-    TOF_CAL_FIELD_OFFSET = 5,      /* |offset_um| > CALIBRATION_OFFSET_MAX_UM */
-    TOF_CAL_FIELD_GAIN = 6,        /* |gain_ppm| > CALIBRATION_GAIN_MAX_PPM, or a gain not fitted */
-    TOF_CAL_FIELD_OFFSET_SD = 7,   /* offset_sd_um > CALIBRATION_OFFSET_MAX_UM */
-    TOF_CAL_FIELD_GAIN_SD = 8,     /* gain_sd_ppm > CALIBRATION_GAIN_MAX_PPM, or not fitted */
-    TOF_CAL_FIELD_ARM = 9,         /* a negative arm */
-    TOF_CAL_FIELD_CAL_TEMP = 10,   /* outside CALIBRATION_TEMP_MIN/MAX_CDEG, or not thermal */
-    TOF_CAL_FIELD_TEMP_COEFF = 11, /* |.| > CALIBRATION_TEMP_COEFF_MAX_NM_PER_C, or not thermal */
-    TOF_CAL_FIELD_TEMP_COEFF_SD = 12 /* > CALIBRATION_TEMP_COEFF_MAX_NM_PER_C, or not thermal */
+    TOF_CAL_FIELD_NONE = 0,       /* none: decoded, or no section at all */
+    TOF_CAL_FIELD_HEADER = 1,     /* sections that do not add up, or a length not the version's */
+    TOF_CAL_FIELD_FLAGS = 2,      /* a reserved flag bit set */
+    TOF_CAL_FIELD_MODE = 3,       /* a distance mode other than 1 or 2 */
+    TOF_CAL_FIELD_BUDGET = 4,     /* timing budget 0 */
+    TOF_CAL_FIELD_OFFSET = 5,     /* |offset_um| > CALIBRATION_OFFSET_MAX_UM */
+    TOF_CAL_FIELD_GAIN = 6,       /* |gain_ppm| > CALIBRATION_GAIN_MAX_PPM, or not fitted */
+    TOF_CAL_FIELD_OFFSET_SD = 7,  /* offset_sd_um > CALIBRATION_OFFSET_MAX_UM */
+    TOF_CAL_FIELD_GAIN_SD = 8,    /* gain_sd_ppm > CALIBRATION_GAIN_MAX_PPM, or not fitted */
+    TOF_CAL_FIELD_TEMP_COEFF = 9, /* |.| > CALIBRATION_TEMP_COEFF_MAX_NM_PER_C, or not thermal */
+    TOF_CAL_FIELD_TEMP_COEFF_SD = 10, /* > CALIBRATION_TEMP_COEFF_MAX_NM_PER_C, or not thermal */
+    TOF_CAL_FIELD_CAL_TEMP = 11,      /* outside CALIBRATION_TEMP_MIN/MAX_CDEG, or not thermal */
+    TOF_CAL_FIELD_ARM = 12            /* a negative arm */
 };
 
 /* What boot found of the calibration, the status frame's `calibration` byte
@@ -111,8 +111,9 @@ struct tof_cal_binding {
 
 /* The section in its version-4 form (TOF_CAL_WIRE_SIZE bytes, header included: what the
  * telemetry commands carry; bind->part_id and bind->arm_um are not in it) of `cal` made in
- * `bind`. HAL_OK, or HAL_ERR_INVALID (nothing written) for a `cal` that is not calibrated or
- * out of estimator/calibration.h's bounds. `has_gain` false: gains not fitted (gain_ppm must
+ * `bind`. HAL_OK, or HAL_ERR_INVALID (`out` all zero) for a `cal` that is not calibrated,
+ * out of estimator/calibration.h's bounds, or a binding without a mode or budget (the
+ * decoder's own check of the bytes written). `has_gain` false: gains not fitted (gain_ppm must
  * be 0; the gain sd is not stored). `cal->thermal` false: the thermal fields are stored as 0
  * whatever `cal` holds there. */
 int tof_cal_encode(const struct calibration_head *cal, bool has_gain,

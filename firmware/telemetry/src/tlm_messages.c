@@ -8,6 +8,12 @@
 
 #include "tlm_wire.h"
 
+/* A temperature (TLM_TEMP_*): within range when known, 0 when not, so a parsed message
+ * re-encodes to the bytes it came from. One copy for the estimate and the status. */
+static __attribute__((noinline)) bool temp_is_valid(bool known, int16_t cdeg) {
+    return known ? cdeg >= TLM_TEMP_MIN_CDEG && cdeg <= TLM_TEMP_MAX_CDEG : cdeg == 0;
+}
+
 /* --- estimate ------------------------------------------------------------- */
 
 /* A value and its sd are present together; a present sd is at least 1 (never 0). */

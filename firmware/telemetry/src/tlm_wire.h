@@ -126,12 +126,6 @@ static inline bool get_bool(struct reader *r, bool *value) {
     return raw <= 1u;
 }
 
-/* A temperature (tlm_messages.h, TLM_TEMP_*): within range when known, 0 when not, so a
- * parsed message re-encodes to the bytes it came from. */
-static inline bool temp_is_valid(bool known, int16_t cdeg) {
-    return known ? cdeg >= TLM_TEMP_MIN_CDEG && cdeg <= TLM_TEMP_MAX_CDEG : cdeg == 0;
-}
-
 static inline void put_temp(struct writer *w, bool known, int16_t cdeg) {
     put_u8(w, known ? 1u : 0u);
     put_u16(w, (uint16_t)cdeg); /* two's complement by definition of the conversion */
