@@ -150,13 +150,19 @@ static uint32_t age_now_s(struct tof_link *link) {
 }
 
 /* The re-zero's last sample is in: the offsets refitted, saved and in force (or the reason
- * not), the raw stream as the user had it, and a calibration message says how it went. */
+ * not), the raw stream as the user had it, and a calibration message says how it went. The
+ * refitted offsets hold at the unit's temperature now, so a thermal calibration takes it as
+ * its calibration temperature; without one it is refused (rejected, the old one kept):
+ * offsets at an unknown temperature would be corrected from the wrong one. */
 static void finish_rezero(struct tof_link *link) {
     struct calibration_head now, next;
     tof_app_get_calibration(link->app, &now);
     int error = 0;
     enum tof_cal_state st = TOF_CAL_REJECTED;
-    if (tof_rezero_fit(&link->rezero, &now, &next)) {
+    if ((!now.thermal || link->temp_known) && tof_rezero_fit(&link->rezero, &now, &next)) {
+        if (now.thermal) {
+            next.cal_temp_cdeg = link->temp_cdeg;
+        }
         const uint32_t age_before = age_hold(link);
         st = tof_cal_write_head(link->records, link->app, &next, &error);
         age_after_write(link, st, age_before);

@@ -545,8 +545,12 @@ static void spy_temperature(void *ctx, const struct tof_estimate_record *record)
     tof_link_output_ops.estimate(ctx, &spied);
 }
 
+static void pass_sample(void *ctx, const struct tof_sample *sample) {
+    tof_link_output_ops.sample(ctx, sample); /* the re-zero's samples */
+}
+
 static const struct tof_output_ops temperature_ops = {
-    .estimate = spy_temperature, .sample = NULL, .event = NULL};
+    .estimate = spy_temperature, .sample = pass_sample, .event = NULL};
 
 static void test_estimate_and_status_frames_carry_the_temperature(void **state) {
     (void)state;
@@ -1038,6 +1042,62 @@ static void test_rezero_refits_the_offsets(void **state) {
     assert_int_equal(t.app.estimator.cfg.calibration.offset_um[2], now.offset_um[2]);
 }
 
+/* A thermal calibration re-zeroed: the new offsets hold at the unit's temperature then, which
+ * becomes the calibration temperature (the coefficients kept); with no temperature the
+ * re-zero is rejected and the calibration in force kept. */
+static void test_rezero_of_a_thermal_calibration_takes_the_temperature(void **state) {
+    (void)state;
+    assert_int_equal(sim_flash_init(&saved_flash, 2u, 2048u), HAL_OK);
+    boot_with_records();
+    t.platform.output = (struct tof_output){.ops = &temperature_ops, .ctx = &t.link};
+    spy_temp_known = false;
+    const struct calibration_head cal = {.calibrated = true,
+                                         .offset_um = {1500, -800, -1200, 600},
+                                         .offset_sd_um = {40, 40, 40, 40},
+                                         .thermal = true,
+                                         .cal_temp_cdeg = 2000,
+                                         .temp_coeff_nm_per_c = {10000, 20000, 30000, 40000},
+                                         .temp_coeff_sd_nm_per_c = {1000, 1000, 1000, 1000}};
+    struct tlm_command cmd = {.type = TLM_TYPE_WRITE_CALIBRATION};
+    const struct tof_cal_binding b = tof_cal_binding_of(&t.app.cfg);
+    assert_int_equal(tof_cal_encode(&cal, false, &b, cmd.u.cal_section), HAL_OK);
+    push_command(&cmd, 1);
+    run_ms(100u * 20u + 100u); /* a window without a temperature */
+    decode_output();
+    assert_int_equal(t.acks, 1);
+    cmd = (struct tlm_command){.type = TLM_TYPE_REZERO, .u.rezero_samples = 50};
+    push_command(&cmd, 2);
+    t.serial.tx_len = 0;
+    t.calibrations = 0;
+    run_ms(50u * 20u + 200u);
+    decode_output();
+    assert_int_equal(t.calibrations, 1);
+    assert_int_equal(t.last_calibration.state, TLM_CAL_REJECTED);
+    struct calibration_head now;
+    tof_app_get_calibration(&t.app, &now);
+    assert_int_equal(now.offset_um[0], 1500); /* kept */
+    assert_int_equal(now.cal_temp_cdeg, 2000);
+
+    spy_temp_known = true;
+    spy_temp_cdeg = -1575; /* -15.75 degC */
+    run_ms(100u * 20u);    /* a window at that temperature */
+    push_command(&cmd, 3);
+    t.serial.tx_len = 0;
+    t.calibrations = 0;
+    run_ms(50u * 20u + 200u);
+    decode_output();
+    assert_int_equal(t.calibrations, 1);
+    assert_int_equal(t.last_calibration.state, TLM_CAL_APPLIED);
+    tof_app_get_calibration(&t.app, &now);
+    assert_true(now.thermal);
+    assert_int_equal(now.cal_temp_cdeg, -1575);
+    assert_int_equal(now.temp_coeff_nm_per_c[3], 40000);
+    assert_int_not_equal(now.offset_um[0], 1500); /* refitted at the parallel plate */
+    /* and read back so */
+    assert_int_equal(t.last_calibration.section[4 + 80], (uint8_t)((uint16_t)-1575 & 0xFFu));
+    assert_int_equal(t.last_calibration.section[4 + 81], (uint8_t)((uint16_t)-1575 >> 8));
+}
+
 /* The arm is part of the calibration: one written at 30 mm is bound to it; set-arm 40 takes
  * it out of force (the status frame after the ack says other-arm, the head uncalibrated),
  * set-arm 30 puts it back. */
@@ -1087,6 +1147,7 @@ int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup(test_default_windows_report_a_parallel_plate, setup),
         cmocka_unit_test_setup(test_estimate_and_status_frames_carry_the_temperature, setup),
+        cmocka_unit_test_setup(test_rezero_of_a_thermal_calibration_takes_the_temperature, setup),
         cmocka_unit_test_setup(test_commands_are_applied_and_acknowledged, setup),
         cmocka_unit_test_setup(test_a_retried_command_is_answered_but_applied_once, setup),
         cmocka_unit_test_setup(test_health_is_rate_limited_and_counts_uart_overruns, setup),
