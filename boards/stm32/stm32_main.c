@@ -13,6 +13,7 @@
 #include "firmware/calibration_record.h"
 #include "firmware/config.h"
 #include "firmware/link.h"
+#include "firmware/link_storage.h"
 #include "firmware/record.h"
 #include "firmware/text.h"
 #include "stm32_usart.h"
@@ -53,8 +54,11 @@ int main(void) {
     tof_link_init(&link, board_hal_serial());
     /* storage pages 0, 1: the calibration's age; 2, 3: the record (board_desc.c) */
     const struct hal_records storage = board_hal_records();
-    if (tof_record_init(&records, storage, 2u, 3u) == 0) {
-        tof_link_set_records(&link, &records); /* none: defaults, `save` refused */
+    /* A board without storage (ops NULL, a constant of its board_desc.c) names none of the
+     * storage code here, so its image links none (firmware/link_storage.h). */
+    if (storage.ops != NULL && tof_record_init(&records, storage, 2u, 3u) == 0) {
+        tof_link_set_records(&link, &tof_link_storage,
+                             &records); /* none: defaults, `save` refused */
         if (tof_cal_age_init(&cal_age, storage, 0u, 1u) == 0) {
             /* the stored calibration's age, its pages read before the application's timeline
              * starts (the link's start hands it to the estimator); none: from each boot */

@@ -445,13 +445,14 @@ void tof_app_step(struct tof_app *app, bool idle) {
         app->platform->watchdog.ops->kick(app->platform->watchdog.ctx);
     }
     if (idle) {
-        app->platform->time.ops->delay_us(app->platform->time.ctx, idle_time_us(app, end));
+        const uint32_t idle_us = idle_time_us(app, end);
+        app->platform->time.ops->delay_us(app->platform->time.ctx, idle_us);
     }
 }
 
 void tof_app_idle(struct tof_app *app) {
-    app->platform->time.ops->delay_us(app->platform->time.ctx,
-                                      idle_time_us(app, tof_app_now_us(app)));
+    const uint32_t idle_us = idle_time_us(app, tof_app_now_us(app));
+    app->platform->time.ops->delay_us(app->platform->time.ctx, idle_us);
 }
 
 int tof_app_set_period(struct tof_app *app, uint32_t period_ms) {

@@ -137,9 +137,9 @@ static uint32_t age_hold(struct tof_link *link) {
 static void age_after_write(struct tof_link *link, enum tof_cal_state st, uint32_t before) {
     if (st != TOF_CAL_APPLIED) {
         (void)tof_app_set_calibration_age(link->app, before, false);
-    } else if (link->cal_age != NULL) {
-        (void)tof_cal_age_restart(link->cal_age, tof_cal_tag(link->records),
-                                  tof_app_now_us(link->app));
+    } else if (link->cal_age != NULL) { /* set with the storage only */
+        (void)link->storage->age_restart(link->cal_age, link->storage->cal_tag(link->records),
+                                         tof_app_now_us(link->app));
     }
 }
 
@@ -158,13 +158,19 @@ static void finish_rezero(struct tof_link *link) {
     struct calibration_head now, next;
     tof_app_get_calibration(link->app, &now);
     int error = 0;
-    enum tof_cal_state st = TOF_CAL_REJECTED;
-    if ((!now.thermal || link->temp_known) && tof_rezero_fit(&link->rezero, &now, &next)) {
+    enum tof_cal_state st = TOF_CAL_NO_STORAGE; /* a re-zero nothing could keep */
+    bool fitted = false;
+    if (link->storage != NULL) {
+        st = TOF_CAL_REJECTED;
+        fitted = (!now.thermal || link->temp_known) &&
+                 link->storage->rezero_fit(&link->rezero, &now, &next);
+    }
+    if (fitted) {
         if (now.thermal) {
             next.cal_temp_cdeg = link->temp_cdeg;
         }
         const uint32_t age_before = age_hold(link);
-        st = tof_cal_write_head(link->records, link->app, &next, &error);
+        st = link->storage->cal_write_head(link->records, link->app, &next, &error);
         age_after_write(link, st, age_before);
     }
     link->rezero.wanted = 0u;
@@ -255,8 +261,13 @@ static uint8_t write_calibration(struct tof_link *link, const uint8_t *section, 
     if (link->rezero.wanted != 0u || link->save_pending) {
         return TLM_RESULT_BUSY;
     }
+    if (link->storage == NULL) {
+        *error = HAL_ERR_STATE; /* nowhere to keep it: never in force for one boot only */
+        return TLM_RESULT_STATE;
+    }
     const uint32_t age_before = age_hold(link);
-    const enum tof_cal_state st = tof_cal_write(link->records, link->app, section, error);
+    const enum tof_cal_state st =
+        link->storage->cal_write(link->records, link->app, section, error);
     age_after_write(link, st, age_before);
     switch (st) {
     case TOF_CAL_APPLIED:
@@ -305,9 +316,17 @@ static uint8_t start_rezero(struct tof_link *link, uint16_t samples) {
 /* The calibration message: the state in force and the stored section. */
 static void send_calibration(struct tof_link *link) {
     struct tlm_calibration msg = {.state = link->cal_state};
-    tof_cal_read(link->records, msg.section);
+    if (link->storage != NULL) { /* else no section: all zero */
+        link->storage->cal_read(link->records, msg.section);
+    }
     uint8_t frame[TLM_FRAME_MAX];
     send(link, frame, tlm_encode_calibration(link->seq, &msg, frame, sizeof frame));
+}
+
+/* The stored calibration checked against the unit as it now runs (no storage: none). */
+static uint8_t recheck(struct tof_link *link) {
+    return link->storage != NULL ? (uint8_t)link->storage->cal_recheck(link->records, link->app)
+                                 : link->cal_state;
 }
 
 /* set-arm and set-period (geometry and rate at run time). A new period changes the
@@ -319,7 +338,7 @@ static uint8_t apply_geometry(struct tof_link *link, const struct tlm_command *c
         if (*error == 0) {
             /* the stored calibration holds at its own arm only (other-arm elsewhere); the
              * status frame after the ack says which */
-            link->cal_state = (uint8_t)tof_cal_recheck(link->records, link->app);
+            link->cal_state = recheck(link);
         }
         return estimator_result(*error);
     }
@@ -329,7 +348,7 @@ static uint8_t apply_geometry(struct tof_link *link, const struct tlm_command *c
         return TLM_RESULT_OUT_OF_RANGE; /* no timing of the distance mode fits: a hal code */
     }
     if (*error == 0 && link->app->cfg.timing.budget_ms != budget_ms) {
-        link->cal_state = (uint8_t)tof_cal_recheck(link->records, link->app);
+        link->cal_state = recheck(link);
     }
     return estimator_result(*error);
 }
@@ -386,14 +405,18 @@ static uint8_t apply(struct tof_link *link, const struct tlm_command *cmd, int *
             *error = HAL_ERR_STATE; /* the save before is still being written: answered then */
             return TLM_RESULT_STATE;
         }
+        if (link->storage == NULL) {
+            *error = HAL_ERR_STATE; /* no storage */
+            return TLM_RESULT_STATE;
+        }
         struct tof_settings now;
         tof_settings_capture(app, &link->process_noise, &now);
-        *error = tof_settings_save_begin(link->records, &now); /* a hal_err: storage's own */
+        *error = link->storage->settings_save_begin(link->records, &now); /* storage's own */
         /* Two steps now: the blank check, then the program when the page was blank (a
          * millisecond or two), so the answer goes out with this poll; when it was not, the
          * second step finds its erase running and the answer waits for it in save_poll(). */
         for (unsigned n = 0; n < 2u && *error == HAL_OK; ++n) {
-            *error = tof_record_step(link->records);
+            *error = link->storage->record_step(link->records);
             link->save_pending = *error == HAL_ERR_NOT_READY;
             *error = link->save_pending ? HAL_OK : *error;
         }
@@ -481,7 +504,9 @@ void tof_link_init(struct tof_link *link, struct hal_serial serial) {
     tlm_decoder_init(&link->decoder, tlm_message_types(TLM_ACCEPT_COMMANDS));
 }
 
-void tof_link_set_records(struct tof_link *link, struct tof_record_store *store) {
+void tof_link_set_records(struct tof_link *link, const struct tof_link_storage_ops *ops,
+                          struct tof_record_store *store) {
+    link->storage = ops;
     link->records = store;
 }
 
@@ -495,10 +520,10 @@ void tof_link_bind(struct tof_link *link, struct tof_app *app) {
 
 /* The record save under way, one step a poll; a pending `save` answered when it ends. */
 static __attribute__((noinline)) void save_poll(struct tof_link *link) {
-    if (link->records == NULL || !tof_record_busy(link->records)) {
+    if (link->storage == NULL || !link->storage->record_busy(link->records)) {
         return;
     }
-    const int rc = tof_record_step(link->records);
+    const int rc = link->storage->record_step(link->records);
     if (!link->save_pending || rc == HAL_ERR_NOT_READY) {
         return; /* still writing, or the old page's erase after the answer */
     }
@@ -518,9 +543,9 @@ void tof_link_poll(struct tof_link *link) {
     }
     save_poll(link); /* not inlined for the same reason as send_health() */
     if (link->cal_age != NULL && link->cal_age->counting &&
-        (link->records == NULL || !tof_record_busy(link->records))) {
+        !link->storage->record_busy(link->records)) {
         /* never while the record's erase runs in the background: one storage, one operation */
-        (void)tof_cal_age_poll(link->cal_age, tof_app_now_us(link->app));
+        (void)link->storage->age_poll(link->cal_age, tof_app_now_us(link->app));
     }
     uint8_t buf[TOF_LINK_RX_PER_POLL];
     const struct tlm_frame_sink sink = {.on_frame = on_frame, .on_reject = on_reject, .ctx = link};
@@ -540,14 +565,24 @@ static void service_start(void *ctx, struct tof_app *app) {
     struct tof_link *link = ctx;
     tof_link_bind(link, app);
     /* the settings in force: their process noise is what `save` keeps until a command */
-    link->record_state = (uint8_t)tof_settings_boot(link->records, app, &link->process_noise);
+    if (link->storage == NULL) {
+        /* no record: the configuration's settings and its own calibration (uncalibrated
+         * unless it says), whatever was in force before (a soft restart, a reused rig) */
+        tof_settings_capture(app, NULL, &link->process_noise);
+        (void)tof_app_set_calibration(app, &app->cfg.estimator.calibration);
+        tof_link_send_status(link);
+        return;
+    }
+    link->record_state =
+        (uint8_t)link->storage->settings_boot(link->records, app, &link->process_noise);
     if (link->cal_age != NULL) {
         /* the stored calibration's age (tof_cal_age_boot(), before the application's timeline
          * started): the calibration's boot below restarts the estimator with it */
-        (void)tof_app_set_calibration_age(
-            app, tof_cal_age_now_s(link->cal_age, tof_app_now_us(app)), false);
+        const uint64_t now_us = tof_app_now_us(app);
+        const uint32_t age_s = link->storage->age_now_s(link->cal_age, now_us);
+        (void)tof_app_set_calibration_age(app, age_s, false);
     }
-    link->cal_state = (uint8_t)tof_cal_boot(link->records, app); /* the head's calibration */
+    link->cal_state = (uint8_t)link->storage->cal_boot(link->records, app); /* the head's */
     tof_link_send_status(link);
 }
 

@@ -69,7 +69,7 @@ void replay_commands_start(struct replay_commands *c, struct tof_app *app,
     tof_link_init(&c->link, (struct hal_serial){.ops = &serial_ops, .ctx = c});
     tof_link_bind(&c->link, app);
     /* the flight unit's record storage and what its boot found (service_start's) */
-    tof_link_set_records(&c->link, records);
+    tof_link_set_records(&c->link, &tof_link_storage, records);
     struct tof_settings none;
     c->link.record_state =
         (uint8_t)(records->current < 0

@@ -26,6 +26,11 @@
  *              same Q, tumbling windows: with Q > 0 the filter is not restarted at a
  *              window's start, and R follows each window's statistics)
  *   window     (fixed only) the whole window-end work of all four estimators
+ *   sample_cal, sample_thermal  (fixed only) `sample` through the calibrated
+ *              head of window_cal, without and with temperature coefficients (40, −30, 25,
+ *              −35 µm/°C) and a temperature that moves by one ADC step (0.29 °C) every 50 rows,
+ *              a dozen times an orbit's fastest: their difference is the correction's cost,
+ *              its re-sums of the rows held included (estimator/src/attitude_thermal.c)
  *   window_cal (fixed only) `window` with a calibrated head, the product's real
  *              configuration (offsets, gains, their sds and correlation non-zero, as
  *              HEAD.cal gives them): the corrected readings are other data, so the paper's
@@ -59,6 +64,8 @@ static struct kalman_state kal_auto;
 static struct attitude_state est_track;
 static struct attitude_state est_cal;
 static struct attitude_state est_auto;
+static struct attitude_state est_cal_only;
+static struct attitude_state est_thermal;
 static struct flt_window fwin;
 static struct flt_kalman fkal;
 static struct flt_kalman fkal_track;
@@ -208,6 +215,20 @@ static void bench_fixed(const char *cpu) {
         semihost_write_stdout("bench: attitude_init (calibrated) failed\n", 41);
         semihost_exit(1);
     }
+    const struct attitude_config cal_only_cfg = cal_cfg;
+    struct attitude_config thermal_cfg = cal_only_cfg;
+    thermal_cfg.calibration.thermal = true;
+    thermal_cfg.calibration.cal_temp_cdeg = 2000;
+    const int32_t coeff_nm_per_c[4] = {40000, -30000, 25000, -35000};
+    for (unsigned k = 0; k < 4u; ++k) {
+        thermal_cfg.calibration.temp_coeff_nm_per_c[k] = coeff_nm_per_c[k];
+        thermal_cfg.calibration.temp_coeff_sd_nm_per_c[k] = 2000u;
+    }
+    if (attitude_init(&est_cal_only, &cal_only_cfg) != ATTITUDE_ERR_NONE ||
+        attitude_init(&est_thermal, &thermal_cfg) != ATTITUDE_ERR_NONE) {
+        semihost_write_stdout("bench: attitude_init (thermal) failed\n", 38);
+        semihost_exit(1);
+    }
     if (kalman_init(&kal, &kcfg) != KALMAN_OK || kalman_init(&kal_track, &tcfg) != KALMAN_OK ||
         kalman_init(&kal_auto, &acfg) != KALMAN_OK ||
         attitude_init(&est_track, &track_cfg) != ATTITUDE_ERR_NONE) {
@@ -217,6 +238,8 @@ static void bench_fixed(const char *cpu) {
     uint64_t sample_total = 0, window_total = 0, consensus_total = 0, kalman_total = 0;
     uint64_t track_total = 0, sample_track_total = 0, auto_total = 0, window_cal_total = 0;
     uint32_t windows_cal = 0;
+    uint64_t cal_only_total = 0, thermal_total = 0;
+    uint32_t cal_only_samples = 0;
     uint64_t auto_worst = 0;
     uint32_t samples = 0, windows = 0, kalman_rows = 0, track_rows = 0, track_samples = 0;
     const uint8_t status[4] = {0, 0, 0, 0};
@@ -283,6 +306,28 @@ static void bench_fixed(const char *cpu) {
                 ++windows_cal;
                 fixed_sink = out.est[ATTITUDE_EST_CONSENSUS].alpha_udeg;
             }
+            /* the head at 20 °C plus one 0.29 °C step every 50 rows */
+            const uint32_t row_no = w * BENCH_N + i;
+            const int16_t temp_cdeg = (int16_t)(2000u + 29u * (row_no / 50u));
+            uint16_t hot[4];
+            for (unsigned k = 0; k < 4u; ++k) {
+                const int32_t shift_um = coeff_nm_per_c[k] * (temp_cdeg - 2000) / 100000;
+                hot[k] =
+                    (uint16_t)((int32_t)raw[k] + (shift_um + (shift_um < 0 ? -500 : 500)) / 1000);
+            }
+            const uint32_t p0 = insn_counter_ticks();
+            const bool cal_only_ready =
+                attitude_push_sample(&est_cal_only, hot, status, present, &out);
+            const uint32_t p1 = insn_counter_ticks();
+            attitude_set_temperature(&est_thermal, true, temp_cdeg);
+            const bool thermal_ready =
+                attitude_push_sample(&est_thermal, hot, status, present, &out);
+            const uint32_t p3 = insn_counter_ticks();
+            if (!cal_only_ready && !thermal_ready) { /* as `sample`: rows that end no window */
+                cal_only_total += measured(p0, p1);
+                thermal_total += measured(p1, p3); /* attitude_set_temperature included */
+                ++cal_only_samples;
+            }
         }
         /* The product consensus of this window, from its statistics. */
         struct consensus_product_input in;
@@ -315,6 +360,8 @@ static void bench_fixed(const char *cpu) {
     report(cpu, "fixed", "sample_track", sample_track_total, track_samples);
     report(cpu, "fixed", "window", window_total, windows);
     report(cpu, "fixed", "window_cal", window_cal_total, windows_cal);
+    report(cpu, "fixed", "sample_cal", cal_only_total, cal_only_samples);
+    report(cpu, "fixed", "sample_thermal", thermal_total, cal_only_samples);
 }
 
 static void bench_float(const char *cpu) {

@@ -717,7 +717,7 @@ static struct tof_record_store saved_store;
 static void boot_with_records(void) {
     sim_flash_power_on(&saved_flash);
     assert_int_equal(tof_record_init(&saved_store, sim_flash_hal(&saved_flash), 0u, 1u), HAL_OK);
-    tof_link_set_records(&t.link, &saved_store);
+    tof_link_set_records(&t.link, &tof_link_storage, &saved_store);
     tof_link_service_ops.start(&t.link, &t.app);
     decode_output();
     assert_int_equal(t.status, 1);
@@ -1129,10 +1129,13 @@ static void test_set_arm_takes_the_calibration_out_of_force(void **state) {
     assert_true(t.app.estimator.cfg.calibration.calibrated);
 }
 
+/* A link without storage (a board that names no tof_link_storage) refuses `save` and
+ * write-calibration as state errors, never acknowledging what it could not keep; the
+ * configuration's calibration stays in force. */
 static void test_save_without_storage_is_refused(void **state) {
     (void)state;
     tof_link_service_ops.start(&t.link, &t.app);
-    const struct tlm_command cmd = {.type = TLM_TYPE_SAVE};
+    struct tlm_command cmd = {.type = TLM_TYPE_SAVE};
     push_command(&cmd, 1);
     run_ms(50);
     decode_output();
@@ -1141,6 +1144,17 @@ static void test_save_without_storage_is_refused(void **state) {
     assert_int_equal(t.nacks, 1);
     assert_int_equal(t.last_nack_result, TLM_RESULT_STATE);
     assert_int_equal(t.last_nack_error, HAL_ERR_STATE);
+    cmd = (struct tlm_command){.type = TLM_TYPE_WRITE_CALIBRATION};
+    struct calibration_head cal = {.calibrated = true, .offset_sd_um = {30, 30, 30, 30}};
+    const struct tof_cal_binding bind = tof_cal_binding_of(&t.app.cfg);
+    assert_int_equal(tof_cal_encode(&cal, false, &bind, cmd.u.cal_section), HAL_OK);
+    push_command(&cmd, 2);
+    run_ms(50);
+    decode_output(); /* the whole output again: the save's nack, then both */
+    assert_int_equal(t.nacks, 3);
+    assert_int_equal(t.last_nack_result, TLM_RESULT_STATE);
+    assert_int_equal(t.last_nack_error, HAL_ERR_STATE);
+    assert_false(t.app.estimator.cfg.calibration.calibrated);
 }
 
 int main(void) {

@@ -118,7 +118,7 @@ static void boot(bool with_age) {
     }
     sim_flash_power_on(&flash);
     assert_int_equal(tof_record_init(&store, sim_flash_hal(&flash), 2u, 3u), HAL_OK);
-    tof_link_set_records(&t.link, &store);
+    tof_link_set_records(&t.link, &tof_link_storage, &store);
     if (with_age) { /* as the board's main: the age booted before the application */
         assert_int_equal(tof_cal_age_init(&age, sim_flash_hal(&flash), 0u, 1u), HAL_OK);
         (void)tof_record_load(&store);

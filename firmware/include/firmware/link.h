@@ -18,6 +18,7 @@
 
 #include "firmware/app.h"
 #include "firmware/cal_age.h"
+#include "firmware/link_storage.h"
 #include "firmware/record.h"
 #include "firmware/rezero.h"
 #include "firmware/settings.h"
@@ -59,7 +60,8 @@ struct tof_link {
     uint8_t last_seq, last_type, last_result, last_length;
     int8_t last_error;
     uint8_t last_payload[TOF_LINK_COMMAND_MAX];
-    uint32_t commands_repeated;        /* retries answered without being applied again */
+    uint32_t commands_repeated;                 /* retries answered without being applied again */
+    const struct tof_link_storage_ops *storage; /* what storage does (NULL: no storage) */
     struct tof_record_store *records;  /* where `save` keeps the settings (NULL: nowhere) */
     struct tof_settings process_noise; /* the last accepted set-process-noise, for `save` */
     uint8_t record_state;              /* enum tof_record_state found at start, in status */
@@ -82,16 +84,20 @@ struct tof_link {
 /* Start a link over `serial`. */
 void tof_link_init(struct tof_link *link, struct hal_serial serial);
 
-/* Keep the settings in `store` (initialised with tof_record_init()): the service's start
- * applies the saved ones (firmware/settings.h), `save` writes them. Call before the start. */
-void tof_link_set_records(struct tof_link *link, struct tof_record_store *store);
+/* Keep the settings in `store` (initialised with tof_record_init()) through `ops` (the
+ * storage modules, &tof_link_storage: firmware/link_storage.h): the service's start applies the
+ * saved ones (firmware/settings.h), `save` writes them. Call before the start. Without this
+ * call the link has no storage: its storage commands are answered `no-storage`, and the
+ * image links none of the storage code. */
+void tof_link_set_records(struct tof_link *link, const struct tof_link_storage_ops *ops,
+                          struct tof_record_store *store);
 
 /* Keep the calibration's age in `age` (on the same storage as the records, other pages, and
  * booted with tof_cal_age_boot() for the record's calibration, tof_cal_tag(), before
  * tof_app_init(): its scan of the pages stays off the application's timeline): the service's
  * start hands that age to the estimator, each poll keeps it on storage, a new calibration
- * starts it at 0, and the status frame reports the age the estimator counts. Call before the
- * start. */
+ * starts it at 0, and the status frame reports the age the estimator counts. Call after
+ * tof_link_set_records() and before the start. */
 void tof_link_set_cal_age(struct tof_link *link, struct tof_cal_age *age);
 
 /* Attach the application the commands act on (after tof_app_init). */
