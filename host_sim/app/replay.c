@@ -345,6 +345,15 @@ static int run(struct replay *r) {
                 r->cal_state);
         return -1;
     }
+    if (r->app.estimator.cfg.calibration.thermal && r->platform.temp.ops == NULL) {
+        /* the estimator's fall-back (docs/explanation/uncertainty.md "Temperature"), said */
+        fprintf(stderr,
+                "host_sim replay: note: %s has temperature coefficients but %s has no temp_c "
+                "column: the offsets are held at their calibration temperature (%.2f C) and the "
+                "sd's drift prior grows with time alone\n",
+                r->cal.source, r->args->trace_path,
+                r->app.estimator.cfg.calibration.cal_temp_cdeg / 100.0);
+    }
     sim_replay_set_origin(&r->sim, r->app.assembler.origin_us);
     for (unsigned k = 0; k < r->args->command_count; ++k) {
         (void)replay_commands_add(&r->commands, r->args->commands[k]); /* checked by the cli */
