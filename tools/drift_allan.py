@@ -82,6 +82,9 @@ def structure(x, period_s, m, lags_s):
 
 def main(argv):
     args = list(argv[1:])
+    if "--help" in args or "-h" in args:
+        print(__doc__.strip())
+        return 0
     duration = 3600.0
     split = None
     for flag in ("--duration", "--split"):

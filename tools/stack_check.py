@@ -16,8 +16,9 @@ Rules (an upper bound under the project's rules, not a proof):
   no one calls directly. A function already on the path is skipped there;
 - ... narrowed by the member it goes through (docs/explanation/architecture.md: every function pointer is an
   ops-struct member, `x->ops->now_us(...)`): with --narrow, a call through member `m`
-  reaches the functions the image's sources (the files of its linked functions) store
-  into a member named `m` (`.m = f` or `->m = f`) plus every address-taken function
+  reaches the functions the image's sources (the files of its linked functions, and the
+  .c files beside them: a file holding only an ops table has no function a call graph
+  names) store into a member named `m` (`.m = f` or `->m = f`) plus every address-taken function
   stored nowhere under a name. It stays
   "any address-taken function" when the call's statement names no member or also calls
   through a variable (a lower-case name that is no function of the image, no direct call
@@ -141,6 +142,31 @@ def address_taken(elf):
     return taken
 
 
+def image_stores(files, frames):
+    """member_stores() of the image's source files, plus the stores of the .c files beside
+    them that name a function of the image: a file that defines only an ops table
+    (firmware/src/link_storage.c) has no function a call graph names, yet stores the image's
+    functions under member names. A sibling's store of anything else is not the image's."""
+    stores = member_stores(files)
+    if stores is None:
+        return None
+    names = {f.split(":")[-1].split(".")[0] for f in frames}
+    siblings = set()
+    for d in {os.path.dirname(p) for p in files}:
+        try:
+            siblings |= {os.path.join(d, n) for n in os.listdir(d) if n.endswith(".c")}
+        except OSError:
+            return None  # a folder we cannot read: no narrowing at all
+    extra = member_stores(siblings - set(files))
+    if extra is None:
+        return None
+    for member, values in extra.items():
+        for path, value in values:
+            if value in names:
+                stores.setdefault(member, set()).add((path, value))
+    return stores
+
+
 def member_stores(sources):
     """member name -> (file, what) pairs: what the image's sources (the files of its
     linked functions) store into it, a function name, or the whole expression when it is
@@ -235,14 +261,31 @@ def analyse(frames, calls, entries, handlers, taken=None, stores=None, sources=N
     direct = names | {bare(t) for ts in calls.values() for t, _ in ts} | set(callables)
     direct.discard("__indirect_call")
 
+    static_memo = {}
+
+    def is_static(cb, own):
+        """cb is defined `static` in its source file own (an LTO build titles every
+        function path:name, so the title alone does not say)."""
+        key = (own, bare(cb))
+        if key not in static_memo:
+            try:
+                with open(own, encoding="utf-8", errors="replace") as f:
+                    text = f.read()
+            except OSError:
+                text = None
+            pattern = r"^static\b[^;{=]*\b" + re.escape(bare(cb)) + r"\s*\("
+            static_memo[key] = text is None or re.search(pattern, text, re.M) is not None
+        return static_memo[key]
+
     def matches(cb, store):
         """A stored (file, name) is callback cb: same name and, for a static function
-        (title path:name), stored in its own file or in a header."""
+        (title path:name, defined `static`), stored in its own file or in a header."""
         path, value = store
         if value != bare(cb):
             return False
         own = (sources or {}).get(cb) if ":" in cb else None
-        return own is None or own == path or path.endswith(".h")
+        return (own is None or own == path or path.endswith(".h") or
+                not is_static(cb, own))
 
     unresolvable = set()  # members given something other than a function name
     all_stores = []
@@ -327,7 +370,8 @@ def main():
         kept = linked_functions(a.map)
         frames = {f: v for f, v in frames.items() if is_linked(f, sources, kept)}
     taken = address_taken(a.elf) if a.elf else None
-    stores = member_stores({sources[f] for f in frames if f in sources}) if a.narrow else None
+    stores = (image_stores({sources[f] for f in frames if f in sources}, frames)
+              if a.narrow else None)
     callables = inline_functions(SOURCE_ROOT) if a.narrow else frozenset()
     thread, irq, libs, more = analyse(frames, calls, entries, handlers, taken, stores, sources,
                                       callables)

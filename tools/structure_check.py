@@ -242,6 +242,9 @@ def test_folder_findings(root):
 
 
 def main():
+    if any(a in ("--help", "-h") for a in sys.argv[1:]):
+        print(__doc__.strip())
+        return 0
     root = os.path.abspath(sys.argv[1] if len(sys.argv) > 1 else
                            os.path.join(os.path.dirname(__file__), ".."))
     findings = test_folder_findings(root) + history_findings(root)

@@ -1,13 +1,16 @@
 #!/usr/bin/python3
 """The head's calibration between its two forms (docs/how-to/calibrate-a-head.md).
 
-- HEAD.cal text (docs/reference/calibration-file.md) <-> the flight unit's record section 2 version 1
-  (firmware/calibration_record.h), which travels as it is stored in the telemetry's
-  write-calibration command and calibration message (docs/reference/telemetry-protocol.md). The decimal
+- HEAD.cal text (docs/reference/calibration-file.md) <-> the flight unit's record section 2 version 4
+  (firmware/calibration_record.h), the form the telemetry's write-calibration command and
+  calibration message carry (docs/reference/telemetry-protocol.md); a version-1 section (84 bytes,
+  before the thermal fields) is still read, as a calibration without them. The decimal
   conversion is the trace reader's (trace/src/trace_v1_cal.c), exactly: offsets and their sd
   to 1 um, gains read to 1e-9 then to 1 ppm of (gain - 1), gain sd to 1 ppm, the
-  offset-gain correlation to Q15, each rounded half away from zero; a section read back
-  and written again as HEAD.cal gives the same bytes.
+  offset-gain correlation to Q15, the calibration temperature (cal_temp_c) to 0.01 degC, the
+  offsets' temperature coefficients and their sd (temp_coeff_mm_per_c, temp_coeff_sd_mm_per_c)
+  to 1 nm/degC, each rounded half away from zero; a section read back and written again as
+  HEAD.cal gives the same bytes.
 - a fixture station recorder: raw readings (the firmware's raw-sample messages) with the
   station's stated reference (alpha, beta, x-bar) appended as rows of a calibration trace
   (trace v1 with the truth columns, docs/how-to/calibrate-a-head.md "The calibration trace").
@@ -22,11 +25,16 @@ import sys
 import zlib
 
 SECTION_ID = 2
-SECTION_VERSION = 1
-SECTION_LEN = 80                 # the section's bytes after its 4-byte header
+SECTION_VERSION = 4              # the first with the thermal fields: what the commands carry
+SECTION_LEN = 114                # the section's bytes after its 4-byte header
+V1_LEN = 80                      # version 1: the same bytes 0..79, no thermal fields
 FLAG_GAINS = 0x01
+FLAG_THERMAL = 0x02              # version 4: the thermal fields (bytes 80..113) were measured
 OFFSET_MAX_UM = 100000           # estimator/calibration.h CALIBRATION_OFFSET_MAX_UM
 GAIN_MAX_PPM = 100000            # CALIBRATION_GAIN_MAX_PPM
+TEMP_COEFF_MAX_NM_PER_C = 1000000  # CALIBRATION_TEMP_COEFF_MAX_NM_PER_C
+TEMP_MIN_CDEG, TEMP_MAX_CDEG = -10000, 20000  # CALIBRATION_TEMP_MIN_CDEG, _MAX_CDEG
+THERMAL_KEYS = ("cal_temp_c", "temp_coeff_mm_per_c", "temp_coeff_sd_mm_per_c")
 UNCAL_GAIN_SD_PPM = 17321        # CALIBRATION_UNCAL_GAIN_SD_PPM
 MODES = {"short": 1, "long": 2}  # enum vl53_distance_mode
 # The flight image's configuration (firmware/src/config.c): what a HEAD.cal without
@@ -70,6 +78,8 @@ _KEYS = {
     "gain": (9, 1100000000, True, "a gain within 0.9..1.1"),
     "gain_sd": (6, GAIN_MAX_PPM, True, "an sd within 0..0.1"),
     "offset_gain_corr": (9, 1000000000, False, "a correlation within -1..1"),
+    "temp_coeff_mm_per_c": (6, TEMP_COEFF_MAX_NM_PER_C, False, "a coefficient within -1..1 mm/C"),
+    "temp_coeff_sd_mm_per_c": (6, TEMP_COEFF_MAX_NM_PER_C, True, "an sd within 0..1 mm/C"),
 }
 
 
@@ -94,6 +104,20 @@ def _values(key, text, where):
             v = min(_div_round(v * 32768, 1000000000), 32767)
         out.append(v)
     return out
+
+
+def _cal_temp(text, where):
+    """cal_temp_c: the head's one value in 0.01 degC, -100..200 degC."""
+    if "," in text:
+        raise CalibrationError("%s: cal_temp_c: one value (the head's), not a list, got '%s'"
+                               % (where, text))
+    v = _units(text, 2)
+    if v is None:
+        raise CalibrationError("%s: cal_temp_c: not a plain decimal, got '%s'" % (where, text))
+    if not TEMP_MIN_CDEG <= v <= TEMP_MAX_CDEG:
+        raise CalibrationError("%s: cal_temp_c: a temperature within -100..200 C, got '%s'"
+                               % (where, text))
+    return v
 
 
 def read_text_file(path):
@@ -187,7 +211,8 @@ def _integer(keys, where, key, default, lo, hi, name):
 
 
 def head_cal_to_section(text, name="HEAD.cal", mode=None, budget_ms=None, head_id=None):
-    """The 84 bytes of record section 2 (header included) of a HEAD.cal. Its binding: the
+    """The 118 bytes of record section 2 version 4 (header included) of a HEAD.cal: the
+    thermal keys give its thermal fields (all three or none: else 0). Its binding: the
     keys head_id, distance_mode and timing_budget_ms when the file has them, else the
     arguments, else head 0 and the flight image's configuration (short, 15 ms)."""
     keys, where = read_head_cal(text, name)
@@ -199,7 +224,13 @@ def head_cal_to_section(text, name="HEAD.cal", mode=None, budget_ms=None, head_i
     has_gain = "gain" in keys
     if "offset_gain_corr" in keys and not has_gain:
         raise CalibrationError("%s: offset_gain_corr without gain and gain_sd" % name)
+    given = [k for k in THERMAL_KEYS if k in keys]
+    if given and len(given) != len(THERMAL_KEYS):
+        raise CalibrationError("%s: %s without all of %s (they come together or not at all)"
+                               % (where[given[0]], given[0], ", ".join(THERMAL_KEYS)))
+    thermal = bool(given)
     vals = {k: _values(k, keys[k], where[k]) for k in _KEYS if k in keys}
+    cal_temp = _cal_temp(keys["cal_temp_c"], where["cal_temp_c"]) if thermal else 0
     zeros = [0, 0, 0, 0]
     if mode is not None and "distance_mode" in keys and keys["distance_mode"] != mode:
         raise CalibrationError("%s: distance_mode=%s, but --cal-mode %s: the file says the "
@@ -220,11 +251,16 @@ def head_cal_to_section(text, name="HEAD.cal", mode=None, budget_ms=None, head_i
     budget = _integer(keys, where, "timing_budget_ms",
                       budget_ms if budget_ms is not None else DEFAULT_BUDGET_MS, 1, 65535, name)
     out = struct.pack("<BBH", SECTION_ID, SECTION_VERSION, SECTION_LEN)
-    out += struct.pack("<IBBH", head, MODES[mode_name], FLAG_GAINS if has_gain else 0, budget)
+    flags = (FLAG_GAINS if has_gain else 0) | (FLAG_THERMAL if thermal else 0)
+    out += struct.pack("<IBBH", head, MODES[mode_name], flags, budget)
     for i in range(4):
         out += struct.pack("<iiIIh", vals["offset_mm"][i],
                            vals.get("gain", zeros)[i], vals["offset_sd_mm"][i],
                            vals.get("gain_sd", zeros)[i], vals.get("offset_gain_corr", zeros)[i])
+    out += struct.pack("<h", cal_temp)
+    for i in range(4):
+        out += struct.pack("<iI", vals.get("temp_coeff_mm_per_c", zeros)[i],
+                           vals.get("temp_coeff_sd_mm_per_c", zeros)[i])
     return out
 
 
@@ -233,16 +269,56 @@ def _exact(units, decimals):
     return format(decimal.Decimal(units).scaleb(-decimals), "f")
 
 
+def _thermal_fields(section, thermal):
+    """(cal_temp_cdeg, [(coeff_nm_per_c, sd_nm_per_c)] * 4) of a version-4 section, checked as
+    the firmware checks them (calibration_record.c): the error names the field and sensor."""
+    cal_temp = struct.unpack_from("<h", section, 4 + V1_LEN)[0]
+    coeffs = [struct.unpack_from("<iI", section, 4 + V1_LEN + 2 + 8 * i) for i in range(4)]
+    if not thermal:
+        if cal_temp != 0:
+            raise CalibrationError("section: cal_temp_cdeg %d without the thermal flag"
+                                   % cal_temp)
+        for i, (k, sd) in enumerate(coeffs):
+            if k != 0 or sd != 0:
+                raise CalibrationError(
+                    "section: %s of sensor %s is %d without the thermal flag"
+                    % ("temp_coeff_nm_per_c" if k != 0 else "temp_coeff_sd_nm_per_c",
+                       SENSORS[i], k if k != 0 else sd))
+        return cal_temp, coeffs
+    if not TEMP_MIN_CDEG <= cal_temp <= TEMP_MAX_CDEG:
+        raise CalibrationError("section: cal_temp_cdeg %d is outside %d..%d (-100..200 C)"
+                               % (cal_temp, TEMP_MIN_CDEG, TEMP_MAX_CDEG))
+    for i, (k, sd) in enumerate(coeffs):
+        if abs(k) > TEMP_COEFF_MAX_NM_PER_C:
+            raise CalibrationError("section: temp_coeff_nm_per_c of sensor %s is %d, beyond "
+                                   "+-%d (1 mm/C)" % (SENSORS[i], k, TEMP_COEFF_MAX_NM_PER_C))
+        if sd > TEMP_COEFF_MAX_NM_PER_C:
+            raise CalibrationError("section: temp_coeff_sd_nm_per_c of sensor %s is %d, beyond "
+                                   "%d (1 mm/C)" % (SENSORS[i], sd, TEMP_COEFF_MAX_NM_PER_C))
+    return cal_temp, coeffs
+
+
 def section_to_head_cal(section, source="the flight unit", arm_um=None):
-    """HEAD.cal text of record section 2 (84 bytes). Raises CalibrationError for a section
-    that is not one (all zero: none stored)."""
-    if len(section) != 4 + SECTION_LEN or not any(section):
+    """HEAD.cal text of record section 2: version 4 (118 bytes, what the unit sends), or
+    version 1 (84 bytes, before the thermal fields: a calibration without them). Raises
+    CalibrationError for a section that is not one (all zero: none stored), naming the
+    field that is wrong."""
+    if len(section) not in (4 + SECTION_LEN, 4 + V1_LEN) or not any(section):
         raise CalibrationError("no calibration stored")
     sid, version, length = struct.unpack_from("<BBH", section, 0)
-    if sid != SECTION_ID or version != SECTION_VERSION or length != SECTION_LEN:
+    if (sid != SECTION_ID or (version, length) not in ((SECTION_VERSION, SECTION_LEN), (1, V1_LEN))
+            or length + 4 != len(section)):
         raise CalibrationError("section id %d version %d length %d: not a calibration this "
-                               "tool reads (id 2 version 1 length 80)" % (sid, version, length))
+                               "tool reads (id 2, version 4 length 114 or version 1 length 80)"
+                               % (sid, version, length))
     head, mode, flags, budget = struct.unpack_from("<IBBH", section, 4)
+    allowed = FLAG_GAINS | (FLAG_THERMAL if version == SECTION_VERSION else 0)
+    if flags & ~allowed:
+        raise CalibrationError("section: flags 0x%02x: reserved bits set (version %d takes "
+                               "0x%02x)" % (flags, version, allowed))
+    thermal = bool(flags & FLAG_THERMAL)
+    cal_temp, coeffs = (_thermal_fields(section, thermal) if version == SECTION_VERSION
+                        else (0, []))
     sensors = [struct.unpack_from("<iiIIh", section, 12 + 18 * i) for i in range(4)]
     mode_name = {v: k for k, v in MODES.items()}.get(mode, str(mode))
     col = lambda k: [s[k] for s in sensors]
@@ -254,6 +330,10 @@ def section_to_head_cal(section, source="the flight unit", arm_um=None):
                   "# gain_sd=" + ",".join(_exact(v, 6) for v in col(3)),
                   "# offset_gain_corr=" + ",".join(
                       format(decimal.Decimal(v) / 32768, "f") for v in col(4))]
+    if thermal:
+        lines += ["# cal_temp_c=" + _exact(cal_temp, 2),
+                  "# temp_coeff_mm_per_c=" + ",".join(_exact(k, 6) for k, _ in coeffs),
+                  "# temp_coeff_sd_mm_per_c=" + ",".join(_exact(sd, 6) for _, sd in coeffs)]
     lines += ["# head_id=%d" % head, "# distance_mode=%s" % mode_name,
               "# timing_budget_ms=%d" % budget]
     if arm_um is not None:

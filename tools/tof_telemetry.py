@@ -44,7 +44,7 @@ HEADER_SIZE = 5
 CRC_SIZE = 2
 FRAME_OVERHEAD = HEADER_SIZE + CRC_SIZE
 MAX_PAYLOAD = 192
-PROTOCOL_VERSION = 6
+PROTOCOL_VERSION = 7
 
 ACCEPT_COMMANDS = 1
 ACCEPT_TELEMETRY = 2
@@ -72,15 +72,17 @@ T_WRITE_CALIBRATION = 0x90    # record section 2, saved and put in force
 T_READ_CALIBRATION = 0x91
 T_REZERO = 0x92               # u16 samples: refit the offsets at the latched position
 REZERO_MIN, REZERO_MAX = 10, 5000
-CAL_SECTION_LEN = 84          # u8 id 2, u8 version, u16 80, the 80 bytes (tof_calibration.py)
+CAL_SECTION_LEN = 118         # u8 id 2, u8 version 4, u16 114, the 114 bytes (tof_calibration.py)
+# A temperature on the wire: u8 known (0, 1), i16 0.01 degC (0 when not known), -100..200 degC.
+TEMP_MIN_CDEG, TEMP_MAX_CDEG = -10000, 20000
 
 # type -> (name, direction, payload length)
 TYPES = {
-    T_ESTIMATE: ("estimate", ACCEPT_TELEMETRY, 47),
+    T_ESTIMATE: ("estimate", ACCEPT_TELEMETRY, 50),
     T_RAW_SAMPLE: ("raw", ACCEPT_TELEMETRY, 17),
     T_HEALTH: ("health", ACCEPT_TELEMETRY, 148),
     T_ACK: ("ack", ACCEPT_TELEMETRY, 4),
-    T_STATUS: ("status", ACCEPT_TELEMETRY, 27),
+    T_STATUS: ("status", ACCEPT_TELEMETRY, 30),
     T_SET_WINDOW: ("set-window", ACCEPT_COMMANDS, 3),
     T_SELECT_ESTIMATOR: ("select-estimator", ACCEPT_COMMANDS, 1),
     T_START: ("start", ACCEPT_COMMANDS, 0),
@@ -298,7 +300,12 @@ class Decoder:
 
 # --- message payloads: parse with the firmware's validation rules -----------
 
-ESTIMATE_FORMAT = "<IIBBBiiiiiiiQ"  # docs/reference/telemetry-protocol.md 5.1
+ESTIMATE_FORMAT = "<IIBBBiiiiiiiQBh"  # docs/reference/telemetry-protocol.md 5.1
+
+
+def _temp_valid(known, cdeg):
+    """A temperature's known byte is 0 or 1; known: within -100..200 degC; else 0."""
+    return known in (0, 1) and (TEMP_MIN_CDEG <= cdeg <= TEMP_MAX_CDEG if known else cdeg == 0)
 
 
 def _value_and_sd_agree(value, sd):
@@ -308,7 +315,7 @@ def _value_and_sd_agree(value, sd):
 
 def _estimate(p):
     (t_ms, window, estimator, status, sensors, alpha, beta, distance, flatness,
-     alpha_sd, beta_sd, distance_sd, why) = struct.unpack(ESTIMATE_FORMAT, p)
+     alpha_sd, beta_sd, distance_sd, why, temp_known, temp_cdeg) = struct.unpack(ESTIMATE_FORMAT, p)
     ok = status == 0
     both = alpha != NO_VALUE and beta != NO_VALUE
     valid = (estimator < len(ESTIMATORS) and status < len(STATUSES) and not sensors & ~0x0F
@@ -317,11 +324,13 @@ def _estimate(p):
              and ok == (why == 0)
              and (not ok or (sensors == 0x0F and flatness != NO_VALUE and both
                              and distance != NO_VALUE))
-             and (ok or (status == 2) == (not both)))
+             and (ok or (status == 2) == (not both))
+             and _temp_valid(temp_known, temp_cdeg))
     return valid, {"t_ms": t_ms, "window": window, "estimator": estimator, "status": status,
                    "sensors": sensors, "alpha_udeg": alpha, "beta_udeg": beta,
                    "distance_um": distance, "flatness_um": flatness, "alpha_sd_udeg": alpha_sd,
-                   "beta_sd_udeg": beta_sd, "distance_sd_um": distance_sd, "why": why}
+                   "beta_sd_udeg": beta_sd, "distance_sd_um": distance_sd, "why": why,
+                   "temp_known": temp_known, "temp_cdeg": temp_cdeg}
 
 
 def _raw(p):
@@ -365,17 +374,19 @@ def _ack(p):
 
 def _status(p):
     (major, minor, patch, protocol, uptime, window_n, mode, estimator, running, raw,
-     period, record, cal, arm, cal_age_s, cal_age) = struct.unpack("<BBBBIHBBBBHBBIIB", p)
+     period, record, cal, arm, cal_age_s, cal_age, temp_known,
+     temp_cdeg) = struct.unpack("<BBBBIHBBBBHBBIIBBh", p)
     valid = (protocol == PROTOCOL_VERSION and WINDOW_MIN <= window_n <= WINDOW_MAX
              and mode < len(MODES) and estimator < len(ESTIMATORS) and running <= 1 and raw <= 1
              and record < len(RECORD_STATES) and cal < len(CAL_STATES)
              and ARM_MIN_UM <= arm <= ARM_MAX_UM and PERIOD_MIN_MS <= period <= PERIOD_MAX_MS
-             and cal_age < len(CAL_AGE_STATES))
+             and cal_age < len(CAL_AGE_STATES) and _temp_valid(temp_known, temp_cdeg))
     return valid, {"fw": (major, minor, patch), "protocol": protocol, "uptime_ms": uptime,
                    "window_n": window_n, "mode": mode, "estimator": estimator,
                    "running": running, "raw_stream": raw, "period_ms": period,
                    "record": record, "calibration": cal, "arm_um": arm,
-                   "cal_age_s": cal_age_s, "cal_age": cal_age}
+                   "cal_age_s": cal_age_s, "cal_age": cal_age, "temp_known": temp_known,
+                   "temp_cdeg": temp_cdeg}
 
 
 def _set_window(p):
@@ -414,7 +425,7 @@ def _empty(_p):
 
 def _cal_section_valid(s, none_ok):
     """The protocol's check of a calibration section: its header (id 2, a version, length
-    80), or all zero (none stored) where none_ok; the content is the firmware's to check."""
+    114), or all zero (none stored) where none_ok; the content is the firmware's to check."""
     if none_ok and not any(s):
         return True
     return s[0] == 2 and s[1] != 0 and struct.unpack_from("<H", s, 2)[0] == CAL_SECTION_LEN - 4
@@ -467,6 +478,11 @@ def fixed(value, scale_digits):
 
 def opt(value, fmt):
     return "none" if value == NO_VALUE else fmt(value)
+
+
+def temp_text(m, none="none"):
+    """A message's temperature in degC with its two decimals ("-12.34"), or `none`."""
+    return fixed(m["temp_cdeg"], 2) if m["temp_known"] else none
 
 
 def why_names(why):
@@ -528,7 +544,7 @@ def format_message(ftype, seq, m):
                 opt(m["alpha_sd_udeg"], lambda v: fixed(v, 6)),
                 opt(m["beta_sd_udeg"], lambda v: fixed(v, 6)),
                 opt(m["distance_sd_um"], lambda v: fixed(v, 3)),
-                opt(m["flatness_um"], str)))
+                opt(m["flatness_um"], str)) + " temp_c=" + temp_text(m))
     if ftype == T_RAW_SAMPLE:
         present = [m["present"] & (1 << i) for i in range(4)]
         ranges = " ".join("%s_mm=%s" % (SENSORS[i].lower(),
@@ -562,7 +578,8 @@ def format_message(ftype, seq, m):
                 m["window_n"], MODES[m["mode"]], ESTIMATORS[m["estimator"]],
                 "yes" if m["running"] else "no", "yes" if m["raw_stream"] else "no",
                 m["period_ms"], RECORD_STATES[m["record"]], CAL_STATES[m["calibration"]],
-                m["arm_um"], m["cal_age_s"], CAL_AGE_STATES[m["cal_age"]]))
+                m["arm_um"], m["cal_age_s"], CAL_AGE_STATES[m["cal_age"]]) + " temp_c="
+            + temp_text(m))
     if ftype == T_CALIBRATION:
         return head + "calibration state=%s section=%s" % (CAL_STATES[m["state"]],
                                                            m["section"].hex())
@@ -670,14 +687,15 @@ def command_payload(text):
                                 % (text, REZERO_MIN, REZERO_MAX, args[0]))
         return T_REZERO, struct.pack("<H", samples)
     if verb == "write-calibration":
-        expect(1, 1, "write-calibration HEX (record section 2, 84 bytes; --send-cal makes it)")
+        expect(1, 1, "write-calibration HEX (record section 2, %d bytes; --send-cal makes it)"
+               % CAL_SECTION_LEN)
         try:
             section = bytes.fromhex(args[0])
         except ValueError:
             section = b""
         if len(section) != CAL_SECTION_LEN or not _cal_section_valid(section, False):
-            raise ProtocolError("'%s': not the 84 bytes of a calibration section in hex"
-                                % text[:60])
+            raise ProtocolError("'%s': not the %d bytes of a calibration section in hex"
+                                % (text[:60], CAL_SECTION_LEN))
         return T_WRITE_CALIBRATION, section
     if verb in ("set-arm", "set-period"):
         arm = verb == "set-arm"
@@ -785,10 +803,11 @@ def encode_commands(texts, first_seq=0):
 
 # --- output sinks -------------------------------------------------------------
 
-# EST.csv's columns first (docs/reference/tools.md), then what only telemetry has.
+# EST.csv's columns first (docs/reference/tools.md; temp_c, the window's temperature, empty
+# when the unit had none), then what only telemetry has.
 ESTIMATE_CSV = ["t_ms", "alpha_deg", "beta_deg", "distance_mm", "status", "alpha_sd_deg",
-                "beta_sd_deg", "distance_sd_mm", "why", "estimator", "window", "sensors",
-                "flatness_um", "seq"]
+                "beta_sd_deg", "distance_sd_mm", "why", "temp_c", "estimator", "window",
+                "sensors", "flatness_um", "seq"]
 RAW_CSV = ["t_ms", "a_mm", "b_mm", "c_mm", "d_mm", "a_st", "b_st", "c_st", "d_st", "seq"]
 
 
@@ -852,7 +871,7 @@ class Printer:
             row = [str(m["t_ms"]), cell("alpha_udeg", 6), cell("beta_udeg", 6),
                    cell("distance_um", 3), STATUSES[m["status"]], cell("alpha_sd_udeg", 6),
                    cell("beta_sd_udeg", 6), cell("distance_sd_um", 3), why_text(m["why"], ""),
-                   ESTIMATORS[m["estimator"]], str(m["window"]), sensors_text(m["sensors"]),
+                   temp_text(m, ""), ESTIMATORS[m["estimator"]], str(m["window"]), sensors_text(m["sensors"]),
                    "" if m["flatness_um"] == NO_VALUE else str(m["flatness_um"]), str(seq)]
             self.out.write(",".join(row) + "\n")
         elif self.csv_type == "raw" and ftype == T_RAW_SAMPLE:

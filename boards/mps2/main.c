@@ -61,7 +61,8 @@ static void on_estimate(void *ctx, const struct tof_estimate_record *record) {
     char line[TOF_EST_CSV_ROW_MAX];
     struct tof_text t;
     tof_text_init(&t, line, sizeof line);
-    tof_est_csv_row(&t, row->t_ms, &record->output.est[q.primary]);
+    tof_est_csv_row(&t, row->t_ms, &record->output.est[q.primary], record->temp_known,
+                    record->temp_cdeg);
     if (t.overflow || semihost_write(q.out, line, t.len) != 0) {
         q.failed = 1;
     }

@@ -14,6 +14,8 @@
 #include "stm32_reg.h"
 #include "stm32g071_regs.h"
 #include "board_hal.h"
+#include "stm32_adc_g0_regs.h"
+#include "stm32_adc_temp.h"
 
 /* Numbered pins (board_hal.h): Arduino D2..D9 of the NUCLEO-G071RB (UM2324
  * "Arduino connectors"; same mapping in Zephyr
@@ -74,6 +76,7 @@ void stm32_board_peripheral_clocks_init(void) {
     stm32_reg_modify(G071_RCC_IOPENR, 0u,
                      G071_RCC_IOPENR_GPIOAEN | G071_RCC_IOPENR_GPIOBEN | G071_RCC_IOPENR_GPIOCEN);
     stm32_reg_modify(G071_RCC_CCIPR, G071_RCC_CCIPR_I2C1SEL_MASK, G071_RCC_CCIPR_I2C1SEL_HSI16);
+    stm32_reg_modify(G071_RCC_APBENR2, 0u, G071_RCC_APBENR2_ADCEN);
     stm32_reg_modify(G071_RCC_APBENR1, 0u,
                      G071_RCC_APBENR1_USART2EN | G071_RCC_APBENR1_I2C1EN | G071_RCC_APBENR1_DBGEN);
     (void)stm32_reg_read(G071_RCC_APBENR1); /* read back: the enables have taken effect */
@@ -87,4 +90,34 @@ struct hal_records stm32_board_records(struct hal_time time) {
     (void)time;
     const struct hal_records none = {.ops = NULL, .ctx = NULL, .geometry = {0}};
     return none;
+}
+
+/* The MCU's own temperature sensor (stm32_adc_temp.h, the G0 half). ADC clock PCLK/2 = 8 MHz;
+ * SMP1 160.5 ADC clocks = 20 us against the datasheet's 5 us (sensor) and 4 us (VREFINT)
+ * (DS12232 "Temperature sensor characteristics" tS_temp, "Embedded internal voltage
+ * reference" tS_vrefint); the regulator's tADCVREG_STUP 20 us (DS12232 "ADC
+ * characteristics") and 120 us for the sensor and VREFINT buffers, as on the L476. */
+static struct stm32_adc_temp_config temp_config;
+static struct stm32_adc_temp temp_adc;
+
+struct hal_temp stm32_board_temp(struct hal_time time) {
+    temp_config = (struct stm32_adc_temp_config){
+        .adc_base = G071_ADC_BASE,
+        .common_base = G071_ADC_COMMON_BASE,
+        .ts_cal1_addr = G071_TS_CAL1_ADDR,
+        .ts_cal2_addr = G071_TS_CAL2_ADDR,
+        .vrefint_cal_addr = G071_VREFINT_CAL_ADDR,
+        .ts_cal1_cdeg = G071_TS_CAL1_CDEG,
+        .ts_cal2_cdeg = G071_TS_CAL2_CDEG,
+        .ts_channel = G071_ADC_CH_TEMPSENSOR,
+        .vrefint_channel = G071_ADC_CH_VREFINT,
+        .smp_code = STM32_ADC_G0_SMP_160_5,
+        .regulator_startup_us = 20u,
+        .sensor_startup_us = 120u,
+        .poll_budget_us = 1000u,
+        .time = time,
+    };
+    stm32_adc_temp_init(&temp_adc, &temp_config);
+    const struct hal_temp temp = {.ops = &stm32_adc_g0_temp_ops, .ctx = &temp_adc};
+    return temp;
 }

@@ -16,6 +16,10 @@
 #define G071_I2C1_BASE   0x40005400u
 #define G071_IWDG_BASE   0x40003000u
 #define G071_DBG_BASE    0x40015800u
+/* The ADC and its common register (CCR at 0x40012708): RM0444 Table 6, APB "ADC"
+ * 0x4001 2400 - 0x4001 27FF. */
+#define G071_ADC_BASE        0x40012400u
+#define G071_ADC_COMMON_BASE 0x40012700u
 
 /* RCC_CR: HSI16 on/ready; HSIDIV[13:11] divides HSI16 into HSISYS (000 = /1). */
 #define G071_RCC_CR             (G071_RCC_BASE + 0x00u)
@@ -36,6 +40,9 @@
 #define G071_RCC_APBENR1_USART2EN (1u << 17)
 #define G071_RCC_APBENR1_I2C1EN   (1u << 21)
 #define G071_RCC_APBENR1_DBGEN    (1u << 27)
+/* RCC_APBENR2: ADCEN. */
+#define G071_RCC_APBENR2       (G071_RCC_BASE + 0x40u)
+#define G071_RCC_APBENR2_ADCEN (1u << 20)
 /* RCC_CCIPR: I2C1SEL[13:12] = 10 -> HSI16; USART2SEL[3:2] = 00 -> PCLK. */
 #define G071_RCC_CCIPR               (G071_RCC_BASE + 0x54u)
 #define G071_RCC_CCIPR_I2C1SEL_MASK  (3u << 12)
@@ -44,6 +51,19 @@
 /* DBG_APB_FZ1: DBG_IWDG_STOP freezes the IWDG while the core is halted. */
 #define G071_DBG_APB_FZ1               (G071_DBG_BASE + 0x08u)
 #define G071_DBG_APB_FZ1_DBG_IWDG_STOP (1u << 12)
+
+/* The ADC's internal channels and the factory calibration in system memory (RM0444 §15
+ * "ADC connectivity": the sensor on ADC_IN12, VREFINT on ADC_IN13; the STM32G071x8/xB
+ * datasheet DS12232 "Temperature sensor calibration values", "Internal voltage reference
+ * calibration values"): raw 12-bit conversions at Vref+ = 3.0 V, TS_CAL2 at 130 °C (the L476
+ * takes it at 110 °C: stm32l476_regs.h). */
+#define G071_TS_CAL1_ADDR      0x1FFF75A8u /* 30 °C */
+#define G071_TS_CAL2_ADDR      0x1FFF75CAu /* 130 °C */
+#define G071_VREFINT_CAL_ADDR  0x1FFF75AAu
+#define G071_TS_CAL1_CDEG      3000
+#define G071_TS_CAL2_CDEG      13000
+#define G071_ADC_CH_TEMPSENSOR 12u
+#define G071_ADC_CH_VREFINT    13u
 
 /* Alternate functions: STM32G071x8/xB datasheet (DS12232) port A/B alternate
  * function tables (Table 13/14), cross-checked with ST's pin data as exported

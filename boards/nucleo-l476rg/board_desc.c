@@ -15,7 +15,9 @@
 #include "stm32_reg.h"
 #include "stm32l476_regs.h"
 #include "board_hal.h"
+#include "stm32_adc_temp.h"
 #include "stm32_flash.h"
+#include "stm32_adc_regs.h"
 #include "stm32_flash_regs.h"
 
 /* Numbered pins (board_hal.h): Arduino D2..D9 of UM1724 "Arduino connectors"
@@ -107,7 +109,7 @@ uint32_t stm32_board_sysclk_hz(void) {
 void stm32_board_peripheral_clocks_init(void) {
     stm32_reg_modify(L476_RCC_AHB2ENR, 0u,
                      L476_RCC_AHB2ENR_GPIOAEN | L476_RCC_AHB2ENR_GPIOBEN |
-                         L476_RCC_AHB2ENR_GPIOCEN);
+                         L476_RCC_AHB2ENR_GPIOCEN | L476_RCC_AHB2ENR_ADCEN);
     stm32_reg_modify(L476_RCC_CCIPR, L476_RCC_CCIPR_I2C1SEL_MASK, L476_RCC_CCIPR_I2C1SEL_HSI16);
     stm32_reg_modify(L476_RCC_APB1ENR1, 0u, L476_RCC_APB1ENR1_USART2EN | L476_RCC_APB1ENR1_I2C1EN);
     (void)stm32_reg_read(L476_RCC_APB1ENR1); /* read back: the enables have taken effect */
@@ -146,6 +148,38 @@ struct hal_records stm32_board_records(struct hal_time time) {
         return none;
     }
     return stm32_flash_hal(&records_flash);
+}
+
+/* The MCU's own temperature sensor on ADC1 (stm32_adc_temp.h). Sampling time 640.5 ADC clocks:
+ * 20 us at HCLK/2 = 32 MHz, 160 us at the 4 MHz reset clock, against the datasheet's minimum of
+ * 5 us for the sensor and 4 us for VREFINT (DS10198 "Temperature sensor characteristics",
+ * tS_temp; "Embedded internal voltage reference", tS_vrefint). Start-up waits: the
+ * regulator's tADCVREG_STUP (20 us, DS10198 "ADC characteristics") and 120 us for the sensor and
+ * VREFINT buffers (tSTART / tstart_vrefint, above the datasheet's maxima). A flag poll may take
+ * 1 ms: a conversion takes 41 us at 32 MHz, the calibration 116 ADC clocks. */
+static struct stm32_adc_temp_config temp_config;
+static struct stm32_adc_temp temp_adc;
+
+struct hal_temp stm32_board_temp(struct hal_time time) {
+    temp_config = (struct stm32_adc_temp_config){
+        .adc_base = L476_ADC1_BASE,
+        .common_base = L476_ADC_COMMON_BASE,
+        .ts_cal1_addr = L476_TS_CAL1_ADDR,
+        .ts_cal2_addr = L476_TS_CAL2_ADDR,
+        .vrefint_cal_addr = L476_VREFINT_CAL_ADDR,
+        .ts_cal1_cdeg = L476_TS_CAL1_CDEG,
+        .ts_cal2_cdeg = L476_TS_CAL2_CDEG,
+        .ts_channel = L476_ADC_CH_TEMPSENSOR,
+        .vrefint_channel = L476_ADC_CH_VREFINT,
+        .smp_code = STM32_ADC_SMP_640_5,
+        .regulator_startup_us = 20u,
+        .sensor_startup_us = 120u,
+        .poll_budget_us = 1000u,
+        .time = time,
+    };
+    stm32_adc_temp_init(&temp_adc, &temp_config);
+    const struct hal_temp temp = {.ops = &stm32_adc_temp_ops, .ctx = &temp_adc};
+    return temp;
 }
 
 void NMI_Handler(void);

@@ -15,6 +15,10 @@
 #define L476_USART2_BASE 0x40004400u
 #define L476_I2C1_BASE   0x40005400u
 #define L476_IWDG_BASE   0x40003000u
+/* ADC1 and the ADC common registers (ADC1 + 0x300): RM0351 Table 1, AHB2 "ADC"
+ * 0x5004 0000 - 0x5004 03FF, and §18.7 "ADC common registers". */
+#define L476_ADC1_BASE       0x50040000u
+#define L476_ADC_COMMON_BASE 0x50040300u
 
 /* RCC_CR: HSI16 and the main PLL on / ready. */
 #define L476_RCC_CR        (L476_RCC_BASE + 0x00u)
@@ -45,6 +49,7 @@
 #define L476_RCC_AHB2ENR_GPIOAEN (1u << 0)
 #define L476_RCC_AHB2ENR_GPIOBEN (1u << 1)
 #define L476_RCC_AHB2ENR_GPIOCEN (1u << 2)
+#define L476_RCC_AHB2ENR_ADCEN   (1u << 13)
 /* RCC_APB1ENR1. */
 #define L476_RCC_APB1ENR1          (L476_RCC_BASE + 0x58u)
 #define L476_RCC_APB1ENR1_USART2EN (1u << 17)
@@ -58,6 +63,21 @@
 /* DBGMCU_APB1FZR1: DBG_IWDG_STOP freezes the IWDG while the core is halted. */
 #define L476_DBGMCU_APB1FZR1               0xE0042008u
 #define L476_DBGMCU_APB1FZR1_DBG_IWDG_STOP (1u << 12)
+
+/* The ADC's internal channels and the factory calibration in system memory (RM0351 §18.2
+ * "ADC implementation" / §18.4.32 "Temperature sensor"; the STM32L476xx datasheet DS10198
+ * §3.15.1 "Temperature sensor", Table "Temperature sensor calibration values", and
+ * "Internal voltage reference calibration values"): raw 12-bit conversions at Vref+ = 3.0 V.
+ * TS_CAL2 is taken at 110 °C on the STM32L471/475/476/485/486 (other L4 parts: 130 °C;
+ * ST's LL ADC header TEMPSENSOR_CAL2_TEMP agrees for the L476). VREFINT is ADC1_IN0, the
+ * sensor ADC1_IN17. */
+#define L476_TS_CAL1_ADDR      0x1FFF75A8u /* 30 °C */
+#define L476_TS_CAL2_ADDR      0x1FFF75CAu /* 110 °C */
+#define L476_VREFINT_CAL_ADDR  0x1FFF75AAu /* 30 °C */
+#define L476_TS_CAL1_CDEG      3000
+#define L476_TS_CAL2_CDEG      11000
+#define L476_ADC_CH_VREFINT    0u
+#define L476_ADC_CH_TEMPSENSOR 17u
 
 /* Alternate functions: STM32L476xx datasheet (DS10198) Table 17 "Alternate
  * function AF0 to AF7", cross-checked with ST's pin data as exported in

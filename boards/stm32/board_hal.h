@@ -19,6 +19,7 @@
 #include "hal/hal_log.h"
 #include "hal/hal_records.h"
 #include "hal/hal_serial.h"
+#include "hal/hal_temp.h"
 #include "hal/hal_time.h"
 #include "hal/hal_watchdog.h"
 #include "stm32_i2c.h"
@@ -48,6 +49,10 @@ struct hal_log board_hal_log(void);
 /* Record storage: the pages the board's linker script reserves for records (ops NULL on a
  * board without; docs/explanation/boards.md "Records"). */
 struct hal_records board_hal_records(void);
+
+/* The temperature sensor the board reads with every sample (ops NULL on a board without;
+ * docs/explanation/boards.md "Temperature"). */
+struct hal_temp board_hal_temp(void);
 
 /* Error counters of the I2C bus, for status telemetry. */
 const struct stm32_i2c_stats *board_hal_i2c_stats(void);

@@ -137,6 +137,10 @@ struct hal_records board_hal_records(void) {
     return stm32_board_records(board_time_handle);
 }
 
+struct hal_temp board_hal_temp(void) {
+    return stm32_board_temp(board_time_handle);
+}
+
 const struct stm32_i2c_stats *board_hal_i2c_stats(void) {
     return &board_i2c.stats;
 }

@@ -35,7 +35,8 @@ function(tof_stm32_board board core irqs openocd_cfg ld)
       LINKER_SCRIPT ${CMAKE_CURRENT_SOURCE_DIR}/${ld}
       SOURCES ${PROJECT_SOURCE_DIR}/boards/cortex-m/startup.c ${small_mem}
               ${stm32}/stm32_usart.c ${stm32}/stm32_gpio.c ${stm32}/stm32_i2c.c
-              ${stm32}/stm32_systick_time.c ${stm32}/stm32_iwdg.c ${stm32}/stm32_flash.c ${stm32}/stm32_board.c
+              ${stm32}/stm32_systick_time.c ${stm32}/stm32_iwdg.c ${stm32}/stm32_flash.c ${stm32}/stm32_adc_temp.c ${stm32}/stm32_adc_g0_temp.c
+              ${stm32}/stm32_board.c
               ${stm32}/stm32_main.c ${CMAKE_CURRENT_SOURCE_DIR}/board_desc.c
       DEPS firmware)
     target_include_directories(${name} PRIVATE ${PROJECT_SOURCE_DIR}/boards/cortex-m ${stm32})

@@ -13,6 +13,7 @@
 
 #include "stm32_gpio.h"
 #include "hal/hal_records.h"
+#include "hal/hal_temp.h"
 #include "hal/hal_time.h"
 #include "stm32_i2c.h"
 
@@ -48,6 +49,10 @@ void stm32_board_peripheral_clocks_init(void);
 /* The board's record storage (its linker script reserves the pages), with `time` for the
  * flash's bounded waits; ops NULL on a board that has none. Each board_desc.c defines it. */
 struct hal_records stm32_board_records(struct hal_time time);
+
+/* The board's temperature sensor (docs/explanation/boards.md "Temperature"), with `time` for
+ * its bounded waits; ops NULL on a board that has none. Each board_desc.c defines it. */
+struct hal_temp stm32_board_temp(struct hal_time time);
 
 /* Poll `addr` until (value & mask) == want, at most `polls` reads; true if it did. */
 bool stm32_board_poll_bits(uintptr_t addr, uint32_t mask, uint32_t want, uint32_t polls);

@@ -78,6 +78,7 @@ int main(void) {
         .time = board_hal_time(),
         .log = board_hal_log(),
         .watchdog = board_hal_watchdog(),
+        .temp = board_hal_temp(),
         .output = {.ops = &tof_link_output_ops, .ctx = &link},
         .xshut_pin = {BOARD_HAL_XSHUT_PIN(0), BOARD_HAL_XSHUT_PIN(1), BOARD_HAL_XSHUT_PIN(2),
                       BOARD_HAL_XSHUT_PIN(3)},

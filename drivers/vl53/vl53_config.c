@@ -274,11 +274,10 @@ static enum vl53_polarity vhv_polarity(const struct vl53_config *cfg) {
                                                                       : VL53_INT_ACTIVE_HIGH;
 }
 
-/* One look at the VHV range's data ready: GPIO1 when wired (the same signal, no bus
- * traffic), else GPIO__TIO_HV_STATUS. */
-static int vhv_ready_once(const struct call *c, bool *ready) {
+/* One look at the VHV range's data ready at `polarity`: GPIO1 when wired (the same signal,
+ * no bus traffic), else GPIO__TIO_HV_STATUS. */
+static int vhv_ready_once(const struct call *c, enum vl53_polarity polarity, bool *ready) {
     const struct vl53_config *cfg = c->dev->cfg;
-    const enum vl53_polarity polarity = vhv_polarity(cfg);
     if (cfg->gpio1_pin == VL53_PIN_NONE) {
         return vl53_read_data_ready(c, polarity, ready);
     }
@@ -288,7 +287,9 @@ static int vhv_ready_once(const struct call *c, bool *ready) {
     return err;
 }
 
-int vl53_configure_pending(struct vl53_dev *dev) {
+/* One look at the running VHV range (data ready at `polarity`), HAL_ERR_TIMEOUT once
+ * `budget_us` since its start has passed without it. */
+static int vhv_pending(struct vl53_dev *dev, enum vl53_polarity polarity, uint32_t budget_us) {
     if (!dev_ok(dev)) {
         return HAL_ERR_INVALID;
     }
@@ -297,29 +298,36 @@ int vl53_configure_pending(struct vl53_dev *dev) {
     }
     struct call c = call_begin(dev, call_budget(dev));
     bool ready = false;
-    int err = vhv_ready_once(&c, &ready);
+    int err = vhv_ready_once(&c, polarity, &ready);
     if (err == HAL_OK && ready) {
         return HAL_OK;
     }
-    const uint32_t budget =
-        or_default(dev->cfg->configure_budget_us, VL53_DEFAULT_CONFIGURE_BUDGET_US);
-    if (hal_time_elapsed_us(now_us(dev), dev->vhv_start_us) >= budget) {
+    if (hal_time_elapsed_us(now_us(dev), dev->vhv_start_us) >= budget_us) {
         return HAL_ERR_TIMEOUT;
     }
     return err != HAL_OK ? err : HAL_ERR_NOT_READY;
 }
 
+static uint32_t configure_budget_us(const struct vl53_dev *dev) {
+    return or_default(dev->cfg->configure_budget_us, VL53_DEFAULT_CONFIGURE_BUDGET_US);
+}
+
+int vl53_configure_pending(struct vl53_dev *dev) {
+    return dev_ok(dev) ? vhv_pending(dev, vhv_polarity(dev->cfg), configure_budget_us(dev))
+                       : HAL_ERR_INVALID;
+}
+
 /* The VHV step's end ([ULD] SensorInit): wait for the first range's data ready, clear,
  * stop, two-bounds VHV from the previous temperature. A poll lost to a bus error is
  * retried within the budget. */
-static int finish_vhv(const struct call *c) {
+static int finish_vhv(const struct call *c, enum vl53_polarity polarity) {
     const uint32_t poll_us =
         or_default(c->dev->cfg->poll_interval_us, VL53_DEFAULT_POLL_INTERVAL_US);
     const uint32_t max_polls = c->budget_us / poll_us + 1u;
     bool ready = false;
     int err = HAL_OK;
     for (uint32_t poll = 0; poll < max_polls && !ready; ++poll) {
-        err = vhv_ready_once(c, &ready);
+        err = vhv_ready_once(c, polarity, &ready);
         if (err == HAL_ERR_BUS_STUCK || err == HAL_ERR_INVALID) {
             return err;
         }
@@ -357,9 +365,8 @@ int vl53_configure_finish(struct vl53_dev *dev) {
     if (!dev->vhv_running) {
         return HAL_ERR_STATE;
     }
-    struct call c = call_begin(
-        dev, or_default(dev->cfg->configure_budget_us, VL53_DEFAULT_CONFIGURE_BUDGET_US));
-    int err = finish_vhv(&c);
+    struct call c = call_begin(dev, configure_budget_us(dev));
+    int err = finish_vhv(&c, vhv_polarity(dev->cfg));
     dev->vhv_running = false;
     if (err != HAL_OK) {
         return err;
@@ -437,4 +444,65 @@ int vl53_set_inter_measurement(struct vl53_dev *dev, uint32_t period_ms) {
     struct vl53_timing timing = dev->timing;
     timing.inter_measurement_ms = period_ms;
     return vl53_set_timing(dev, &timing);
+}
+
+/* The temperature update's range runs at the part's own timing (the user's, written by
+ * vl53_configure_finish): one budget plus one inter-measurement period, twice over, and never
+ * less than the bring-up's VHV bound. */
+static uint32_t temperature_update_budget_us(const struct vl53_dev *dev) {
+    const uint32_t range_us =
+        ((uint32_t)dev->timing.budget_ms + dev->timing.inter_measurement_ms) * 1000u;
+    const uint32_t twice = 2u * range_us;
+    return twice > configure_budget_us(dev) ? twice : configure_budget_us(dev);
+}
+
+int vl53_temperature_update_begin(struct vl53_dev *dev) {
+    if (!dev_ok(dev)) {
+        return HAL_ERR_INVALID;
+    }
+    if (dev->ranging || dev->vhv_running) {
+        return HAL_ERR_STATE;
+    }
+    /* [ULD] StartTemperatureUpdate: full VHV (loop bound 0x81), VHV init 0x92, then one
+     * timed range, which the part spends on the VHV search. */
+    struct call c = call_begin(dev, call_budget(dev));
+    int err = vl53_call_write_byte(&c, VL53_REG_VHV_CONFIG_TIMEOUT_MACROP_LOOP_BOUND,
+                                   VL53_VHV_LOOP_BOUND_FULL);
+    if (err == HAL_OK) {
+        err = vl53_call_write_byte(&c, VL53_REG_VHV_CONFIG_INIT, VL53_VHV_INIT_FULL);
+    }
+    if (err == HAL_OK) {
+        /* A result the stop left pending would end the data-ready wait at once and cut the
+         * VHV range short: cleared before the start, as the bring-up does (not in the ULD,
+         * which assumes a part idle for long). */
+        err = vl53_call_write_byte(&c, VL53_REG_SYSTEM_INTERRUPT_CLEAR, VL53_INTERRUPT_CLEAR);
+    }
+    if (err == HAL_OK) {
+        err = vl53_call_write_byte(&c, VL53_REG_SYSTEM_MODE_START, VL53_MODE_START_TIMED);
+    }
+    if (err == HAL_OK) {
+        dev->vhv_running = true;
+        dev->vhv_start_us = now_us(dev);
+    }
+    return err;
+}
+
+int vl53_temperature_update_pending(struct vl53_dev *dev) {
+    return dev_ok(dev) ? vhv_pending(dev, dev->cfg->polarity, temperature_update_budget_us(dev))
+                       : HAL_ERR_INVALID;
+}
+
+int vl53_temperature_update_finish(struct vl53_dev *dev) {
+    if (!dev_ok(dev)) {
+        return HAL_ERR_INVALID;
+    }
+    if (!dev->vhv_running) {
+        return HAL_ERR_STATE;
+    }
+    /* The rest of [ULD] StartTemperatureUpdate: wait for data ready, clear the interrupt,
+     * stop, two-bounds VHV (0x09) from the temperature just found (0x00): SensorInit's tail. */
+    struct call c = call_begin(dev, temperature_update_budget_us(dev));
+    const int err = finish_vhv(&c, dev->cfg->polarity);
+    dev->vhv_running = false;
+    return err;
 }

@@ -55,7 +55,6 @@ static bool calibration_prepare(const struct calibration_head *c, struct window_
     for (unsigned k = 0; k < CALIBRATION_SENSORS; ++k) {
         wcfg->offset_um[k] = c->calibrated ? c->offset_um[k] : 0;
         wcfg->gain_ppm[k] = c->calibrated ? c->gain_ppm[k] : 0;
-        icfg->cal_offset_um[k] = wcfg->offset_um[k];
         icfg->cal_gain_ppm[k] = wcfg->gain_ppm[k];
         icfg->cal_offset_sd_um[k] =
             c->calibrated ? c->offset_sd_um[k] : CALIBRATION_UNCAL_OFFSET_SD_UM;
@@ -121,7 +120,7 @@ int attitude_init(struct attitude_state *st, const struct attitude_config *cfg) 
     if (cfg->paper_max_iterations == 0u) {
         return ATTITUDE_ERR_PAPER_ITERATIONS;
     }
-    if (!calibration_valid(&cfg->calibration)) {
+    if (!calibration_valid(&cfg->calibration) || cfg->temp_sd_cdeg > 10000u) {
         return ATTITUDE_ERR_CALIBRATION;
     }
     /* every check before the state is touched: a refusal changes nothing (a run-time
@@ -160,6 +159,7 @@ int attitude_init(struct attitude_state *st, const struct attitude_config *cfg) 
         return ATTITUDE_ERR_WINDOW; /* unreachable: checked above */
     }
     (void)kalman_init(&st->kalman, &kcfg); /* checked above */
+    attitude_thermal_prepare(st);
     return ATTITUDE_ERR_NONE;
 }
 
@@ -173,6 +173,7 @@ FIX_NOINLINE void window_end(struct attitude_state *st, struct attitude_output *
     window_compute(&st->window, &st->stats);
     const struct window_stats *w = &st->stats;
     /* the drift learning takes one window per block of N rows (every window when tumbling) */
+    attitude_thermal_var(st);
     integrity_assess(&st->integrity, &st->icfg, &st->window, w, st->rows,
                      st->rows % cfg->window == 0u, &st->iw);
     if (!cfg->calibration.calibrated) {
@@ -263,8 +264,9 @@ bool attitude_push_sample(struct attitude_state *st, const uint16_t range_mm[ATT
             kalman_reset(&st->kalman);
         }
     }
-    /* the window corrects the readings by the calibration; the filter takes them
-     * corrected, in whole mm */
+    /* the window corrects the readings by the calibration (its offsets at the row's
+     * temperature); the filter takes them corrected, in whole mm */
+    attitude_thermal_row(st);
     struct window_row *newest = window_push(&st->window, ranges, present_mask, valid_mask);
     if (kalman_on) {
         attitude_kalman_push_row(st, st->window.newest_mm, valid_mask, newest);

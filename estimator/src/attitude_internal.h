@@ -8,6 +8,7 @@
  *   attitude_kalman.c     the Kalman policy: restarts, row outcomes, noise learning,
  *                         the comparison with the window's product estimate
  *   attitude_finish.c     the shared finishing of an estimate: status, settle, sd
+ *   attitude_thermal.c    a thermal calibration's correction and its sd
  *   attitude_text.c       names and text (public API only; nothing here)
  *
  * The estimator files call attitude_finish.c; none calls attitude.c or each other.
@@ -19,6 +20,23 @@
 #include <stdint.h>
 
 #include "estimator/attitude.h"
+
+/* --- attitude_thermal.c: a thermal calibration (estimator/calibration.h) -------------- */
+
+/* At init, after st->cfg and the window: each offset's change per 0.01 °C (0 without a
+ * thermal calibration). */
+void attitude_thermal_prepare(struct attitude_state *st);
+
+/* Before each row enters the window: the window's offsets at the row's temperature
+ * (attitude_set_temperature), or at the calibration's without one; nothing without a
+ * thermal calibration. */
+void attitude_thermal_row(struct attitude_state *st);
+
+/* Before the window's integrity: what the correction leaves in each sensor's offset, as a
+ * variance (st->integrity.thermal_var_um2): the coefficient's sd times the distance from
+ * the calibration temperature, the coefficient times the temperature's sd, and the step;
+ * 0 when the offsets follow no measured temperature. */
+void attitude_thermal_var(struct attitude_state *st);
 
 /* --- attitude_finish.c: the shared finishing of an estimate ------------------------- */
 

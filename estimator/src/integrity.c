@@ -159,7 +159,7 @@ void integrity_assess(struct integrity_state *st, const struct integrity_config 
         st->walk_mm2 = integrity_prior_walk(cfg, rows);
     }
     struct integrity_noise_sums sums;
-    integrity_noise_budget(st, cfg, s, out, &sums);
+    integrity_noise_budget(st, cfg, w, s, out, &sums);
     integrity_motion_sensors(w, s, out);
     slopes(cfg, s, out);
     integrity_parity(st, cfg, s, &sums, learn, out); /* learns the drift from this window */

@@ -78,8 +78,8 @@ struct integrity_noise_sums {
 /* Each used sensor's noise budget: out->used, out->white_mm2 (what the window sees) and
  * out->extra_mm2 (drift, prior, rounding: what it cannot see), and their sums. */
 void integrity_noise_budget(const struct integrity_state *st, const struct integrity_config *cfg,
-                            const struct window_stats *s, struct integrity_window *out,
-                            struct integrity_noise_sums *sums);
+                            const struct window_state *w, const struct window_stats *s,
+                            struct integrity_window *out, struct integrity_noise_sums *sums);
 
 /* --- integrity_parity.c ------------------------------------------------------------------ */
 

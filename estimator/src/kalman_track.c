@@ -124,8 +124,8 @@ static bool update_exact(struct kalman_state *k, unsigned sensor, fix_q32_t z_mm
  * g comes from the mantissas, within a few units (2^-27 of the largest diagonal each) of
  * p, which moves each decrease by a few units times |k|. Along h the posterior variance
  * R (s − R)/s is at least 2^-9 of the largest diagonal (hᵀPh >= 2^-6 of it, s <= 5 R),
- * so the update keeps P positive definite wherever the exact one does. tests/estimator/ref_tracking.cpp
- * compares P with double within 1e-6 relative + 64 LSB. */
+ * so the update keeps P positive definite wherever the exact one does.
+ * tests/estimator/ref_tracking.cpp compares P with double within 1e-6 relative + 64 LSB. */
 
 #define BLOCK_TOP_BITS     28                 /* largest diagonal mantissa in [2^27, 2^28) */
 #define BLOCK_MIN_DIAG     ((int32_t)1 << 17) /* every diagonal >= 2^-10 of the largest */
@@ -140,8 +140,8 @@ struct pblock {
 
 /* Rows a block may live before it is taken afresh from p: its mantissas drift from p by
  * up to one half unit of rounding per update (p itself receives the exact sums), and
- * that drift moves the later decreases by |k| units each (tests/estimator/ref_tracking.cpp: 16 rows keep
- * P within 6 LSB of its exact-block value, 64 rows within 26). */
+ * that drift moves the later decreases by |k| units each (tests/estimator/ref_tracking.cpp: 16 rows
+ * keep P within 6 LSB of its exact-block value, 64 rows within 26). */
 #define BLOCK_MAX_ROWS 16u
 /* Margin of the cheap definiteness check on the mantissas, in block units: larger than
  * that drift (4 updates x 16 rows x 1/2) plus the rounding of taking the block. */

@@ -1,5 +1,6 @@
-/* The window family's private parts (window_stats.c only): the head's calibration applied to
- * the window's readings and statistics; see estimator/window_stats.h, "Calibration". */
+/* The window family's private parts (window_stats.c and window_gate.c only): the head's
+ * calibration applied to the window's readings and statistics (estimator/window_stats.h,
+ * "Calibration"), and the gate. */
 #ifndef ESTIMATOR_WINDOW_INTERNAL_H
 #define ESTIMATOR_WINDOW_INTERNAL_H
 
@@ -67,5 +68,11 @@ static inline void correct_stats(const struct window_state *w, unsigned k,
     ss->mean_mm = d + fix_mul_shr_s64(d, r, FIX_Q32_SHIFT, NULL);
     ss->var_mm2 += fix_mul_shr_s64(ss->var_mm2, w->cal_inv_gain2_q32[k], FIX_Q32_SHIFT, NULL);
 }
+
+/* The gate of every sensor with valid readings (window_gate.c): median and half-width (both
+ * x2 mm) and whether the gate applies (off, or nothing to gate: false). */
+void window_gate_sensors(const struct window_state *w, const uint16_t count[ANGLES_SENSORS],
+                         int32_t median_x2[ANGLES_SENSORS], int32_t half_width_x2[ANGLES_SENSORS],
+                         bool gate_on[ANGLES_SENSORS]);
 
 #endif /* ESTIMATOR_WINDOW_INTERNAL_H */

@@ -55,9 +55,12 @@ static void process_sample(struct tof_app *app, const struct tof_sample *sample)
         present[i] = (sample->present_mask & (1u << i)) != 0u;
     }
     struct tof_estimate_record record;
+    attitude_set_temperature(&app->estimator, sample->temp_known, sample->temp_cdeg);
     if (attitude_push_sample(&app->estimator, sample->range_mm, sample->status, present,
                              &record.output)) {
         record.t_us = sample->t_us;
+        record.temp_known = sample->temp_known; /* the window's last row's */
+        record.temp_cdeg = sample->temp_cdeg;
         ++app->counters.estimates;
         if (out->ops != NULL && out->ops->estimate != NULL) {
             out->ops->estimate(out->ctx, &record);
@@ -65,10 +68,14 @@ static void process_sample(struct tof_app *app, const struct tof_sample *sample)
     }
 }
 
-/* Assembled samples flow here, during the sensor reads: held for the next iteration (see
- * struct tof_app, deferred), or processed at once when the ring is full (none is lost). */
-static void on_sample(void *ctx, const struct tof_sample *sample) {
+/* Assembled samples flow here, during the sensor reads: the temperature read with them, then
+ * held for the next iteration (see struct tof_app, deferred), or processed at once when the
+ * ring is full (none is lost). */
+static void on_sample(void *ctx, const struct tof_sample *assembled) {
     struct tof_app *app = ctx;
+    struct tof_sample with_temp = *assembled;
+    const struct tof_sample *sample = &with_temp;
+    tof_app_read_temperature(app, &with_temp);
     ++app->counters.samples;
     if (app->slot_first_us < app->assembler_cfg.period_us) {
         app->phase_us = app->slot_first_us; /* when the sensors report within a slot */
@@ -144,7 +151,8 @@ static void note_good(struct tof_app *app, unsigned sensor) {
 }
 
 static void poll_sensor(struct tof_app *app, unsigned sensor) {
-    if (!tof_health_usable(&app->health[sensor]) || app->start_pending[sensor]) {
+    if (!tof_health_usable(&app->health[sensor]) || app->start_pending[sensor] ||
+        sensor == app->vhv.active) {
         return;
     }
     struct vl53_result result;
@@ -180,6 +188,7 @@ static void reinit_done(struct tof_app *app, unsigned sensor, int rc) {
     if (rc == HAL_OK) {
         ++app->counters.reinits_ok;
         park_until_boundary(app, sensor);
+        tof_vhv_calibrated(&app->vhv, sensor, app->temp_known, app->temp_cdeg); /* its VHV ran */
     } else {
         ++app->counters.reinits_failed;
         ++app->counters.errors_by_code[tof_app_error_slot(rc)];
@@ -336,6 +345,7 @@ int tof_app_init(struct tof_app *app, const struct tof_platform *platform,
     app->last_raw_us = platform->time.ops->now_us(platform->time.ctx);
     app->uptime_us = app->last_raw_us; /* the timeline starts at the platform clock's value */
     app->raw_output = cfg->raw_output;
+    tof_vhv_schedule_init(&app->vhv); /* the bring-up's VHV: at the first temperature read */
     for (unsigned i = 0; i < TOF_SENSORS; ++i) {
         app->sensor_cfg[i] = (struct vl53_config){
             .i2c = platform->i2c,
@@ -405,6 +415,29 @@ int tof_app_init(struct tof_app *app, const struct tof_platform *platform,
     return HAL_OK;
 }
 
+/* ST's temperature update, one part at a time (app_temperature.c): its part restarted at the
+ * next slot when it ends or fails to begin, a failure the part's error, each step an event.
+ * The part's readings are missing meanwhile: the windows say so, the events say why. Returns
+ * true if it did bus work beyond one look. */
+static bool manage_temperature_update(struct tof_app *app) {
+    const struct tof_temp_step_result r = tof_app_temperature_step(app);
+    if (r.step == TOF_TEMP_STEP_IDLE) {
+        return false;
+    }
+    const unsigned s = r.sensor;
+    if (r.step == TOF_TEMP_STEP_ENDED || r.err != HAL_OK) {
+        park_until_boundary(app, s);
+    }
+    if (r.err != HAL_OK) {
+        note_error(app, s, r.err);
+    }
+    (void)tof_app_now_us(app);
+    emit_event(app,
+               r.step == TOF_TEMP_STEP_BEGUN ? TOF_EVENT_TEMP_UPDATE : TOF_EVENT_TEMP_UPDATE_DONE,
+               s, app->health[s].state, app->health[s].state, r.err);
+    return true;
+}
+
 /* An iteration's bus work: sensor starts and reads, the fault manager, the assembler. */
 static void acquire(struct tof_app *app) {
     start_pending_sensors(app);
@@ -412,11 +445,14 @@ static void acquire(struct tof_app *app) {
         poll_sensor(app, i);
         (void)tof_app_now_us(app);
     }
-    /* At most one re-initialisation per iteration keeps the iteration bounded. */
-    for (unsigned i = 0; i < TOF_SENSORS; ++i) {
-        if (manage_sensor(app, i)) {
-            break;
-        }
+    /* At most one re-initialisation or temperature update step per iteration keeps the
+     * iteration bounded. */
+    bool busy = false;
+    for (unsigned i = 0; i < TOF_SENSORS && !busy; ++i) {
+        busy = i != app->vhv.active && manage_sensor(app, i);
+    }
+    if (!busy) {
+        (void)manage_temperature_update(app);
     }
     const struct tof_sample_sink sink = {.emit = on_sample, .ctx = app};
     tof_assembler_poll(&app->assembler, &app->assembler_cfg, tof_app_now_us(app), &sink);
@@ -443,13 +479,14 @@ void tof_app_step(struct tof_app *app, bool idle) {
         app->platform->watchdog.ops->kick(app->platform->watchdog.ctx);
     }
     if (idle) {
-        app->platform->time.ops->delay_us(app->platform->time.ctx, idle_time_us(app, end));
+        const uint32_t idle_us = idle_time_us(app, end);
+        app->platform->time.ops->delay_us(app->platform->time.ctx, idle_us);
     }
 }
 
 void tof_app_idle(struct tof_app *app) {
-    app->platform->time.ops->delay_us(app->platform->time.ctx,
-                                      idle_time_us(app, tof_app_now_us(app)));
+    const uint32_t idle_us = idle_time_us(app, tof_app_now_us(app));
+    app->platform->time.ops->delay_us(app->platform->time.ctx, idle_us);
 }
 
 int tof_app_set_period(struct tof_app *app, uint32_t period_ms) {
@@ -471,6 +508,7 @@ int tof_app_set_period(struct tof_app *app, uint32_t period_ms) {
         return rc;
     }
     app->cfg = next;
+    tof_app_temperature_abandon(app); /* its range runs at the old timing */
     for (unsigned i = 0; i < TOF_SENSORS; ++i) {
         app->sensor_cfg[i].timing = next.timing;
         struct vl53_dev *dev = vl53_array_sensor(&app->array, i);

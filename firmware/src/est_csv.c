@@ -1,7 +1,8 @@
 /* The estimate CSV rows of docs/reference/tools.md, integer text only (see firmware/est_csv.h). */
 #include "firmware/est_csv.h"
 
-void tof_est_csv_row(struct tof_text *t, uint32_t t_ms, const struct attitude_estimate *e) {
+void tof_est_csv_row(struct tof_text *t, uint32_t t_ms, const struct attitude_estimate *e,
+                     bool temp_known, int16_t temp_cdeg) {
     tof_text_u64(t, t_ms);
     tof_text_str(t, ",");
     if (e->alpha_valid) {
@@ -36,5 +37,9 @@ void tof_est_csv_row(struct tof_text *t, uint32_t t_ms, const struct attitude_es
         t->overflow = 1; /* cannot happen with ATTITUDE_WHY_TEXT_MAX: say so rather than lie */
     }
     tof_text_str(t, why);
+    tof_text_str(t, ",");
+    if (temp_known) {
+        tof_text_fixed(t, temp_cdeg, 2);
+    }
     tof_text_str(t, "\n");
 }

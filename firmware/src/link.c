@@ -58,6 +58,8 @@ static void send_estimates(struct tof_link *link, const struct tof_estimate_reco
             .beta_sd_udeg = b ? est->beta_sd_udeg : TLM_NO_VALUE,
             .distance_sd_um = d ? est->distance_sd_um : TLM_NO_VALUE,
             .why = est->why, /* the estimator's bits, unchanged */
+            .temp_known = record->temp_known,
+            .temp_cdeg = record->temp_known ? record->temp_cdeg : 0,
         };
         uint8_t frame[TLM_FRAME_MAX];
         send(link, frame, tlm_encode_estimate(link->seq, &msg, frame, sizeof frame));
@@ -111,6 +113,8 @@ static void on_estimate(void *ctx, const struct tof_estimate_record *record) {
         return;
     }
     send_estimates(link, record);
+    link->temp_known = record->temp_known; /* the unit's temperature, for the status frame */
+    link->temp_cdeg = record->temp_cdeg;
     if (link->health_polls == 0u && (!link->health_sent || record->t_us >= link->health_due_us)) {
         link->health_polls = 2u; /* not postponed by later estimates (sliding mode) */
         link->health_sent = true;
@@ -146,16 +150,25 @@ static uint32_t age_now_s(struct tof_link *link) {
 }
 
 /* The re-zero's last sample is in: the offsets refitted, saved and in force (or the reason
- * not), the raw stream as the user had it, and a calibration message says how it went. */
+ * not), the raw stream as the user had it, and a calibration message says how it went. The
+ * refitted offsets hold at the unit's temperature now, so a thermal calibration takes it as
+ * its calibration temperature; without one it is refused (rejected, the old one kept):
+ * offsets at an unknown temperature would be corrected from the wrong one. */
 static void finish_rezero(struct tof_link *link) {
     struct calibration_head now, next;
     tof_app_get_calibration(link->app, &now);
     int error = 0;
     enum tof_cal_state st = TOF_CAL_NO_STORAGE; /* a re-zero nothing could keep */
+    bool fitted = false;
     if (link->storage != NULL) {
         st = TOF_CAL_REJECTED;
+        fitted = (!now.thermal || link->temp_known) &&
+                 link->storage->rezero_fit(&link->rezero, &now, &next);
     }
-    if (link->storage != NULL && link->storage->rezero_fit(&link->rezero, &now, &next)) {
+    if (fitted) {
+        if (now.thermal) {
+            next.cal_temp_cdeg = link->temp_cdeg;
+        }
         const uint32_t age_before = age_hold(link);
         st = link->storage->cal_write_head(link->records, link->app, &next, &error);
         age_after_write(link, st, age_before);
@@ -211,6 +224,9 @@ void tof_link_send_status(struct tof_link *link) {
         .arm_um = (uint32_t)st.arm_um,  /* the estimator keeps it in 1..1000 mm */
         .cal_age_s = age_now_s(link),
         .cal_age = link->cal_age != NULL ? link->cal_age->state : (uint8_t)TOF_CAL_AGE_NONE,
+        /* the last window's, while it runs: stopped, the unit reads none */
+        .temp_known = st.running && link->temp_known,
+        .temp_cdeg = st.running && link->temp_known ? link->temp_cdeg : 0,
     };
     uint8_t frame[TLM_FRAME_MAX];
     send(link, frame, tlm_encode_status(link->seq, &msg, frame, sizeof frame));
@@ -562,8 +578,9 @@ static void service_start(void *ctx, struct tof_app *app) {
     if (link->cal_age != NULL) {
         /* the stored calibration's age (tof_cal_age_boot(), before the application's timeline
          * started): the calibration's boot below restarts the estimator with it */
-        (void)tof_app_set_calibration_age(
-            app, link->storage->age_now_s(link->cal_age, tof_app_now_us(app)), false);
+        const uint64_t now_us = tof_app_now_us(app);
+        const uint32_t age_s = link->storage->age_now_s(link->cal_age, now_us);
+        (void)tof_app_set_calibration_age(app, age_s, false);
     }
     link->cal_state = (uint8_t)link->storage->cal_boot(link->records, app); /* the head's */
     tof_link_send_status(link);

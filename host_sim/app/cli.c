@@ -215,7 +215,7 @@ static const char campaign_help[] =
     "Runs every bus fault kind alone and mixed over a trace and checks that no run hangs\n"
     "and no wrong estimate goes unflagged (docs/reference/fault-campaign.md).\n"
     "options:\n"
-    "  --trace T.csv        the trace to replay (default: the bundled demo trace)\n"
+    "  --trace T.csv        the trace to replay (default: the table1 scenario, seed S)\n"
     "  --seed S             seed of the fault injection (default 1)\n"
     "  --markdown FILE.md   also write the result table as Markdown\n"
     "  --help, -h           this text\n"

@@ -50,7 +50,8 @@ static void on_estimate(void *ctx, const struct tof_estimate_record *record) {
         char line[TOF_EST_CSV_ROW_MAX];
         struct tof_text t;
         tof_text_init(&t, line, sizeof line);
-        tof_est_csv_row(&t, row->t_ms, &out->est[r->primary]);
+        tof_est_csv_row(&t, row->t_ms, &out->est[r->primary], record->temp_known,
+                        record->temp_cdeg);
         if (t.overflow || fputs(line, r->est_out) == EOF) {
             r->failed = 1;
         }
@@ -92,6 +93,12 @@ static void on_event(void *ctx, const struct tof_event *ev) {
     case TOF_EVENT_BUS_RECOVERY:
         ++r->bus_recovery_events;
         break;
+    case TOF_EVENT_TEMP_UPDATE:
+        ++r->temp_update_events;
+        break;
+    case TOF_EVENT_TEMP_UPDATE_DONE:
+        r->temp_update_failures += ev->err != HAL_OK ? 1u : 0u;
+        break;
     case TOF_EVENT_OVERRUN:
     default:
         ++r->overrun_events;
@@ -130,6 +137,21 @@ static int open_inputs(struct replay *r) {
                              r->args->trace_path, &r->cal);
 }
 
+/* The head's temperature of trace row `row` (the temp_c column), for the simulated sensor. */
+static int row_temperature(void *ctx, uint32_t row, bool *present, int16_t *cdeg) {
+    struct replay *r = ctx;
+    int rc = 0;
+    const struct scene_row *got = scene_row_stream_get(&r->stream, row, &rc);
+    if (got == NULL) {
+        return rc;
+    }
+    *present = got->has_temp;
+    *cdeg = got->has_temp ? (int16_t)lround(got->temp_c * 100.0) : 0; /* a trace's: exact */
+    return 0;
+}
+
+static const struct sim_temp_source_ops row_temperature_ops = {.at = row_temperature};
+
 /* The estimator to write, the faults, the simulated world and the firmware's platform. */
 static int configure_world(struct replay *r) {
     const uint32_t period_us = r->period_ms * 1000u;
@@ -158,6 +180,12 @@ static int configure_world(struct replay *r) {
         .output = {.ops = &replay_output_ops, .ctx = r},
         .sensor_pads_at_avdd = true, /* as the NUCLEO boards it simulates */
     };
+    /* A trace with a temp_c column: the head has a temperature sensor reading it (an empty
+     * cell is a failed reading); without the column, a board with no sensor. */
+    if (r->reader.core.column_of[TRACE_COL_TEMP] >= 0) {
+        const struct sim_temp_source rows = {.ops = &row_temperature_ops, .ctx = r};
+        r->platform.temp = sim_replay_temp(&r->sim, rows);
+    }
     for (unsigned i = 0; i < 4; ++i) {
         r->platform.xshut_pin[i] = SIM_RIG_XSHUT_PIN(i);
         r->platform.gpio1_pin[i] = SIM_RIG_GPIO1_PIN(i);
@@ -316,6 +344,15 @@ static int run(struct replay *r) {
                 "host_sim replay: internal: the firmware's boot found calibration state %d\n",
                 r->cal_state);
         return -1;
+    }
+    if (r->app.estimator.cfg.calibration.thermal && r->platform.temp.ops == NULL) {
+        /* the estimator's fall-back (docs/explanation/uncertainty.md "Temperature"), said */
+        fprintf(stderr,
+                "host_sim replay: note: %s has temperature coefficients but %s has no temp_c "
+                "column: the offsets are held at their calibration temperature (%.2f C) and the "
+                "sd's drift prior grows with time alone\n",
+                r->cal.source, r->args->trace_path,
+                r->app.estimator.cfg.calibration.cal_temp_cdeg / 100.0);
     }
     sim_replay_set_origin(&r->sim, r->app.assembler.origin_us);
     for (unsigned k = 0; k < r->args->command_count; ++k) {

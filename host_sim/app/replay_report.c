@@ -145,6 +145,18 @@ static void write_head_calibration(FILE *f, const struct replay *r) {
         }
         fputc(']', f);
     }
+    if (c->calibrated && c->thermal) {
+        fprintf(f, ", \"cal_temp_c\": %.2f", c->cal_temp_cdeg / 100.0);
+        for (unsigned k = 0; k < 2u; ++k) {
+            fprintf(f, ", \"%s\": [", k == 0u ? "temp_coeff_nm_per_c" : "temp_coeff_sd_nm_per_c");
+            for (unsigned i = 0; i < CALIBRATION_SENSORS; ++i) {
+                fprintf(f, "%s%ld", i > 0u ? ", " : "",
+                        k == 0u ? (long)c->temp_coeff_nm_per_c[i]
+                                : (long)c->temp_coeff_sd_nm_per_c[i]);
+            }
+            fputc(']', f);
+        }
+    }
     fputs("},\n", f);
 }
 
@@ -228,8 +240,22 @@ static void write_system(FILE *f, const struct replay *r) {
             (long long)r->recovery_us);
     fprintf(f,
             "  \"health_events\": {\"transitions\": %u, \"reinits\": %u, \"bus_recoveries\": %u, "
-            "\"overruns\": %u},\n  \"sensors\": [",
+            "\"overruns\": %u},\n",
             r->health_events, r->reinit_events, r->bus_recovery_events, r->overrun_events);
+    fprintf(f,
+            "  \"temperature\": {\"sensor\": %s, \"offsets_follow\": \"%s\", \"read_errors\": %u, "
+            "\"updates_begun\": %u, \"updates\": %u, \"updates_failed\": %u, "
+            "\"part_updates\": [%u, %u, %u, %u]},\n",
+            r->platform.temp.ops != NULL ? "true" : "false",
+            !r->app.estimator.cfg.calibration.thermal ? "no-coefficients"
+            : r->platform.temp.ops != NULL            ? "temperature"
+                                                      : "calibration-temperature",
+            c->temp_errors, r->temp_update_events, c->temp_updates, c->temp_updates_failed,
+            r->sim.rig.sensor[0].stats.temperature_updates,
+            r->sim.rig.sensor[1].stats.temperature_updates,
+            r->sim.rig.sensor[2].stats.temperature_updates,
+            r->sim.rig.sensor[3].stats.temperature_updates);
+    fprintf(f, "  \"sensors\": [");
     for (unsigned i = 0; i < 4; ++i) {
         fprintf(f, "%s{\"name\": \"%c\", \"state\": \"%s\", \"losses\": %u, \"read_errors\": %u}",
                 i ? ", " : "", 'A' + i, tof_health_name(r->app.health[i].state),

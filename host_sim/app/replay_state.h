@@ -44,6 +44,7 @@ struct replay {
     uint64_t faults_stop_us;
     int64_t recovery_us;
     uint32_t health_events, reinit_events, bus_recovery_events, overrun_events;
+    uint32_t temp_update_events, temp_update_failures; /* ST's temperature updates begun, failed */
     int failed;            /* an output or data error: stop and report */
     uint64_t after_end;    /* estimates of slots after the trace's last row: not written */
     uint64_t partial_rows; /* tumbling: rows after the last whole window (no estimate) */

@@ -31,10 +31,18 @@ void sim_replay_init(struct sim_replay *r, struct sim_range_source rows, uint32_
         r->rig_cfg.faults = *faults;
     }
     sim_rig_init(&r->rig, &r->rig_cfg);
+    const struct sim_temp_source none = {.ops = NULL, .ctx = NULL};
+    sim_temp_init(&r->temp, none, &r->rig.clock, period_us);
+}
+
+struct hal_temp sim_replay_temp(struct sim_replay *r, struct sim_temp_source rows) {
+    sim_temp_init(&r->temp, rows, &r->rig.clock, r->period_us);
+    return sim_temp_hal(&r->temp);
 }
 
 void sim_replay_set_origin(struct sim_replay *r, uint64_t origin_us) {
     r->base_index = origin_us / r->period_us;
+    sim_temp_set_origin(&r->temp, origin_us);
     r->last_progress_us = sim_clock_now(&r->rig.clock);
 }
 

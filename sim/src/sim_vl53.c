@@ -56,6 +56,7 @@ static void power_up(struct sim_vl53 *dev) {
     dev->vhv_stage = 0u;
     dev->vhv_bound_ok = false;
     dev->vhv_init_ok = false;
+    dev->temp_update = 0u;
     dev->started_since_boot = false;
     dev->refusal = SIM_VL53_RANGES;
     dev->forced_left = 0u;
@@ -82,6 +83,42 @@ static void vhv_write(struct sim_vl53 *dev, uint16_t reg, uint8_t value) {
     }
     if (dev->vhv_bound_ok && dev->vhv_init_ok) {
         dev->vhv_stage = 3u;
+        if (dev->temp_update == 3u) {
+            dev->temp_update = 0u;
+            dev->stats.temperature_updates++;
+        }
+    }
+}
+
+/* [ULD] StartTemperatureUpdate's first writes, on a calibrated part that is not ranging:
+ * 0x0008 = 0x81 (full VHV), then 0x000B = 0x92; anything else there is SensorInit's. */
+static void temp_update_write(struct sim_vl53 *dev, uint16_t reg, uint8_t value) {
+    if (dev->vhv_stage != 3u) {
+        return;
+    }
+    if (reg == M_VHV_LOOP_BOUND && value == M_VHV_BOUND_FULL) {
+        if (dev->ranging) {
+            dev->stats.protocol_errors++; /* ST's update starts from a stopped part */
+        }
+        dev->temp_update = 1u;
+    } else if (reg == M_VHV_INIT && value == M_VHV_INIT_FULL && dev->temp_update == 1u) {
+        dev->temp_update = 2u;
+    } else {
+        dev->temp_update = 0u;
+    }
+}
+
+/* A start after the update's writes: the next range is a VHV range again, and the part
+ * ranges uncalibrated (raw 3) until the update's last writes. */
+static void temp_update_start(struct sim_vl53 *dev) {
+    if (dev->temp_update == 2u) {
+        dev->temp_update = 3u;
+        dev->vhv_stage = 0u;
+        dev->vhv_bound_ok = false;
+        dev->vhv_init_ok = false;
+    } else if (dev->temp_update == 1u) {
+        dev->stats.protocol_errors++; /* 0x000B = 0x92 missing */
+        dev->temp_update = 0u;
     }
 }
 
@@ -122,6 +159,7 @@ static int write_register(struct sim_vl53 *dev, uint16_t reg, uint8_t value, uin
     case M_VHV_LOOP_BOUND:
     case M_VHV_INIT:
         dev->regs[reg] = value;
+        temp_update_write(dev, reg, value);
         vhv_write(dev, reg, value);
         break;
     case M_I2C_SLAVE_ADDR:
@@ -139,6 +177,7 @@ static int write_register(struct sim_vl53 *dev, uint16_t reg, uint8_t value, uin
     case M_MODE_START:
         dev->regs[reg] = value;
         if (value == M_START_TIMED) {
+            temp_update_start(dev);
             sim_vl53_start_ranging(dev);
         } else if (value == M_STOP) {
             if (dev->ranging) {

@@ -44,6 +44,8 @@
 #define M_VHV_INIT        0x000Bu /* VHV_CONFIG__INIT [REG] */
 #define M_VHV_BOUND_TWO   0x09u   /* [ULD] SensorInit: "two bounds VHV" */
 #define M_VHV_INIT_PREV   0x00u   /* [ULD] SensorInit: "start VHV from the previous temperature" */
+#define M_VHV_BOUND_FULL  0x81u   /* [ULD] StartTemperatureUpdate: "full VHV" */
+#define M_VHV_INIT_FULL   0x92u   /* [ULD] StartTemperatureUpdate: 0x000B before its range */
 
 /* The part's range offsets, loaded from NVM at power-up [NVM], applied as [OFS] says. */
 #define M_PART_TO_PART_OFFSET  0x001Eu /* 13-bit signed quarter mm, bits 12:0 [REG] */

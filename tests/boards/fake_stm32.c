@@ -1,5 +1,6 @@
 /* Register-level fakes of the STM32 peripherals for the board drivers' host tests. */
 #include "fake_stm32.h"
+#include "fake_stm32_adc.h"
 #include "fake_stm32_flash.h"
 
 #include <setjmp.h>
@@ -485,7 +486,7 @@ uint32_t stm32_reg_hook_read(uintptr_t addr) {
         return fake.systick.pending ? CORTEX_M_ICSR_PENDSTSET : 0u;
     default: {
         uint32_t value = 0u;
-        if (fake_flash_read(addr, &value)) {
+        if (fake_flash_read(addr, &value) || fake_adc_read(addr, &value)) {
             return value;
         }
         fail_msg("read of unmapped register address %#lx", (unsigned long)addr);
@@ -520,7 +521,7 @@ void stm32_reg_hook_write(uintptr_t addr, uint32_t value) {
         fake.systick.cvr_default = 0u; /* any write clears the counter */
         break;
     default:
-        if (!fake_flash_write(addr, value)) {
+        if (!fake_flash_write(addr, value) && !fake_adc_write(addr, value)) {
             fail_msg("write of %#x to unmapped register address %#lx", value, (unsigned long)addr);
         }
     }

@@ -27,22 +27,27 @@ DRIVER_DEREF = ("uint32_t now(const struct t *t, hook_fn *hook) {\n"
                 "    return t->ops->now_us((*hook)(t->ctx));\n}\n")
 
 
-def run(table_source, narrow=True, driver_text=DRIVER, static_deep=False):
+def run(table_source, narrow=True, driver_text=DRIVER, static_deep=False, titled_deep=False):
     with tempfile.TemporaryDirectory() as d:
         driver = os.path.join(d, "driver.c")
         table = os.path.join(d, "table.c")
         with open(driver, "w") as f:
             f.write(driver_text)
+            if static_deep:
+                f.write("static void deep_callback(void) {\n}\n")
+            elif titled_deep:
+                f.write("void deep_callback(void) {\n}\n")
         with open(table, "w") as f:
             f.write(table_source)
         # static_deep: deep_callback is a static function of driver.c (title path:name),
-        # so table.c's `.on_sample = deep_callback` names another function
-        deep = f"{driver}:deep_callback" if static_deep else "deep_callback"
+        # so table.c's `.on_sample = deep_callback` names another function; titled_deep: a
+        # global function of driver.c titled path:name (as an LTO build titles every one)
+        deep = f"{driver}:deep_callback" if static_deep or titled_deep else "deep_callback"
         frames = {"main": 16, f"{driver}:now": 8, "clock_now": 4, deep: 1000}
         calls = {"main": [(f"{driver}:now", f"{driver}:1:1")],
                  f"{driver}:now": [("__indirect_call", f"{driver}:2:12")]}
         sources = {f"{driver}:now": driver, "clock_now": table,
-                   deep: driver if static_deep else table}
+                   deep: driver if static_deep or titled_deep else table}
         stores = stack_check.member_stores(set(sources.values())) if narrow else None
         thread, _, _, errors = stack_check.analyse(
             frames, calls, ["main"], [], taken={"clock_now", "deep_callback"}, stores=stores,
@@ -92,6 +97,8 @@ def main():
          run(named, driver_text=DRIVER_DEREF), 16 + 8 + 1000),
         ("static function stored only under its name in another file",
          run(named, static_deep=True), 16 + 8 + 1000),
+        ("global function titled path:name, stored in another file's table",
+         run(named, titled_deep=True), 16 + 8 + 4),
     ]
     cases.append(("the map tells same-named static functions apart", map_filter(),
                   ["/s/boards/stm32/stm32_flash.c:flash_read", "window_end"]))

@@ -3,8 +3,9 @@
  * the four-sensor bring-up read back from the I²C transaction log (every register
  * 0x2D..0x87 written before the first start, the VHV step, continuous ranging started with
  * the register image the ULD leaves for the same mode and budget: uld_reference.h), its
- * duration, the CSV form of the log, every range-status path and plausibility flag, and a
- * part that kept power across an MCU reset.
+ * duration, the CSV form of the log, every range-status path and plausibility flag, a
+ * part that kept power across an MCU reset, and ST's temperature update (VHV) on one sensor
+ * while the others range, against the ULD's sequence (uld_temperature_update_check).
  */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -481,6 +482,136 @@ static void test_non_blocking_recovery(void **state) {
     assert_int_equal(vl53_array_recover_sensor_step(&fx.array, 2u), HAL_ERR_STATE);
 }
 
+/* The writes to `addr` in caps[from..]: single-byte register writes, in bus order. */
+static size_t writes_to(uint8_t addr, size_t from, struct uld_write *out, size_t max) {
+    size_t n = 0;
+    for (size_t k = from; k < cap_count && n < max; ++k) {
+        uint16_t reg = 0u;
+        if (is_write(&caps[k], addr, &reg) && caps[k].tx_len == 3u) {
+            out[n++] = (struct uld_write){reg, caps[k].tx[2]};
+        }
+    }
+    return n;
+}
+
+/* The checker itself can fail: a missing 0x92, an order swapped, a stray write, a short run. */
+static void test_uld_temperature_checker_rejects_departures(void **state) {
+    (void)state;
+    const struct uld_write good[] = {{0x0008, 0x81}, {0x000B, 0x92}, {0x0087, 0x40}, {0x0086, 0x01},
+                                     {0x0087, 0x00}, {0x0008, 0x09}, {0x000B, 0x00}};
+    assert_int_equal(uld_temperature_update_check(good, 7u), -1);
+    const struct uld_write no_92[] = {{0x0008, 0x81}, {0x0087, 0x40}, {0x0086, 0x01},
+                                      {0x0087, 0x00}, {0x0008, 0x09}, {0x000B, 0x00}};
+    assert_int_equal(uld_temperature_update_check(no_92, 6u), 1);
+    const struct uld_write swapped[] = {{0x0008, 0x81}, {0x000B, 0x92}, {0x0087, 0x40},
+                                        {0x0087, 0x00}, {0x0086, 0x01}, {0x0008, 0x09},
+                                        {0x000B, 0x00}};
+    assert_int_equal(uld_temperature_update_check(swapped, 7u), 3);
+    const struct uld_write late_clear[] = {
+        {0x0086, 0x01}, {0x0008, 0x81}, {0x000B, 0x92}, {0x0087, 0x40}};
+    assert_int_equal(uld_temperature_update_check(late_clear, 4u), 0);
+    assert_int_equal(uld_temperature_update_check(good, 5u), 5);
+}
+
+/* ST's temperature update on one sensor of four while the other three keep ranging: the
+ * writes are the ULD's (the independent checker), the VHV range runs a whole range, the
+ * model counts one update and no protocol error, and the sensor ranges valid again. */
+static void test_temperature_update_is_the_ulds(void **state) {
+    (void)state;
+    assert_int_equal(vl53_array_attach(&fx.array, &fx.array_cfg), HAL_OK);
+    assert_int_equal(vl53_array_bring_up(&fx.array), HAL_OK);
+    drv_sleep(&fx, 100000u);
+    struct vl53_dev *d = vl53_array_sensor(&fx.array, 1u);
+    const uint8_t addr = (uint8_t)(DRV_FIRST_ADDRESS + 1u);
+    assert_int_equal(vl53_temperature_update_begin(d), HAL_ERR_STATE); /* still ranging */
+    assert_int_equal(vl53_stop_ranging(d), HAL_OK);
+    drv_sleep(&fx, 40000u); /* a result may be left pending: the update must not take it */
+    const size_t mark = cap_count;
+    const uint64_t t0 = drv_now(&fx);
+    assert_int_equal(vl53_temperature_update_begin(d), HAL_OK);
+    int rc = HAL_ERR_NOT_READY;
+    uint32_t got[DRV_SENSORS] = {0};
+    for (unsigned step = 0; step < 500u && rc == HAL_ERR_NOT_READY; ++step) {
+        rc = vl53_temperature_update_pending(d);
+        for (size_t i = 0; i < DRV_SENSORS; ++i) {
+            struct vl53_result r;
+            if (i != 1u && vl53_array_poll(&fx.array, i, &r) == HAL_OK) {
+                got[i]++;
+            }
+        }
+        drv_sleep(&fx, 1000u);
+    }
+    assert_int_equal(rc, HAL_OK);
+    assert_int_equal(vl53_temperature_update_finish(d), HAL_OK);
+    const uint64_t took = drv_now(&fx) - t0;
+    struct uld_write w[32];
+    const size_t n = writes_to(addr, mark, w, 32u);
+    const int departs = uld_temperature_update_check(w, n);
+    if (departs >= 0) {
+        print_message("write %d of %zu departs from the ULD's temperature update\n", departs, n);
+    }
+    assert_int_equal(departs, -1);
+    /* The VHV range ran a whole range (budget 15 ms) before its clear. */
+    size_t start = CAP_MAX, clear = CAP_MAX;
+    for (size_t k = mark; k < cap_count && clear == CAP_MAX; ++k) {
+        uint16_t reg = 0u;
+        if (is_write(&caps[k], addr, &reg) && caps[k].tx_len == 3u) {
+            if (reg == 0x0087u && caps[k].tx[2] == 0x40u) {
+                start = k;
+            } else if (reg == 0x0086u && start != CAP_MAX) {
+                clear = k;
+            }
+        }
+    }
+    assert_true(start < CAP_MAX && clear < CAP_MAX);
+    print_message("VHV range: %llu us from its start to the clear\n",
+                  (unsigned long long)(caps[clear].t_us - caps[start].t_us));
+    assert_true(caps[clear].t_us - caps[start].t_us >= 15000u);
+    print_message("temperature update: %llu us from begin to finish\n", (unsigned long long)took);
+    for (size_t i = 0; i < DRV_SENSORS; ++i) {
+        if (i != 1u) {
+            assert_true(got[i] >= 1u); /* the others kept ranging */
+        }
+    }
+    const struct sim_vl53 *m = &fx.rig.sensor[1];
+    assert_int_equal(m->stats.temperature_updates, 1u);
+    assert_int_equal(m->stats.protocol_errors, 0u);
+    /* Ranging again: valid readings, not the uncalibrated part's raw 3. */
+    assert_int_equal(vl53_start_ranging(d), HAL_OK);
+    unsigned valid = 0;
+    for (unsigned step = 0; step < 100u; ++step) {
+        drv_sleep(&fx, 1000u);
+        struct vl53_result r;
+        if (vl53_array_poll(&fx.array, 1u, &r) == HAL_OK && r.range_status == VL53_RANGE_VALID) {
+            ++valid;
+        }
+    }
+    assert_true(valid >= 3u);
+    assert_int_equal(m->stats.no_vhv_results, 2u); /* its bring-up and update VHV ranges only */
+}
+
+/* A data ready that never comes: the update's pending look reports HAL_ERR_TIMEOUT within
+ * its bound (the configure budget, 200 ms, here above twice budget + period). */
+static void test_temperature_update_without_data_ready_times_out(void **state) {
+    (void)state;
+    assert_int_equal(vl53_array_attach(&fx.array, &fx.array_cfg), HAL_OK);
+    assert_int_equal(vl53_array_bring_up(&fx.array), HAL_OK);
+    struct vl53_dev *d = vl53_array_sensor(&fx.array, 0u);
+    assert_int_equal(vl53_stop_ranging(d), HAL_OK);
+    assert_true(sim_vl53_inject(&fx.rig.sensor[0], SIM_FAULT_DRDY_LOW));
+    const uint64_t t0 = drv_now(&fx);
+    assert_int_equal(vl53_temperature_update_begin(d), HAL_OK);
+    int rc = HAL_ERR_NOT_READY;
+    for (unsigned step = 0; step < 1000u && rc == HAL_ERR_NOT_READY; ++step) {
+        rc = vl53_temperature_update_pending(d);
+        drv_sleep(&fx, 1000u);
+    }
+    assert_int_equal(rc, HAL_ERR_TIMEOUT);
+    assert_in_range(drv_now(&fx) - t0, VL53_DEFAULT_CONFIGURE_BUDGET_US,
+                    VL53_DEFAULT_CONFIGURE_BUDGET_US + 5000u);
+    assert_int_equal(vl53_temperature_update_finish(d), HAL_ERR_TIMEOUT);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup(test_bring_up_from_the_i2c_log, setup),
@@ -492,6 +623,9 @@ int main(void) {
         cmocka_unit_test_setup(test_part_that_kept_power_across_an_mcu_reset, setup),
         cmocka_unit_test_setup(test_vhv_step_ignores_a_stale_interrupt, setup),
         cmocka_unit_test_setup(test_non_blocking_recovery, setup),
+        cmocka_unit_test_setup(test_uld_temperature_checker_rejects_departures, setup),
+        cmocka_unit_test_setup(test_temperature_update_is_the_ulds, setup),
+        cmocka_unit_test_setup(test_temperature_update_without_data_ready_times_out, setup),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -83,3 +83,24 @@ bool uld_reference_image(bool long_mode, uint16_t budget_ms, uint32_t period_ms,
     put(image, 0x87, 0x40);
     return true;
 }
+
+int uld_temperature_update_check(const struct uld_write *writes, size_t n) {
+    static const struct uld_write sequence[] = {
+        {0x0008u, 0x81u}, {0x000Bu, 0x92u}, {0x0087u, 0x40u}, {0x0086u, 0x01u},
+        {0x0087u, 0x00u}, {0x0008u, 0x09u}, {0x000Bu, 0x00u},
+    };
+    const size_t steps = sizeof sequence / sizeof sequence[0];
+    size_t at = 0;
+    for (size_t step = 0; step < steps; ++step, ++at) {
+        if (at < n && step == 2u && writes[at].reg == 0x0086u && writes[at].value == 0x01u) {
+            ++at; /* the stale-interrupt clear, directly before the start */
+        }
+        if (at >= n) {
+            return (int)n;
+        }
+        if (writes[at].reg != sequence[step].reg || writes[at].value != sequence[step].value) {
+            return (int)at;
+        }
+    }
+    return at == n ? -1 : (int)at;
+}

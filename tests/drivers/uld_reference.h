@@ -14,6 +14,7 @@
 #define ULD_REFERENCE_H
 
 #include <stdbool.h>
+#include <stddef.h>
 #include <stdint.h>
 
 #define ULD_BLOCK_FIRST 0x2Du
@@ -26,5 +27,24 @@ extern const uint8_t uld_default_configuration[ULD_BLOCK_LEN];
  * `active_high`, `pads_at_avdd`). False if the ULD has no such budget in that mode. */
 bool uld_reference_image(bool long_mode, uint16_t budget_ms, uint32_t period_ms, uint16_t osc,
                          bool active_high, bool pads_at_avdd, uint8_t image[ULD_BLOCK_LEN]);
+
+/* One single-byte register write as the bus carried it. */
+struct uld_write {
+    uint16_t reg;
+    uint8_t value;
+};
+
+/*
+ * ST's temperature update (STSW-IMG009 VL53L1X_StartTemperatureUpdate, as stm32duino/VL53L1X
+ * carries it; /work/shared/calibration-notes.md "Temperature"), written here from those facts
+ * alone: 0x0008 <- 0x81, 0x000B <- 0x92, 0x0087 <- 0x40 (start ranging), [data ready],
+ * 0x0086 <- 0x01 (clear interrupt), 0x0087 <- 0x00 (stop), 0x0008 <- 0x09, 0x000B <- 0x00.
+ * One addition is accepted, only directly before the start: 0x0086 <- 0x01, the clear of a
+ * stale interrupt the bring-up makes too (a result left pending would end the data-ready
+ * wait at once). `writes` are one sensor's writes from the first to the last of the
+ * sequence. Returns -1 when they are that sequence, else the index of the first write that
+ * departs from it (n when they stop short).
+ */
+int uld_temperature_update_check(const struct uld_write *writes, size_t n);
 
 #endif /* ULD_REFERENCE_H */

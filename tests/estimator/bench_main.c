@@ -26,6 +26,11 @@
  *              same Q, tumbling windows: with Q > 0 the filter is not restarted at a
  *              window's start, and R follows each window's statistics)
  *   window     (fixed only) the whole window-end work of all four estimators
+ *   sample_cal, sample_thermal  (fixed only) `sample` through the calibrated head of
+ *              window_cal over 20,000 rows, without and with temperature coefficients (40,
+ *              −30, 25, −35 µm/°C) and a temperature rising one ADC step (0.29 °C) every 620
+ *              rows, an orbit's fastest: their difference is the correction's cost, its
+ *              re-sums of the rows held included (estimator/src/attitude_thermal.c)
  *   window_cal (fixed only) `window` with a calibrated head, the product's real
  *              configuration (offsets, gains, their sds and correlation non-zero, as
  *              HEAD.cal gives them): the corrected readings are other data, so the paper's
@@ -59,6 +64,8 @@ static struct kalman_state kal_auto;
 static struct attitude_state est_track;
 static struct attitude_state est_cal;
 static struct attitude_state est_auto;
+static struct attitude_state est_cal_only;
+static struct attitude_state est_thermal;
 static struct flt_window fwin;
 static struct flt_kalman fkal;
 static struct flt_kalman fkal_track;
@@ -175,6 +182,59 @@ static uint64_t bench_auto_walk(const char *cpu, const struct kalman_config *acf
     report(cpu, "fixed", "kalman_auto_walk", total, AUTO_WALK_ROWS - AUTO_WALK_LEARN);
     report(cpu, "fixed", "sample_auto_walk", sample_total, samples);
     return worst;
+}
+
+/* sample_cal and sample_thermal: THERMAL_ROWS rows of the workload through the calibrated head,
+ * without and with temperature coefficients, the head's temperature rising by one ADC step
+ * (0.29 °C) every THERMAL_ROWS_PER_STEP rows, an orbit's fastest (a 40 °C cycle of 90 minutes
+ * at 50 Hz: 1.4 °C/min). Rows that end no window, as `sample`. */
+#define THERMAL_ROWS          20000u
+#define THERMAL_ROWS_PER_STEP 620u
+static void bench_thermal(const char *cpu, const struct attitude_config *cal_cfg) {
+    struct attitude_config thermal_cfg = *cal_cfg;
+    thermal_cfg.calibration.thermal = true;
+    thermal_cfg.calibration.cal_temp_cdeg = 2000;
+    const int32_t coeff_nm_per_c[4] = {40000, -30000, 25000, -35000};
+    for (unsigned k = 0; k < 4u; ++k) {
+        thermal_cfg.calibration.temp_coeff_nm_per_c[k] = coeff_nm_per_c[k];
+        thermal_cfg.calibration.temp_coeff_sd_nm_per_c[k] = 2000u;
+    }
+    if (attitude_init(&est_cal_only, cal_cfg) != ATTITUDE_ERR_NONE ||
+        attitude_init(&est_thermal, &thermal_cfg) != ATTITUDE_ERR_NONE) {
+        semihost_write_stdout("bench: attitude_init (thermal) failed\n", 38);
+        semihost_exit(1);
+    }
+    const uint8_t status[4] = {0, 0, 0, 0};
+    const bool present[4] = {true, true, true, true};
+    uint64_t cal_only_total = 0, thermal_total = 0;
+    uint32_t samples = 0;
+    lcg_state = 12345u;
+    for (uint32_t row = 0; row < THERMAL_ROWS; ++row) {
+        uint16_t range[4];
+        make_sample(row / BENCH_N, range);
+        const int32_t temp_cdeg = 2000 + 29 * (int32_t)(row / THERMAL_ROWS_PER_STEP);
+        uint16_t raw[4];
+        for (unsigned k = 0; k < 4u; ++k) {
+            /* the head's reading at the workload's range, its offset moved by temperature */
+            const int32_t shift_um = coeff_nm_per_c[k] * (temp_cdeg - 2000) / 100000;
+            const int32_t at_cal = head_reading(&cal_cfg->calibration, k, range[k]);
+            raw[k] = (uint16_t)(at_cal + (shift_um + (shift_um < 0 ? -500 : 500)) / 1000);
+        }
+        struct attitude_output out;
+        const uint32_t p0 = insn_counter_ticks();
+        const bool cal_only_ready = attitude_push_sample(&est_cal_only, raw, status, present, &out);
+        const uint32_t p1 = insn_counter_ticks();
+        attitude_set_temperature(&est_thermal, true, (int16_t)temp_cdeg);
+        const bool thermal_ready = attitude_push_sample(&est_thermal, raw, status, present, &out);
+        const uint32_t p2 = insn_counter_ticks();
+        if (!cal_only_ready && !thermal_ready) {
+            cal_only_total += measured(p0, p1);
+            thermal_total += measured(p1, p2); /* attitude_set_temperature included */
+            ++samples;
+        }
+    }
+    report(cpu, "fixed", "sample_cal", cal_only_total, samples);
+    report(cpu, "fixed", "sample_thermal", thermal_total, samples);
 }
 
 static void bench_fixed(const char *cpu) {
@@ -315,6 +375,7 @@ static void bench_fixed(const char *cpu) {
     report(cpu, "fixed", "sample_track", sample_track_total, track_samples);
     report(cpu, "fixed", "window", window_total, windows);
     report(cpu, "fixed", "window_cal", window_cal_total, windows_cal);
+    bench_thermal(cpu, &cal_cfg);
 }
 
 static void bench_float(const char *cpu) {

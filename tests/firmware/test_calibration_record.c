@@ -2,9 +2,11 @@
  * The head's calibration as record section 2 (firmware/calibration_record.h) on the
  * simulated flash: what boot puts in attitude_config.calibration for a matching section,
  * and that a missing, damaged, other-version, other-head, other-parts or other-mode one leaves
- * the head uncalibrated and says why; version 2 binds the parts' NVM identities, version 1 is
- * still read (bound to the head only); a section written on board is bound to the parts that
- * run; the settings and the calibration keep each other's section.
+ * the head uncalibrated and says why; version 5 carries the thermal fields and binds the parts'
+ * NVM identities, versions 1 to 3 (before the thermal fields) are still read as calibrations
+ * without them, version 1 bound to the head only; a field out of bounds is refused by name; a
+ * section written on board is bound to the parts that run; the settings and the calibration
+ * keep each other's section.
  */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -47,7 +49,20 @@ static struct tof_cal_binding mine(void) {
     return tof_cal_binding_of(&cfg);
 }
 
-/* Version 2 as the firmware stores it, bound to bind->part_id. */
+/* A head whose offsets' temperature coefficients were measured (cal_apply.c's mapping of
+ * HEAD.cal's cal_temp_c, temp_coeff_mm_per_c, temp_coeff_sd_mm_per_c). */
+static struct calibration_head a_thermal_head(void) {
+    struct calibration_head cal = a_head();
+    cal.thermal = true;
+    cal.cal_temp_cdeg = -1250; /* -12.5 degC */
+    const int32_t coeff[4] = {21000, -8000, 0, CALIBRATION_TEMP_COEFF_MAX_NM_PER_C};
+    const uint32_t sd[4] = {1500, 900, 2000, (uint32_t)CALIBRATION_TEMP_COEFF_MAX_NM_PER_C};
+    memcpy(cal.temp_coeff_nm_per_c, coeff, sizeof coeff);
+    memcpy(cal.temp_coeff_sd_nm_per_c, sd, sizeof sd);
+    return cal;
+}
+
+/* Version 5 as the firmware stores it, bound to bind->part_id. */
 static void save_cal(const struct calibration_head *cal, bool has_gain,
                      const struct tof_cal_binding *bind) {
     uint8_t wire[TOF_CAL_WIRE_SIZE];
@@ -58,11 +73,33 @@ static void save_cal(const struct calibration_head *cal, bool has_gain,
     assert_int_equal(tof_section_save(&store, section), HAL_OK);
 }
 
+/* A section of the versions before the thermal fields, as an older firmware stored it (byte
+ * layouts of calibration_record.h: version 1 is the first 80 bytes of the body, version 2
+ * adds the parts at 80, version 3 the arm at 112), of a head without thermal fields. */
+static void old_section(uint8_t version, const struct calibration_head *cal,
+                        const struct tof_cal_binding *bind, uint8_t *out) {
+    uint8_t wire[TOF_CAL_WIRE_SIZE];
+    assert_false(cal->thermal);
+    assert_int_equal(tof_cal_encode(cal, true, bind, wire), HAL_OK);
+    const uint16_t length = version == 1u ? 80u : version == 2u ? 112u : 116u;
+    memset(out, 0, TOF_SECTION_HEADER + length);
+    memcpy(out, wire, TOF_SECTION_HEADER + 80u);
+    out[1] = version;
+    out[2] = (uint8_t)length;
+    for (unsigned i = 0; i < 4u && version >= 2u; ++i) {
+        for (unsigned b = 0; b < 8u; ++b) {
+            out[TOF_SECTION_HEADER + 80u + 8u * i + b] = (uint8_t)(bind->part_id[i] >> (8u * b));
+        }
+    }
+    for (unsigned b = 0; b < 4u && version == 3u; ++b) {
+        out[TOF_SECTION_HEADER + 112u + b] = (uint8_t)((uint32_t)bind->arm_um >> (8u * b));
+    }
+}
+
 /* Version 1, as an older firmware stored it. */
 static void save_cal_v1(const struct calibration_head *cal, const struct tof_cal_binding *bind) {
-    uint8_t section[TOF_CAL_WIRE_SIZE];
-    assert_int_equal(tof_cal_encode(cal, true, bind, section), HAL_OK);
-    assert_int_equal(section[1], 1u);
+    uint8_t section[TOF_SECTION_HEADER + 80u];
+    old_section(1u, cal, bind, section);
     assert_int_equal(tof_section_save(&store, section), HAL_OK);
 }
 
@@ -95,6 +132,12 @@ static void assert_same_cal(const struct calibration_head *a, const struct calib
     assert_memory_equal(a->gain_sd_ppm, b->gain_sd_ppm, sizeof a->gain_sd_ppm);
     assert_memory_equal(a->offset_gain_corr_q15, b->offset_gain_corr_q15,
                         sizeof a->offset_gain_corr_q15);
+    assert_int_equal(a->thermal, b->thermal);
+    assert_int_equal(a->cal_temp_cdeg, b->cal_temp_cdeg);
+    assert_memory_equal(a->temp_coeff_nm_per_c, b->temp_coeff_nm_per_c,
+                        sizeof a->temp_coeff_nm_per_c);
+    assert_memory_equal(a->temp_coeff_sd_nm_per_c, b->temp_coeff_sd_nm_per_c,
+                        sizeof a->temp_coeff_sd_nm_per_c);
 }
 
 static void assert_uncalibrated(void) {
@@ -157,7 +200,7 @@ static void test_another_section_version_is_not_applied(void **state) {
     const struct tof_cal_binding b = mine();
     uint8_t section[TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH];
     assert_int_equal(tof_cal_encode(&cal, true, &b, section), HAL_OK);
-    section[1] = 4u; /* a later firmware's layout */
+    section[1] = 6u; /* a later firmware's layout */
     assert_int_equal(tof_section_save(&store, section), HAL_OK);
     assert_int_equal(boot(), TOF_CAL_VERSION);
     assert_uncalibrated();
@@ -204,32 +247,39 @@ static void test_values_out_of_bounds_are_corrupt(void **state) {
         unsigned at;
         uint8_t value;
     } bad[] = {
-        {4u + 5u, 0x02u},            /* a reserved flag */
+        {4u + 5u, 0x04u},            /* a reserved flag */
         {4u + 4u, 0u},               /* distance mode 0 */
         {4u + 6u, 0u},               /* with the next byte: budget 0 */
         {4u + 8u + 3u, 0x7Fu},       /* offset A beyond ±100 mm */
         {4u + 8u + 18u + 7u, 0x80u}, /* gain B beyond ±10 % */
-        {2u, 79u},                   /* a section length other than 80 */
-        {1u, 2u},                    /* version 2 with version 1's length */
+        {2u, 113u},                  /* a section length other than 114 */
+        {1u, 2u},                    /* version 2 with version 4's length */
     };
+    const enum tof_cal_field named[] = {
+        TOF_CAL_FIELD_FLAGS, TOF_CAL_FIELD_MODE,   TOF_CAL_FIELD_BUDGET, TOF_CAL_FIELD_OFFSET,
+        TOF_CAL_FIELD_GAIN,  TOF_CAL_FIELD_HEADER, TOF_CAL_FIELD_HEADER};
+    enum tof_cal_field field = TOF_CAL_FIELD_HEADER;
     for (size_t k = 0; k < sizeof bad / sizeof bad[0]; ++k) {
         assert_int_equal(tof_cal_encode(&cal, true, &b, s), HAL_OK);
-        assert_int_equal(tof_cal_decode(s, sizeof s, &out, &bo), TOF_CAL_APPLIED);
+        assert_int_equal(tof_cal_decode(s, sizeof s, &out, &bo, &field), TOF_CAL_APPLIED);
+        assert_int_equal(field, TOF_CAL_FIELD_NONE);
         s[bad[k].at] = bad[k].value;
         if (bad[k].at == 4u + 6u) {
             s[bad[k].at + 1u] = 0u;
         }
         const uint16_t len = bad[k].at == 2u ? (uint16_t)(sizeof s - 1u) : (uint16_t)sizeof s;
-        assert_int_equal(tof_cal_decode(s, len, &out, &bo), TOF_CAL_CORRUPT);
+        assert_int_equal(tof_cal_decode(s, len, &out, &bo, &field), TOF_CAL_CORRUPT);
+        assert_int_equal(field, named[k]);
     }
     /* an uncalibrated head or one out of bounds is never encoded */
-    /* version 2 with a length other than 112 */
+    /* version 5 with a length other than 150 */
     uint8_t s2[TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH];
     assert_int_equal(tof_cal_encode(&cal, true, &b, s), HAL_OK);
     assert_int_equal(tof_cal_bind_parts(s, parts, s2), HAL_OK);
-    assert_int_equal(tof_cal_decode(s2, sizeof s2, &out, &bo), TOF_CAL_APPLIED);
-    s2[2] = 111u;
-    assert_int_equal(tof_cal_decode(s2, sizeof s2, &out, &bo), TOF_CAL_CORRUPT);
+    assert_int_equal(tof_cal_decode(s2, sizeof s2, &out, &bo, NULL), TOF_CAL_APPLIED);
+    s2[2] = 149u;
+    assert_int_equal(tof_cal_decode(s2, sizeof s2, &out, &bo, &field), TOF_CAL_CORRUPT);
+    assert_int_equal(field, TOF_CAL_FIELD_HEADER);
     struct calibration_head u = cal;
     u.calibrated = false;
     assert_int_equal(tof_cal_encode(&u, true, &b, s), HAL_ERR_INVALID);
@@ -269,12 +319,12 @@ static void test_version_2_keeps_the_parts_identities(void **state) {
     assert_int_equal(tof_cal_encode(&cal, true, &b, wire), HAL_OK);
     assert_int_equal(tof_cal_bind_parts(wire, b.part_id, s), HAL_OK);
     assert_int_equal(s[0], TOF_SECTION_CALIBRATION);
-    assert_int_equal(s[1], 3u);
+    assert_int_equal(s[1], 5u);
     assert_int_equal(s[2] | s[3] << 8, TOF_CALIBRATION_LENGTH);
-    assert_memory_equal(&s[TOF_SECTION_HEADER], &wire[TOF_SECTION_HEADER], 80u); /* v1's bytes */
+    assert_memory_equal(&s[TOF_SECTION_HEADER], &wire[TOF_SECTION_HEADER], 114u); /* v4's bytes */
     struct calibration_head out;
     struct tof_cal_binding bo;
-    assert_int_equal(tof_cal_decode(s, sizeof s, &out, &bo), TOF_CAL_APPLIED);
+    assert_int_equal(tof_cal_decode(s, sizeof s, &out, &bo, NULL), TOF_CAL_APPLIED);
     assert_same_cal(&out, &cal);
     for (unsigned i = 0; i < 4u; ++i) {
         assert_true(bo.part_id[i] == b.part_id[i]);
@@ -283,13 +333,13 @@ static void test_version_2_keeps_the_parts_identities(void **state) {
     const uint64_t others[4] = {1u, 2u, 3u, 4u};
     uint8_t again[sizeof s];
     assert_int_equal(tof_cal_bind_parts(s, others, again), HAL_OK);
-    assert_int_equal(tof_cal_decode(again, sizeof again, &out, &bo), TOF_CAL_APPLIED);
+    assert_int_equal(tof_cal_decode(again, sizeof again, &out, &bo, NULL), TOF_CAL_APPLIED);
     assert_true(bo.part_id[0] == parts[0] && bo.part_id[1] == 2u && bo.part_id[3] == parts[3]);
     /* a damaged identity byte on flash: the record's CRC refuses it */
     b.part_id[1] = parts[1];
     save_cal(&cal, true, &b);
     assert_int_equal(boot(), TOF_CAL_APPLIED);
-    sim_flash_poke(&flash, 0u, 12u + 4u + 80u + 8u + 2u, 0x10u);
+    sim_flash_poke(&flash, 0u, 12u + 4u + 114u + 8u + 2u, 0x10u);
     assert_int_equal(attitude_init(&app.estimator, &cfg.estimator), ATTITUDE_ERR_NONE); /* reset */
     assert_int_equal(boot(), TOF_CAL_CORRUPT);
     assert_uncalibrated();
@@ -337,7 +387,7 @@ static void test_version_1_binds_the_head_only(void **state) {
     assert_same_cal(&app.estimator.cfg.calibration, &cal);
     struct calibration_head out;
     struct tof_cal_binding bo;
-    assert_int_equal(tof_cal_decode(store.payload, store.length, &out, &bo), TOF_CAL_APPLIED);
+    assert_int_equal(tof_cal_decode(store.payload, store.length, &out, &bo, NULL), TOF_CAL_APPLIED);
     for (unsigned i = 0; i < 4u; ++i) {
         assert_true(bo.part_id[i] == 0u);
     }
@@ -347,8 +397,8 @@ static void test_version_1_binds_the_head_only(void **state) {
     assert_uncalibrated();
 }
 
-/* A calibration received (the version-1 form the command carries) is stored as version 2 bound
- * to the parts that run and read back in its version-1 form; after a part is replaced the
+/* A calibration received (the version-4 form the command carries) is stored as version 5 bound
+ * to the parts that run and read back in its version-4 form; after a part is replaced the
  * next boot refuses it. One received as version 2 for other parts is refused, nothing stored. */
 static void test_written_on_board_binds_the_running_parts(void **state) {
     (void)state;
@@ -362,7 +412,7 @@ static void test_written_on_board_binds_the_running_parts(void **state) {
     assert_int_equal(error, 0);
     struct calibration_head out;
     struct tof_cal_binding bo;
-    assert_int_equal(tof_cal_decode(store.payload, store.length, &out, &bo), TOF_CAL_APPLIED);
+    assert_int_equal(tof_cal_decode(store.payload, store.length, &out, &bo, NULL), TOF_CAL_APPLIED);
     for (unsigned i = 0; i < 4u; ++i) {
         assert_true(bo.part_id[i] == parts[i]);
     }
@@ -377,7 +427,7 @@ static void test_written_on_board_binds_the_running_parts(void **state) {
     assert_int_equal(boot(), TOF_CAL_OTHER_PARTS);
     assert_uncalibrated();
 
-    /* received as version 2, bound to parts other than these: refused, the record kept */
+    /* received as version 5, bound to parts other than these: refused, the record kept */
     const uint32_t seq = store.sequence;
     uint8_t v2[TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH];
     assert_int_equal(tof_cal_bind_parts(wire, parts, v2), HAL_OK);
@@ -387,6 +437,176 @@ static void test_written_on_board_binds_the_running_parts(void **state) {
     assert_int_equal(tof_cal_bind_parts(wire, replaced, v2), HAL_OK);
     assert_int_equal(tof_cal_write(&store, &app, v2, &error), TOF_CAL_APPLIED);
     assert_int_equal(boot(), TOF_CAL_APPLIED);
+}
+
+static void put_le(uint8_t *p, uint32_t v, unsigned bytes) {
+    for (unsigned b = 0; b < bytes; ++b) {
+        p[b] = (uint8_t)(v >> (8u * b));
+    }
+}
+
+/* The thermal fields at the documented bytes (flag bit 1, cal_temp_cdeg at 80, coefficient and
+ * sd per sensor at 82 + 8·i), through the wire form, the stored version 5, a boot and
+ * read-calibration, unchanged. */
+static void test_the_thermal_fields_travel_and_reach_the_estimator(void **state) {
+    (void)state;
+    const struct calibration_head cal = a_thermal_head();
+    struct tof_cal_binding b = mine();
+    uint8_t wire[TOF_CAL_WIRE_SIZE];
+    assert_int_equal(tof_cal_encode(&cal, true, &b, wire), HAL_OK);
+    assert_int_equal(sizeof wire, 118u);
+    const uint8_t header[4] = {2u, 4u, 114u, 0u};
+    assert_memory_equal(wire, header, 4u);
+    assert_int_equal(wire[4 + 5], 0x03u); /* gains and thermal */
+    uint8_t want[34];
+    put_le(&want[0], (uint32_t)(int32_t)-1250, 2u);
+    for (unsigned i = 0; i < 4u; ++i) {
+        put_le(&want[2u + 8u * i], (uint32_t)cal.temp_coeff_nm_per_c[i], 4u);
+        put_le(&want[6u + 8u * i], cal.temp_coeff_sd_nm_per_c[i], 4u);
+    }
+    assert_memory_equal(&wire[4 + 80], want, sizeof want);
+    struct calibration_head out;
+    struct tof_cal_binding bo;
+    enum tof_cal_field field = TOF_CAL_FIELD_HEADER;
+    assert_int_equal(tof_cal_decode(wire, sizeof wire, &out, &bo, &field), TOF_CAL_APPLIED);
+    assert_int_equal(field, TOF_CAL_FIELD_NONE);
+    assert_same_cal(&out, &cal);
+    /* stored as version 5 with the parts, booted, read back as sent */
+    memcpy(b.part_id, parts, sizeof parts);
+    save_cal(&cal, true, &b);
+    running_parts(parts);
+    assert_int_equal(boot(), TOF_CAL_APPLIED);
+    assert_same_cal(&app.estimator.cfg.calibration, &cal);
+    assert_int_equal(tof_cal_decode(store.payload, store.length, &out, &bo, NULL), TOF_CAL_APPLIED);
+    assert_true(bo.part_id[2] == parts[2]);
+    uint8_t back[TOF_CAL_WIRE_SIZE];
+    tof_cal_read(&store, back);
+    assert_memory_equal(back, wire, sizeof wire);
+    /* written on board through the command's path: the same */
+    int error = 1;
+    assert_int_equal(tof_cal_write(&store, &app, wire, &error), TOF_CAL_APPLIED);
+    assert_same_cal(&app.estimator.cfg.calibration, &cal);
+    tof_cal_read(&store, back);
+    assert_memory_equal(back, wire, sizeof wire);
+
+    /* a head without thermal fields stores them as 0, whatever the struct holds there */
+    struct calibration_head plain = cal;
+    plain.thermal = false;
+    plain.cal_temp_cdeg = 3000;
+    assert_int_equal(tof_cal_encode(&plain, true, &b, wire), HAL_OK);
+    assert_int_equal(wire[4 + 5], 0x01u);
+    memset(want, 0, sizeof want);
+    assert_memory_equal(&wire[4 + 80], want, sizeof want);
+    assert_int_equal(tof_cal_decode(wire, sizeof wire, &out, &bo, NULL), TOF_CAL_APPLIED);
+    assert_false(out.thermal);
+    assert_int_equal(out.cal_temp_cdeg, 0);
+    assert_int_equal(out.temp_coeff_nm_per_c[0], 0);
+    assert_int_equal(out.temp_coeff_sd_nm_per_c[3], 0u);
+}
+
+/* Versions 1, 2 and 3 (before the thermal fields) read as calibrations without them, with the
+ * binding each carries, and go out as the version-4 form with the thermal bytes 0; the
+ * thermal flag bit is reserved in them. */
+static void test_the_versions_before_the_thermal_fields_read_as_non_thermal(void **state) {
+    (void)state;
+    const struct calibration_head cal = a_head();
+    struct tof_cal_binding b = mine();
+    memcpy(b.part_id, parts, sizeof parts);
+    b.arm_um = cfg.estimator.arm_um;
+    uint8_t wire[TOF_CAL_WIRE_SIZE];
+    assert_int_equal(tof_cal_encode(&cal, true, &b, wire), HAL_OK);
+    running_parts(parts);
+    for (uint8_t version = 1u; version <= 3u; ++version) {
+        uint8_t old[TOF_SECTION_HEADER + 116u];
+        old_section(version, &cal, &b, old);
+        assert_int_equal(tof_section_save(&store, old), HAL_OK);
+        assert_int_equal(attitude_init(&app.estimator, &cfg.estimator), ATTITUDE_ERR_NONE);
+        assert_int_equal(boot(), TOF_CAL_APPLIED);
+        assert_same_cal(&app.estimator.cfg.calibration, &cal); /* thermal false, fields 0 */
+        struct calibration_head out;
+        struct tof_cal_binding bo;
+        assert_int_equal(tof_cal_decode(store.payload, store.length, &out, &bo, NULL),
+                         TOF_CAL_APPLIED);
+        assert_false(out.thermal);
+        assert_true(bo.part_id[3] == (version >= 2u ? parts[3] : 0u));
+        assert_int_equal(bo.arm_um, version == 3u ? cfg.estimator.arm_um : 0);
+        uint8_t back[TOF_CAL_WIRE_SIZE];
+        tof_cal_read(&store, back);
+        assert_memory_equal(back, wire, sizeof wire);
+        /* bound again as version 5: parts and arm kept, thermal fields 0 */
+        uint8_t v5[TOF_SECTION_HEADER + TOF_CALIBRATION_LENGTH];
+        assert_int_equal(tof_cal_bind_parts(old, parts, v5), HAL_OK);
+        assert_int_equal(tof_cal_decode(v5, sizeof v5, &out, &bo, NULL), TOF_CAL_APPLIED);
+        assert_same_cal(&out, &cal);
+        assert_int_equal(bo.arm_um, version == 3u ? cfg.estimator.arm_um : 0);
+        /* flag bit 1 is reserved before version 4: corrupt, never a thermal calibration */
+        old[4 + 5] |= 0x02u;
+        enum tof_cal_field field = TOF_CAL_FIELD_NONE;
+        assert_int_equal(tof_cal_decode(old, (uint16_t)(old[2] + 4u), &out, &bo, &field),
+                         TOF_CAL_CORRUPT);
+        assert_int_equal(field, TOF_CAL_FIELD_FLAGS);
+        assert_int_equal(tof_cal_bind_parts(old, parts, v5), HAL_ERR_INVALID);
+        int error = 0;
+        assert_int_equal(tof_cal_write(&store, &app, old, &error), TOF_CAL_CORRUPT);
+    }
+}
+
+/* Thermal values out of estimator/calibration.h's bounds, or thermal bytes without the flag:
+ * never encoded, and refused at decoding naming the field. */
+static void test_thermal_values_out_of_bounds_are_refused_by_name(void **state) {
+    (void)state;
+    const struct calibration_head cal = a_thermal_head();
+    const struct tof_cal_binding b = mine();
+    uint8_t s[TOF_CAL_WIRE_SIZE];
+    struct calibration_head u = cal;
+    u.cal_temp_cdeg = CALIBRATION_TEMP_MAX_CDEG + 1;
+    assert_int_equal(tof_cal_encode(&u, true, &b, s), HAL_ERR_INVALID);
+    u = cal;
+    u.temp_coeff_nm_per_c[1] = -CALIBRATION_TEMP_COEFF_MAX_NM_PER_C - 1;
+    assert_int_equal(tof_cal_encode(&u, true, &b, s), HAL_ERR_INVALID);
+    u = cal;
+    u.temp_coeff_sd_nm_per_c[2] = (uint32_t)CALIBRATION_TEMP_COEFF_MAX_NM_PER_C + 1u;
+    assert_int_equal(tof_cal_encode(&u, true, &b, s), HAL_ERR_INVALID);
+    u = cal;
+    u.cal_temp_cdeg = CALIBRATION_TEMP_MIN_CDEG; /* the bounds themselves are taken */
+    assert_int_equal(tof_cal_encode(&u, true, &b, s), HAL_OK);
+
+    const struct {
+        unsigned at;    /* body byte */
+        uint32_t value; /* little-endian */
+        unsigned bytes; /* its width */
+        bool thermal;   /* the flag left set */
+        enum tof_cal_field field;
+    } bad[] = {
+        {80u, (uint32_t)(CALIBRATION_TEMP_MAX_CDEG + 1), 2u, true, TOF_CAL_FIELD_CAL_TEMP},
+        {80u, (uint32_t)(int32_t)(CALIBRATION_TEMP_MIN_CDEG - 1), 2u, true, TOF_CAL_FIELD_CAL_TEMP},
+        {82u + 8u, (uint32_t)(CALIBRATION_TEMP_COEFF_MAX_NM_PER_C + 1), 4u, true,
+         TOF_CAL_FIELD_TEMP_COEFF},
+        {82u + 24u, (uint32_t) - (CALIBRATION_TEMP_COEFF_MAX_NM_PER_C + 1), 4u, true,
+         TOF_CAL_FIELD_TEMP_COEFF},
+        {86u + 16u, (uint32_t)CALIBRATION_TEMP_COEFF_MAX_NM_PER_C + 1u, 4u, true,
+         TOF_CAL_FIELD_TEMP_COEFF_SD},
+        {80u, 1u, 2u, false, TOF_CAL_FIELD_CAL_TEMP},   /* a value without the flag */
+        {82u, 1u, 4u, false, TOF_CAL_FIELD_TEMP_COEFF}, /* likewise */
+        {86u + 8u, 1u, 4u, false, TOF_CAL_FIELD_TEMP_COEFF_SD},
+    };
+    struct calibration_head out;
+    struct tof_cal_binding bo;
+    for (size_t k = 0; k < sizeof bad / sizeof bad[0]; ++k) {
+        struct calibration_head h = bad[k].thermal ? cal : a_head();
+        assert_int_equal(tof_cal_encode(&h, true, &b, s), HAL_OK);
+        put_le(&s[4u + bad[k].at], bad[k].value, bad[k].bytes);
+        enum tof_cal_field field = TOF_CAL_FIELD_NONE;
+        assert_int_equal(tof_cal_decode(s, sizeof s, &out, &bo, &field), TOF_CAL_CORRUPT);
+        assert_int_equal(field, bad[k].field);
+        int error = 0;
+        assert_int_equal(tof_cal_write(&store, &app, s, &error), TOF_CAL_CORRUPT);
+        assert_int_equal(store.current, -1); /* nothing stored */
+    }
+    assert_string_equal(tof_cal_field_name(TOF_CAL_FIELD_CAL_TEMP), "cal_temp_cdeg");
+    assert_string_equal(tof_cal_field_name(TOF_CAL_FIELD_TEMP_COEFF), "temp_coeff_nm_per_c");
+    assert_string_equal(tof_cal_field_name(TOF_CAL_FIELD_TEMP_COEFF_SD), "temp_coeff_sd_nm_per_c");
+    assert_string_equal(tof_cal_field_name((enum tof_cal_field)99), "unknown field");
 }
 
 /* A unit running calibrated whose record is then found damaged, erased, of another version or
@@ -438,6 +658,10 @@ int main(void) {
         cmocka_unit_test_setup(test_version_1_binds_the_head_only, setup),
         cmocka_unit_test_setup(test_written_on_board_binds_the_running_parts, setup),
         cmocka_unit_test_setup(test_a_boot_without_a_valid_record_resets_the_calibration, setup),
+        cmocka_unit_test_setup(test_the_thermal_fields_travel_and_reach_the_estimator, setup),
+        cmocka_unit_test_setup(test_the_versions_before_the_thermal_fields_read_as_non_thermal,
+                               setup),
+        cmocka_unit_test_setup(test_thermal_values_out_of_bounds_are_refused_by_name, setup),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

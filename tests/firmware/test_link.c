@@ -531,6 +531,89 @@ static void test_estimate_frames_carry_the_estimators_sd_and_why(void **state) {
     }
 }
 
+/* The temperature a window's record carries (the application's, set here by a spy between it
+ * and the link) reaches every estimate frame of that window; the status frame reports the last
+ * one while the unit runs, none when stopped; a window without one says so (known 0, value 0). */
+static bool spy_temp_known;
+static int16_t spy_temp_cdeg;
+
+static void spy_temperature(void *ctx, const struct tof_estimate_record *record) {
+    spied = *record;
+    spied.temp_known = spy_temp_known;
+    spied.temp_cdeg = spy_temp_cdeg;
+    ++spied_count;
+    tof_link_output_ops.estimate(ctx, &spied);
+}
+
+static void pass_sample(void *ctx, const struct tof_sample *sample) {
+    tof_link_output_ops.sample(ctx, sample); /* the re-zero's samples */
+}
+
+static const struct tof_output_ops temperature_ops = {
+    .estimate = spy_temperature, .sample = pass_sample, .event = NULL};
+
+static void test_estimate_and_status_frames_carry_the_temperature(void **state) {
+    (void)state;
+    t.platform.output = (struct tof_output){.ops = &temperature_ops, .ctx = &t.link};
+    spied_count = 0;
+    spy_temp_known = true;
+    spy_temp_cdeg = -2345; /* -23.45 degC */
+    struct tlm_command cmd = {.type = TLM_TYPE_STATUS_REQUEST};
+    push_command(&cmd, 1);
+    run_ms(30); /* before any window: the unit has no temperature yet */
+    decode_output();
+    assert_int_equal(t.status, 1);
+    assert_false(t.last_status.temp_known);
+    assert_int_equal(t.last_status.temp_cdeg, 0);
+    t.serial.tx_len = 0;
+    t.status = 0;
+    run_ms(100 * 20 + 100);
+    push_command(&cmd, 2);
+    run_ms(30);
+    decode_output();
+    assert_int_equal(spied_count, 1);
+    assert_int_equal(t.link.tx_dropped, 0);
+    for (unsigned e = 0; e < ATTITUDE_EST_COUNT; ++e) {
+        if (spied.output.est[e].reason != ATTITUDE_REASON_DISABLED) {
+            assert_true(t.last_estimate[e].temp_known);
+            assert_int_equal(t.last_estimate[e].temp_cdeg, -2345);
+        }
+    }
+    assert_int_equal(t.status, 1);
+    assert_true(t.last_status.temp_known);
+    assert_int_equal(t.last_status.temp_cdeg, -2345);
+    /* a window without a temperature: none, in the estimates and then the status */
+    spy_temp_known = false;
+    spy_temp_cdeg = 1234; /* not read when not known */
+    t.serial.tx_len = 0;
+    t.status = 0;
+    run_ms(100 * 20);
+    push_command(&cmd, 3);
+    run_ms(30);
+    decode_output();
+    assert_int_equal(spied_count, 2);
+    assert_int_equal(t.link.tx_dropped, 0);
+    assert_false(t.last_estimate[TLM_ESTIMATOR_CONSENSUS].temp_known);
+    assert_int_equal(t.last_estimate[TLM_ESTIMATOR_CONSENSUS].temp_cdeg, 0);
+    assert_false(t.last_status.temp_known);
+    /* stopped: the unit reads none, whatever the last window had */
+    spy_temp_known = true;
+    t.serial.tx_len = 0;
+    run_ms(100 * 20);
+    cmd = (struct tlm_command){.type = TLM_TYPE_STOP};
+    push_command(&cmd, 4);
+    cmd = (struct tlm_command){.type = TLM_TYPE_STATUS_REQUEST};
+    push_command(&cmd, 5);
+    t.status = 0;
+    run_ms(30);
+    decode_output();
+    assert_int_equal(spied_count, 3);
+    assert_int_equal(t.status, 1);
+    assert_false(t.last_status.running);
+    assert_false(t.last_status.temp_known);
+    assert_int_equal(t.last_status.temp_cdeg, 0);
+}
+
 /* The window mode's process noise: sliding mode with Q = 0 runs the Kalman filter
  * with `auto` (a sliding estimate is for a plate that may move), tumbling mode with Q = 0 the
  * paper's static windows; a process noise chosen after the mode wins (Q = 0 in sliding mode
@@ -848,7 +931,11 @@ static void test_write_and_read_calibration_by_command(void **state) {
                                          .gain_ppm = {1000, -2000, 0, 500},
                                          .offset_sd_um = {30, 31, 32, 33},
                                          .gain_sd_ppm = {100, 100, 100, 100},
-                                         .offset_gain_corr_q15 = {-30000, -30000, 0, 5}};
+                                         .offset_gain_corr_q15 = {-30000, -30000, 0, 5},
+                                         .thermal = true,
+                                         .cal_temp_cdeg = 2150,
+                                         .temp_coeff_nm_per_c = {12000, -7000, 0, 30000},
+                                         .temp_coeff_sd_nm_per_c = {800, 900, 1000, 1100}};
     struct tof_cal_binding b = tof_cal_binding_of(&t.app.cfg);
     b.mode = (uint8_t)(b.mode == 1u ? 2u : 1u); /* another mode: refused */
     cmd = (struct tlm_command){.type = TLM_TYPE_WRITE_CALIBRATION};
@@ -879,10 +966,14 @@ static void test_write_and_read_calibration_by_command(void **state) {
     assert_int_equal(t.acks, 3);
     assert_true(t.app.estimator.cfg.calibration.calibrated);
     assert_int_equal(t.app.estimator.cfg.calibration.gain_ppm[1], -2000);
+    assert_true(t.app.estimator.cfg.calibration.thermal); /* the thermal fields came along */
+    assert_int_equal(t.app.estimator.cfg.calibration.cal_temp_cdeg, 2150);
+    assert_int_equal(t.app.estimator.cfg.calibration.temp_coeff_nm_per_c[3], 30000);
+    assert_int_equal(t.app.estimator.cfg.calibration.temp_coeff_sd_nm_per_c[1], 900u);
     assert_int_equal(t.last_status.calibration, TLM_CAL_APPLIED);
     assert_int_equal(t.calibrations, 1);
     assert_int_equal(t.last_calibration.state, TLM_CAL_APPLIED);
-    uint8_t want[TOF_CAL_WIRE_SIZE]; /* read back in the version-1 form it was sent in */
+    uint8_t want[TOF_CAL_WIRE_SIZE]; /* read back in the version-4 form it was sent in */
     assert_int_equal(tof_cal_encode(&cal, true, &b, want), HAL_OK);
     assert_memory_equal(t.last_calibration.section, want, sizeof want);
 
@@ -890,6 +981,7 @@ static void test_write_and_read_calibration_by_command(void **state) {
     boot_with_records();
     assert_int_equal(t.last_status.calibration, TLM_CAL_APPLIED);
     assert_int_equal(t.app.estimator.cfg.calibration.offset_um[0], 1500);
+    assert_int_equal(t.app.estimator.cfg.calibration.temp_coeff_nm_per_c[0], 12000);
 }
 
 /* re-zero at a parallel plate (every sensor reads 100 mm): refused uncalibrated; with a
@@ -948,6 +1040,62 @@ static void test_rezero_refits_the_offsets(void **state) {
     boot_with_records();
     assert_int_equal(t.last_status.calibration, TLM_CAL_APPLIED);
     assert_int_equal(t.app.estimator.cfg.calibration.offset_um[2], now.offset_um[2]);
+}
+
+/* A thermal calibration re-zeroed: the new offsets hold at the unit's temperature then, which
+ * becomes the calibration temperature (the coefficients kept); with no temperature the
+ * re-zero is rejected and the calibration in force kept. */
+static void test_rezero_of_a_thermal_calibration_takes_the_temperature(void **state) {
+    (void)state;
+    assert_int_equal(sim_flash_init(&saved_flash, 2u, 2048u), HAL_OK);
+    boot_with_records();
+    t.platform.output = (struct tof_output){.ops = &temperature_ops, .ctx = &t.link};
+    spy_temp_known = false;
+    const struct calibration_head cal = {.calibrated = true,
+                                         .offset_um = {1500, -800, -1200, 600},
+                                         .offset_sd_um = {40, 40, 40, 40},
+                                         .thermal = true,
+                                         .cal_temp_cdeg = 2000,
+                                         .temp_coeff_nm_per_c = {10000, 20000, 30000, 40000},
+                                         .temp_coeff_sd_nm_per_c = {1000, 1000, 1000, 1000}};
+    struct tlm_command cmd = {.type = TLM_TYPE_WRITE_CALIBRATION};
+    const struct tof_cal_binding b = tof_cal_binding_of(&t.app.cfg);
+    assert_int_equal(tof_cal_encode(&cal, false, &b, cmd.u.cal_section), HAL_OK);
+    push_command(&cmd, 1);
+    run_ms(100u * 20u + 100u); /* a window without a temperature */
+    decode_output();
+    assert_int_equal(t.acks, 1);
+    cmd = (struct tlm_command){.type = TLM_TYPE_REZERO, .u.rezero_samples = 50};
+    push_command(&cmd, 2);
+    t.serial.tx_len = 0;
+    t.calibrations = 0;
+    run_ms(50u * 20u + 200u);
+    decode_output();
+    assert_int_equal(t.calibrations, 1);
+    assert_int_equal(t.last_calibration.state, TLM_CAL_REJECTED);
+    struct calibration_head now;
+    tof_app_get_calibration(&t.app, &now);
+    assert_int_equal(now.offset_um[0], 1500); /* kept */
+    assert_int_equal(now.cal_temp_cdeg, 2000);
+
+    spy_temp_known = true;
+    spy_temp_cdeg = -1575; /* -15.75 degC */
+    run_ms(100u * 20u);    /* a window at that temperature */
+    push_command(&cmd, 3);
+    t.serial.tx_len = 0;
+    t.calibrations = 0;
+    run_ms(50u * 20u + 200u);
+    decode_output();
+    assert_int_equal(t.calibrations, 1);
+    assert_int_equal(t.last_calibration.state, TLM_CAL_APPLIED);
+    tof_app_get_calibration(&t.app, &now);
+    assert_true(now.thermal);
+    assert_int_equal(now.cal_temp_cdeg, -1575);
+    assert_int_equal(now.temp_coeff_nm_per_c[3], 40000);
+    assert_int_not_equal(now.offset_um[0], 1500); /* refitted at the parallel plate */
+    /* and read back so */
+    assert_int_equal(t.last_calibration.section[4 + 80], (uint8_t)((uint16_t)-1575 & 0xFFu));
+    assert_int_equal(t.last_calibration.section[4 + 81], (uint8_t)((uint16_t)-1575 >> 8));
 }
 
 /* The arm is part of the calibration: one written at 30 mm is bound to it; set-arm 40 takes
@@ -1012,6 +1160,8 @@ static void test_save_without_storage_is_refused(void **state) {
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup(test_default_windows_report_a_parallel_plate, setup),
+        cmocka_unit_test_setup(test_estimate_and_status_frames_carry_the_temperature, setup),
+        cmocka_unit_test_setup(test_rezero_of_a_thermal_calibration_takes_the_temperature, setup),
         cmocka_unit_test_setup(test_commands_are_applied_and_acknowledged, setup),
         cmocka_unit_test_setup(test_a_retried_command_is_answered_but_applied_once, setup),
         cmocka_unit_test_setup(test_health_is_rate_limited_and_counts_uart_overruns, setup),

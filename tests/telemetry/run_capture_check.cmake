@@ -56,7 +56,7 @@ if(MODE STREQUAL "c_to_python")
   run(csv ${PYTHON} ${SCRIPT} --file ${WORK}/capture.bin --csv)
   string(REGEX MATCHALL "[^\n]+" rows "${csv}")
   list(GET rows 0 header)
-  if(NOT header STREQUAL "t_ms,alpha_deg,beta_deg,distance_mm,status,alpha_sd_deg,beta_sd_deg,distance_sd_mm,why,estimator,window,sensors,flatness_um,seq")
+  if(NOT header STREQUAL "t_ms,alpha_deg,beta_deg,distance_mm,status,alpha_sd_deg,beta_sd_deg,distance_sd_mm,why,temp_c,estimator,window,sensors,flatness_um,seq")
     message(FATAL_ERROR "unexpected CSV header: ${header}")
   endif()
   list(LENGTH rows row_count)
@@ -64,9 +64,9 @@ if(MODE STREQUAL "c_to_python")
   list(GET rows 6 invalid_row)
   list(GET rows 7 none_row)
   if(NOT row_count EQUAL 8
-     OR NOT kalman_row STREQUAL "2000,0.999871,-0.001234,99998.765,ok,0.270123,0.000001,1.414,,kalman,1,ABCD,-37,2"
-     OR NOT invalid_row STREQUAL "8000,,0.000250,100.000,invalid,,0.000001,1.414,alpha-unobservable+paper-inconsistent,kalman,4,A,,6"
-     OR NOT none_row STREQUAL "10000,,,,invalid,,,,unobservable,mean,5,none,,7")
+     OR NOT kalman_row STREQUAL "2000,0.999871,-0.001234,99998.765,ok,0.270123,0.000001,1.414,,-100.00,kalman,1,ABCD,-37,3"
+     OR NOT invalid_row STREQUAL "8000,,0.000250,100.000,invalid,,0.000001,1.414,alpha-unobservable+paper-inconsistent,,kalman,4,A,,7"
+     OR NOT none_row STREQUAL "10000,,,,invalid,,,,unobservable,,mean,5,none,,8")
     message(FATAL_ERROR "unexpected estimate CSV:\n${csv}")
   endif()
   # The plot of the estimates is written (a PNG signature, not empty).

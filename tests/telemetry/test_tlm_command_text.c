@@ -107,16 +107,19 @@ static void test_arm_period_and_calibration(void **state) {
     assert_int_equal(parse_ok("re-zero 50").u.rezero_samples, 50u);
     /* tests/twin/head.cal as tools/tof_telemetry.py --send-cal sends it */
     static const char hex[] =
-        "020150000000000001010f00e2040000d00700001e000000c8000000f68812fdffff30f8ffff1e000000c8"
-        "000000f68824faffffe80300001e000000c8000000f688f401000018fcffff1e000000c8000000f688";
-    char text[256] = "write-calibration ";
+        "020472000000000001010f00e2040000d00700001e000000c8000000f68812fdffff30f8ffff1e000000c8"
+        "000000f68824faffffe80300001e000000c8000000f688f401000018fcffff1e000000c8000000f6880000"
+        "0000000000000000000000000000000000000000000000000000000000000000";
+    char text[300] = "write-calibration ";
     strcat(text, hex);
     const struct tlm_command c = parse_ok(text);
     assert_int_equal(c.type, TLM_TYPE_WRITE_CALIBRATION);
     assert_int_equal(c.u.cal_section[0], 2u);
-    assert_int_equal(c.u.cal_section[2], 80u);
+    assert_int_equal(c.u.cal_section[1], 4u);
+    assert_int_equal(c.u.cal_section[2], 114u);
     assert_int_equal(c.u.cal_section[8], 0x01u); /* distance mode short */
     assert_int_equal(c.u.cal_section[83], 0x88u);
+    assert_int_equal(c.u.cal_section[117], 0x00u); /* the thermal fields: none */
     struct tlm_command bad;
     static const char *const refused[] = {"set-arm 0.999",
                                           "set-arm 1000.001",

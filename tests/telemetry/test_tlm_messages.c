@@ -30,7 +30,9 @@ static struct tlm_estimate sample_estimate(void) {
                                  .alpha_sd_udeg = 270000,
                                  .beta_sd_udeg = 5000,
                                  .distance_sd_um = 1500,
-                                 .why = 0};
+                                 .why = 0,
+                                 .temp_known = true,
+                                 .temp_cdeg = -1234};
 }
 
 static struct tlm_raw_sample sample_raw(void) {
@@ -92,7 +94,9 @@ static struct tlm_status sample_status(void) {
                                .calibration = TLM_CAL_OTHER_MODE,
                                .arm_um = 30000u,
                                .cal_age_s = 90061u,
-                               .cal_age = TLM_CAL_AGE_KEPT};
+                               .cal_age = TLM_CAL_AGE_KEPT,
+                               .temp_known = true,
+                               .temp_cdeg = 4567};
 }
 
 /* Decode exactly one accepted frame from `bytes` through a real decoder. */
@@ -118,12 +122,14 @@ static struct tlm_frame raw_frame(uint8_t type, const uint8_t *payload, uint8_t 
 
 static void test_estimate_layout_matches_reference_bytes(void **state) {
     (void)state;
-    /* Computed independently in Python with struct.pack('<IIBBBiiiiiiiQ', ...). */
+    /* Computed independently in Python with struct.pack('<IIBBBiiiiiiiQBh', ...) and
+     * tools/tof_telemetry.py's encode_frame(). */
     static const uint8_t expected[] = {
-        0xA5, 0x5A, 0x2F, 0x01, 0x2A, 0x20, 0x4E, 0x00, 0x00, 0xC7, 0x00, 0x00, 0x00, 0x00,
+        0xA5, 0x5A, 0x32, 0x01, 0x2A, 0x20, 0x4E, 0x00, 0x00, 0xC7, 0x00, 0x00, 0x00, 0x00,
         0x00, 0x0F, 0x60, 0xE3, 0x16, 0x00, 0x70, 0x2F, 0xFC, 0xFF, 0x00, 0xCA, 0x5B, 0x07,
         0xF4, 0xFF, 0xFF, 0xFF, 0xB0, 0x1E, 0x04, 0x00, 0x88, 0x13, 0x00, 0x00, 0xDC, 0x05,
-        0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x28, 0x77};
+        0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x01, 0x2E, 0xFB, /* -12.34 C */
+        0x98, 0x4F};
     const struct tlm_estimate est = sample_estimate();
     uint8_t out[TLM_FRAME_MAX];
     assert_int_equal(tlm_encode_estimate(42, &est, out, sizeof out), sizeof expected);
@@ -138,11 +144,11 @@ static void test_every_type_has_its_documented_length(void **state) {
     const struct tlm_health health = sample_health();
     const struct tlm_ack ack = {.echo_seq = 1, .command = TLM_TYPE_START, .result = 0};
     const struct tlm_status status = sample_status();
-    assert_int_equal(tlm_encode_estimate(0, &est, out, sizeof out), 47 + 7);
+    assert_int_equal(tlm_encode_estimate(0, &est, out, sizeof out), 50 + 7);
     assert_int_equal(tlm_encode_raw_sample(0, &raw, out, sizeof out), 17 + 7);
     assert_int_equal(tlm_encode_health(0, &health, out, sizeof out), 148 + 7);
     assert_int_equal(tlm_encode_ack(0, &ack, out, sizeof out), 4 + 7);
-    assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 27 + 7);
+    assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 30 + 7);
     assert_int_equal(tlm_type_payload_length(TLM_TYPE_HEALTH, TLM_ACCEPT_TELEMETRY), 148);
     assert_int_equal(tlm_type_payload_length(TLM_TYPE_HEALTH, TLM_ACCEPT_COMMANDS), -1);
     assert_int_equal(tlm_type_payload_length(TLM_TYPE_SET_WINDOW, TLM_ACCEPT_ALL), 3);
@@ -162,7 +168,7 @@ static void test_status_layout(void **state) {
     (void)state;
     const struct tlm_status status = sample_status();
     uint8_t out[TLM_FRAME_MAX];
-    assert_int_equal(tlm_encode_status(3, &status, out, sizeof out), 34);
+    assert_int_equal(tlm_encode_status(3, &status, out, sizeof out), 37);
     const uint8_t *p = &out[TLM_HEADER_SIZE];
     const uint8_t expected[] = {0,    1,    2,    TLM_PROTOCOL_VERSION,
                                 0x40, 0xE2, 0x01, 0x00,
@@ -171,7 +177,8 @@ static void test_status_layout(void **state) {
                                 2,    5,    0x30, 0x75,
                                 0x00, 0x00, /* arm 30000 um */
                                 0xCD, 0x5F, 0x01, 0x00,
-                                1}; /* calibration age 90061 s, kept */
+                                1,                 /* calibration age 90061 s, kept */
+                                1,    0xD7, 0x11}; /* 45.67 degC */
     assert_memory_equal(p, expected, sizeof expected);
     /* an arm or a period outside the protocol's ranges is not encoded */
     struct tlm_status bad = status;
@@ -180,6 +187,18 @@ static void test_status_layout(void **state) {
     bad = status;
     bad.period_ms = 0u;
     assert_int_equal(tlm_encode_status(3, &bad, out, sizeof out), HAL_ERR_INVALID);
+    /* a temperature beyond -100..200 degC, or one not known with a value */
+    bad = status;
+    bad.temp_cdeg = TLM_TEMP_MAX_CDEG + 1;
+    assert_int_equal(tlm_encode_status(3, &bad, out, sizeof out), HAL_ERR_INVALID);
+    bad.temp_cdeg = TLM_TEMP_MIN_CDEG - 1;
+    assert_int_equal(tlm_encode_status(3, &bad, out, sizeof out), HAL_ERR_INVALID);
+    bad = status;
+    bad.temp_known = false;
+    assert_int_equal(tlm_encode_status(3, &bad, out, sizeof out), HAL_ERR_INVALID);
+    bad.temp_cdeg = 0;
+    assert_int_equal(tlm_encode_status(3, &bad, out, sizeof out), 37);
+    assert_memory_equal(&out[TLM_HEADER_SIZE + 27], ((const uint8_t[]){0, 0, 0}), 3);
 }
 
 /* --- round trips ---------------------------------------------------------- */
@@ -216,10 +235,14 @@ static void test_estimate_round_trips(void **state) {
     cases[3].t_ms = UINT32_MAX;
     cases[3].window_index = UINT32_MAX;
     cases[3].flatness_um = INT32_MAX;
+    cases[3].temp_known = false; /* no temperature: known 0, value 0 */
+    cases[3].temp_cdeg = 0;
+    cases[1].temp_cdeg = TLM_TEMP_MAX_CDEG;
+    cases[2].temp_cdeg = TLM_TEMP_MIN_CDEG;
     for (size_t i = 0; i < 4; ++i) {
         uint8_t out[TLM_FRAME_MAX];
         const int n = tlm_encode_estimate((uint8_t)(200 + i), &cases[i], out, sizeof out);
-        assert_int_equal(n, 54);
+        assert_int_equal(n, 57);
         struct recorder rec;
         const struct tlm_frame frame = decode_one(&rec, out, (size_t)n, TLM_ACCEPT_TELEMETRY);
         assert_int_equal(frame.seq, 200 + i);
@@ -232,6 +255,8 @@ static void test_estimate_round_trips(void **state) {
         assert_int_equal(e->estimator, cases[i].estimator);
         assert_int_equal(e->status, cases[i].status);
         assert_true(e->why == cases[i].why);
+        assert_int_equal(e->temp_known, cases[i].temp_known);
+        assert_int_equal(e->temp_cdeg, cases[i].temp_cdeg);
         assert_int_equal(e->alpha_sd_udeg, cases[i].alpha_sd_udeg);
         assert_int_equal(e->beta_sd_udeg, cases[i].beta_sd_udeg);
         assert_int_equal(e->distance_sd_um, cases[i].distance_sd_um);
@@ -348,6 +373,8 @@ static void test_ack_and_status_round_trip(void **state) {
     assert_int_equal(s->period_ms, 20);
     assert_int_equal(s->cal_age_s, 90061u);
     assert_int_equal(s->cal_age, TLM_CAL_AGE_KEPT);
+    assert_true(s->temp_known);
+    assert_int_equal(s->temp_cdeg, 4567);
 }
 
 /* --- telemetry validation ------------------------------------------------- */
@@ -357,7 +384,7 @@ static void assert_estimate_rejected(const struct tlm_estimate *bad) {
     assert_int_equal(tlm_encode_estimate(0, bad, out, sizeof out), HAL_ERR_INVALID);
     /* The same bytes forced onto the wire are refused by the parser. */
     const struct tlm_estimate good = sample_estimate();
-    assert_int_equal(tlm_encode_estimate(0, &good, out, sizeof out), 54);
+    assert_int_equal(tlm_encode_estimate(0, &good, out, sizeof out), 57);
     uint8_t *p = &out[TLM_HEADER_SIZE];
     p[8] = bad->estimator;
     p[9] = bad->status;
@@ -374,6 +401,9 @@ static void assert_estimate_rejected(const struct tlm_estimate *bad) {
     for (size_t b = 0; b < 8; ++b) {
         p[39 + b] = (uint8_t)(bad->why >> (8 * b));
     }
+    p[47] = bad->temp_known ? 1u : 0u;
+    p[48] = (uint8_t)((uint16_t)bad->temp_cdeg & 0xFFu);
+    p[49] = (uint8_t)((uint16_t)bad->temp_cdeg >> 8);
     const struct tlm_frame frame = raw_frame(TLM_TYPE_ESTIMATE, p, TLM_LEN_ESTIMATE);
     struct tlm_telemetry msg;
     struct tlm_rx_counters counters;
@@ -416,7 +446,7 @@ static void test_estimate_validation(void **state) {
     e.why = 1u;
     assert_estimate_rejected(&e);
     e.status = TLM_STATUS_INVALID;
-    assert_int_equal(tlm_encode_estimate(0, &e, (uint8_t[TLM_FRAME_MAX]){0}, TLM_FRAME_MAX), 54);
+    assert_int_equal(tlm_encode_estimate(0, &e, (uint8_t[TLM_FRAME_MAX]){0}, TLM_FRAME_MAX), 57);
     /* An sd comes with its value and is never 0: no claimed certainty without data. */
     e = sample_estimate();
     e.alpha_sd_udeg = 0;
@@ -436,6 +466,15 @@ static void test_estimate_validation(void **state) {
     e.status = TLM_STATUS_INVALID; /* invalid with both angles */
     e.why = 1u;
     assert_estimate_rejected(&e);
+    /* a temperature outside -100..200 degC, or a value where none is known */
+    e = sample_estimate();
+    e.temp_cdeg = TLM_TEMP_MAX_CDEG + 1;
+    assert_estimate_rejected(&e);
+    e.temp_cdeg = TLM_TEMP_MIN_CDEG - 1;
+    assert_estimate_rejected(&e);
+    e = sample_estimate();
+    e.temp_known = false;
+    assert_estimate_rejected(&e);
 }
 
 /* One whole frame in, the estimate out (the twin's and a capture reader's call). */
@@ -444,7 +483,7 @@ static void test_decode_estimate_from_frame_bytes(void **state) {
     const struct tlm_estimate est = sample_estimate();
     uint8_t out[TLM_FRAME_MAX];
     const int n = tlm_encode_estimate(9, &est, out, sizeof out);
-    assert_int_equal(n, 54);
+    assert_int_equal(n, 57);
     struct tlm_estimate got;
     assert_int_equal(tlm_decode_estimate(out, (size_t)n, &got), TLM_RESULT_OK);
     assert_int_equal(got.alpha_udeg, est.alpha_udeg);
@@ -547,19 +586,27 @@ static void test_raw_health_ack_status_validation(void **state) {
     const struct tlm_ack ack_with_error = {.result = 0, .error = -1};
     assert_int_equal(tlm_encode_ack(0, &ack_with_error, out, sizeof out), HAL_ERR_INVALID);
 
-    const size_t status_bytes[] = {3, 10, 11, 12, 13, 16, 17, 20, 26};
-    const uint8_t status_bad[] = {TLM_PROTOCOL_VERSION + 1u, 2, 4, 2, 2, 6,
-                                  TLM_CAL_STATE_LAST + 1u,   0x10, 4}; /* protocol,
-mode, estimator, bools, record state, calibration state, arm > 1000 mm, age state */
-    for (size_t i = 0; i < 9; ++i) {
+    const size_t status_bytes[] = {3, 10, 11, 12, 13, 16, 17, 20, 26, 27, 29};
+    const uint8_t status_bad[] = {TLM_PROTOCOL_VERSION + 1u, 2,    4, 2, 2,   6,
+                                  TLM_CAL_STATE_LAST + 1u,   0x10, 4, 2, 0x80}; /* protocol,
+mode, estimator, bools, record state, calibration state, arm > 1000 mm, age state, the
+temperature's known byte, a temperature below -100 degC */
+    for (size_t i = 0; i < sizeof status_bytes / sizeof status_bytes[0]; ++i) {
         status = sample_status();
-        assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 34);
+        assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 37);
         out[5 + status_bytes[i]] = status_bad[i];
         frame = raw_frame(TLM_TYPE_STATUS, &out[5], TLM_LEN_STATUS);
         assert_int_equal(tlm_parse_telemetry(&frame, &msg, NULL), TLM_RESULT_OUT_OF_RANGE);
     }
     status = sample_status();
-    assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 34);
+    status.temp_known = false;
+    status.temp_cdeg = 0;
+    assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 37);
+    out[5 + 28] = 1; /* not known, with a value */
+    frame = raw_frame(TLM_TYPE_STATUS, &out[5], TLM_LEN_STATUS);
+    assert_int_equal(tlm_parse_telemetry(&frame, &msg, NULL), TLM_RESULT_OUT_OF_RANGE);
+    status = sample_status();
+    assert_int_equal(tlm_encode_status(0, &status, out, sizeof out), 37);
     out[5 + 8] = 1; /* window_n = 1 */
     frame = raw_frame(TLM_TYPE_STATUS, &out[5], TLM_LEN_STATUS);
     assert_int_equal(tlm_parse_telemetry(&frame, &msg, NULL), TLM_RESULT_OUT_OF_RANGE);
@@ -571,8 +618,8 @@ static void test_encoders_check_capacity(void **state) {
     const struct tlm_estimate est = sample_estimate();
     const struct tlm_health health = sample_health();
     const struct tlm_command start = {.type = TLM_TYPE_START};
-    assert_int_equal(tlm_encode_estimate(0, &est, out, 53), HAL_ERR_INVALID);
-    assert_int_equal(tlm_encode_estimate(0, &est, out, 54), 54);
+    assert_int_equal(tlm_encode_estimate(0, &est, out, 56), HAL_ERR_INVALID);
+    assert_int_equal(tlm_encode_estimate(0, &est, out, 57), 57);
     assert_int_equal(tlm_encode_health(0, &health, out, 150), HAL_ERR_INVALID);
     assert_int_equal(tlm_encode_health(0, &health, NULL, sizeof out), HAL_ERR_INVALID);
     assert_int_equal(tlm_encode_estimate(0, NULL, out, sizeof out), HAL_ERR_INVALID);
@@ -786,15 +833,16 @@ static void test_set_arm_and_set_period_commands(void **state) {
     assert_int_equal(tlm_encode_command(1, &cmd, out, sizeof out), HAL_ERR_INVALID);
 }
 
-/* The calibration commands and message carry record section 2 as stored; the protocol checks
- * its header (id 2, length 80; all zero for "none stored"), the firmware its content. */
+/* The calibration commands and message carry record section 2 in its version-4 form; the
+ * protocol checks its header (id 2, length 114; all zero for "none stored"), the firmware its
+ * version and content. */
 static void test_calibration_messages(void **state) {
     (void)state;
     uint8_t out[TLM_FRAME_MAX];
     struct tlm_command cmd = {.type = TLM_TYPE_WRITE_CALIBRATION};
     cmd.u.cal_section[0] = 2;
-    cmd.u.cal_section[1] = 1;
-    cmd.u.cal_section[2] = 80;
+    cmd.u.cal_section[1] = 4;
+    cmd.u.cal_section[2] = 114;
     for (unsigned i = 4; i < TLM_CAL_SECTION_LEN; ++i) {
         cmd.u.cal_section[i] = (uint8_t)(i * 7u);
     }
@@ -809,8 +857,16 @@ static void test_calibration_messages(void **state) {
     assert_int_equal(parse_bytes(TLM_TYPE_WRITE_CALIBRATION, &out[TLM_HEADER_SIZE],
                                  TLM_CAL_SECTION_LEN, &back, NULL),
                      TLM_RESULT_OUT_OF_RANGE);
-    cmd.u.cal_section[2] = 79; /* a length other than 80 */
+    cmd.u.cal_section[2] = 80; /* a length other than 114 (version 1's) */
     assert_int_equal(tlm_encode_command(9, &cmd, out, sizeof out), HAL_ERR_INVALID);
+    cmd.u.cal_section[2] = 114;
+    cmd.u.cal_section[1] = 0; /* version 0 */
+    assert_int_equal(tlm_encode_command(9, &cmd, out, sizeof out), HAL_ERR_INVALID);
+    cmd.u.cal_section[1] = 4;
+    /* the previous protocol's 84-byte section is not this command's length */
+    assert_int_equal(
+        parse_bytes(TLM_TYPE_WRITE_CALIBRATION, &out[TLM_HEADER_SIZE], 84u, &back, NULL),
+        TLM_RESULT_BAD_LENGTH);
 
     struct tlm_calibration msg = {.state = TLM_CAL_NONE}; /* nothing stored: all zero */
     assert_int_equal(tlm_encode_calibration(3, &msg, out, sizeof out),
@@ -825,7 +881,7 @@ static void test_calibration_messages(void **state) {
     assert_int_equal(tlm_encode_calibration(3, &msg, out, sizeof out), HAL_ERR_INVALID);
     msg.state = TLM_CAL_APPLIED;
     memcpy(msg.section, cmd.u.cal_section, TLM_CAL_SECTION_LEN);
-    msg.section[2] = 80;
+    msg.section[2] = 114;
     assert_int_equal(tlm_encode_calibration(3, &msg, out, sizeof out),
                      (int)(TLM_LEN_CALIBRATION + TLM_FRAME_OVERHEAD));
     frame = raw_frame(TLM_TYPE_CALIBRATION, &out[5], TLM_LEN_CALIBRATION);

@@ -136,15 +136,24 @@ static void build(struct builder *b) {
                                           .raw_stream = true,
                                           .period_ms = 20,
                                           .record = TLM_RECORD_LOADED,
-                                          .arm_um = 30000u};
+                                          .arm_um = 30000u,
+                                          .temp_known = true,
+                                          .temp_cdeg = -5}; /* -0.05 degC */
+    add_telemetry(b, &status);
+    status.u.status.temp_known = false; /* a unit without a temperature */
+    status.u.status.temp_cdeg = 0;
     add_telemetry(b, &status);
 
     /* Estimates of every estimator, signs and sizes across the range. */
     struct tlm_telemetry m = estimate(2000, TLM_ESTIMATOR_CONSENSUS, 1000000, 0, 100000000);
     add_telemetry(b, &m);
     m = estimate(2000, TLM_ESTIMATOR_KALMAN, 999871, -1234, 99998765);
+    m.u.estimate.temp_known = true; /* the window's temperature, both ends of the range */
+    m.u.estimate.temp_cdeg = TLM_TEMP_MIN_CDEG;
     add_telemetry(b, &m);
     m = estimate(4000, TLM_ESTIMATOR_CONSENSUS_PAPER, -2500000, 1500001, 250000);
+    m.u.estimate.temp_known = true;
+    m.u.estimate.temp_cdeg = TLM_TEMP_MAX_CDEG;
     add_telemetry(b, &m);
     m = estimate(4000, TLM_ESTIMATOR_MEAN, INT32_MAX, INT32_MIN + 1, 7);
     add_telemetry(b, &m);
@@ -301,7 +310,7 @@ static void build(struct builder *b) {
     add_telemetry(b, &cal);
     cal.u.calibration.state = TLM_CAL_OTHER_HEAD;
     cal.u.calibration.section[0] = TLM_CAL_SECTION_ID;
-    cal.u.calibration.section[1] = 1;
+    cal.u.calibration.section[1] = 4;
     cal.u.calibration.section[2] = TLM_CAL_SECTION_LEN - 4u;
     for (size_t i = 4; i < TLM_CAL_SECTION_LEN; ++i) {
         cal.u.calibration.section[i] = (uint8_t)(i * 37u);
@@ -348,7 +357,7 @@ static void build(struct builder *b) {
     memset(&cmd, 0, sizeof cmd);
     cmd.type = TLM_TYPE_WRITE_CALIBRATION;
     cmd.u.cal_section[0] = TLM_CAL_SECTION_ID;
-    cmd.u.cal_section[1] = 1;
+    cmd.u.cal_section[1] = 4;
     cmd.u.cal_section[2] = TLM_CAL_SECTION_LEN - 4u;
     for (size_t i = 4; i < TLM_CAL_SECTION_LEN; ++i) {
         cmd.u.cal_section[i] = (uint8_t)(255u - i);

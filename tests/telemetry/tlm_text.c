@@ -35,6 +35,16 @@ static void print_fixed(FILE *out, int32_t value, int digits) {
     fprintf(out, "%s%" PRId64 ".%0*" PRId64, sign, v / unit, digits, v % unit);
 }
 
+/* A temperature: " temp_c=-12.34", or " temp_c=none" when not known. */
+static void print_temp(FILE *out, bool known, int16_t cdeg) {
+    fputs(" temp_c=", out);
+    if (known) {
+        print_fixed(out, cdeg, 2);
+    } else {
+        fputs("none", out);
+    }
+}
+
 static void print_optional_fixed(FILE *out, const char *key, int32_t value, int digits) {
     fprintf(out, " %s=", key);
     if (value == TLM_NO_VALUE) {
@@ -142,6 +152,7 @@ void tlm_text_telemetry(FILE *out, uint8_t seq, const struct tlm_telemetry *msg)
         } else {
             fprintf(out, " flatness_um=%" PRId32, e->flatness_um);
         }
+        print_temp(out, e->temp_known, e->temp_cdeg);
         break;
     }
     case TLM_TYPE_RAW_SAMPLE: {
@@ -208,6 +219,7 @@ void tlm_text_telemetry(FILE *out, uint8_t seq, const struct tlm_telemetry *msg)
                 s->running ? "yes" : "no", s->raw_stream ? "yes" : "no", s->period_ms,
                 record_names[s->record], cal_names[s->calibration], s->arm_um, s->cal_age_s,
                 cal_age_names[s->cal_age]);
+        print_temp(out, s->temp_known, s->temp_cdeg);
         break;
     }
     case TLM_TYPE_CALIBRATION:

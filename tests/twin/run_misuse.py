@@ -230,6 +230,28 @@ def main():
     check("set_arm_back_applied", unit.tool("--send", "set-arm 30", "--send", "status",
                                             "--duration", "0.3"), 0,
           r"calibration=applied", where="stdout", absent=r"no longer holds")
+    # a thermal calibration: saved by the flight image, read back byte for byte (--send-cal
+    # compares), its keys back in the HEAD.cal --read-cal writes; a coefficient beyond
+    # 1 mm/C refused by the unit's decoder; the status line says the unit's temperature
+    thermal = head_cal(w("thermal.cal"), "# cal_temp_c=21.5\n"
+                                         "# temp_coeff_mm_per_c=0.021,-0.008,0,-1\n"
+                                         "# temp_coeff_sd_mm_per_c=0.0015,0.0009,0.002,1\n")
+    check("send_cal_thermal", unit.tool("--send-cal", thermal), 0, r"read back: state=applied",
+          where="stdout")
+    check("read_cal_thermal", unit.tool("--read-cal", w("thermal_back.cal")), 0,
+          r"calibration state=applied", where="stdout")
+    with open(w("thermal_back.cal")) as f:
+        back = f.read()
+    if ("# cal_temp_c=21.50\n" not in back
+            or "# temp_coeff_mm_per_c=0.021000,-0.008000,0.000000,-1.000000\n" not in back
+            or section_hex(w("thermal_back.cal")) != section_hex(thermal)):
+        fail("read_cal_thermal: the HEAD.cal read back is not the one sent:\n" + back)
+    hexed = bytearray.fromhex(section_hex(thermal))
+    hexed[4 + 82 + 8:4 + 82 + 12] = (1000001).to_bytes(4, "little")  # sensor B: 1.000001 mm/C
+    check("send_cal_thermal_coeff_beyond", unit.tool("--send", "write-calibration " + hexed.hex()),
+          1, r"nack out-of-range")
+    check("status_says_the_temperature", unit.tool("--send", "status", "--duration", "0.3"), 0,
+          r"status .* temp_c=(none|-?\d+\.\d\d)\n", where="stdout")
     unit.stop()
 
     # --- every tool's --help: complete, exit status 0 ------------------------------------

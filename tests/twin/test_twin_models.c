@@ -1,6 +1,7 @@
 /* Unit tests of the twin's peripheral models and strict rules, driven through the bus
  * dispatch (twin_bus_read/write) as the emulated core would, with no firmware. */
 #include <stdio.h>
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -337,6 +338,105 @@ static void test_flash_rules(void) {
     CHECK((r32(FLASH_ECCR) & (1u << 31)) != 0u && (T.scs.pending & (1u << 2)) != 0u);
 }
 
+#define ADC_ISR   (TWIN_ADC_BASE + 0x00u)
+#define ADC_CR    (TWIN_ADC_BASE + 0x08u)
+#define ADC_SMPR1 (TWIN_ADC_BASE + 0x14u)
+#define ADC_SMPR2 (TWIN_ADC_BASE + 0x18u)
+#define ADC_SQR1  (TWIN_ADC_BASE + 0x30u)
+#define ADC_DR    (TWIN_ADC_BASE + 0x40u)
+#define ADC_CCR   (TWIN_ADC_BASE + 0x308u)
+
+static void after_us(uint32_t us) {
+    T.cycles += (uint64_t)us * (T.sysclk_hz / 1000000u);
+}
+
+/* RM0351 §18.4.6-§18.4.9 in order, at the reset clock (4 MHz, ADC at HCLK/2): deep
+ * power-down off, the regulator and its 20 us, the paths, calibration, enable, ready. */
+static void adc_up(void) {
+    w32(RCC_AHB2ENR, 1u << 13); /* ADCEN */
+    w32(ADC_CR, 0u);
+    w32(ADC_CR, 1u << 28);
+    after_us(20u);
+    w32(ADC_CCR, (2u << 16) | (1u << 22) | (1u << 23));
+    w32(ADC_CR, (1u << 28) | (1u << 31));
+    for (unsigned i = 0; i < 10u && (r32(ADC_CR) & (1u << 31)) != 0u; ++i) {
+    }
+    after_us(120u);
+    w32(ADC_CR, (1u << 28) | 1u);
+    for (unsigned i = 0; i < 10u && (r32(ADC_ISR) & 1u) == 0u; ++i) {
+    }
+    w32(ADC_SMPR1, 7u);
+    w32(ADC_SMPR2, 7u << 21);
+}
+
+static uint16_t adc_convert(uint8_t channel) {
+    w32(ADC_SQR1, (uint32_t)channel << 6);
+    w32(ADC_CR, (1u << 28) | 1u | (1u << 2));
+    for (unsigned i = 0; i < 10u && (r32(ADC_ISR) & (1u << 2)) == 0u; ++i) {
+    }
+    return (uint16_t)r32(ADC_DR);
+}
+
+/* The ADC (twin_adc.c), strict: the documented sequence gives the trace's temperature within
+ * the 12-bit quantisation; each step out of order stops the run and converts nothing. */
+static void test_adc_temperature_sensor(void) {
+    for (unsigned i = 0; i < 4u; ++i) {
+        rows[i] = (struct scene_row){.has_temp = true, .temp_c = 25.0 + 10.0 * i};
+    }
+    rows[3].has_temp = false;
+    fresh(true);
+    twin_world_start_boot(&W, 0u);
+    /* The calibration words where the firmware reads them. */
+    CHECK((r32(0x1FFF75A8u) & 0xFFFFu) == TWIN_TS_CAL1);
+    CHECK((r32(0x1FFF75A8u) >> 16) == TWIN_VREFINT_CAL);
+    CHECK((r32(0x1FFF75C8u) >> 16) == TWIN_TS_CAL2);
+    adc_up();
+    CHECK(T.stop == TWIN_RUNNING);
+    const uint16_t vref = adc_convert(0u);
+    const uint16_t ts = adc_convert(17u);
+    CHECK(T.stop == TWIN_RUNNING);
+    /* Back to °C as the firmware does (VREFINT-scaled line through the two points). */
+    const double ts_3v0 = (double)ts * TWIN_VREFINT_CAL / vref;
+    const double c = 30.0 + (ts_3v0 - TWIN_TS_CAL1) * 80.0 / (TWIN_TS_CAL2 - TWIN_TS_CAL1);
+    const double lsb_c = 80.0 / (TWIN_TS_CAL2 - TWIN_TS_CAL1) * 3300.0 / 3000.0;
+    CHECK(c > 25.0 - lsb_c && c < 25.0 + lsb_c);
+    CHECK(T.adc.sensor_conversions == 1u && T.adc.last_cdeg == 2500);
+    /* A row without temp_c: the sensor converts 0 (the firmware refuses it). */
+    T.cycles += twin_ps_to_cycles(&T, 3ull * 20000u * 1000000u); /* row 3 */
+    CHECK(adc_convert(17u) == 0u);
+    CHECK(T.adc.unknown_temperature == 1u);
+
+    /* Out of order, each on a fresh part: ADVREGEN in deep power-down; ADCAL before the
+     * regulator's start-up; ADSTART before ADRDY; the sensor sampled too short. */
+    fresh(true);
+    w32(RCC_AHB2ENR, 1u << 13);
+    w32(ADC_CR, 1u << 28);
+    CHECK(T.stop == TWIN_STOP_VIOLATION);
+    fresh(true);
+    w32(RCC_AHB2ENR, 1u << 13);
+    w32(ADC_CR, 0u);
+    w32(ADC_CR, 1u << 28);
+    w32(ADC_CCR, 2u << 16);
+    w32(ADC_CR, (1u << 28) | (1u << 31));
+    CHECK(T.stop == TWIN_STOP_VIOLATION);
+    fresh(true);
+    w32(RCC_AHB2ENR, 1u << 13);
+    w32(ADC_SQR1, 17u << 6);
+    w32(ADC_CR, 1u << 2);
+    CHECK(T.stop == TWIN_STOP_VIOLATION);
+    CHECK(T.adc.conversions == 0u);
+    fresh(true);
+    twin_world_start_boot(&W, 0u);
+    adc_up();
+    w32(ADC_SMPR2, 1u << 21); /* 6.5 ADC clocks: 3.25 us at 2 MHz, under 5 us */
+    (void)adc_convert(17u);
+    CHECK(T.stop == TWIN_STOP_VIOLATION);
+    /* Unclocked: ADCEN off. */
+    fresh(true);
+    (void)r32(ADC_CR);
+    CHECK(T.stop == TWIN_STOP_VIOLATION);
+}
+
 int main(void) {
     test_unclocked_peripheral_is_a_violation();
     test_timingr_with_pe_set_is_a_violation();
@@ -349,6 +449,7 @@ int main(void) {
     test_reserved_address_is_a_violation();
     test_usart_interrupts_and_overrun();
     test_flash_rules();
+    test_adc_temperature_sensor();
     twin_free(&T);
     if (failures != 0) {
         fprintf(stderr, "%d checks failed\n", failures);

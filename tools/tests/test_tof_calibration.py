@@ -26,8 +26,24 @@ HEAD_CAL = """# tof-head-cal v1
 # head_id=7
 # fit=offsets+gains
 """
-# firmware/src/calibration_record.c's tof_cal_encode() of this head, head 7, short, 15 ms
+# firmware/src/calibration_record.c's tof_cal_encode() of this head, head 7, short, 15 ms:
+# section 2 version 4 (118 bytes), the thermal fields 0 without the thermal keys
 FIRMWARE_SECTION = bytes.fromhex(
+    "020472000700000001010f00dff3ffff041000001c000000be000000f688ca1e00003ee0ffff1d000000"
+    "c8000000f68804020000f42e00001c000000be000000f688cccfffff86f2ffff1e000000d2000000f688"
+    "00000000000000000000000000000000000000000000000000000000000000000000")
+# The same head measured across temperatures: calibrated at 21.5 C, coefficients 0.021,
+# -0.008, 0, -1 mm/C with sd 0.0015, 0.0009, 0.002, 1 mm/C (tof_cal_encode() likewise)
+THERMAL_KEYS = """# cal_temp_c=21.5
+# temp_coeff_mm_per_c=0.021,-0.008,0,-1
+# temp_coeff_sd_mm_per_c=0.0015,0.0009,0.002,1
+"""
+FIRMWARE_THERMAL_SECTION = bytes.fromhex(
+    "020472000700000001030f00dff3ffff041000001c000000be000000f688ca1e00003ee0ffff1d000000"
+    "c8000000f68804020000f42e00001c000000be000000f688cccfffff86f2ffff1e000000d2000000f688"
+    "660808520000dc050000c0e0ffff8403000000000000d0070000c0bdf0ff40420f00")
+# The version-1 section a unit before the thermal fields sent (84 bytes): the same head
+FIRMWARE_V1_SECTION = bytes.fromhex(
     "020150000700000001010f00dff3ffff041000001c000000be000000f688ca1e00003ee0ffff1d000000"
     "c8000000f68804020000f42e00001c000000be000000f688cccfffff86f2ffff1e000000d2000000f688")
 
@@ -57,6 +73,73 @@ class SectionTest(unittest.TestCase):
         self.assertIn("# distance_mode=short", text)
         self.assertEqual(c.head_cal_to_section(text), FIRMWARE_SECTION)
 
+    def test_the_thermal_keys_as_the_firmware_stores_them(self):
+        s = c.head_cal_to_section(HEAD_CAL + THERMAL_KEYS)
+        self.assertEqual(s, FIRMWARE_THERMAL_SECTION)
+        self.assertEqual(struct.unpack_from("<h", s, 84)[0], 2150)
+        self.assertEqual([struct.unpack_from("<iI", s, 86 + 8 * i) for i in range(4)],
+                         [(21000, 1500), (-8000, 900), (0, 2000), (-1000000, 1000000)])
+        back = c.section_to_head_cal(s)
+        self.assertIn("# cal_temp_c=21.50\n", back)
+        self.assertIn("# temp_coeff_mm_per_c=0.021000,-0.008000,0.000000,-1.000000\n", back)
+        self.assertIn("# temp_coeff_sd_mm_per_c=0.001500,0.000900,0.002000,1.000000\n", back)
+        self.assertEqual(c.head_cal_to_section(back), s)
+        # rounded as the trace reader rounds: half away from zero, to 0.01 C and 1 nm/C
+        s = c.head_cal_to_section(HEAD_CAL + "# cal_temp_c=-12.345\n"
+                                  "# temp_coeff_mm_per_c=0.0000005,-0.0000005,0.0000004,0\n"
+                                  "# temp_coeff_sd_mm_per_c=0,0,0,0.0000015\n")
+        self.assertEqual(struct.unpack_from("<h", s, 84)[0], -1235)
+        self.assertEqual([struct.unpack_from("<iI", s, 86 + 8 * i) for i in range(4)],
+                         [(1, 0), (-1, 0), (0, 0), (0, 2)])
+
+    def test_the_version_before_the_thermal_fields_reads_without_them(self):
+        text = c.section_to_head_cal(FIRMWARE_V1_SECTION)
+        self.assertNotIn("cal_temp_c", text)
+        self.assertNotIn("temp_coeff", text)
+        self.assertEqual(c.head_cal_to_section(text), FIRMWARE_SECTION)
+        # its reserved flag bit 1 is not the thermal flag
+        bad = bytearray(FIRMWARE_V1_SECTION)
+        bad[9] |= 0x02
+        with self.assertRaisesRegex(c.CalibrationError, "flags 0x03: reserved bits"):
+            c.section_to_head_cal(bytes(bad))
+
+    def test_thermal_refusals_name_the_field(self):
+        bad = [(THERMAL_KEYS.replace("# cal_temp_c=21.5\n", ""),
+                "HEAD.cal:9: temp_coeff_mm_per_c without all of cal_temp_c"),
+               (THERMAL_KEYS.replace("21.5", "200.01"),
+                "HEAD.cal:9: cal_temp_c: a temperature within -100..200 C, got '200.01'"),
+               (THERMAL_KEYS.replace("21.5", "-100.005"), "cal_temp_c: a temperature within"),
+               (THERMAL_KEYS.replace("21.5", "21,22"), "cal_temp_c: one value"),
+               (THERMAL_KEYS.replace("21.5", "warm"), "cal_temp_c: not a plain decimal"),
+               (THERMAL_KEYS.replace("0.021,", "1.0000005,"),
+                "HEAD.cal:10: temp_coeff_mm_per_c: a coefficient within -1..1 mm/C"),
+               (THERMAL_KEYS.replace("0.0015,", "-0.0015,"),
+                "HEAD.cal:11: temp_coeff_sd_mm_per_c: an sd within 0..1 mm/C"),
+               (THERMAL_KEYS.replace(",-1\n", "\n"), "temp_coeff_mm_per_c: four values")]
+        for keys, what in bad:
+            with self.assertRaises(c.CalibrationError) as e:
+                c.head_cal_to_section(HEAD_CAL + keys)
+            self.assertIn(what, str(e.exception))
+        # a section whose thermal fields are out of the firmware's bounds, or set without the
+        # thermal flag, names the field and sensor
+        def patched(base, at, fmt, value):
+            s = bytearray(base)
+            struct.pack_into(fmt, s, at, value)
+            return bytes(s)
+        cases = [(patched(FIRMWARE_THERMAL_SECTION, 84, "<h", 20001), "cal_temp_cdeg 20001"),
+                 (patched(FIRMWARE_THERMAL_SECTION, 86 + 8, "<i", 1000001),
+                  "temp_coeff_nm_per_c of sensor B is 1000001"),
+                 (patched(FIRMWARE_THERMAL_SECTION, 90 + 16, "<I", 1000001),
+                  "temp_coeff_sd_nm_per_c of sensor C is 1000001"),
+                 (patched(FIRMWARE_SECTION, 84, "<h", 1), "cal_temp_cdeg 1 without the thermal"),
+                 (patched(FIRMWARE_SECTION, 86 + 24, "<i", -5),
+                  "temp_coeff_nm_per_c of sensor D is -5 without the thermal flag"),
+                 (patched(FIRMWARE_SECTION, 9, "<B", 0x05), "flags 0x05: reserved bits")]
+        for section, what in cases:
+            with self.assertRaises(c.CalibrationError) as e:
+                c.section_to_head_cal(section)
+            self.assertIn(what, str(e.exception))
+
     def test_offsets_only(self):
         s = c.head_cal_to_section("# tof-head-cal v1\n# offset_mm=1,2,3,4\n"
                                   "# offset_sd_mm=0,0,0,0\n", mode="long", budget_ms=33)
@@ -82,7 +165,7 @@ class SectionTest(unittest.TestCase):
                 c.head_cal_to_section(text)
             self.assertIn(what, str(e.exception))
         with self.assertRaises(c.CalibrationError):
-            c.section_to_head_cal(bytes(84))  # none stored
+            c.section_to_head_cal(bytes(118))  # none stored
 
 
 class TelemetryTest(unittest.TestCase):
@@ -98,12 +181,16 @@ class TelemetryTest(unittest.TestCase):
             t.command_payload("write-calibration 0201")
         fields, result = t.parse(t.T_CALIBRATION, bytes([1]) + FIRMWARE_SECTION)
         self.assertEqual((result, fields["state"]), (t.R_OK, 1))
-        self.assertEqual(t.parse(t.T_CALIBRATION, bytes([0]) + bytes(84))[1], t.R_OK)
-        self.assertEqual(t.parse(t.T_CALIBRATION, bytes([8]) + bytes(84))[1], t.R_OK)  # other-parts
-        self.assertEqual(t.parse(t.T_CALIBRATION, bytes([len(t.CAL_STATES)]) + bytes(84))[1], t.R_OUT_OF_RANGE)
-        self.assertEqual(t.parse(t.T_WRITE_CALIBRATION, bytes(84))[1], t.R_OUT_OF_RANGE)
+        self.assertEqual(t.parse(t.T_CALIBRATION, bytes([0]) + bytes(118))[1], t.R_OK)
+        self.assertEqual(t.parse(t.T_CALIBRATION, bytes([8]) + bytes(118))[1], t.R_OK)  # other-parts
+        self.assertEqual(t.parse(t.T_CALIBRATION, bytes([len(t.CAL_STATES)]) + bytes(118))[1], t.R_OUT_OF_RANGE)
+        self.assertEqual(t.parse(t.T_WRITE_CALIBRATION, bytes(118))[1], t.R_OUT_OF_RANGE)
+        # the previous protocol's 84-byte section is not this version's length
+        self.assertEqual(t.parse(t.T_WRITE_CALIBRATION, FIRMWARE_V1_SECTION)[1], t.R_BAD_LENGTH)
+        fields, result = t.parse(t.T_CALIBRATION, bytes([1]) + FIRMWARE_THERMAL_SECTION)
+        self.assertEqual((result, fields["section"]), (t.R_OK, FIRMWARE_THERMAL_SECTION))
         status, result = t.parse(t.T_STATUS, bytes([0, 1, 0, t.PROTOCOL_VERSION]) + struct.pack(
-            "<IHBBBBHBBIIB", 1000, 100, 0, 0, 1, 0, 20, 0, 5, 30000, 7200, 1))
+            "<IHBBBBHBBIIBBh", 1000, 100, 0, 0, 1, 0, 20, 0, 5, 30000, 7200, 1, 0, 0))
         self.assertEqual((result, t.CAL_STATES[status["calibration"]]), (t.R_OK, "other-mode"))
 
     def run_main(self, argv):
@@ -113,15 +200,16 @@ class TelemetryTest(unittest.TestCase):
         return rc, out.getvalue()
 
     def test_read_cal_from_a_capture(self):
-        with tempfile.TemporaryDirectory() as d:
-            cap, out = os.path.join(d, "cap.bin"), os.path.join(d, "out.cal")
-            with open(cap, "wb") as f:
-                f.write(t.encode_frame(t.T_CALIBRATION, 3, bytes([1]) + FIRMWARE_SECTION))
-            rc, text = self.run_main(["--file", cap, "--read-cal", out])
-            self.assertEqual(rc, 0)
-            self.assertIn("state=applied", text)
-            with open(out) as f:
-                self.assertEqual(c.head_cal_to_section(f.read()), FIRMWARE_SECTION)
+        for section in (FIRMWARE_SECTION, FIRMWARE_THERMAL_SECTION):
+            with tempfile.TemporaryDirectory() as d:
+                cap, out = os.path.join(d, "cap.bin"), os.path.join(d, "out.cal")
+                with open(cap, "wb") as f:
+                    f.write(t.encode_frame(t.T_CALIBRATION, 3, bytes([1]) + section))
+                rc, text = self.run_main(["--file", cap, "--read-cal", out])
+                self.assertEqual(rc, 0)
+                self.assertIn("state=applied", text)
+                with open(out) as f:
+                    self.assertEqual(c.head_cal_to_section(f.read()), section)
 
     def test_send_cal_commands(self):
         with tempfile.TemporaryDirectory() as d:
@@ -134,6 +222,13 @@ class TelemetryTest(unittest.TestCase):
                 data = f.read()
             self.assertEqual(data, t.encode_frame(t.T_WRITE_CALIBRATION, 0, FIRMWARE_SECTION)
                              + t.encode_frame(t.T_READ_CALIBRATION, 1, b""))
+            with open(cal, "w") as f:
+                f.write(c.with_checksum(HEAD_CAL + THERMAL_KEYS))
+            self.assertEqual(self.run_main(["--write-commands", cmds, "--send-cal", cal,
+                                            "--first-seq", "0"])[0], 0)
+            with open(cmds, "rb") as f:
+                self.assertEqual(f.read()[:125], t.encode_frame(t.T_WRITE_CALIBRATION, 0,
+                                                                FIRMWARE_THERMAL_SECTION))
 
     def test_record_stations_into_a_calibration_trace(self):
         with tempfile.TemporaryDirectory() as d:
@@ -213,8 +308,8 @@ class RefusalTest(unittest.TestCase):
     def test_a_restart_is_not_counted_as_lost_frames(self):
         out = io.StringIO()
         p = t.Printer(out)
-        status = struct.pack("<BBBBIHBBBBHBBIIB", 0, 1, 0, t.PROTOCOL_VERSION, 5000, 100, 0, 0,
-                             1, 0, 20, 0, 1, 30000, 0, 0)
+        status = struct.pack("<BBBBIHBBBBHBBIIBBh", 0, 1, 0, t.PROTOCOL_VERSION, 5000, 100, 0,
+                             0, 1, 0, 20, 0, 1, 30000, 0, 0, 1, 2250)
         p.handle(("frame", t.T_STATUS, 0, status), {})
         p.handle(("frame", t.T_STATUS, 7, status), {})
         boot = status[:4] + struct.pack("<I", 130) + status[8:]

@@ -20,16 +20,18 @@ import tof_telemetry as t  # noqa: E402
 START_SEQ0 = bytes.fromhex("a55a0083005782")
 SET_WINDOW_100_SEQ1 = bytes.fromhex("a55a038101640000 6e79".replace(" ", ""))
 ACK_SEQ9 = bytes.fromhex("a55a040409018100000be4")
+# the C encoder's bytes (tests/telemetry/test_tlm_messages.c): a window at -12.34 degC
 ESTIMATE_SEQ42 = bytes.fromhex(
-    "a55a2f012a204e0000c700000000000f60e31600702ffcff00ca5b"
-    "07f4ffffffb01e040088130000dc05000000000000000000002877")
+    "a55a32012a204e0000c700000000000f60e31600702ffcff00ca5b"
+    "07f4ffffffb01e040088130000dc0500000000000000000000012efb984f")
 
 
 def estimate_payload(t_ms=20000, window=199, estimator=0, status=0, sensors=15, alpha=1500000,
                      beta=-250000, distance=123456000, flatness=-12, alpha_sd=270000,
-                     beta_sd=5000, distance_sd=1500, why=0):
+                     beta_sd=5000, distance_sd=1500, why=0, temp_known=1, temp_cdeg=-1234):
     return struct.pack(t.ESTIMATE_FORMAT, t_ms, window, estimator, status, sensors, alpha, beta,
-                       distance, flatness, alpha_sd, beta_sd, distance_sd, why)
+                       distance, flatness, alpha_sd, beta_sd, distance_sd, why, temp_known,
+                       temp_cdeg)
 
 
 def frames_of(events):
@@ -52,8 +54,8 @@ class EncodeTest(unittest.TestCase):
         self.assertEqual(t.encode_frame(t.T_SET_WINDOW, 1, struct.pack("<HB", 100, 0)),
                          SET_WINDOW_100_SEQ1)
         self.assertEqual(t.encode_frame(t.T_ACK, 9, bytes([1, 0x81, 0, 0])), ACK_SEQ9)
-        payload = struct.pack("<IIBBBiiiiiiiQ", 20000, 199, 0, 0, 15, 1500000, -250000,
-                              123456000, -12, 270000, 5000, 1500, 0)
+        payload = struct.pack("<IIBBBiiiiiiiQBh", 20000, 199, 0, 0, 15, 1500000, -250000,
+                              123456000, -12, 270000, 5000, 1500, 0, 1, -1234)
         self.assertEqual(t.encode_frame(t.T_ESTIMATE, 42, payload), ESTIMATE_SEQ42)
 
     def test_payload_limit(self):
@@ -189,6 +191,25 @@ class DecoderTest(unittest.TestCase):
         self.assertEqual(t.parse(t.T_ESTIMATE, estimate_payload(status=2, why=1))[1],
                          t.R_OUT_OF_RANGE)
 
+    def test_temperature_rules(self):
+        # known 0 or 1; known: -100..200 degC; not known: 0 (the C encoder's rules)
+        for known, cdeg, result in [(1, -10000, t.R_OK), (1, 20000, t.R_OK), (0, 0, t.R_OK),
+                                    (1, -10001, t.R_OUT_OF_RANGE), (1, 20001, t.R_OUT_OF_RANGE),
+                                    (0, 5, t.R_OUT_OF_RANGE), (2, 0, t.R_OUT_OF_RANGE)]:
+            fields, got = t.parse(t.T_ESTIMATE, estimate_payload(temp_known=known,
+                                                                 temp_cdeg=cdeg))
+            self.assertEqual(got, result, (known, cdeg))
+        fields, _ = t.parse(t.T_ESTIMATE, estimate_payload(temp_known=0, temp_cdeg=0))
+        self.assertIn(" temp_c=none", t.format_message(t.T_ESTIMATE, 1, fields))
+        status = struct.pack("<BBBBIHBBBBHBBIIBBh", 0, 1, 0, t.PROTOCOL_VERSION, 5000, 100, 0,
+                             0, 1, 0, 20, 0, 1, 30000, 0, 0, 1, -5)
+        fields, result = t.parse(t.T_STATUS, status)
+        self.assertEqual(result, t.R_OK)
+        self.assertTrue(t.format_message(t.T_STATUS, 0, fields).endswith(" temp_c=-0.05"))
+        self.assertEqual(t.parse(t.T_STATUS, status[:-3] + b"\x00\xfb\xff")[1],
+                         t.R_OUT_OF_RANGE)  # not known, with a value
+        self.assertEqual(t.parse(t.T_STATUS, status[:-3])[1], t.R_BAD_LENGTH)  # protocol 6
+
     def test_why_names_follow_the_estimator(self):
         why = (1 << 1) | (1 << 6) | (1 << 8) | (1 << 15) | (1 << 17) | (7 << 20) | (1 << 35)
         self.assertEqual(t.why_text(why), "no-target:B+range:C+flagged:A+missing:D+rejected:B"
@@ -225,7 +246,7 @@ class FormatTest(unittest.TestCase):
                 "seq=42 estimate t_ms=20000 window=199 estimator=consensus status=ok "
                 "why=none sensors=ABCD alpha_deg=1.500000 beta_deg=-0.250000 "
                 "distance_mm=123456.000 alpha_sd_deg=0.270000 beta_sd_deg=0.005000 "
-                "distance_sd_mm=1.500 flatness_um=-12"))
+                "distance_sd_mm=1.500 flatness_um=-12 temp_c=-12.34"))
             self.assertEqual(lines[1], "seq=9 ack echo_seq=1 command=set-window result=ok error=0")
             self.assertTrue(lines[2].startswith("# frames_ok=2 bad_crc=0"))
 

@@ -102,6 +102,7 @@ struct twin {
     struct twin_usart usart;
     struct twin_iwdg iwdg;
     struct twin_scs scs;
+    struct twin_adc adc;
     uint32_t dbgmcu_apb1fzr1;
 
     /* Time, warps, pending exceptions and violations for the peripheral models: the core's

@@ -69,6 +69,12 @@ uint32_t twin_bus_read(struct twin *t, uint32_t addr, unsigned size) {
         }
     } else if (in(a, TWIN_IWDG_BASE, 0x400u)) {
         v = twin_iwdg_read(t, a - TWIN_IWDG_BASE);
+    } else if (in(a, TWIN_ADC_BASE, 0x400u)) {
+        if (clocked(t, TWIN_ADC_BASE, a, 0u, false)) {
+            v = twin_adc_read(t, a - TWIN_ADC_BASE);
+        }
+    } else if (in(a, TWIN_SYSMEM_CAL_PAGE, 0x1000u)) {
+        v = twin_adc_sysmem_read(t, a - TWIN_SYSMEM_CAL_PAGE);
     } else if (a == TWIN_DBGMCU_APB1FZR1) {
         v = t->dbgmcu_apb1fzr1;
     } else if (in(a, 0xE000E000u, 0x1000u)) {
@@ -122,6 +128,12 @@ void twin_bus_write(struct twin *t, uint32_t addr, unsigned size, uint32_t value
         }
     } else if (in(a, TWIN_IWDG_BASE, 0x400u)) {
         twin_iwdg_write(t, a - TWIN_IWDG_BASE, value);
+    } else if (in(a, TWIN_ADC_BASE, 0x400u)) {
+        if (clocked(t, TWIN_ADC_BASE, a, value, true)) {
+            twin_adc_write(t, a - TWIN_ADC_BASE, value);
+        }
+    } else if (in(a, TWIN_SYSMEM_CAL_PAGE, 0x1000u)) {
+        twin_svc_violation(&t->svc, "system memory", a, "system memory is read only");
     } else if (a == TWIN_DBGMCU_APB1FZR1) {
         t->dbgmcu_apb1fzr1 = value;
     } else if (in(a, 0xE000E000u, 0x1000u)) {

@@ -23,7 +23,7 @@ struct region {
     struct twin *t;
     uint32_t base;
 };
-static struct region regions[4];
+static struct region regions[6]; /* the mmio regions of twin_init */
 
 static uint64_t region_read(uc_engine *uc, uint64_t offset, unsigned size, void *user) {
     struct region *r = user;
@@ -164,9 +164,14 @@ int twin_init(struct twin *t, bool strict, FILE *log) {
     }
     /* Peripherals: APB1/APB2/AHB1 (0x40000000..0x4002FFFF), AHB2 GPIO (0x48000000..),
      * the private peripheral bus (0xE0000000..0xE00FFFFF). */
-    static const uint32_t bases[4] = {0x40000000u, 0x48000000u, 0xE0000000u, TWIN_RECORDS_BASE};
-    static const uint32_t sizes[4] = {0x30000u, 0x2000u, 0x100000u, TWIN_RECORDS_SIZE};
-    for (unsigned i = 0; i < 4u && err == UC_ERR_OK; ++i) {
+    /* ... and AHB2's ADC (0x50040000..0x500403FF, mapped as its 4 KiB page: Unicorn maps whole
+     * pages; the rest is reserved, twin_bus.c), the system-memory page with the factory
+     * calibration (0x1FFF7000..0x1FFF7FFF). */
+    static const uint32_t bases[6] = {0x40000000u,       0x48000000u,   0xE0000000u,
+                                      TWIN_RECORDS_BASE, TWIN_ADC_BASE, TWIN_SYSMEM_CAL_PAGE};
+    static const uint32_t sizes[6] = {0x30000u,          0x2000u, 0x100000u,
+                                      TWIN_RECORDS_SIZE, 0x400u,  0x1000u};
+    for (unsigned i = 0; i < 6u && err == UC_ERR_OK; ++i) {
         regions[i] = (struct region){t, bases[i]};
         err = uc_mmio_map(t->uc, bases[i], sizes[i], region_read, &regions[i], region_write,
                           &regions[i]);
@@ -221,6 +226,7 @@ void twin_reset(struct twin *t, bool power_on) {
     twin_usart_reset(t);
     twin_iwdg_reset(t);
     twin_scs_reset(t);
+    twin_adc_reset(t);
     t->nactive = 0;
     t->irq_wait = false;
     t->reset_pending = false;

@@ -79,7 +79,8 @@ static void set_ecc_bad(struct twin_flash *f, uint32_t dword, bool bad) {
 static void erase(struct twin *t, uint32_t cr) {
     struct twin_flash *f = &t->flash_pe;
     const uint32_t pnb = (cr & CR_PNB) >> 3;
-    if ((cr & CR_BKER) == 0u || pnb < TWIN_RECORDS_PNB || pnb >= TWIN_RECORDS_PNB + TWIN_RECORDS_SIZE / 2048u) {
+    if ((cr & CR_BKER) == 0u || pnb < TWIN_RECORDS_PNB ||
+        pnb >= TWIN_RECORDS_PNB + TWIN_RECORDS_SIZE / 2048u) {
         rule(t, "FLASH_CR", cr,
              "page erase outside the record pages (bank 2 pages 252-255): "
              "it would erase the image (stm32l476rg.ld)");

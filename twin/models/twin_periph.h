@@ -21,6 +21,8 @@ struct twin;
 #define TWIN_GPIO_BASE       0x48000000u /* GPIOA; port n at + n * 0x400 */
 #define TWIN_GPIO_PORTS      8u          /* A..H */
 #define TWIN_DBGMCU_APB1FZR1 0xE0042008u
+#define TWIN_ADC_BASE        0x50040000u /* ADC1; ADC2 + 0x100, ADC3 + 0x200, common + 0x300 */
+#define TWIN_SYSMEM_CAL_PAGE 0x1FFF7000u /* the page of system memory with the calibration */
 
 /* ---- RCC (RM0351 §6.4) and FLASH_ACR (RM0351 §3.7.1) ---- */
 struct twin_rcc {
@@ -49,7 +51,7 @@ void twin_flash_if_write(struct twin *t, uint32_t off, uint32_t v);
 #define TWIN_RECORDS_SIZE   0x2000u
 #define TWIN_RECORDS_PNB    252u
 #define TWIN_RECORD_PAGE_AT 0x1000u /* the record's first page (254) from TWIN_RECORDS_BASE */
-#define TWIN_FLASH_NO_CUT UINT32_MAX
+#define TWIN_FLASH_NO_CUT   UINT32_MAX
 struct twin_flash {
     uint32_t sr, cr, eccr;
     unsigned key_step;       /* 1: KEY1 written, KEY2 next */
@@ -159,6 +161,33 @@ uint32_t twin_iwdg_read(struct twin *t, uint32_t off);
 void twin_iwdg_write(struct twin *t, uint32_t off, uint32_t v);
 /* The watchdog's expiry time (UINT64_MAX: none). */
 uint64_t twin_iwdg_expiry(const struct twin *t);
+
+/* ---- ADC1 and the internal temperature sensor (RM0351 §18; DS10198 "Temperature sensor
+ * characteristics", "ADC characteristics") ---- */
+struct twin_adc {
+    uint32_t isr, cr, cfgr, smpr1, smpr2, sqr1, dr, ccr;
+    uint64_t regulator_ps; /* ADVREGEN set then (UINT64_MAX: off) */
+    uint64_t paths_ps;     /* TSEN and VREFEN both on since then (UINT64_MAX: not) */
+    uint64_t cal_done_ps;  /* ADCAL clears then (UINT64_MAX: no calibration running) */
+    bool calibrated;       /* a calibration completed since the regulator came on */
+    uint64_t ready_ps;     /* ADRDY rises then (UINT64_MAX: not enabling) */
+    uint64_t eoc_ps;       /* the conversion ends then (UINT64_MAX: none running) */
+    uint16_t result;       /* what DR holds at EOC */
+    uint8_t channel;       /* the channel converting */
+    /* observations */
+    uint32_t conversions, sensor_conversions, unknown_temperature;
+    int16_t first_cdeg, last_cdeg; /* the die temperature of the first and last sensor one */
+};
+void twin_adc_reset(struct twin *t);
+uint32_t twin_adc_read(struct twin *t, uint32_t off);
+void twin_adc_write(struct twin *t, uint32_t off, uint32_t v);
+/* The page of system memory holding the factory calibration (read only). */
+uint32_t twin_adc_sysmem_read(struct twin *t, uint32_t off);
+/* The model's part: its factory words and the board's supply (twin_adc.c). */
+#define TWIN_TS_CAL1     1034u /* at 30 °C, Vref+ 3.0 V */
+#define TWIN_TS_CAL2     1372u /* at 110 °C */
+#define TWIN_VREFINT_CAL 1656u
+#define TWIN_VDDA_MV     3300u /* NUCLEO-L476RG: VDDA from the 3.3 V rail (UM1724) */
 
 /* ---- System control space: SysTick, NVIC, SCB, FPU/MPU storage (ARMv7-M ARM B3) ---- */
 struct twin_scs {

@@ -68,6 +68,9 @@ bool twin_rcc_clock_on(const struct twin *t, uint32_t base) {
     if (base == TWIN_USART2_BASE) {
         return (r->apb1enr1 & (1u << 17)) != 0u; /* USART2EN */
     }
+    if (base == TWIN_ADC_BASE) {
+        return (r->ahb2enr & (1u << 13)) != 0u; /* ADCEN */
+    }
     return true;
 }
 

@@ -3,6 +3,7 @@
 #include "twin_world.h"
 
 #include <inttypes.h>
+#include <math.h>
 #include <string.h>
 
 #include "hal/hal_err.h"
@@ -34,6 +35,19 @@ static int row_next(void *ctx, unsigned sensor, uint32_t sample_index, struct si
 }
 
 static const struct sim_range_source_ops row_ops = {.next = row_next};
+
+bool twin_world_temp_at_us(const struct twin_world *w, uint64_t t_us, int16_t *cdeg) {
+    const int64_t row = twin_world_row_at_us(w, t_us);
+    if (row < 0 || w->row_count == 0u || ((uint64_t)row >= w->row_count && !w->loop)) {
+        return false;
+    }
+    const struct scene_row *r = &w->rows[(uint64_t)row % w->row_count];
+    if (!r->has_temp) {
+        return false;
+    }
+    *cdeg = (int16_t)lround(r->temp_c * 100.0); /* a trace's temp_c: exact to 0.01 °C */
+    return true;
+}
 
 void twin_world_init(struct twin_world *w, const struct scene_row *rows, size_t count,
                      uint32_t period_us, const struct sim_fault_config *faults) {

@@ -54,6 +54,10 @@ void twin_world_start_boot(struct twin_world *w, uint64_t slot0_us);
 /* Trace row of a measurement completed at simulated microsecond `t_us` (-1: none). */
 int64_t twin_world_row_at_us(const struct twin_world *w, uint64_t t_us);
 
+/* The head's temperature at simulated microsecond `t_us`: the temp_c of that moment's trace row
+ * (the slot it falls in, as the readings), false if the row has none or there is no row. */
+bool twin_world_temp_at_us(const struct twin_world *w, uint64_t t_us, int16_t *cdeg);
+
 /* One I²C transaction on the simulated bus (hal_err result), logged if asked. */
 int twin_world_transfer(struct twin_world *w, uint8_t addr7, const uint8_t *tx, size_t tx_len,
                         uint8_t *rx, size_t rx_len);

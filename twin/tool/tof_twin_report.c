@@ -81,7 +81,7 @@ int tof_twin_write_report(const struct run *r, bool finished, double host_s) {
             " \"pty_ack_latency_mean_us\": %" PRIu64 ",\n"
             " \"pty_bytes_in\": %" PRIu64 ", \"pty_bytes_out\": %" PRIu64 ","
             " \"pty_dropped\": %" PRIu64 ", \"pty_unheard\": %" PRIu64 ", \"pty_slept_s\": %.3f,"
-            " \"pty_behind_max_ms\": %.3f}\n",
+            " \"pty_behind_max_ms\": %.3f,\n",
             finished ? "true" : "false", finished ? "" : r->t.stop_msg,
             (double)twin_now_ps(&r->t) / 1e12, host_s, r->t.stats.instructions,
             host_s > 0 ? minsn / host_s : 0.0, r->t.stats.warps, r->t.stats.mmio_reads,
@@ -101,6 +101,17 @@ int tof_twin_write_report(const struct run *r, bool finished, double host_s) {
             r->pty.answered > 0u ? r->pty.ack_latency_sum_ps / r->pty.answered / 1000000u : 0u,
             r->pty.bytes_in, r->pty.bytes_out, r->pty.dropped, r->pty.unheard,
             (double)r->pty.slept_ns / 1e9, (double)r->pty.behind_max_ns / 1e6);
+    /* The ADC's temperature path (twin_adc.c) and ST's temperature updates the parts saw. */
+    const struct twin_adc *adc = &r->t.adc;
+    fprintf(
+        f,
+        " \"adc_conversions\": %u, \"adc_sensor_conversions\": %u,"
+        " \"adc_temp_unknown\": %u, \"adc_first_temp_c\": %.2f, \"adc_last_temp_c\": %.2f,"
+        " \"part_temp_updates\": [%u, %u, %u, %u]}\n",
+        adc->conversions, adc->sensor_conversions, adc->unknown_temperature,
+        adc->first_cdeg / 100.0, adc->last_cdeg / 100.0,
+        r->w.rig.sensor[0].stats.temperature_updates, r->w.rig.sensor[1].stats.temperature_updates,
+        r->w.rig.sensor[2].stats.temperature_updates, r->w.rig.sensor[3].stats.temperature_updates);
     fclose(f);
     return 0;
 }

@@ -124,6 +124,11 @@ struct attitude_config {
                                      plate known to be still, a fixture): α and β carry
                                      the lag a ramp at up to this rate leaves in a window
                                      (estimator/integrity.h); 0..360000 */
+    uint16_t temp_sd_cdeg;        /* 1σ of the measured temperature as the parts' own, 0.01 °C
+                                     (0..10000): a thermal calibration's correction carries
+                                     coefficient × this in its sd (the sensor's error and
+                                     its distance from the parts: docs/how-to/calibrate-a-head.md,
+                                     "Temperature") */
     uint32_t calibration_age_s;   /* the calibration's age at attitude_init, seconds: the
                                      prior walk grows over it plus rows × period (the unit
                                      keeps it across resets: firmware/cal_age.h); 0: none */
@@ -199,6 +204,12 @@ struct attitude_state {
     bool cal_spread;   /* the calibration leaves an sd (uncalibrated, or a stated sd) */
     bool temp_known;   /* the rows being pushed have a measured temperature ... */
     int16_t temp_cdeg; /* ... this one, 0.01 °C (attitude_set_temperature) */
+    /* A thermal calibration's correction (attitude_thermal.c): each offset's change per
+     * 0.01 °C in fine units, Q32; and the temperature distance from the calibration's that the
+     * window's offsets are at (0: the calibration temperature's, as without a temperature). */
+    int64_t thermal_fine_q32[ATTITUDE_SENSORS];
+    int32_t thermal_dt_cdeg;
+    bool thermal_in_force; /* the window's offsets follow a measured temperature */
 };
 
 /* Integrity defaults (sources in docs/explanation/estimators.md "Integrity"):
@@ -226,6 +237,11 @@ struct attitude_state {
 #define ATTITUDE_PERIOD_US_DEFAULT           20000u
 #define ATTITUDE_OFFSET_WALK_UM2_H_DEFAULT   576000u
 #define ATTITUDE_MAX_RATE_MDEG_S_DEFAULT     1000u
+/* 1 °C: the STM32L4 sensor read against its two factory points (TS_CAL1, TS_CAL2; RM0351
+ * "Temperature sensor") is within a degree or two of the die, and the die of a board beside
+ * the head within a degree of the parts when neither dissipates much (an assumption a
+ * mission checks: docs/how-to/calibrate-a-head.md, "Temperature"). */
+#define ATTITUDE_TEMP_SD_CDEG_DEFAULT 100u
 
 /*
  * The default configuration as an initializer, so a const configuration (the
@@ -252,7 +268,8 @@ struct attitude_state {
         .drift_flag_um = ATTITUDE_DRIFT_FLAG_UM_DEFAULT, .drift_shift = 4,                         \
         .period_us = ATTITUDE_PERIOD_US_DEFAULT,                                                   \
         .offset_walk_um2_h = ATTITUDE_OFFSET_WALK_UM2_H_DEFAULT,                                   \
-        .max_rate_mdeg_s = ATTITUDE_MAX_RATE_MDEG_S_DEFAULT, .calibration = {.calibrated = false}, \
+        .max_rate_mdeg_s = ATTITUDE_MAX_RATE_MDEG_S_DEFAULT,                                       \
+        .temp_sd_cdeg = ATTITUDE_TEMP_SD_CDEG_DEFAULT, .calibration = {.calibrated = false},       \
     }
 
 /* Fills cfg with ATTITUDE_CONFIG_DEFAULT. */

@@ -79,8 +79,9 @@ struct integrity_config {
     /* What the head's calibration leaves, per sensor (estimator/calibration.h; the parts'
      * spread for an uncalibrated head): 1σ of its offset and gain errors and their
      * correlation. Each sensor mean's variance carries them at its distance. */
-    int32_t cal_offset_um[ANGLES_SENSORS]; /* the correction (0, 0 uncalibrated): the */
-    int32_t cal_gain_ppm[ANGLES_SENSORS];  /* ring's readings are raw, the statistics not */
+    int32_t cal_gain_ppm[ANGLES_SENSORS]; /* the gain correction (0 uncalibrated): the ring's
+                                             readings are raw, the statistics not; the offset
+                                             in force is the window's (window_shift_offsets) */
     uint32_t cal_offset_sd_um[ANGLES_SENSORS];
     uint32_t cal_gain_sd_ppm[ANGLES_SENSORS];
     int16_t cal_corr_q15[ANGLES_SENSORS];
@@ -107,6 +108,11 @@ struct integrity_state {
     fix_q32_t shown_mm2;      /* ... the recent blocks' mean not clipped above: the drift the
                                  parity shows, for `recalibrate` */
     fix_q32_t walk_mm2;       /* the prior walk's variance at the last block, Q32 mm² */
+    /* Set by the caller before each integrity_assess (0 without a temperature correction):
+     * the variance, µm², that each sensor's offset correction for temperature leaves
+     * (estimator/calibration.h): the coefficient's sd times the distance from the
+     * calibration temperature, and the correction's own step. */
+    int64_t thermal_var_um2[ANGLES_SENSORS];
 };
 
 /* Per-sensor sums of the used readings of a window against their row index (0 = the

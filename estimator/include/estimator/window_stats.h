@@ -118,6 +118,8 @@ struct window_state {
     /* the calibration prepared for the per-row correction (window_correct): the offset in
      * fine units and 1/gain − 1 in Q32, so true = d + d·r/2^32 with d = raw − offset */
     int32_t cal_offset_fine[ANGLES_SENSORS];
+    int32_t cal_base_offset_fine[ANGLES_SENSORS]; /* ... the calibration's own, at its
+                                                     temperature (window_shift_offsets) */
     int32_t cal_inv_gain_q32[ANGLES_SENSORS];
     int64_t cal_inv_gain2_q32[ANGLES_SENSORS]; /* 1/gain² − 1 in Q32: the variances' */
     int32_t newest_fine[ANGLES_SENSORS];       /* the newest row's corrected readings, fine units */
@@ -175,6 +177,12 @@ void window_clear(struct window_state *w);
  * Returns the new row (window_row_at(w, 0)). */
 struct window_row *window_push(struct window_state *w, const uint16_t range_mm[ANGLES_SENSORS],
                                uint8_t present_mask, uint8_t valid_mask);
+
+/* Moves each sensor's offset to the calibration's plus shift_fine[k] (fine units: the offsets'
+ * change with temperature, estimator/calibration.h) for every row held and to come: the held
+ * rows' sums are summed again with it, so a row dropped later still subtracts exactly what it
+ * added. O(rows held); free on an empty window. */
+void window_shift_offsets(struct window_state *w, const int32_t shift_fine[ANGLES_SENSORS]);
 
 /* Rows currently held (0..length). */
 uint16_t window_fill(const struct window_state *w);

@@ -19,6 +19,7 @@
 #include "firmware/config.h"
 #include "firmware/health.h"
 #include "firmware/platform.h"
+#include "firmware/vhv_schedule.h"
 #include "hal/hal_err.h"
 #include "vl53_array/vl53_array.h"
 
@@ -31,6 +32,10 @@ enum tof_event_kind {
     TOF_EVENT_REINIT = 1,       /* a sensor was re-initialised (err says how it went) */
     TOF_EVENT_BUS_RECOVERY = 2, /* the bus was recovered (err says how it went) */
     TOF_EVENT_OVERRUN = 3,      /* a main-loop iteration exceeded its budget */
+    /* ST's temperature update (VHV) began on `sensor`: the temperature moved 8 °C since its
+     * last VHV calibration; its readings are missing until TOF_EVENT_TEMP_UPDATE_DONE. */
+    TOF_EVENT_TEMP_UPDATE = 4,
+    TOF_EVENT_TEMP_UPDATE_DONE = 5, /* ... ended (err says how); the sensor restarts */
 };
 
 /* One window's estimates, all estimators side by side (docs/reference/tools.md). */
@@ -69,6 +74,12 @@ struct tof_app_counters {
     uint32_t bus_recoveries;
     uint32_t samples;   /* samples assembled */
     uint32_t estimates; /* estimate records emitted */
+    /* Temperature reads that failed (each such sample has no temperature) and the last
+     * failure's hal code (0: none yet); a board without a sensor reads nothing. */
+    uint32_t temp_errors;
+    int temp_last_error;
+    uint32_t temp_updates;        /* ST's temperature updates completed */
+    uint32_t temp_updates_failed; /* ... that ended in an error (counted as the part's error) */
 };
 
 /* Assembled samples one iteration can hold back for the next (struct tof_app, deferred). */
@@ -100,6 +111,11 @@ struct tof_app {
     struct tof_sample deferred[TOF_APP_DEFERRED];
     uint8_t deferred_head, deferred_count;
     int estimator_error; /* attitude_error of the estimator's last refusal at init, or 0 */
+    /* The last temperature read (with the last sample) and the parts' VHV calibrations
+     * against it: which part reruns ST's temperature update (vhv_schedule.h). */
+    bool temp_known;
+    int16_t temp_cdeg;
+    struct tof_vhv_schedule vhv;
     struct tof_app_counters counters;
 };
 
@@ -259,5 +275,39 @@ struct tof_app_service {
 int tof_app_main(const struct tof_platform *platform, const struct tof_app_config *cfg,
                  struct tof_app *app, const struct tof_app_service *service,
                  uint32_t max_iterations);
+
+/* ---- the head's temperature (firmware/src/app_temperature.c): the read that goes with each
+ * sample, and the steps of ST's temperature update on one part at a time (when:
+ * vhv_schedule.h); app.c calls these and does what their results ask (the part's restart, its
+ * error for the fault manager, the events). */
+
+/* Read the platform's temperature into `sample` (temp_known false without a sensor or on a
+ * failed read, which is counted in app->counters; never an earlier value) and keep it as
+ * app->temp_known / temp_cdeg for the update's schedule. */
+void tof_app_read_temperature(struct tof_app *app, struct tof_sample *sample);
+
+enum tof_temp_step {
+    TOF_TEMP_STEP_IDLE,  /* nothing due, or the running update's range is not over */
+    TOF_TEMP_STEP_BEGUN, /* `sensor` stopped and its update started (err: how) */
+    TOF_TEMP_STEP_ENDED, /* `sensor`'s update ended (err: how); it is stopped */
+};
+
+struct tof_temp_step_result {
+    enum tof_temp_step step;
+    uint8_t sensor;
+    int err;
+};
+
+/*
+ * One step, bounded (one look, or one half of the driver's sequence): with an update
+ * running, look at it once and end it when its range is over; else start one on the part
+ * vhv_schedule names among the healthy, ranging ones. The schedule and the counters
+ * (temp_updates, temp_updates_failed) are kept here; on BEGUN with an error and on ENDED the
+ * caller restarts the part at the next slot, and counts an error as the part's.
+ */
+struct tof_temp_step_result tof_app_temperature_step(struct tof_app *app);
+
+/* End a running update now (bounded by the driver's finish), for a re-timing of the parts. */
+void tof_app_temperature_abandon(struct tof_app *app);
 
 #endif /* FIRMWARE_APP_H */

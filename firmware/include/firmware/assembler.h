@@ -23,6 +23,10 @@ struct tof_sample {
     uint16_t range_mm[TOF_SENSOR_COUNT];
     uint8_t status[TOF_SENSOR_COUNT]; /* ULD range status, 0 = valid */
     uint8_t present_mask;
+    /* The head's temperature read as the sample was assembled (the application's, never the
+     * assembler's: false here). */
+    bool temp_known;
+    int16_t temp_cdeg; /* 0.01 °C, when temp_known */
 };
 
 /* Where assembled samples go: emit(ctx, sample) for each (docs/explanation/architecture.md ops

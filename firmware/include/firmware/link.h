@@ -75,6 +75,10 @@ struct tof_link {
     /* The calibration's age kept across resets (NULL: not kept; it then counts from each
      * boot), on storage pages the record's erases never run alongside. */
     struct tof_cal_age *cal_age;
+    /* The temperature of the last estimate's window (its last row), which the status frame
+     * reports while the unit runs. */
+    bool temp_known;
+    int16_t temp_cdeg;
 };
 
 /* Start a link over `serial`. */

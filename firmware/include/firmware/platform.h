@@ -13,6 +13,7 @@
 #include "hal/hal_gpio.h"
 #include "hal/hal_i2c.h"
 #include "hal/hal_log.h"
+#include "hal/hal_temp.h"
 #include "hal/hal_time.h"
 #include "hal/hal_watchdog.h"
 
@@ -44,6 +45,7 @@ struct tof_platform {
     struct hal_time time;
     struct hal_log log;
     struct hal_watchdog watchdog;
+    struct hal_temp temp; /* the temperature read with every sample (ops NULL: none) */
     struct tof_output output;
     uint16_t xshut_pin[TOF_SENSORS]; /* GPIO pin driving each sensor's XSHUT */
     uint16_t gpio1_pin[TOF_SENSORS]; /* GPIO pin reading each sensor's GPIO1, or 0xFFFF */

@@ -25,7 +25,7 @@
 #define TOF_RECORD_MAGIC       0x52464F54u /* "TOFR" in memory order */
 #define TOF_RECORD_FORMAT      1u
 #define TOF_RECORD_HEADER      12u
-#define TOF_RECORD_PAYLOAD_MAX 148u /* the settings (28) and the calibration (120) sections */
+#define TOF_RECORD_PAYLOAD_MAX 182u /* the settings (28) and the calibration (154) sections */
 /* A copy's bytes on its page: header, payload, CRC, rounded up to a double-word. */
 #define TOF_RECORD_IMAGE_MAX ((TOF_RECORD_HEADER + TOF_RECORD_PAYLOAD_MAX + 2u + 7u) / 8u * 8u)
 

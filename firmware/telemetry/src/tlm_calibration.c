@@ -5,8 +5,9 @@
 #include "hal/hal_err.h"
 #include "telemetry/tlm_messages.h"
 
-/* A calibration section's header as the protocol checks it: id 2, length 80 (the content is
- * the firmware's to check); `none_ok` also takes the all-zero section of "none stored". */
+/* A calibration section's header as the protocol checks it: id 2, a version other than 0,
+ * length 114 (the content is the firmware's to check); `none_ok` also takes the all-zero
+ * section of "none stored". */
 bool tlm_cal_section_is_valid(const uint8_t *s, bool none_ok) {
     if (none_ok && s[0] == 0u && s[1] == 0u && s[2] == 0u && s[3] == 0u) {
         for (size_t i = 4; i < TLM_CAL_SECTION_LEN; ++i) {

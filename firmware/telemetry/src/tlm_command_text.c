@@ -162,10 +162,10 @@ static const char *arm_or_period(const struct words *w, bool arm, struct tlm_com
                : "usage: set-period MS, the sample period in whole ms (1..10000)";
 }
 
-/* "write-calibration HEX": the record's section 2 as 168 hex digits (tools/tof_telemetry.py
+/* "write-calibration HEX": the record's section 2 as 236 hex digits (tools/tof_telemetry.py
  * --send-cal makes it from a HEAD.cal); the header checked as the protocol checks it. */
 static const char *write_calibration(const char *hex, struct tlm_command *out) {
-    static const char usage[] = "usage: write-calibration HEX (the 84 bytes of record section "
+    static const char usage[] = "usage: write-calibration HEX (the 118 bytes of record section "
                                 "2 in hex; tools/tof_telemetry.py --send-cal makes it)";
     while (*hex == ' ' || *hex == '\t') {
         ++hex;

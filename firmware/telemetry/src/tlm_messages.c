@@ -8,6 +8,12 @@
 
 #include "tlm_wire.h"
 
+/* A temperature (TLM_TEMP_*): within range when known, 0 when not, so a parsed message
+ * re-encodes to the bytes it came from. One copy for the estimate and the status. */
+static __attribute__((noinline)) bool temp_is_valid(bool known, int16_t cdeg) {
+    return known ? cdeg >= TLM_TEMP_MIN_CDEG && cdeg <= TLM_TEMP_MAX_CDEG : cdeg == 0;
+}
+
 /* --- estimate ------------------------------------------------------------- */
 
 /* A value and its sd are present together; a present sd is at least 1 (never 0). */
@@ -17,7 +23,8 @@ static bool value_and_sd_agree(int32_t value, int32_t sd) {
 
 static bool estimate_is_valid(const struct tlm_estimate *m) {
     if (m->estimator > TLM_ESTIMATOR_LAST || m->status > TLM_STATUS_LAST ||
-        (m->sensors_used & ~TLM_SENSOR_MASK_ALL) != 0u) {
+        (m->sensors_used & ~TLM_SENSOR_MASK_ALL) != 0u ||
+        !temp_is_valid(m->temp_known, m->temp_cdeg)) {
         return false;
     }
     if (!value_and_sd_agree(m->alpha_udeg, m->alpha_sd_udeg) ||
@@ -59,6 +66,7 @@ int tlm_encode_estimate(uint8_t seq, const struct tlm_estimate *msg, uint8_t *ou
     put_i32(&w, msg->distance_sd_um);
     put_u32(&w, (uint32_t)(msg->why & 0xFFFFFFFFu));
     put_u32(&w, (uint32_t)(msg->why >> 32));
+    put_temp(&w, msg->temp_known, msg->temp_cdeg);
     return finish_frame(TLM_TYPE_ESTIMATE, seq, out, w.at, cap);
 }
 
@@ -78,7 +86,8 @@ static enum tlm_result parse_estimate(struct reader *r, struct tlm_estimate *m) 
     const uint64_t low = get_u32(r);
     const uint64_t high = get_u32(r);
     m->why = low | (high << 32);
-    return estimate_is_valid(m) ? TLM_RESULT_OK : TLM_RESULT_OUT_OF_RANGE;
+    const bool temp_ok = get_temp(r, &m->temp_known, &m->temp_cdeg);
+    return temp_ok && estimate_is_valid(m) ? TLM_RESULT_OK : TLM_RESULT_OUT_OF_RANGE;
 }
 
 enum tlm_result tlm_decode_estimate(const uint8_t *bytes, size_t len, struct tlm_estimate *out) {
@@ -267,7 +276,8 @@ static bool status_is_valid(const struct tlm_status *m) {
            m->record <= TLM_RECORD_STATE_LAST &&   /* enum tlm_record_state */
            m->calibration <= TLM_CAL_STATE_LAST && /* enum tlm_cal_state */
            m->cal_age <= TLM_CAL_AGE_STATE_LAST && /* enum tlm_cal_age_state */
-           arm_is_valid(m->arm_um) && period_is_valid(m->period_ms);
+           arm_is_valid(m->arm_um) && period_is_valid(m->period_ms) &&
+           temp_is_valid(m->temp_known, m->temp_cdeg);
 }
 
 int tlm_encode_status(uint8_t seq, const struct tlm_status *msg, uint8_t *out, size_t cap) {
@@ -291,6 +301,7 @@ int tlm_encode_status(uint8_t seq, const struct tlm_status *msg, uint8_t *out, s
     put_u32(&w, msg->arm_um);
     put_u32(&w, msg->cal_age_s);
     put_u8(&w, msg->cal_age);
+    put_temp(&w, msg->temp_known, msg->temp_cdeg);
     return finish_frame(TLM_TYPE_STATUS, seq, out, w.at, cap);
 }
 
@@ -311,7 +322,9 @@ static enum tlm_result parse_status(struct reader *r, struct tlm_status *m) {
     m->arm_um = get_u32(r);
     m->cal_age_s = get_u32(r);
     m->cal_age = get_u8(r);
-    if (protocol != TLM_PROTOCOL_VERSION || !running_ok || !raw_ok || !status_is_valid(m)) {
+    const bool temp_ok = get_temp(r, &m->temp_known, &m->temp_cdeg);
+    if (protocol != TLM_PROTOCOL_VERSION || !running_ok || !raw_ok || !temp_ok ||
+        !status_is_valid(m)) {
         return TLM_RESULT_OUT_OF_RANGE;
     }
     return TLM_RESULT_OK;

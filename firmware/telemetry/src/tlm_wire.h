@@ -126,4 +126,17 @@ static inline bool get_bool(struct reader *r, bool *value) {
     return raw <= 1u;
 }
 
+static inline void put_temp(struct writer *w, bool known, int16_t cdeg) {
+    put_u8(w, known ? 1u : 0u);
+    put_u16(w, (uint16_t)cdeg); /* two's complement by definition of the conversion */
+}
+
+/* The known byte and the temperature; false for a known byte other than 0 or 1. */
+static inline bool get_temp(struct reader *r, bool *known, int16_t *cdeg) {
+    const bool byte_ok = get_bool(r, known);
+    const uint16_t raw = get_u16(r);
+    *cdeg = (int16_t)(raw <= 0x7FFFu ? (int32_t)raw : (int32_t)raw - 65536);
+    return byte_ok;
+}
+
 #endif /* TELEMETRY_TLM_WIRE_H */

@@ -18,6 +18,7 @@
 #include "sim/range_source.h"
 #include "sim/sim_fault.h"
 #include "sim/sim_rig.h"
+#include "sim/sim_temp.h"
 
 /* Simulated time without a new sample after which the replay is declared stalled. */
 #define SIM_REPLAY_STALL_US (10u * 1000u * 1000u)
@@ -30,13 +31,19 @@ struct sim_replay {
     struct sim_rig rig;
     uint64_t last_progress_us;
     uint64_t last_samples;
+    struct sim_temp temp; /* the head's temperature sensor (sim_replay_temp) */
 };
 
 /* Build the rig: four models at `period_us` fed by `rows`, with `faults` (NULL: none). */
 void sim_replay_init(struct sim_replay *r, struct sim_range_source rows, uint32_t period_us,
                      const struct sim_fault_config *faults);
 
-/* The firmware's slot 0 starts at `origin_us` of simulated time: that slot is row 0. */
+/* The head's temperature sensor on the replay's clock and slots, reading `rows` (one per
+ * trace row, as the readings): the firmware platform's hal_temp. Call after sim_replay_init. */
+struct hal_temp sim_replay_temp(struct sim_replay *r, struct sim_temp_source rows);
+
+/* The firmware's slot 0 starts at `origin_us` of simulated time: that slot is row 0 (of the
+ * readings and of the temperature). */
 void sim_replay_set_origin(struct sim_replay *r, uint64_t origin_us);
 
 /* Call after each main-loop iteration with the samples emitted so far: false once no

@@ -115,10 +115,11 @@ struct sim_vl53_stats {
     uint32_t starts;
     uint32_t stops;
     uint32_t clears;
-    uint32_t nvm_words;      /* NVM words read out (READN pulses in ST's sequence) */
-    uint32_t nvm_violations; /* NVM-read accesses out of ST's sequence (NACKed; also counted
-                                as protocol errors) */
-    uint32_t nvm_nacks;      /* accesses NACKed by the nvm_unreadable defect */
+    uint32_t nvm_words;           /* NVM words read out (READN pulses in ST's sequence) */
+    uint32_t nvm_violations;      /* NVM-read accesses out of ST's sequence (NACKed; also counted
+                                     as protocol errors) */
+    uint32_t nvm_nacks;           /* accesses NACKed by the nvm_unreadable defect */
+    uint32_t temperature_updates; /* ST's temperature update run to its end ([ULD]) */
 };
 
 enum sim_vl53_drdy_stuck { SIM_VL53_DRDY_FREE, SIM_VL53_DRDY_STUCK_HIGH, SIM_VL53_DRDY_STUCK_LOW };
@@ -152,9 +153,12 @@ struct sim_vl53 {
     bool stream_started; /* since power-up: the count does not restart at a start */
     uint8_t stream_count;
     uint8_t block_written[(0x87u - 0x2Du) / 8u + 1u]; /* bit k: 0x2D + k written */
-    uint8_t vhv_stage;       /* 0 none, 1 a range completed, 2 stopped after it, 3 done */
-    bool vhv_bound_ok;       /* in stage 2: 0x0008 = 0x09 written */
-    bool vhv_init_ok;        /* in stage 2: 0x000B = 0x00 written */
+    uint8_t vhv_stage; /* 0 none, 1 a range completed, 2 stopped after it, 3 done */
+    bool vhv_bound_ok; /* in stage 2: 0x0008 = 0x09 written */
+    bool vhv_init_ok;  /* in stage 2: 0x000B = 0x00 written */
+    /* ST's temperature update on a calibrated part: 1 after 0x0008 = 0x81, 2 after
+     * 0x000B = 0x92, 3 once started (the VHV step runs again: vhv_stage from 0). */
+    uint8_t temp_update;
     bool started_since_boot; /* FIRMWARE__SYSTEM_STATUS: 0x01 until the first start */
     enum sim_vl53_refusal refusal;
     uint32_t forced_left; /* results still to publish with forced_raw / forced_mm */

@@ -193,7 +193,7 @@ struct vl53_dev {
     uint32_t data_deadline_us; /* poll reports HAL_ERR_TIMEOUT once this passes with no data */
     uint32_t next_register_poll_us;
     uint8_t boot_state; /* FIRMWARE__SYSTEM_STATUS when vl53_wait_boot() saw it booted */
-    bool vhv_running;   /* vl53_configure_begin() started the VHV range */
+    bool vhv_running;   /* a VHV range runs (vl53_configure_begin, vl53_temperature_update_begin) */
     uint32_t vhv_start_us;
     uint16_t offset_mismatch_reg; /* see vl53_offset_mismatch_register() */
     uint64_t part_id;             /* see vl53_part_id() */
@@ -287,6 +287,22 @@ int vl53_configure_finish(struct vl53_dev *dev);
  * or the bus error of the read. Lets a caller finish the bring-up without blocking.
  */
 int vl53_configure_pending(struct vl53_dev *dev);
+
+/*
+ * ST's temperature update, the VHV recalibration ([ULD] StartTemperatureUpdate: ST asks for it
+ * whenever the temperature may have moved by more than 8 °C), in two halves so other sensors
+ * keep ranging meanwhile. Begin: with ranging stopped (HAL_ERR_STATE otherwise, or while a VHV
+ * range runs), 0x0008 <- 0x81, 0x000B <- 0x92, start ranging (0x0087 <- 0x40). Pending: one
+ * look at data ready (at cfg->polarity), HAL_OK once the range is done, HAL_ERR_NOT_READY
+ * while it runs, HAL_ERR_TIMEOUT after twice (budget + inter-measurement period), at least
+ * configure_budget_us. Finish: wait for data ready (bounded the same), clear the interrupt
+ * (0x0086 <- 0x01), stop (0x0087 <- 0x00), 0x0008 <- 0x09, 0x000B <- 0x00; leaves ranging
+ * stopped (start it again with vl53_start_ranging). The range's result is the VHV search's,
+ * never a distance: it is not read.
+ */
+int vl53_temperature_update_begin(struct vl53_dev *dev);
+int vl53_temperature_update_pending(struct vl53_dev *dev);
+int vl53_temperature_update_finish(struct vl53_dev *dev);
 
 /* vl53_configure_begin() then vl53_configure_finish(). */
 int vl53_configure(struct vl53_dev *dev);

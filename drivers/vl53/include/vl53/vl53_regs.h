@@ -35,8 +35,12 @@
 /* VHV_CONFIG__TIMEOUT_MACROP_LOOP_BOUND: [ULD] SensorInit writes 0x09 after the first range. */
 #define VL53_REG_VHV_CONFIG_TIMEOUT_MACROP_LOOP_BOUND 0x0008u
 #define VL53_VHV_LOOP_BOUND_TWO_BOUNDS                0x09u
+/* [ULD] StartTemperatureUpdate writes 0x81 first: "full VHV". */
+#define VL53_VHV_LOOP_BOUND_FULL 0x81u
 /* VHV_CONFIG__INIT: [ULD] SensorInit writes 0 ("start VHV from the previous temperature"). */
 #define VL53_REG_VHV_CONFIG_INIT 0x000Bu
+/* [ULD] StartTemperatureUpdate writes 0x92 here before its range (and 0 after it). */
+#define VL53_VHV_INIT_FULL 0x92u
 /* FIRMWARE__SYSTEM_STATUS: 0 while booting; bit 0 set once a cold boot completed ([ULD]
  * BootState, [I4]); ST's examples wait only for a non-zero value, and a part that kept power
  * across an MCU reset reads 0x02 or 0x03 ([I14]): any non-zero value means booted. */

@@ -11,7 +11,7 @@
  *     process-noise|set-process-noise QD,QT|auto   mm²/s, up to 6 decimals, <= 4294.967295
  *     set-arm MM                               the arm a in mm, up to 3 decimals, 1..1000
  *     set-period MS                            the sample period in whole ms, 1..10000
- *     write-calibration HEX                    record section 2, 84 bytes as 168 hex digits
+ *     write-calibration HEX                    record section 2, 118 bytes as 236 hex digits
  *     read-calibration | re-zero N             N samples, 10..5000
  *
  * Words are separated by spaces; verbs and names in any case (write-calibration: lower case).

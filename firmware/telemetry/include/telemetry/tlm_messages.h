@@ -25,7 +25,10 @@
  * read-calibration (0x90, 0x91) and the calibration message (0x10). */
 /* 5: the status message ends with the arm (22 bytes); set-arm and set-period (0x89, 0x8A). */
 /* 6: the status message ends with the calibration's age and its state (27 bytes). */
-#define TLM_PROTOCOL_VERSION 6u
+/* 7: the temperature: the status message ends with the unit's (30 bytes), the estimate with
+ * its window's (50 bytes); write-calibration and the calibration message carry the section's
+ * version-4 form with the thermal fields (118 bytes). */
+#define TLM_PROTOCOL_VERSION 7u
 
 /* Frame types. Commands have the top bit set, so direction shows in a dump. */
 enum tlm_type {
@@ -52,11 +55,11 @@ enum tlm_type {
 };
 
 /* Fixed payload length of each type, in bytes. */
-#define TLM_LEN_ESTIMATE          47u
+#define TLM_LEN_ESTIMATE          50u
 #define TLM_LEN_RAW_SAMPLE        17u
 #define TLM_LEN_HEALTH            148u
 #define TLM_LEN_ACK               4u
-#define TLM_LEN_STATUS            27u
+#define TLM_LEN_STATUS            30u
 #define TLM_LEN_SET_WINDOW        3u
 #define TLM_LEN_SELECT_ESTIMATOR  1u
 #define TLM_LEN_START             0u
@@ -75,10 +78,10 @@ enum tlm_type {
 #define TLM_ARM_MAX_UM    1000000u
 #define TLM_PERIOD_MIN_MS 1u
 #define TLM_PERIOD_MAX_MS 10000u
-/* The calibration travels as the record's section 2 as it is stored (firmware/
- * calibration_record.h): u8 id 2, u8 version, u16 length 80, then the 80 bytes. */
+/* The calibration travels as the record's section 2 in its version-4 form (firmware/
+ * calibration_record.h): u8 id 2, u8 version, u16 length 114, then the 114 bytes. */
 #define TLM_CAL_SECTION_ID        2u
-#define TLM_CAL_SECTION_LEN       84u
+#define TLM_CAL_SECTION_LEN       118u
 #define TLM_LEN_WRITE_CALIBRATION TLM_CAL_SECTION_LEN
 #define TLM_LEN_READ_CALIBRATION  0u
 #define TLM_LEN_REZERO            2u /* u16 samples */
@@ -91,6 +94,12 @@ enum tlm_type {
 
 /* "No value" marker of an int32 estimate field (angles of an invalid estimate). */
 #define TLM_NO_VALUE INT32_MIN
+
+/* A temperature on the wire: u8 known (0 or 1) and i16 centi-degrees Celsius, 0 when not
+ * known; within -100..200 degC, the range a trace's temp_c column takes (docs/reference/
+ * trace-format.md), as every part of the system accepts one. */
+#define TLM_TEMP_MIN_CDEG (-10000)
+#define TLM_TEMP_MAX_CDEG 20000
 
 /* Window length limits of the set-window command and the status message. */
 #define TLM_WINDOW_MIN 2u
@@ -149,6 +158,8 @@ struct tlm_estimate {
     int32_t distance_sd_um; /* 1 sd of the distance, likewise */
     uint64_t why;           /* the estimator's why set, bits unchanged (attitude_why_t,
                                estimator/integrity.h; attitude_why_format() names them); 0 iff ok */
+    bool temp_known;        /* the window's last row had a temperature */
+    int16_t temp_cdeg;      /* that temperature, 0.01 degC (TLM_TEMP_*); 0 when not known */
 };
 
 /* One four-sensor sample (TLM_TYPE_RAW_SAMPLE). Absent sensors carry zeros. */
@@ -217,6 +228,8 @@ struct tlm_status {
     uint32_t arm_um;     /* the head's arm a in force, TLM_ARM_MIN_UM..TLM_ARM_MAX_UM */
     uint32_t cal_age_s;  /* the calibration's age now, s (what the estimator's walk counts) */
     uint8_t cal_age;     /* enum tlm_cal_age_state: how that age is known */
+    bool temp_known;     /* the unit has a temperature (the last sample's) */
+    int16_t temp_cdeg;   /* that temperature, 0.01 degC (TLM_TEMP_*); 0 when not known */
 };
 
 /* The status message's `cal_age`: how the calibration's age is known (the values of
@@ -262,8 +275,9 @@ enum tlm_cal_state {
 /* The calibration message (TLM_TYPE_CALIBRATION): what the firmware holds. */
 struct tlm_calibration {
     uint8_t state; /* enum tlm_cal_state of the boot, or applied after a write */
-    /* the stored section (id 2, its version, length 80, the bytes), all zero when none is
-     * stored; the telemetry checks the header only, the firmware the content */
+    /* the stored section in its version-4 form (id 2, version 4, length 114, the bytes), all
+     * zero when none is stored; the telemetry checks the header only, the firmware the
+     * content */
     uint8_t section[TLM_CAL_SECTION_LEN];
 };
 
@@ -298,7 +312,7 @@ struct tlm_command {
             uint32_t qt_um2_per_s; /* of a·tan α and a·tan β */
             uint8_t flags;         /* TLM_PROCESS_NOISE_* bits */
         } process_noise;
-        /* TLM_TYPE_WRITE_CALIBRATION: record section 2 (header id 2, length 80; the
+        /* TLM_TYPE_WRITE_CALIBRATION: record section 2 (header id 2, length 114; the
          * firmware checks the version and the content) */
         uint8_t cal_section[TLM_CAL_SECTION_LEN];
         uint16_t rezero_samples; /* TLM_TYPE_REZERO: TLM_REZERO_MIN..TLM_REZERO_MAX */
@@ -343,8 +357,8 @@ int tlm_encode_ack(uint8_t seq, const struct tlm_ack *msg, uint8_t *out, size_t 
 int tlm_encode_status(uint8_t seq, const struct tlm_status *msg, uint8_t *out, size_t cap);
 
 /* A calibration section's header as the protocol checks it: id 2, a version other than 0,
- * length 80 (the content is the firmware's to check); `none_ok` also takes the all-zero
- * section of "none stored". */
+ * length 114 (the version and the content are the firmware's to check); `none_ok` also takes the
+ * all-zero section of "none stored". */
 bool tlm_cal_section_is_valid(const uint8_t *section, bool none_ok);
 
 /* As tlm_encode_estimate(), for a calibration message. */
