@@ -189,7 +189,8 @@ struct sensor_arrays {
 /* Sensor k's station means fitted with a temperature term, p + 1 parameters: features
  * [1, x, T − tc] (gains) or [1, T − tc] on mean − x (p = 1). coef[0] offset, coef[1] gain (1
  * without gains), coef[2] the coefficient; cov the unscaled covariance over those three (gain
- * rows 0 without gains). *chi2 the weighted residual sum. 0, or -1 when singular. */
+ * rows 0 without gains). *chi2 (chi2 may be NULL) the weighted residual sum. 0, or -1 when
+ * singular. */
 static int fit_thermal(const struct calfit_data *d, unsigned k, unsigned p, struct sensor_arrays a,
                        size_t n, double tc, double coef[3], double cov[3][3], double *chi2) {
     const unsigned q = p + 1u;
@@ -218,13 +219,17 @@ static int fit_thermal(const struct calfit_data *d, unsigned k, unsigned p, stru
     }
     if (rc == 0) {
         /* into (offset, gain, coefficient) order, the gain's row 0 without gains */
-        const unsigned at[3] = {0u, p == 2u ? 1u : 99u, q - 1u};
+        enum { NOT_FITTED = CALFIT_WLS_MAX_P };
+        const unsigned at[3] = {0u, p == 2u ? 1u : NOT_FITTED, q - 1u};
         for (unsigned r = 0; r < 3u; ++r) {
-            coef[r] = at[r] == 99u ? 1.0 : c[at[r]];
+            coef[r] = at[r] == NOT_FITTED ? 1.0 : c[at[r]];
             for (unsigned s2 = 0; s2 < 3u; ++s2) {
-                cov[r][s2] = at[r] == 99u || at[s2] == 99u ? 0.0 : v[at[r] * q + at[s2]];
+                cov[r][s2] =
+                    at[r] == NOT_FITTED || at[s2] == NOT_FITTED ? 0.0 : v[at[r] * q + at[s2]];
             }
         }
+    }
+    if (rc == 0 && chi2 != NULL) {
         *chi2 = 0.0;
         for (size_t m = 0; m < n; ++m) {
             const double *fm = f + m * q;
@@ -247,9 +252,8 @@ static int fit_sensor(struct calfit_data *d, unsigned k, unsigned p, bool therma
     double coef[3] = {0.0, 1.0, 0.0};
     double cov[3] = {0.0, 0.0, 0.0};
     double tcov[3][3] = {{0}};
-    double chi2_thermal = 0.0;
     if (thermal) {
-        if (fit_thermal(d, k, p, a, n, tc, coef, tcov, &chi2_thermal) != 0) {
+        if (fit_thermal(d, k, p, a, n, tc, coef, tcov, NULL) != 0) {
             return -1;
         }
         cov[0] = tcov[0][0];

@@ -34,9 +34,12 @@
 /* The coefficient's sd the trace states with it (the stated value is drawn about the true one
  * with this sd): what the fixture-thermal scenario's fit gives, docs/how-to/calibrate-a-head.md. */
 #define SCENE_THERMAL_COEFF_SD_MM_PER_C 0.001
-/* The offsets' random walk, µm²/h: the estimator's prior (ATTITUDE_OFFSET_WALK_UM2_H_DEFAULT,
- * measured on a recorded VL53L0X hour, docs/explanation/uncertainty.md). */
-#define SCENE_THERMAL_WALK_UM2_H 576000.0
+/* The offsets' random walk beyond the thermal part, µm²/h: a tenth of the estimator's prior
+ * (ATTITUDE_OFFSET_WALK_UM2_H_DEFAULT, 576 000, the Allan slope of a recorded VL53L0X lab hour
+ * whose temperature nobody measured, docs/explanation/uncertainty.md: an upper bound on what
+ * is left once temperature is). An assumption, 0.59 mm 1σ after 6 h; the option sweeps it
+ * from 0 to the prior's (1.86 mm after 6 h). */
+#define SCENE_THERMAL_WALK_UM2_H 57600.0
 /* The unit's temperature reading: an MCU's internal sensor through a 12-bit ADC steps by
  * about 0.3 °C per LSB (2.5 mV/°C at 0.8 mV/LSB, STM32L4 datasheet), and a reading scatters by
  * about that much; modelled as Gaussian noise of this sd, then rounded to the quantum. A bias
