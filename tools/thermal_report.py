@@ -15,8 +15,11 @@ Seeds: the table's seeds (--seeds, default 11,12) are not the ones any default w
 nothing in the estimator is tuned to this scenario.
 
 Usage: thermal_report.py HOST_SIM WORKDIR [--quick] [--seeds S,S] [--hours H] [--short]
+                         [--walks W,W] [--coeffs K,K] [--amplitudes A,A]
   --quick  one amplitude (20 °C), two coefficient ranges, one seed, N = 100 only
   --short  tumbling and sliding at N = 100 only
+  --walks  the parts' residual walks, µm²/h (default: the scenario's own)
+  --coeffs, --amplitudes  in place of the sweep's coefficient ranges and amplitudes
 """
 import json
 import os
@@ -73,52 +76,59 @@ def main(argv):
     short = "--short" in args
     if short:
         args.remove("--short")
-    seeds = ["11", "12"]
-    hours = "6"
-    for opt in ("--seeds", "--hours"):
+    opts = {"--seeds": "11,12", "--hours": "6", "--walks": "", "--coeffs": "", "--amplitudes": ""}
+    for opt in list(opts):
         if opt in args:
             k = args.index(opt)
-            if opt == "--seeds":
-                seeds = args[k + 1].split(",")
-            else:
-                hours = args[k + 1]
+            opts[opt] = args[k + 1]
             del args[k:k + 2]
+    seeds = opts["--seeds"].split(",")
+    hours = opts["--hours"]
+    walks = opts["--walks"].split(",") if opts["--walks"] else [None]
     if len(args) != 2:
         fail("usage: thermal_report.py HOST_SIM WORKDIR [--quick] [--seeds S,S] [--hours H]")
     host_sim, work = args
     os.makedirs(work, exist_ok=True)
     coeffs, amps, modes = COEFF_RANGES, AMPLITUDES, MODES
+    if opts["--coeffs"]:
+        coeffs = [float(v) for v in opts["--coeffs"].split(",")]
+    if opts["--amplitudes"]:
+        amps = [float(v) for v in opts["--amplitudes"].split(",")]
     if short:
         modes = [("tumbling", 100), ("sliding", 100)]
     if quick:
         coeffs, amps, modes, seeds = [0.0375, 0.15], [20.0], [("tumbling", 100)], seeds[:1]
-    print("| K mm/°C | A °C | seed | temperature | mode | N | estimator | answered | ok | ≤3sd "
-          "| >6sd | err/sd |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    print("| K mm/°C | A °C | walk µm²/h | seed | temperature | mode | N | estimator | answered "
+          "| ok | ≤3sd | >6sd | err/sd |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     missed = []
-    for k in coeffs:
-        for amp in amps:
-            for seed in seeds:
-                trace = os.path.join(work, f"orbit_k{k}_a{amp}_s{seed}.csv")
-                run([host_sim, "scenario", "orbit-thermal", "--seed", seed, "--hours", hours,
-                     "--coeff-range", str(k), "--amplitude-c", str(amp), "--trace-out", trace])
-                blind = trace[:-4] + "_blind.csv"
-                without_temperature(trace, blind)
-                for told, path in (("measured", trace), ("none", blind)):
-                    for mode, n in modes:
-                        report = f"{path}.{mode}{n}.json"
-                        run([host_sim, "replay", path, "--mode", mode, "--window", str(n),
-                             "--quiet", "--report", report])
-                        for name in ("consensus", "kalman"):
-                            ans, ok, w3, b6, ratio = scores(report, name)
-                            print(f"| {k} | {amp:g} | {seed} | {told} | {mode} | {n} | {name} | "
-                                  f"{100 * ans:.1f} % | {100 * ok:.1f} % | {100 * w3:.2f} % | "
-                                  f"{100 * b6:.3f} % | {ratio:.3f} |", flush=True)
-                            if told == "measured" and (ans < 0.95 or ok < 0.90 or w3 < 0.95 or
-                                                       b6 > 0.001 or ratio < 0.5):
-                                missed.append(f"K {k} A {amp:g} seed {seed} {mode} {n} {name}")
-                os.remove(blind)
-                os.remove(trace)
+    cases = [(k, a, w, s) for k in coeffs for a in amps for w in walks for s in seeds]
+    for k, amp, walk, seed in cases:
+        trace = os.path.join(work, f"orbit_k{k}_a{amp}_w{walk}_s{seed}.csv")
+        walk_opt = ["--walk-um2-h", walk] if walk is not None else []
+        run([host_sim, "scenario", "orbit-thermal", "--seed", seed, "--hours", hours,
+             "--coeff-range", str(k), "--amplitude-c", str(amp), "--trace-out", trace]
+            + walk_opt)
+        walk_text = walk if walk is not None else "default"
+        blind = trace[:-4] + "_blind.csv"
+        without_temperature(trace, blind)
+        for told, path in (("measured", trace), ("none", blind)):
+            for mode, n in modes:
+                report = f"{path}.{mode}{n}.json"
+                run([host_sim, "replay", path, "--mode", mode, "--window", str(n),
+                     "--quiet", "--report", report])
+                for name in ("consensus", "kalman"):
+                    ans, ok, w3, b6, ratio = scores(report, name)
+                    print(f"| {k} | {amp:g} | {walk_text} | {seed} | {told} | {mode} | {n} "
+                          f"| {name} | "
+                          f"{100 * ans:.1f} % | {100 * ok:.1f} % | {100 * w3:.2f} % | "
+                          f"{100 * b6:.3f} % | {ratio:.3f} |", flush=True)
+                    if told == "measured" and (ans < 0.95 or ok < 0.90 or w3 < 0.95 or
+                                               b6 > 0.001 or ratio < 0.5):
+                        missed.append(f"K {k} A {amp:g} walk {walk_text} seed {seed} {mode} "
+                                      f"{n} {name}")
+        os.remove(blind)
+        os.remove(trace)
     if missed:
         print("\nmissed: " + "; ".join(missed))
         return 1
