@@ -19,32 +19,40 @@ static int both_aligned(const void *a, const void *b) {
     return (((uintptr_t)a | (uintptr_t)b) & (MEM_WORD - 1u)) == 0u;
 }
 
-/* Copied forwards, as memmove does for the regions memcpy may be given (they do not overlap). */
-TOF_NO_LIBCALL void *memcpy(void *restrict dst, const void *restrict src, size_t n) {
-    return memmove(dst, src, n);
+/* Forwards: safe when the destination is below the source or the regions do not overlap (a
+ * word is read whole before it is written, and aligned regions that overlap are at least a
+ * word apart). One function for memcpy and memmove: memcpy may not call memmove, which GCC
+ * turns back into memcpy for restrict pointers (a call to itself). */
+TOF_NO_LIBCALL static void copy_forward(unsigned char *d, const unsigned char *s, size_t n) {
+    const size_t words = both_aligned(d, s) ? n / MEM_WORD : 0u;
+    for (size_t w = 0; w < words; ++w) {
+        ((mem_word_t *)(void *)d)[w] = ((const mem_word_t *)(const void *)s)[w];
+    }
+    for (size_t i = words * MEM_WORD; i < n; ++i) {
+        d[i] = s[i];
+    }
 }
 
-/* Overlapping regions: copied forwards when the destination is below the source, else
- * backwards, so no byte is read after it was overwritten (a word is read whole before it is
- * written, and aligned regions that overlap are at least a word apart). */
+TOF_NO_LIBCALL void *memcpy(void *restrict dst, const void *restrict src, size_t n) {
+    copy_forward(dst, src, n);
+    return dst;
+}
+
+/* Overlapping regions: forwards when the destination is below the source, else backwards,
+ * so no byte is read after it was overwritten. */
 TOF_NO_LIBCALL void *memmove(void *dst, const void *src, size_t n) {
     unsigned char *d = dst;
     const unsigned char *s = src;
-    const size_t words = both_aligned(d, s) ? n / MEM_WORD : 0u;
     if ((uintptr_t)d < (uintptr_t)s) {
-        for (size_t w = 0; w < words; ++w) {
-            ((mem_word_t *)(void *)d)[w] = ((const mem_word_t *)(const void *)s)[w];
-        }
-        for (size_t i = words * MEM_WORD; i < n; ++i) {
-            d[i] = s[i];
-        }
-    } else {
-        for (size_t i = n; i > words * MEM_WORD; --i) {
-            d[i - 1u] = s[i - 1u];
-        }
-        for (size_t w = words; w > 0u; --w) {
-            ((mem_word_t *)(void *)d)[w - 1u] = ((const mem_word_t *)(const void *)s)[w - 1u];
-        }
+        copy_forward(d, s, n);
+        return dst;
+    }
+    const size_t words = both_aligned(d, s) ? n / MEM_WORD : 0u;
+    for (size_t i = n; i > words * MEM_WORD; --i) {
+        d[i - 1u] = s[i - 1u];
+    }
+    for (size_t w = words; w > 0u; --w) {
+        ((mem_word_t *)(void *)d)[w - 1u] = ((const mem_word_t *)(const void *)s)[w - 1u];
     }
     return dst;
 }
