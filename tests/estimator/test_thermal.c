@@ -75,7 +75,7 @@ static double alpha_deg(const struct attitude_estimate *e) {
 
 /* At 40 °C the offsets are 0.4–1.0 mm from the calibration's: corrected, the consensus α and β
  * are within 3 sd of the truth over 20 windows of σ 1 mm, N 250; without the temperature the
- * same rows put α half a degree off, and the sd (the parity's) still covers it. */
+ * same rows put α half a degree off, and the sd still covers it. */
 static void test_correction_follows_the_temperature(void **state) {
     (void)state;
     rng.state = 11u;
@@ -110,9 +110,10 @@ static void test_correction_follows_the_temperature(void **state) {
             assert_true(worst_z < 3.0);
             assert_true(fabs(mean_err) < 0.05);
         } else {
-            /* the offsets moved by 0.4–1.0 mm: α about half a degree off, which the parity
-             * sees (x_A + x_C − x_B − x_D moved 2.8 mm) and the sd covers */
+            /* the offsets moved by 0.4–1.0 mm: α about half a degree off, which the sd
+             * covers (the parts may be anywhere in their operating range) */
             assert_true(mean_err < -0.4);
+            assert_true(worst_z < 3.0);
         }
     }
 }
@@ -153,8 +154,8 @@ static void test_sliding_sums_stay_exact_across_steps(void **state) {
 
 /* The sd: at the calibration temperature a coefficient sd adds nothing but the temperature's
  * own error times the coefficient; 40 °C away, 2 µm/°C of coefficient sd adds 80 µm per
- * sensor, (40 µm)² to the distance's variance; with no temperature the sd is the one of the
- * same calibration without coefficients, exactly. */
+ * sensor, (40 µm)² to the distance's variance; with no temperature ever measured it carries
+ * the coefficients over the parts' whole operating range. */
 static void test_sd_carries_what_the_coefficients_leave(void **state) {
     (void)state;
     struct attitude_config cfg;
@@ -182,9 +183,43 @@ static void test_sd_carries_what_the_coefficients_leave(void **state) {
     /* 80 µm per sensor, independent: the mean of four adds (40 µm)² */
     const double added_um2 = (double)dist_sd[1] * dist_sd[1] - (double)dist_sd[0] * dist_sd[0];
     assert_true(added_um2 > 1200 && added_um2 < 2200);
-    assert_true(alpha_sd[1] > alpha_sd[0]);   /* and the angles feel it */
-    assert_int_equal(dist_sd[2], dist_sd[3]); /* no temperature: as without coefficients */
-    assert_int_equal(alpha_sd[2], alpha_sd[3]);
+    assert_true(alpha_sd[1] > alpha_sd[0]); /* and the angles feel it */
+    /* never a temperature: the parts may be anywhere in their operating range, 65 °C from
+     * the calibration's 20 °C: 50 µm/°C · 65 °C = 3.25 mm on A, 1.3–2.6 mm on the others */
+    assert_true(dist_sd[2] > 1000);
+    assert_true(alpha_sd[2] > 10 * alpha_sd[3]);
+}
+
+/* A head at 60 °C whose temperature stops being measured: the offsets stay those of 60 °C (no
+ * jump back to the calibration temperature's, 2 mm on sensor A) and the sd widens with the
+ * time without one, by 2 °C/min times each coefficient, window after window. */
+static void test_a_lost_temperature_holds_the_offsets_and_widens(void **state) {
+    (void)state;
+    rng.state = 14u;
+    struct attitude_config cfg;
+    thermal_config(&cfg, 0u, true);
+    cfg.window = 250;
+    cfg.max_rate_mdeg_s = 0;
+    assert_int_equal(attitude_init(&st, &cfg), ATTITUDE_ERR_NONE);
+    double x[4];
+    geometry(1.0, -2.0, 150.0, x);
+    for (unsigned r = 0; r < 5u * cfg.window; ++r) {
+        (void)row(&st, x, 60.0, 60.0, 1.0, NULL);
+    }
+    int32_t last_sd = out.est[ATTITUDE_EST_CONSENSUS].alpha_sd_udeg;
+    for (unsigned w = 0; w < 10u; ++w) {
+        for (unsigned r = 0; r < cfg.window; ++r) {
+            (void)row(&st, x, 60.0, (double)NAN, 1.0, NULL);
+        }
+        const struct attitude_estimate *e = &out.est[ATTITUDE_EST_CONSENSUS];
+        const double z = fabs(alpha_deg(e) - 1.0) / (e->alpha_sd_udeg / 1e6);
+        printf("window %u without a temperature: alpha error %.3f deg, sd %.3f deg\n", w,
+               alpha_deg(e) - 1.0, e->alpha_sd_udeg / 1e6);
+        assert_true(z < 3.0);
+        assert_true(fabs(alpha_deg(e) - 1.0) < 0.25); /* held, not 0.57° off */
+        assert_true(e->alpha_sd_udeg > last_sd);
+        last_sd = e->alpha_sd_udeg;
+    }
 }
 
 /* Coefficients beyond 1 mm/°C, a calibration temperature beyond −100..200 °C or a temperature
@@ -214,6 +249,7 @@ int main(void) {
         cmocka_unit_test(test_correction_follows_the_temperature),
         cmocka_unit_test(test_sliding_sums_stay_exact_across_steps),
         cmocka_unit_test(test_sd_carries_what_the_coefficients_leave),
+        cmocka_unit_test(test_a_lost_temperature_holds_the_offsets_and_widens),
         cmocka_unit_test(test_thermal_fields_are_checked),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

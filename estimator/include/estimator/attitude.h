@@ -206,10 +206,11 @@ struct attitude_state {
     int16_t temp_cdeg; /* ... this one, 0.01 °C (attitude_set_temperature) */
     /* A thermal calibration's correction (attitude_thermal.c): each offset's change per
      * 0.01 °C in fine units, Q32; and the temperature distance from the calibration's that the
-     * window's offsets are at (0: the calibration temperature's, as without a temperature). */
+     * window's offsets are at (0 until a temperature was measured). */
     int64_t thermal_fine_q32[ATTITUDE_SENSORS];
     int32_t thermal_dt_cdeg;
-    bool thermal_in_force; /* the window's offsets follow a measured temperature */
+    bool thermal_in_force;         /* a temperature was measured since attitude_init */
+    uint32_t thermal_unknown_rows; /* rows since the last one (saturating) */
 };
 
 /* Integrity defaults (sources in docs/explanation/estimators.md "Integrity"):
