@@ -59,11 +59,6 @@ static void mean_and_var(const struct tof_rezero *z, unsigned i, int64_t *mean_u
     *var_um2 = var > floor ? var : floor;
 }
 
-/* n / d rounded half away from zero, d > 0. */
-static int64_t div_round(int64_t n, int64_t d) {
-    return n >= 0 ? (n + d / 2) / d : -((-n + d / 2) / d);
-}
-
 /* `cal` as in force at the samples' mean temperature (rezero.h) into *at, and each offset's
  * variance there from the coefficient's error. false: thermal without a temperature. */
 static bool in_force_now(const struct tof_rezero *z, const struct calibration_head *cal,
@@ -76,12 +71,12 @@ static bool in_force_now(const struct tof_rezero *z, const struct calibration_he
     if (z->temp_n == 0u) {
         return false;
     }
-    at->cal_temp_cdeg = (int16_t)div_round(z->temp_sum, z->temp_n);
+    at->cal_temp_cdeg = (int16_t)fix_div_round_s64(z->temp_sum, z->temp_n);
     const int64_t dt = (int64_t)at->cal_temp_cdeg - cal->cal_temp_cdeg;
     for (unsigned i = 0; i < CALIBRATION_SENSORS; ++i) {
         /* nm/°C · 0.01 °C / 10^5 = µm (|.| <= 10^6 · 3·10^4: within 2^45) */
-        const int64_t shift = div_round((int64_t)cal->temp_coeff_nm_per_c[i] * dt, 100000);
-        const int64_t sd = div_round((int64_t)cal->temp_coeff_sd_nm_per_c[i] * dt, 100000);
+        const int64_t shift = fix_div_round_s64((int64_t)cal->temp_coeff_nm_per_c[i] * dt, 100000);
+        const int64_t sd = fix_div_round_s64((int64_t)cal->temp_coeff_sd_nm_per_c[i] * dt, 100000);
         at->offset_um[i] = (int32_t)(cal->offset_um[i] + shift); /* the fit checks its bound */
         var_coeff[i] = (uint64_t)(sd * sd);
     }
