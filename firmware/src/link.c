@@ -150,10 +150,8 @@ static uint32_t age_now_s(struct tof_link *link) {
 }
 
 /* The re-zero's last sample is in: the offsets refitted, saved and in force (or the reason
- * not), the raw stream as the user had it, and a calibration message says how it went. The
- * refitted offsets hold at the unit's temperature now, so a thermal calibration takes it as
- * its calibration temperature; without one it is refused (rejected, the old one kept):
- * offsets at an unknown temperature would be corrected from the wrong one. */
+ * not: a thermal calibration without the samples' temperature is rejected, firmware/rezero.h),
+ * the raw stream as the user had it, and a calibration message says how it went. */
 static void finish_rezero(struct tof_link *link) {
     struct calibration_head now, next;
     tof_app_get_calibration(link->app, &now);
@@ -162,13 +160,9 @@ static void finish_rezero(struct tof_link *link) {
     bool fitted = false;
     if (link->storage != NULL) {
         st = TOF_CAL_REJECTED;
-        fitted = (!now.thermal || link->temp_known) &&
-                 link->storage->rezero_fit(&link->rezero, &now, &next);
+        fitted = link->storage->rezero_fit(&link->rezero, &now, &next);
     }
     if (fitted) {
-        if (now.thermal) {
-            next.cal_temp_cdeg = link->temp_cdeg;
-        }
         const uint32_t age_before = age_hold(link);
         st = link->storage->cal_write_head(link->records, link->app, &next, &error);
         age_after_write(link, st, age_before);

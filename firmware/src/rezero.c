@@ -27,6 +27,10 @@ bool tof_rezero_add(struct tof_rezero *z, const struct tof_sample *sample) {
             z->sum2[i] += r * r;
         }
     }
+    if (sample->temp_known) {
+        z->temp_sum += sample->temp_cdeg; /* |.| <= 5000 · 32767: within 2^31 */
+        ++z->temp_n;
+    }
     ++z->seen;
     return z->seen == z->wanted;
 }
@@ -55,11 +59,39 @@ static void mean_and_var(const struct tof_rezero *z, unsigned i, int64_t *mean_u
     *var_um2 = var > floor ? var : floor;
 }
 
-bool tof_rezero_fit(const struct tof_rezero *z, const struct calibration_head *cal,
-                    struct calibration_head *out) {
-    if (!cal->calibrated || z->wanted == 0u || z->seen < z->wanted) {
+/* `cal` as in force at the samples' mean temperature (rezero.h) into *at, and each offset's
+ * variance there from the coefficient's error. false: thermal without a temperature. */
+static bool in_force_now(const struct tof_rezero *z, const struct calibration_head *cal,
+                         struct calibration_head *at, uint64_t var_coeff[CALIBRATION_SENSORS]) {
+    *at = *cal;
+    memset(var_coeff, 0, CALIBRATION_SENSORS * sizeof var_coeff[0]);
+    if (!cal->thermal) {
+        return true;
+    }
+    if (z->temp_n == 0u) {
         return false;
     }
+    at->cal_temp_cdeg = (int16_t)fix_div_round_s64(z->temp_sum, z->temp_n);
+    const int64_t dt = (int64_t)at->cal_temp_cdeg - cal->cal_temp_cdeg;
+    for (unsigned i = 0; i < CALIBRATION_SENSORS; ++i) {
+        /* nm/°C · 0.01 °C / 10^5 = µm (|.| <= 10^6 · 3·10^4: within 2^45) */
+        const int64_t shift = fix_div_round_s64((int64_t)cal->temp_coeff_nm_per_c[i] * dt, 100000);
+        const int64_t sd = fix_div_round_s64((int64_t)cal->temp_coeff_sd_nm_per_c[i] * dt, 100000);
+        at->offset_um[i] = (int32_t)(cal->offset_um[i] + shift); /* the fit checks its bound */
+        var_coeff[i] = (uint64_t)(sd * sd);
+    }
+    return true;
+}
+
+bool tof_rezero_fit(const struct tof_rezero *z, const struct calibration_head *in_cal,
+                    struct calibration_head *out) {
+    struct calibration_head now;
+    uint64_t var_coeff[CALIBRATION_SENSORS];
+    if (!in_cal->calibrated || z->wanted == 0u || z->seen < z->wanted ||
+        !in_force_now(z, in_cal, &now, var_coeff)) {
+        return false;
+    }
+    const struct calibration_head *cal = &now;
     int64_t m[CALIBRATION_SENSORS];
     uint64_t var_m[CALIBRATION_SENSORS];
     int64_t num = 0, g_sum = 0;
@@ -72,7 +104,7 @@ bool tof_rezero_fit(const struct tof_rezero *z, const struct calibration_head *c
         num += m[i] - cal->offset_um[i];
         g_sum += 1000000 + cal->gain_ppm[i];
         var_m_sum += var_m[i];
-        var_o_sum += (uint64_t)cal->offset_sd_um[i] * cal->offset_sd_um[i];
+        var_o_sum += (uint64_t)cal->offset_sd_um[i] * cal->offset_sd_um[i] + var_coeff[i];
     }
     /* x̂ in µm, rounded to nearest (num ≥ 0 at any distance a VL53 reports) */
     const int64_t x_um = fix_div_trunc_s64(num * 1000000 + g_sum / 2, g_sum);

@@ -15,6 +15,7 @@
 #include "firmware/calibration_record.h"
 #include "firmware/link.h"
 #include "hal/hal_err.h"
+#include "hal/hal_temp.h"
 #include "sim/sim_flash.h"
 #include "sim/sim_rig.h"
 #include "telemetry/tlm_messages.h"
@@ -1042,15 +1043,25 @@ static void test_rezero_refits_the_offsets(void **state) {
     assert_int_equal(t.app.estimator.cfg.calibration.offset_um[2], now.offset_um[2]);
 }
 
-/* A thermal calibration re-zeroed: the new offsets hold at the unit's temperature then, which
- * becomes the calibration temperature (the coefficients kept); with no temperature the
- * re-zero is rejected and the calibration in force kept. */
+/* A thermal calibration re-zeroed (firmware/rezero.h): refitted at the samples' temperature,
+ * which becomes the calibration temperature, the coefficients kept and the sum of the offsets
+ * in force at that temperature kept; with no temperature the re-zero is rejected and the
+ * calibration in force kept. */
+static int16_t head_temp_cdeg;
+
+static int read_head_temp(void *ctx, int16_t *cdeg) {
+    (void)ctx;
+    *cdeg = head_temp_cdeg;
+    return HAL_OK;
+}
+
+static const struct hal_temp_ops head_temp_ops = {.read_cdeg = read_head_temp};
+
 static void test_rezero_of_a_thermal_calibration_takes_the_temperature(void **state) {
     (void)state;
     assert_int_equal(sim_flash_init(&saved_flash, 2u, 2048u), HAL_OK);
     boot_with_records();
-    t.platform.output = (struct tof_output){.ops = &temperature_ops, .ctx = &t.link};
-    spy_temp_known = false;
+    t.platform.temp = (struct hal_temp){.ops = NULL, .ctx = NULL}; /* no sensor */
     const struct calibration_head cal = {.calibrated = true,
                                          .offset_um = {1500, -800, -1200, 600},
                                          .offset_sd_um = {40, 40, 40, 40},
@@ -1062,15 +1073,11 @@ static void test_rezero_of_a_thermal_calibration_takes_the_temperature(void **st
     const struct tof_cal_binding b = tof_cal_binding_of(&t.app.cfg);
     assert_int_equal(tof_cal_encode(&cal, false, &b, cmd.u.cal_section), HAL_OK);
     push_command(&cmd, 1);
-    run_ms(100u * 20u + 100u); /* a window without a temperature */
-    decode_output();
-    assert_int_equal(t.acks, 1);
     cmd = (struct tlm_command){.type = TLM_TYPE_REZERO, .u.rezero_samples = 50};
     push_command(&cmd, 2);
-    t.serial.tx_len = 0;
-    t.calibrations = 0;
     run_ms(50u * 20u + 200u);
     decode_output();
+    assert_int_equal(t.acks, 2);
     assert_int_equal(t.calibrations, 1);
     assert_int_equal(t.last_calibration.state, TLM_CAL_REJECTED);
     struct calibration_head now;
@@ -1078,9 +1085,8 @@ static void test_rezero_of_a_thermal_calibration_takes_the_temperature(void **st
     assert_int_equal(now.offset_um[0], 1500); /* kept */
     assert_int_equal(now.cal_temp_cdeg, 2000);
 
-    spy_temp_known = true;
-    spy_temp_cdeg = -1575; /* -15.75 degC */
-    run_ms(100u * 20u);    /* a window at that temperature */
+    head_temp_cdeg = -1575; /* -15.75 degC: 35.75 degC below the calibration's */
+    t.platform.temp = (struct hal_temp){.ops = &head_temp_ops, .ctx = NULL};
     push_command(&cmd, 3);
     t.serial.tx_len = 0;
     t.calibrations = 0;
@@ -1092,7 +1098,12 @@ static void test_rezero_of_a_thermal_calibration_takes_the_temperature(void **st
     assert_true(now.thermal);
     assert_int_equal(now.cal_temp_cdeg, -1575);
     assert_int_equal(now.temp_coeff_nm_per_c[3], 40000);
-    assert_int_not_equal(now.offset_um[0], 1500); /* refitted at the parallel plate */
+    /* the offsets in force at -15.75 degC summed 100 + (-358 - 715 - 1073 - 1430) um */
+    int32_t sum = 0;
+    for (unsigned i = 0; i < 4u; ++i) {
+        sum += now.offset_um[i];
+    }
+    assert_true(sum >= -3476 - 2 && sum <= -3476 + 2);
     /* and read back so */
     assert_int_equal(t.last_calibration.section[4 + 80], (uint8_t)((uint16_t)-1575 & 0xFFu));
     assert_int_equal(t.last_calibration.section[4 + 81], (uint8_t)((uint16_t)-1575 >> 8));

@@ -78,6 +78,11 @@ for i, (a, b) in enumerate(zip(t_rows, h_rows)):
     elif not a_missing and [a[c] for c in cols] != [b[c] for c in cols]:
         failures.append("window %d: twin %s, host_sim %s" % (i, a, b))
     differ += [a[c] for c in cols] != [b[c] for c in cols]
+    # the estimate frame's temperature (protocol 7): what the flight image read through the
+    # ADC model, within its quantisation (one LSB ~0.26 C) of host_sim's exact value
+    if not a["temp_c"] or not b["temp_c"] or abs(float(a["temp_c"]) - float(b["temp_c"])) > 0.3:
+        failures.append("window %d: temp_c twin '%s', host_sim '%s'" % (i, a["temp_c"],
+                                                                        b["temp_c"]))
 if failures:
     sys.exit("\n".join(failures))
 print("twin temperature: %d sensor conversions (%.2f .. %.2f C), updates %s as host_sim's; "

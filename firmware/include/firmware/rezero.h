@@ -14,6 +14,12 @@
  *
  * with var m_i = s_i² / n_i (s_i the readings' sd about their mean, n_i the valid
  * readings) floored at (1 mm)²/12 / n_i for whole-millimetre readings. Integers only.
+ *
+ * A thermal calibration (estimator/calibration.h) is refitted at the samples' mean
+ * temperature T: the offsets in force there, o_i + k_i · (T − cal_temp), are the o_i above
+ * (their variance with the coefficient's, (sd k_i · (T − cal_temp))²), and T becomes the
+ * calibration temperature, the coefficients kept. Without a temperature in any sample it
+ * is not refitted: offsets at an unknown temperature would be corrected from the wrong one.
  */
 #ifndef FIRMWARE_REZERO_H
 #define FIRMWARE_REZERO_H
@@ -32,6 +38,8 @@ struct tof_rezero {
     uint32_t n[CALIBRATION_SENSORS];   /* valid readings (present, status 0) */
     uint64_t sum[CALIBRATION_SENSORS]; /* mm */
     uint64_t sum2[CALIBRATION_SENSORS];
+    int32_t temp_sum; /* 0.01 °C, over the samples with a temperature */
+    uint16_t temp_n;
 };
 
 /* Start collecting `samples` samples (TOF_REZERO_MIN..MAX). false: out of range. */
@@ -41,8 +49,10 @@ bool tof_rezero_start(struct tof_rezero *z, uint16_t samples);
 bool tof_rezero_add(struct tof_rezero *z, const struct tof_sample *sample);
 
 /* The calibration `cal` (calibrated) with its offsets and their sd refitted from what was
- * collected, gains kept, into `out`. false (out untouched): `cal` not calibrated, or a
- * sensor with fewer than half the samples valid. */
+ * collected, gains kept (a thermal one at the samples' mean temperature, which becomes its
+ * calibration temperature), into `out`. false (out untouched): `cal` not calibrated, a
+ * sensor with fewer than half the samples valid, or `cal` thermal and no sample with a
+ * temperature. */
 bool tof_rezero_fit(const struct tof_rezero *z, const struct calibration_head *cal,
                     struct calibration_head *out);
 
