@@ -178,6 +178,9 @@ static const char replay_help[] =
     "                       over the trace's keys; neither: an uncalibrated head, never ok\n"
     "  --max-rate DEG_S     the plate's rate bound in °/s, 0..360 (0: a still plate, e.g. a\n"
     "                       fixture); wins over the trace's '# max_rate_deg_s='; default 1\n"
+    "  --offset-walk UM2_H  the head's offset random walk the sd allows for, µm²/h (the\n"
+    "                       estimator's offset_walk_um2_h; default 576000, a recorded\n"
+    "                       VL53L0X hour's: docs/explanation/uncertainty.md)\n"
     "  --command ROW:TEXT   a host's command (tools/tof_telemetry.py --send syntax: set-window\n"
     "                       50 sliding, estimator kalman, process-noise auto, raw on, ...)\n"
     "                       to the firmware's link at 115200 Bd when row ROW's slot is half\n"
@@ -353,6 +356,21 @@ int cli_parse_replay(int argc, char **argv, struct replay_args *out) {
                                    v);
             }
             out->max_rate_given = true;
+        } else if (strcmp(arg, "--offset-walk") == 0) {
+            if ((v = option_value(cmd, argc, argv, &i)) == NULL) {
+                return -1;
+            }
+            char *end = NULL;
+            errno = 0;
+            const unsigned long long walk = strtoull(v, &end, 10);
+            if (errno != 0 || end == v || *end != '\0' || v[0] == '-' || walk > UINT32_MAX) {
+                return usage_error(cmd,
+                                   "--offset-walk: expected the offset walk in µm²/h, a whole "
+                                   "number 0..4294967295",
+                                   v);
+            }
+            out->offset_walk_um2_h = (uint32_t)walk;
+            out->offset_walk_given = true;
         } else if (strcmp(arg, "--distance-mode") == 0) {
             if ((v = option_value(cmd, argc, argv, &i)) == NULL) {
                 return -1;

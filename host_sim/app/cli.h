@@ -43,6 +43,8 @@ struct replay_args {
     const char *calibration_path; /* --calibration HEAD.cal (wins over the trace's keys) */
     bool max_rate_given;          /* --max-rate DEG_S given (wins over the trace's key) */
     uint32_t max_rate_mdeg_s;     /* ... its value, m°/s */
+    bool offset_walk_given;       /* --offset-walk UM2_H given */
+    uint32_t offset_walk_um2_h;   /* ... the estimator's prior offset walk, µm²/h */
     const char *commands[16];     /* --command ROW:TEXT, in order (replay_commands.h parses) */
     unsigned command_count;
 };

@@ -232,6 +232,9 @@ static int configure(struct replay *r) {
     }
     /* the timing again at this bus clock: the skew window covers the slower readings */
     (void)tof_app_config_period(&r->app_cfg, r->period_ms);
+    if (r->args->offset_walk_given) {
+        r->app_cfg.estimator.offset_walk_um2_h = r->args->offset_walk_um2_h;
+    }
     /* The plate's rate bound: the option, else the trace's key, else the unit's default. */
     if (r->args->max_rate_given) {
         r->app_cfg.estimator.max_rate_mdeg_s = r->args->max_rate_mdeg_s;
