@@ -15,11 +15,13 @@ Seeds: the table's seeds (--seeds, default 11,12) are not the ones any default w
 nothing in the estimator is tuned to this scenario.
 
 Usage: thermal_report.py HOST_SIM WORKDIR [--quick] [--seeds S,S] [--hours H] [--short]
-                         [--walks W,W] [--coeffs K,K] [--amplitudes A,A]
+                         [--walks W,W] [--coeffs K,K] [--amplitudes A,A] [--replay ARGS]
   --quick  one amplitude (20 °C), two coefficient ranges, one seed, N = 100 only
   --short  tumbling and sliding at N = 100 only
   --walks  the parts' residual walks, µm²/h (default: the scenario's own)
   --coeffs, --amplitudes  in place of the sweep's coefficient ranges and amplitudes
+  --replay ARGS  more host_sim replay options, e.g. "--offset-walk 57600 --max-rate 0.01" (the
+           unit's settings for a head and plate known that well)
 """
 import json
 import os
@@ -76,7 +78,8 @@ def main(argv):
     short = "--short" in args
     if short:
         args.remove("--short")
-    opts = {"--seeds": "11,12", "--hours": "6", "--walks": "", "--coeffs": "", "--amplitudes": ""}
+    opts = {"--seeds": "11,12", "--hours": "6", "--walks": "", "--coeffs": "", "--amplitudes": "",
+            "--replay": ""}
     for opt in list(opts):
         if opt in args:
             k = args.index(opt)
@@ -116,7 +119,7 @@ def main(argv):
             for mode, n in modes:
                 report = f"{path}.{mode}{n}.json"
                 run([host_sim, "replay", path, "--mode", mode, "--window", str(n),
-                     "--quiet", "--report", report])
+                     "--quiet", "--report", report] + opts["--replay"].split())
                 for name in ("consensus", "kalman"):
                     ans, ok, w3, b6, ratio = scores(report, name)
                     print(f"| {k} | {amp:g} | {walk_text} | {seed} | {told} | {mode} | {n} "
