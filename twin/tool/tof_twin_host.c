@@ -158,8 +158,8 @@ static void on_estimate(struct run *r, const struct tlm_estimate *m) {
     char line[TOF_EST_CSV_ROW_MAX];
     struct tof_text txt;
     tof_text_init(&txt, line, sizeof line);
-    /* The estimate frame as decoded here carries no temperature: temp_c stays empty. */
-    tof_est_csv_row(&txt, r->rows[row].t_ms, &e, false, 0);
+    /* The window's temperature as the estimate frame carries it (the unit's reading). */
+    tof_est_csv_row(&txt, r->rows[row].t_ms, &e, m->temp_known, m->temp_cdeg);
     if (txt.overflow || fputs(line, r->est) == EOF) {
         fprintf(stderr, "tof_twin: %s: write failed\n", r->a.out);
         exit(1);
