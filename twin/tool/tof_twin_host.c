@@ -158,7 +158,7 @@ static void on_estimate(struct run *r, const struct tlm_estimate *m) {
     char line[TOF_EST_CSV_ROW_MAX];
     struct tof_text txt;
     tof_text_init(&txt, line, sizeof line);
-    /* temp_c: the temperature the flight image read (its ADC model), as its frame says */
+    /* The window's temperature as the estimate frame carries it (the unit's reading). */
     tof_est_csv_row(&txt, r->rows[row].t_ms, &e, m->temp_known, m->temp_cdeg);
     if (txt.overflow || fputs(line, r->est) == EOF) {
         fprintf(stderr, "tof_twin: %s: write failed\n", r->a.out);
