@@ -231,7 +231,7 @@ FIX_NOINLINE void window_end(struct attitude_state *st, struct attitude_output *
 
 void attitude_set_temperature(struct attitude_state *st, bool known, int16_t temp_cdeg) {
     st->temp_known = known;
-    st->temp_cdeg = known ? temp_cdeg : 0;
+    st->temp_cdeg = (int16_t)(known ? temp_cdeg : 0);
 }
 
 bool attitude_push_sample(struct attitude_state *st, const uint16_t range_mm[ATTITUDE_SENSORS],

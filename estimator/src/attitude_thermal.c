@@ -54,7 +54,7 @@ void attitude_thermal_row(struct attitude_state *st) {
     int32_t shift[ATTITUDE_SENSORS];
     for (unsigned k = 0; k < ATTITUDE_SENSORS; ++k) {
         /* |Q32 · dt| < 2^36 · 2^15: rounded to the nearest fine unit */
-        shift[k] = (int32_t)fix_asr_s64(st->thermal_fine_q32[k] * dt + 0x80000000, 32u);
+        shift[k] = (int32_t)fix_asr_s64(st->thermal_fine_q32[k] * dt + ((int64_t)1 << 31), 32u);
     }
     window_shift_offsets(&st->window, shift);
     st->thermal_dt_cdeg = dt;
@@ -73,7 +73,8 @@ static int64_t thermal_unknown_cdeg(const struct attitude_state *st) {
     const int32_t cal = st->cfg.calibration.cal_temp_cdeg;
     const int32_t below = cal + st->thermal_dt_cdeg - THERMAL_PART_MIN_CDEG;
     const int32_t above = THERMAL_PART_MAX_CDEG - cal - st->thermal_dt_cdeg;
-    const int64_t range = below > above ? below : above;
+    const int32_t wider = below > above ? below : above;
+    const int64_t range = wider;
     if (!st->thermal_in_force) {
         return range > 0 ? range : 0;
     }

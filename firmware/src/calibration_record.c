@@ -225,7 +225,7 @@ static void decode_body(const uint8_t *v, const struct cal_layout *lay,
         }
         bind->part_id[i] = parts != 0u ? get_part_id(v, parts, i) : 0u;
     }
-    cal->cal_temp_cdeg = thermal ? get_i16(&v[CAL_TEMP_AT]) : 0;
+    cal->cal_temp_cdeg = (int16_t)(thermal ? get_i16(&v[CAL_TEMP_AT]) : 0);
     bind->arm_um = lay->at[BLOCK_ARM] != 0u ? as_i32(le_get_u32(&v[lay->at[BLOCK_ARM]])) : 0;
 }
 

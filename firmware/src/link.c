@@ -59,7 +59,7 @@ static void send_estimates(struct tof_link *link, const struct tof_estimate_reco
             .distance_sd_um = d ? est->distance_sd_um : TLM_NO_VALUE,
             .why = est->why, /* the estimator's bits, unchanged */
             .temp_known = record->temp_known,
-            .temp_cdeg = record->temp_known ? record->temp_cdeg : 0,
+            .temp_cdeg = (int16_t)(record->temp_known ? record->temp_cdeg : 0),
         };
         uint8_t frame[TLM_FRAME_MAX];
         send(link, frame, tlm_encode_estimate(link->seq, &msg, frame, sizeof frame));
@@ -220,7 +220,7 @@ void tof_link_send_status(struct tof_link *link) {
         .cal_age = link->cal_age != NULL ? link->cal_age->state : (uint8_t)TOF_CAL_AGE_NONE,
         /* the last window's, while it runs: stopped, the unit reads none */
         .temp_known = st.running && link->temp_known,
-        .temp_cdeg = st.running && link->temp_known ? link->temp_cdeg : 0,
+        .temp_cdeg = (int16_t)(st.running && link->temp_known ? link->temp_cdeg : 0),
     };
     uint8_t frame[TLM_FRAME_MAX];
     send(link, frame, tlm_encode_status(link->seq, &msg, frame, sizeof frame));

@@ -14,7 +14,7 @@ void tof_vhv_calibrated(struct tof_vhv_schedule *v, unsigned sensor, bool known,
         return;
     }
     v->ref_known[sensor] = known;
-    v->ref_cdeg[sensor] = known ? cdeg : 0;
+    v->ref_cdeg[sensor] = (int16_t)(known ? cdeg : 0);
     if (v->active == sensor) {
         v->active = TOF_VHV_NONE;
     }
